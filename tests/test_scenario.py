@@ -5,21 +5,31 @@ from pathlib import Path
 
 import pytest
 
-from transplanter.scenario import ScenarioError, load_scenario
+from transplanter.scenario import ScenarioError, load_scenario, si_key
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
+
+
+def test_si_key_names():
+    assert si_key("l1_mm") == "l1_m"
+    assert si_key("s_high_mm_s") == "s_high_m_s"
+    assert si_key("accel_mm_s2") == "accel_m_s2"
+    assert si_key("open_deg") == "open_rad"
+    assert si_key("mass_g") == "mass_kg"
+    assert si_key("compute_time_per_point_us") == "compute_time_per_point_s"
+    assert si_key("rows") == "rows"
 
 
 def test_paper_scenario_converts_to_si():
     s = load_scenario(PAPER)
     assert s.name == "paper"
-    assert s["arm"]["l1_mm"] == pytest.approx(0.120)
-    assert s["taught"]["s_high_mm_s"] == pytest.approx(0.150)
-    assert s["limits"]["motor_max_deg"] == pytest.approx(math.radians(170))
-    assert s["pots"]["mass_g"] == pytest.approx(0.047)
-    assert s["physics"]["timestep_ms"] == pytest.approx(0.001)
+    assert s["arm"]["l1_m"] == pytest.approx(0.120)
+    assert s["taught"]["s_high_m_s"] == pytest.approx(0.150)
+    assert s["limits"]["motor_max_rad"] == pytest.approx(math.radians(170))
+    assert s["pots"]["mass_kg"] == pytest.approx(0.047)
+    assert s["physics"]["timestep_s"] == pytest.approx(0.001)
     assert len(s["taught"]["pickup"]) == 5
-    assert s["taught"]["pickup"][4]["grip_mm"] == pytest.approx((0.090, 0.215))
+    assert s["taught"]["pickup"][4]["grip_m"] == pytest.approx((0.090, 0.215))
 
 
 def _variant(tmp_path, body: str) -> Path:
@@ -30,10 +40,10 @@ def _variant(tmp_path, body: str) -> Path:
 
 def test_base_file_and_override(tmp_path):
     s = load_scenario(_variant(tmp_path, "[taught]\ns_high_mm_s = 200.0\n"))
-    assert s["taught"]["s_high_mm_s"] == pytest.approx(0.2)
-    assert s["taught"]["s_low_mm_s"] == pytest.approx(0.06)  # inherited
+    assert s["taught"]["s_high_m_s"] == pytest.approx(0.2)
+    assert s["taught"]["s_low_m_s"] == pytest.approx(0.06)  # inherited
     s2 = load_scenario(PAPER, overrides={"scenario.seed": 7, "taught.z_low_mm": 30.0})
-    assert s2.seed == 7 and s2["taught"]["z_low_mm"] == pytest.approx(0.030)
+    assert s2.seed == 7 and s2["taught"]["z_low_m"] == pytest.approx(0.030)
 
 
 @pytest.mark.parametrize(

@@ -176,9 +176,26 @@ PICKUP_SCHEMA: dict[str, Key] = {
 }
 
 
+_SI_SUFFIX = {
+    "_mm_s2": "_m_s2",
+    "_mm_s": "_m_s",
+    "_mm": "_m",
+    "_deg": "_rad",
+    "_g": "_kg",
+    "_ms": "_s",
+    "_us": "_s",
+}
+
+
+def si_key(key: str) -> str:
+    """The name a file key has once its value is in SI: `l1_mm` -> `l1_m`."""
+    unit = _unit_of(key)
+    return key[: -len(unit)] + _SI_SUFFIX[unit] if unit in _SI_SUFFIX else key
+
+
 @dataclass(frozen=True)
 class Scenario:
-    """A validated scenario: `values[section][key]` in SI, with the key names of the file."""
+    """A validated scenario: `values[section][si_key]` in SI (`l1_mm = 120` -> `l1_m = 0.12`)."""
 
     path: Path | None
     values: Mapping[str, Mapping[str, Any]]
@@ -187,8 +204,9 @@ class Scenario:
         return self.values[section]
 
     def get(self, dotted: str) -> Any:
+        """The SI value of a file key given as 'section.key' (`taught.s_high_mm_s`)."""
         section, key = dotted.split(".", 1)
-        return self.values[section][key]
+        return self.values[section][si_key(key)]
 
     @property
     def name(self) -> str:
@@ -325,9 +343,9 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
                 hint = spec.doc or spec.kind
                 raise ScenarioError(f"{source}: {section}.{key} is missing; give a value ({hint}).")
             if spec.kind == "list":
-                out[key] = _pickups(section, key, table[key])
+                out[si_key(key)] = _pickups(section, key, table[key])
             else:
-                out[key] = _convert(section, key, spec, table[key])
+                out[si_key(key)] = _convert(section, key, spec, table[key])
         values[section] = out
     _cross_checks(values)
     return values
@@ -348,7 +366,7 @@ def _pickups(section: str, key: str, raw: Any) -> tuple[dict[str, Any], ...]:
         for k, spec in PICKUP_SCHEMA.items():
             if k not in item:
                 raise ScenarioError(f"{where}.{k} is missing; give a value ({spec.doc}).")
-            entry[k] = _convert(where, k, spec, item[k])
+            entry[si_key(k)] = _convert(where, k, spec, item[k])
         out.append(entry)
     return tuple(out)
 
@@ -361,21 +379,21 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         ("transmission_min_deg", "transmission_max_deg"),
         ("z_min_mm", "z_max_mm"),
     ):
-        if lim[lo] >= lim[hi]:
+        if lim[si_key(lo)] >= lim[si_key(hi)]:
             raise ScenarioError(f"limits.{lo} must be below limits.{hi}.")
+    z_min, z_max = lim["z_min_m"], lim["z_max_m"]
     for key in ("z_up_mm", "z_low_mm"):
-        if not lim["z_min_mm"] <= taught[key] <= lim["z_max_mm"]:
+        if not z_min <= taught[si_key(key)] <= z_max:
             raise ScenarioError(
-                f"taught.{key} = {taught[key] * 1e3:g} mm is outside "
-                f"[limits.z_min_mm, limits.z_max_mm] = [{lim['z_min_mm'] * 1e3:g}, "
-                f"{lim['z_max_mm'] * 1e3:g}] mm."
+                f"taught.{key} = {taught[si_key(key)] * 1e3:g} mm is outside "
+                f"[limits.z_min_mm, limits.z_max_mm] = [{z_min * 1e3:g}, {z_max * 1e3:g}] mm."
             )
-    if taught["z_up_mm"] <= taught["z_low_mm"]:
+    if taught["z_up_m"] <= taught["z_low_m"]:
         raise ScenarioError("taught.z_up_mm must be above taught.z_low_mm.")
     if len(taught["pickup"]) > 10:
         raise ScenarioError("taught.pickup: the EEPROM holds at most 10 pickup points.")
     grip = v["gripper"]
-    if grip["close_deg"] >= grip["open_deg"]:
+    if grip["close_rad"] >= grip["open_rad"]:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
 
 
