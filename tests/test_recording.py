@@ -264,6 +264,13 @@ def test_bad_input_is_rejected(model, tmp_path):
     rec.close()
 
 
+def test_disabled_rerun_is_an_error_not_an_empty_file(model, tmp_path, monkeypatch):
+    monkeypatch.setenv("RERUN", "off")
+    with pytest.raises(RuntimeError, match="RERUN"):
+        TrialRecorder(model, tmp_path / "off.rrd")
+    assert not list(tmp_path.iterdir())
+
+
 def test_replay_without_display_explains_how_to_view(trial, monkeypatch, capsys):
     path = trial[0]
     monkeypatch.setattr("sys.platform", "linux")

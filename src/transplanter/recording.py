@@ -226,6 +226,11 @@ class TrialRecorder:
         self.closed = False
 
         self._stream = rr.RecordingStream(application_id, recording_id=uuid.uuid4())
+        if not self._stream.is_enabled():
+            raise RuntimeError(
+                "rerun logging is disabled (environment variable RERUN="
+                f"{os.environ.get('RERUN')!r}): unset RERUN to record {str(self.path)!r}"
+            )
         self._stream.save(self._tmp_path)
         try:
             self._log_static_scene(model)
