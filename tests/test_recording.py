@@ -83,6 +83,12 @@ def test_file_is_complete_and_written_atomically(trial):
     assert rec.closed
     assert summary["application_id"] == "transplanter"
     assert summary["has_blueprint"]
+    assert summary["blueprint_views"] == [
+        ("3D", "world"),
+        ("TextLog", "events"),
+        ("TimeSeries", "scalars/gripper"),
+        ("TimeSeries", "scalars/motors"),
+    ]
 
 
 def test_static_geometry_for_every_visible_geom(trial):
@@ -292,3 +298,29 @@ def test_replay_and_read_summary_reject_missing_or_wrong_files(tmp_path, capsys)
     assert ".rrd" in capsys.readouterr().err
     with pytest.raises(FileNotFoundError, match="does not exist"):
         read_summary(tmp_path / "nope.rrd")
+
+
+def test_read_summary_rejects_a_cut_off_file(trial, tmp_path):
+    cut = tmp_path / "cut.rrd"
+    cut.write_bytes(trial[0].read_bytes()[:3000])
+    with pytest.raises(ValueError, match="not a complete rerun recording"):
+        read_summary(cut)
+
+
+def test_replay_with_display_starts_the_viewer_on_the_file(trial, monkeypatch):
+    started = []
+
+    class FakeViewer:
+        def __init__(self, command):
+            started.append(command)
+
+        def wait(self):
+            return 0
+
+    monkeypatch.setattr("sys.platform", "linux")
+    monkeypatch.setenv("DISPLAY", ":0")
+    monkeypatch.setattr("subprocess.Popen", FakeViewer)
+    assert replay(trial[0]) == 0
+    (command,) = started
+    assert command[-1] == str(trial[0])
+    assert "rerun" in " ".join(command[:-1])

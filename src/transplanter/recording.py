@@ -24,6 +24,7 @@ import shutil
 import subprocess
 import sys
 import uuid
+import warnings
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -170,9 +171,10 @@ def _validate_scalar_names(scalar_names: Sequence[str]) -> list[str]:
 class TrialRecorder:
     """Buffers a trial's body poses, scalar channels and events and writes them to an .rrd.
 
-    Call ``frame(t, data, scalars)`` at every physics step (it records only on the
-    ``1/rate_hz`` grid), ``event(...)`` when something happens, and ``close()`` at the end
-    (or use it as a context manager). The file appears at ``path`` only once it is complete.
+    Call ``frame(t, data, scalars)`` at every physics step: it records only on the
+    ``1/rate_hz`` grid (``rate_hz`` None takes ``config.rate_hz``, 60 Hz by default).
+    Call ``event(...)`` when something happens and ``close()`` at the end (or use it as a
+    context manager). The file appears at ``path`` only once it is complete.
     """
 
     def __init__(
@@ -206,8 +208,7 @@ class TrialRecorder:
         self.moving_body_ids = np.flatnonzero(model.body_weldid != 0)
         self.static_body_ids = np.flatnonzero(model.body_weldid == 0)
 
-        rate = self.config.rate_hz
-        self._rate_hz = rate
+        self._rate_hz = self.config.rate_hz
         self._grid_tolerance_s = 1e-9
         self._next_frame_t = -math.inf
         self._last_frame_t = -math.inf
@@ -496,14 +497,20 @@ def read_summary(path: str | os.PathLike) -> dict:
     (entity -> sorted component names such as 'Transform3D:translation');
     ``rows_on_sim_time`` (entity -> number of rows on the sim_time timeline);
     ``sim_time_range`` ((min, max) seconds, or None); ``scalar_channels`` (names below
-    'scalars/'); ``events`` (kind -> count); ``has_blueprint``.
+    'scalars/'); ``events`` (kind -> count); ``has_blueprint``; ``blueprint_views``
+    ((view class, origin) pairs such as ('TimeSeries', 'scalars/motors')).
     """
     rrd = _check_rrd(path)
-    reader = rr.chunk.RrdReader(rrd)
-    recordings = reader.recordings()
-    if not recordings:
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # rerun warns before it fails on a cut-off file
+            reader = rr.chunk.RrdReader(rrd)
+            recordings = reader.recordings()
+            store = reader.store() if recordings else None
+    except RuntimeError as error:
+        raise ValueError(f"{str(rrd)!r} is not a complete rerun recording: {error}") from error
+    if store is None:
         raise ValueError(f"{str(rrd)!r} holds no recording")
-    store = reader.store()
 
     static_components: dict[str, set[str]] = {}
     temporal_components: dict[str, set[str]] = {}
@@ -543,7 +550,24 @@ def read_summary(path: str | os.PathLike) -> dict:
         ),
         "events": dict(sorted(event_kinds.items())),
         "has_blueprint": bool(reader.blueprints()),
+        "blueprint_views": _blueprint_views(reader),
     }
+
+
+def _blueprint_views(reader) -> list[tuple[str, str]]:
+    """(view class, origin) of every view in the file's first blueprint, sorted."""
+    blueprints = reader.blueprints()
+    if not blueprints:
+        return []
+    views = []
+    for chunk in reader.store(store=blueprints[0]).stream():
+        batch = chunk.to_record_batch()
+        names = batch.schema.names
+        if "ViewBlueprint:class_identifier" in names and "ViewBlueprint:space_origin" in names:
+            kinds = batch.column("ViewBlueprint:class_identifier").to_pylist()
+            origins = batch.column("ViewBlueprint:space_origin").to_pylist()
+            views += [(_first(k), _first(o)) for k, o in zip(kinds, origins, strict=True)]
+    return sorted(views)
 
 
 def _event_kinds(batch) -> list[str]:
