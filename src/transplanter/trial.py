@@ -343,15 +343,13 @@ def run_trial(scenario: Scenario, recorder_path: str | Path | None = None,
 
 def _with_recording(watcher: _Watcher, recorder: Any):
     """A monitor that also feeds the recorder its frames and scalar channels."""
-    period = 1.0 / recorder.rate_hz
-    state = {"next": 0.0, "pulses": None, "t": 0.0}
+    state = {"pulses": None, "t": 0.0}
 
     def monitor(twin: Twin, i: int) -> None:
         watcher.monitor(twin, i)
         t = twin.time
-        if t + 1e-12 < state["next"]:
+        if not recorder.due(t):
             return
-        state["next"] = t + period
         pulses = twin.block.pulses[i]
         prev, t_prev = state["pulses"], state["t"]
         rates = (np.zeros(3) if prev is None or t <= t_prev
