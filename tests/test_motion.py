@@ -332,3 +332,37 @@ def test_deterministic():
     b = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
     for m in range(3):
         assert a.step_times[m].tobytes() == b.step_times[m].tobytes()
+
+
+def test_move_steps_at_agrees_with_steppers_steps_at():
+    start, end = random_targets(2, seed=11)
+    move = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    times = np.concatenate(
+        [np.random.default_rng(12).uniform(-0.1, move.duration_s + 0.1, 500), move.step_times[0]]
+    )
+    got = move.steps_at(times)
+    assert got.shape == (times.size, 3) and got.dtype == np.int64
+    for m in range(3):
+        expected = steppers.steps_at(
+            times, move.step_times[m], move.step_dirs[m], move.start_steps[m]
+        )
+        np.testing.assert_array_equal(got[:, m], expected)
+    np.testing.assert_array_equal(move.steps_at(-1.0)[0], move.start_steps)
+    np.testing.assert_array_equal(move.steps_at(move.duration_s)[0], move.end_steps)
+
+
+def test_compute_time_per_point_holds_even_at_extreme_acceleration():
+    # a fast start speed would cross the short first (half-cell) segment in 100 us < 198 us
+    hasty = motion.MotionConfig(accel_m_s2=1000.0, min_speed_m_s=0.5)
+    # off-grid ends 0.45 cells inside the grid end points: 0.55-cell end segments
+    start = np.array([-0.05 + 0.45e-4, 0.18, 0.05])
+    end = np.array([0.05 - 0.45e-4, 0.18, 0.05])
+    counters = steps_of(start)
+    move = motion.plan_line(counters, start, end, 1.0, GEOM, LIMITS, DRIVES, hasty)
+    dt = np.diff(move.point_times_s)
+    assert dt.min() >= hasty.compute_time_per_point_s * (1 - 1e-12)
+    seg = np.linalg.norm(np.diff(move.points_xyz, axis=0), axis=1)
+    assert seg[0] < 0.6 * hasty.resolution_m  # the case the stretch is there for
+    assert seg[-1] < 0.6 * hasty.resolution_m
+    np.testing.assert_array_equal(move.end_steps, steps_of(end))
+    assert (seg / dt).max() <= hasty.point_rate_speed_cap_m_s * (1 + 1e-9)

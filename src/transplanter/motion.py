@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from transplanter import kinematics as kin
-from transplanter import steppers
 from transplanter.steppers import StepperDrive
 
 PROFILES = ("trapezoid", "scurve")
@@ -115,12 +114,29 @@ class PlannedMove:
     duration_s: float
     peak_speed_m_s: float
 
+    _counts: tuple[np.ndarray, ...] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
+
     def steps_at(self, t) -> np.ndarray:
-        """Step counters of the three motors at times t (s from move start), shape (len(t), 3)."""
+        """Step counters of the three motors at times t (s from move start), shape (len(t), 3).
+
+        A step counts once t >= its time. The cumulative counts are built on the first call,
+        so calling this at every physics step costs one binary search per motor.
+        """
+        if self._counts is None:
+            counts = []
+            for m in range(3):
+                cumulative = np.empty(self.step_dirs[m].size + 1, dtype=np.int64)
+                cumulative[0] = self.start_steps[m]
+                np.cumsum(self.step_dirs[m], dtype=np.int64, out=cumulative[1:])
+                cumulative[1:] += self.start_steps[m]
+                counts.append(cumulative)
+            self._counts = tuple(counts)
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
         return np.stack(
             [
-                steppers.steps_at(t, self.step_times[m], self.step_dirs[m], self.start_steps[m])
+                self._counts[m][np.searchsorted(self.step_times[m], t, side="right")]
                 for m in range(3)
             ],
             axis=-1,
@@ -204,15 +220,13 @@ def _profile_times(
         ramp_t, _ = _ramp(v_edge, v_peak, accel, profile)
         ramp_s = 0.5 * total
     duration = 2.0 * ramp_t + (total - 2.0 * ramp_s) / v_peak
-    accel_part = s <= ramp_s
-    decel_part = s >= total - ramp_s
     t = ramp_t + (s - ramp_s) / v_peak
     if ramp_s > 0.0:
-        t = np.where(
-            accel_part, _ramp_time(np.minimum(s, ramp_s), v_edge, v_peak, accel, profile), t
-        )
-        from_end = np.minimum(total - s, ramp_s)
-        t = np.where(decel_part, duration - _ramp_time(from_end, v_edge, v_peak, accel, profile), t)
+        accel_part = np.flatnonzero(s <= ramp_s)
+        decel_part = np.flatnonzero(s >= total - ramp_s)
+        t[accel_part] = _ramp_time(s[accel_part], v_edge, v_peak, accel, profile)
+        from_end = np.minimum(total - s[decel_part], ramp_s)
+        t[decel_part] = duration - _ramp_time(from_end, v_edge, v_peak, accel, profile)
     t[0] = 0.0
     t[-1] = duration
     return t, v_peak
