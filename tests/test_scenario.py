@@ -25,7 +25,7 @@ def test_paper_scenario_converts_to_si():
     assert s.name == "paper"
     assert s["arm"]["l1_m"] == pytest.approx(0.120)
     assert s["taught"]["s_high_m_s"] == pytest.approx(0.150)
-    assert s["limits"]["motor_max_rad"] == pytest.approx(math.radians(170))
+    assert s["limits"]["motor1_max_rad"] == pytest.approx(math.radians(235))
     assert s["pots"]["mass_kg"] == pytest.approx(0.047)
     assert s["physics"]["timestep_s"] == pytest.approx(0.001)
     assert len(s["taught"]["pickup"]) == 5

@@ -79,8 +79,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "working_mode": Key("str", choices=("+-", "-+", "++", "--")),
     },
     "limits": {
-        "motor_min_deg": Key("float", _DEG, -180, 360),
-        "motor_max_deg": Key("float", _DEG, -180, 360),
+        "motor1_min_deg": Key("float", _DEG, -180, 360, doc="active joint 1 window"),
+        "motor1_max_deg": Key("float", _DEG, -180, 360),
+        "motor2_min_deg": Key("float", _DEG, -180, 360, doc="active joint 2 window"),
+        "motor2_max_deg": Key("float", _DEG, -180, 360),
         "elbow_min_deg": Key("float", _DEG, 0, 180),
         "elbow_max_deg": Key("float", _DEG, 0, 180),
         "transmission_min_deg": Key("float", _DEG, 0, 180),
