@@ -376,7 +376,8 @@ def _pickups(section: str, key: str, raw: Any) -> tuple[dict[str, Any], ...]:
 def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     lim, taught = v["limits"], v["taught"]
     for lo, hi in (
-        ("motor_min_deg", "motor_max_deg"),
+        ("motor1_min_deg", "motor1_max_deg"),
+        ("motor2_min_deg", "motor2_max_deg"),
         ("elbow_min_deg", "elbow_max_deg"),
         ("transmission_min_deg", "transmission_max_deg"),
         ("z_min_mm", "z_max_mm"),
