@@ -77,7 +77,7 @@ def test_missing_value_is_refused(tmp_path):
 
 
 def test_bad_pickup_table(tmp_path):
-    text = PAPER.read_text(encoding="utf-8").replace("elbow_deg = 90.0\n", "elbow_rad = 1.5\n", 1)
+    text = PAPER.read_text(encoding="utf-8").replace("elbow_deg = 112.4\n", "elbow_rad = 1.5\n", 1)
     path = tmp_path / "pick.toml"
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ScenarioError, match=r"taught.pickup\[0\].elbow_rad: wrong unit"):
