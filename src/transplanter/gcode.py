@@ -23,7 +23,7 @@ Errors carry grbl's numbers where grbl has one, and numbers from 60 up for the r
 | 27 | line number out of range (negative) |
 | 28 | a required word is missing (G4 P, M280 P and S) |
 | 33 | invalid motion target (given by the SGF: unreachable, Z out of range) |
-| 36 | a word the command does not use |
+| 36 | a word the command does not use (or both F and S on one move) |
 | 60 | bad checksum (mismatch, or not an integer 0-255) |
 | 61 | line number out of sequence |
 | 62 | checksum missing (line number given, or framing required) |
@@ -227,6 +227,8 @@ def _check_words(command: str, words: dict[str, float]) -> None:
     if command in ("G0", "G1"):
         if not any(letter in words for letter in AXIS_LETTERS):
             raise GcodeError(26, f"{command} needs at least one of X, Y, Z")
+        if "F" in words and "S" in words:
+            raise GcodeError(36, f"{command} takes F (mm/min) or S (mm/s), not both; drop one")
         for letter in "FS":
             if letter in words:
                 if words[letter] < 0:
