@@ -1,0 +1,425 @@
+"""Planar five-bar (5R) kinematics of the transplanter arm (paper eqs 1-7).
+
+Motors sit at O1 = (-L0, 0) and O2 = (+L0, 0). Active links of length L1 end at the elbows
+B (arm 1) and D (arm 2); passive links of length L2 from B and D meet at the end effector
+C = (x, y). Motor angles theta1, theta2 are measured at the motors from +x, counter-clockwise.
+
+Everything is vectorised over numpy arrays and in SI units (m, rad). Unreachable points give
+NaN; :func:`check_points` and :func:`require_reachable` turn that (and the joint, elbow,
+transmission and conditioning limits) into per-point verdicts with reasons.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+MODES = ("+-", "-+", "++", "--")
+ASSEMBLIES = ("up", "down")
+
+
+@dataclass(frozen=True)
+class FiveBarGeometry:
+    """Link lengths of the symmetric five-bar arm (DESIGN defaults 50/120/200 mm)."""
+
+    l0_m: float = 0.050
+    """Half the motor spacing: motors at (-l0, 0) and (+l0, 0)."""
+    l1_m: float = 0.120
+    """Active (motor-driven) link length, motor to elbow."""
+    l2_m: float = 0.200
+    """Passive link length, elbow to end effector."""
+
+    def __post_init__(self) -> None:
+        for name in ("l0_m", "l1_m", "l2_m"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(
+                    f"FiveBarGeometry.{name} must be a positive length in m, got {value!r}"
+                )
+
+
+@dataclass(frozen=True)
+class KinematicLimits:
+    """Limits a point must satisfy to be commanded (all angles in rad).
+
+    Motor windows: RepRapFirmware's default of 10-170 deg for both motors does not fit the
+    paper's elbows-out mode, in which arm 1 points left and arm 2 points right: over the
+    DESIGN workspace (x in [-100, 100] mm, y in [120, 240] mm) theta1 spans 94.6-218.8 deg and
+    theta2 spans -38.8-85.4 deg. The defaults give motor 1 [80, 235] deg and motor 2 the
+    mirror image [-55, 100] deg (about 15 deg of margin on each side).
+    """
+
+    motor_min_rad: float = math.radians(80.0)
+    """Lower limit of motor 1 (theta1); also motor 2's upper limit mirrored (pi - it)."""
+    motor_max_rad: float = math.radians(235.0)
+    """Upper limit of motor 1 (theta1); also motor 2's lower limit mirrored (pi - it)."""
+    motor2_min_rad: float | None = None
+    """Lower limit of motor 2 (theta2); None mirrors motor 1: pi - motor_max_rad."""
+    motor2_max_rad: float | None = None
+    """Upper limit of motor 2 (theta2); None mirrors motor 1: pi - motor_min_rad."""
+    elbow_min_rad: float = math.radians(15.0)
+    """Smallest angle between active and passive link at B and at D (0 = folded: serial
+    singularity at the inner workspace boundary)."""
+    elbow_max_rad: float = math.radians(165.0)
+    """Largest angle between active and passive link at B and at D (180 = stretched: serial
+    singularity at the outer workspace boundary)."""
+    transmission_min_rad: float = math.radians(30.0)
+    """Smallest angle at C between the two passive links (0 = parallel singularity)."""
+    transmission_max_rad: float = math.radians(150.0)
+    """Largest angle at C between the two passive links (180 = parallel singularity)."""
+    max_condition: float = 10.0
+    """Largest condition number of the Jacobian dC/dtheta (1 = isotropic)."""
+
+    def __post_init__(self) -> None:
+        for name, value in self.__dict__.items():
+            if value is None:
+                continue
+            if not (isinstance(value, int | float) and math.isfinite(value)):
+                raise ValueError(f"KinematicLimits.{name} must be a finite number, got {value!r}")
+        for i in (1, 2):
+            lo, hi = self.motor_window(i)
+            if not lo < hi or hi - lo > TWO_PI:
+                raise ValueError(
+                    f"motor {i} window [{math.degrees(lo):.1f}, {math.degrees(hi):.1f}] deg must "
+                    "have min < max and span at most 360 deg"
+                )
+        pairs = (
+            ("elbow_min_rad", "elbow_max_rad"),
+            ("transmission_min_rad", "transmission_max_rad"),
+        )
+        for lo_name, hi_name in pairs:
+            lo, hi = getattr(self, lo_name), getattr(self, hi_name)
+            if not 0.0 <= lo < hi <= math.pi:
+                raise ValueError(
+                    f"KinematicLimits needs 0 <= {lo_name} < {hi_name} <= pi, got {lo!r}, {hi!r}"
+                )
+        if self.max_condition < 1.0:
+            raise ValueError(
+                f"KinematicLimits.max_condition must be >= 1, got {self.max_condition}"
+            )
+
+    def motor_window(self, motor: int) -> tuple[float, float]:
+        """(min, max) angle of motor 1 or 2 in rad."""
+        if motor == 1:
+            return self.motor_min_rad, self.motor_max_rad
+        if motor == 2:
+            lo = (
+                math.pi - self.motor_max_rad if self.motor2_min_rad is None else self.motor2_min_rad
+            )
+            hi = (
+                math.pi - self.motor_min_rad if self.motor2_max_rad is None else self.motor2_max_rad
+            )
+            return lo, hi
+        raise ValueError(f"motor must be 1 or 2, got {motor!r}")
+
+
+class UnreachableError(ValueError):
+    """A commanded point violates the workspace or a kinematic limit."""
+
+    def __init__(self, index: int, reason: str, message: str | None = None):
+        self.index = int(index)
+        self.reason = reason
+        super().__init__(message or f"point {index} is not reachable: {reason}")
+
+
+def _out(a: np.ndarray):
+    """Return numpy scalars for 0-d results, arrays otherwise."""
+    return a[()]
+
+
+def _xy(x, y) -> tuple[np.ndarray, np.ndarray]:
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+    return x, y
+
+
+def _gamma(geom: FiveBarGeometry, dist: np.ndarray) -> np.ndarray:
+    """Cosine-rule angle at the motor between motor->C and motor->elbow (eqs 1-2)."""
+    l1, l2 = geom.l1_m, geom.l2_m
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos_g = (l1 * l1 - l2 * l2 + dist * dist) / (2.0 * l1 * dist)
+        # |cos| > 1 means the triangle cannot close: arccos gives NaN there.
+        return np.arccos(cos_g)
+
+
+def ik_region(geom: FiveBarGeometry, x, y):
+    """The paper's region-based IK (eqs 1-7) for the elbows-out mode, vectorised.
+
+    Region 1: -L0 < x < L0, region 2: x >= L0, region 3: x <= -L0. Written, like the paper, for
+    C above the motor baseline (y > 0); there it equals ``ik(..., mode="+-")``.
+    Returns (theta1, theta2) in rad, NaN where unreachable.
+    """
+    x, y = _xy(x, y)
+    l0 = geom.l0_m
+    k = np.sqrt((x + l0) ** 2 + y**2)  # eq 1
+    s = np.sqrt((x - l0) ** 2 + y**2)  # eq 2
+    gamma1 = _gamma(geom, k)
+    gamma2 = _gamma(geom, s)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        atan1 = np.arctan(y / np.abs(l0 + x))
+        atan2 = np.arctan(y / np.abs(l0 - x))
+    region2 = x >= l0
+    region3 = x <= -l0
+    beta1 = np.where(region3, np.pi - atan1, atan1)  # eqs 3-5
+    beta2 = np.where(region2, atan2, np.pi - atan2)
+    theta1 = beta1 + gamma1  # eq 6
+    theta2 = beta2 - gamma2  # eq 7
+    return _out(theta1), _out(theta2)
+
+
+def ik(geom: FiveBarGeometry, x, y, mode: str = "+-"):
+    """Inverse kinematics for any of the four working modes, vectorised.
+
+    ``mode`` gives the sign of gamma for arm 1 then arm 2: '+-' is the paper's elbows-out mode
+    (theta1 = beta1 + gamma1, theta2 = beta2 - gamma2), '-+' elbows in, '++' and '--' both
+    elbows to one side. beta_i = atan2 direction of O_i->C, in (-pi, pi].
+    Returns (theta1, theta2) in rad, NaN where unreachable.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    x, y = _xy(x, y)
+    l0 = geom.l0_m
+    sign1 = 1.0 if mode[0] == "+" else -1.0
+    sign2 = 1.0 if mode[1] == "+" else -1.0
+    k = np.hypot(x + l0, y)
+    s = np.hypot(x - l0, y)
+    theta1 = np.arctan2(y, x + l0) + sign1 * _gamma(geom, k)
+    theta2 = np.arctan2(y, x - l0) + sign2 * _gamma(geom, s)
+    return _out(theta1), _out(theta2)
+
+
+def elbow_points(geom: FiveBarGeometry, theta1, theta2):
+    """Elbow positions B (arm 1) and D (arm 2), each of shape (..., 2) in m."""
+    t1, t2 = _xy(theta1, theta2)
+    l0, l1 = geom.l0_m, geom.l1_m
+    b = np.stack([-l0 + l1 * np.cos(t1), l1 * np.sin(t1)], axis=-1)
+    d = np.stack([l0 + l1 * np.cos(t2), l1 * np.sin(t2)], axis=-1)
+    return b, d
+
+
+def fk(geom: FiveBarGeometry, theta1, theta2, assembly: str = "up"):
+    """Forward kinematics: intersect the passive-link circles about B and D.
+
+    'up' is the intersection to the left of the directed line B->D (cross(D-B, C-B) > 0): the
+    one farther from the motor baseline, larger y, whenever D lies right of B, as throughout
+    the paper's workspace; 'down' is the other. NaN where the links cannot close.
+    """
+    if assembly not in ASSEMBLIES:
+        raise ValueError(f"assembly must be one of {ASSEMBLIES}, got {assembly!r}")
+    b, d = elbow_points(geom, theta1, theta2)
+    bd = d - b
+    dist = np.hypot(bd[..., 0], bd[..., 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        half = 0.5 * dist
+        h = np.sqrt(geom.l2_m**2 - half * half)  # NaN when dist > 2 L2
+        h = np.where(dist > 0.0, h, np.nan)  # coincident elbows: C undetermined
+        nx, ny = -bd[..., 1] / dist, bd[..., 0] / dist  # unit normal, left of B->D
+    side = 1.0 if assembly == "up" else -1.0
+    x = b[..., 0] + 0.5 * bd[..., 0] + side * h * nx
+    y = b[..., 1] + 0.5 * bd[..., 1] + side * h * ny
+    return _out(x), _out(y)
+
+
+def assembly_of(geom: FiveBarGeometry, theta1, theta2, x, y):
+    """Which FK assembly ('up' True, 'down' False) the point C is in, as a bool array."""
+    b, d = elbow_points(geom, theta1, theta2)
+    x, y = _xy(x, y)
+    cross = (d[..., 0] - b[..., 0]) * (y - b[..., 1]) - (d[..., 1] - b[..., 1]) * (x - b[..., 0])
+    return _out(cross > 0.0)
+
+
+def jacobian(geom: FiveBarGeometry, theta1, theta2, x, y) -> np.ndarray:
+    """dC/dtheta as an array of shape (..., 2, 2): J[..., i, j] = d C_i / d theta_j.
+
+    From the loop closures |C - B(theta1)|^2 = |C - D(theta2)|^2 = L2^2:
+    (C - B) . dC = (C - B) . B'(theta1) dtheta1, likewise for D, so J = A^-1 diag(b) with
+    the rows of A being C - B and C - D. Infinite at the parallel singularity (det A = 0).
+    """
+    t1, t2, x, y = np.broadcast_arrays(
+        *(np.asarray(v, dtype=np.float64) for v in (theta1, theta2, x, y))
+    )
+    b, d = elbow_points(geom, t1, t2)
+    l1 = geom.l1_m
+    a11, a12 = x - b[..., 0], y - b[..., 1]
+    a21, a22 = x - d[..., 0], y - d[..., 1]
+    rhs1 = l1 * (-a11 * np.sin(t1) + a12 * np.cos(t1))
+    rhs2 = l1 * (-a21 * np.sin(t2) + a22 * np.cos(t2))
+    det = a11 * a22 - a12 * a21
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv_det = 1.0 / det
+    jac = np.empty(t1.shape + (2, 2))
+    jac[..., 0, 0] = a22 * rhs1 * inv_det
+    jac[..., 0, 1] = -a12 * rhs2 * inv_det
+    jac[..., 1, 0] = -a21 * rhs1 * inv_det
+    jac[..., 1, 1] = a11 * rhs2 * inv_det
+    return jac
+
+
+def condition_number(jac: np.ndarray):
+    """2-norm condition number of (..., 2, 2) matrices; inf where singular or not finite."""
+    frob2 = np.sum(jac * jac, axis=(-2, -1))
+    det = np.abs(jac[..., 0, 0] * jac[..., 1, 1] - jac[..., 0, 1] * jac[..., 1, 0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        root = np.sqrt(np.maximum(frob2 * frob2 - 4.0 * det * det, 0.0))
+        cond = (frob2 + root) / (2.0 * det)  # sigma_max^2 / (sigma_max * sigma_min)
+    return _out(np.where(np.isfinite(cond), cond, np.inf))
+
+
+def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    cross = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    dot = u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1]
+    return np.arctan2(np.abs(cross), dot)
+
+
+def transmission_angle(geom: FiveBarGeometry, theta1, theta2, x, y):
+    """Angle at C between the passive links C->B and C->D, in [0, pi] rad."""
+    b, d = elbow_points(geom, theta1, theta2)
+    c = np.stack(_xy(x, y), axis=-1)
+    return _out(_angle_between(b - c, d - c))
+
+
+def elbow_angles(geom: FiveBarGeometry, theta1, theta2, x, y):
+    """Angles between active and passive link at B and at D, each in [0, pi] rad."""
+    b, d = elbow_points(geom, theta1, theta2)
+    c = np.stack(_xy(x, y), axis=-1)
+    o1 = np.array([-geom.l0_m, 0.0])
+    o2 = np.array([geom.l0_m, 0.0])
+    return _out(_angle_between(o1 - b, c - b)), _out(_angle_between(o2 - d, c - d))
+
+
+@dataclass(frozen=True)
+class ReachReport:
+    """Per-point verdict of :func:`check_points` (arrays of the points' shape, flattened)."""
+
+    theta1: np.ndarray
+    """Motor 1 angle in rad, wrapped into motor 1's window start + [0, 2 pi)."""
+    theta2: np.ndarray
+    """Motor 2 angle in rad, wrapped likewise."""
+    ok: np.ndarray
+    """True where the point passes every limit."""
+    reasons: tuple[str, ...]
+    """'' for good points, else every violated limit, joined by '; '."""
+    elbow1: np.ndarray
+    elbow2: np.ndarray
+    transmission: np.ndarray
+    condition: np.ndarray
+
+    @property
+    def failing(self) -> np.ndarray:
+        """Indices of the failing points."""
+        return np.flatnonzero(~self.ok)
+
+
+def _wrap_into(theta: np.ndarray, lo: float) -> np.ndarray:
+    """Wrap angles into [lo, lo + 2 pi)."""
+    return lo + np.mod(theta - lo, TWO_PI)
+
+
+def _evaluate(geom, limits, x, y, mode):
+    x, y = _xy(x, y)
+    x, y = x.ravel(), y.ravel()
+    theta1, theta2 = ik(geom, x, y, mode)
+    theta1, theta2 = np.atleast_1d(theta1), np.atleast_1d(theta2)
+    lo1, hi1 = limits.motor_window(1)
+    lo2, hi2 = limits.motor_window(2)
+    theta1 = _wrap_into(theta1, lo1)
+    theta2 = _wrap_into(theta2, lo2)
+    elbow1, elbow2 = (np.atleast_1d(a) for a in elbow_angles(geom, theta1, theta2, x, y))
+    trans = np.atleast_1d(transmission_angle(geom, theta1, theta2, x, y))
+    cond = np.atleast_1d(condition_number(jacobian(geom, theta1, theta2, x, y)))
+    reach = np.isfinite(theta1) & np.isfinite(theta2)
+    with np.errstate(invalid="ignore"):
+        bad = {
+            "reach": ~reach,
+            "motor1": reach & (theta1 > hi1),
+            "motor2": reach & (theta2 > hi2),
+            "elbow1": reach & ((elbow1 < limits.elbow_min_rad) | (elbow1 > limits.elbow_max_rad)),
+            "elbow2": reach & ((elbow2 < limits.elbow_min_rad) | (elbow2 > limits.elbow_max_rad)),
+            "transmission": reach
+            & ((trans < limits.transmission_min_rad) | (trans > limits.transmission_max_rad)),
+            "condition": reach & ~(cond <= limits.max_condition),
+        }
+    ok = ~np.logical_or.reduce(list(bad.values()))
+    arrays = dict(x=x, y=y, theta1=theta1, theta2=theta2, elbow1=elbow1, elbow2=elbow2)
+    arrays.update(transmission=trans, condition=cond)
+    return ok, bad, arrays
+
+
+def _reason(geom, limits, bad, arrays, i) -> str:
+    deg = math.degrees
+    x, y = arrays["x"][i], arrays["y"][i]
+    parts = []
+    if bad["reach"][i]:
+        lmax, lmin = geom.l1_m + geom.l2_m, abs(geom.l1_m - geom.l2_m)
+        for arm, ox in ((1, -geom.l0_m), (2, geom.l0_m)):
+            dist = math.hypot(x - ox, y)
+            if not math.isfinite(dist):
+                parts.append("outside workspace: coordinates are not finite")
+                break
+            if dist > lmax:
+                parts.append(f"outside workspace: |C-O{arm}|={dist:.4f} m > L1+L2={lmax:.4f} m")
+            elif dist < lmin:
+                parts.append(f"outside workspace: |C-O{arm}|={dist:.4f} m < |L1-L2|={lmin:.4f} m")
+        return "; ".join(parts)
+    for motor in (1, 2):
+        if bad[f"motor{motor}"][i]:
+            lo, hi = limits.motor_window(motor)
+            theta = arrays[f"theta{motor}"][i]
+            if theta - hi > lo + TWO_PI - theta:  # closer to the lower limit: show it below
+                theta -= TWO_PI
+            parts.append(
+                f"motor {motor} angle {deg(theta):.1f} deg outside "
+                f"[{deg(lo):.0f}, {deg(hi):.0f}] deg"
+            )
+    for arm, elbow in ((1, "B"), (2, "D")):
+        if bad[f"elbow{arm}"][i]:
+            parts.append(
+                f"elbow angle at {elbow} {deg(arrays[f'elbow{arm}'][i]):.1f} deg outside "
+                f"[{deg(limits.elbow_min_rad):.0f}, {deg(limits.elbow_max_rad):.0f}] deg"
+                " (near a serial singularity at the workspace boundary)"
+            )
+    if bad["transmission"][i]:
+        parts.append(
+            f"transmission angle {deg(arrays['transmission'][i]):.1f} deg outside "
+            f"[{deg(limits.transmission_min_rad):.0f}, {deg(limits.transmission_max_rad):.0f}] deg"
+            " (near parallel singularity)"
+        )
+    if bad["condition"][i]:
+        parts.append(f"Jacobian condition {arrays['condition'][i]:.3g} > {limits.max_condition:g}")
+    return "; ".join(parts)
+
+
+def check_points(
+    geom: FiveBarGeometry, limits: KinematicLimits, x, y, mode: str = "+-"
+) -> ReachReport:
+    """Check every point (flattened) against the workspace and all limits."""
+    ok, bad, arrays = _evaluate(geom, limits, x, y, mode)
+    reasons = [""] * ok.size
+    for i in np.flatnonzero(~ok):
+        reasons[i] = _reason(geom, limits, bad, arrays, i)
+    return ReachReport(
+        theta1=arrays["theta1"],
+        theta2=arrays["theta2"],
+        ok=ok,
+        reasons=tuple(reasons),
+        elbow1=arrays["elbow1"],
+        elbow2=arrays["elbow2"],
+        transmission=arrays["transmission"],
+        condition=arrays["condition"],
+    )
+
+
+def require_reachable(geom: FiveBarGeometry, limits: KinematicLimits, x, y, mode: str = "+-"):
+    """(theta1, theta2) arrays for points that all pass; else UnreachableError for the first."""
+    ok, bad, arrays = _evaluate(geom, limits, x, y, mode)
+    if not ok.all():
+        i = int(np.flatnonzero(~ok)[0])
+        reason = _reason(geom, limits, bad, arrays, i)
+        message = (
+            f"target position not reachable: point {i} at (x, y) = "
+            f"({arrays['x'][i] * 1e3:.3f}, {arrays['y'][i] * 1e3:.3f}) mm: {reason}"
+        )
+        raise UnreachableError(i, reason, message)
+    return arrays["theta1"], arrays["theta2"]

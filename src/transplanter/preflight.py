@@ -1,0 +1,65 @@
+"""Checks a scenario's taught points before any simulation starts.
+
+Every taught point must be reachable (kinematics limits, Z range), and every straight line
+the PGF will ask for must be reachable at every interpolated point, so a trial never starts
+on a program the SGF would reject halfway through. Errors name the scenario key.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from transplanter import kinematics
+from transplanter.machine import machine_from_scenario
+from transplanter.motion import plan_line
+from transplanter.scenario import Scenario, ScenarioError
+
+__all__ = ["check_scenario"]
+
+
+def check_scenario(s: Scenario) -> None:
+    """Raise ScenarioError naming the key of the first taught point or move that fails."""
+    machine = machine_from_scenario(s)
+    taught = s["taught"]
+    points: list[tuple[str, tuple[float, float]]] = [("taught.drop_mm", taught["drop_m"])]
+    for i, p in enumerate(taught["pickup"]):
+        points.append((f"taught.pickup[{i}].approach_mm", p["approach_m"]))
+        points.append((f"taught.pickup[{i}].grip_mm", p["grip_m"]))
+    xy = np.array([p for _, p in points])
+    report = kinematics.check_points(machine.geometry, machine.limits, xy[:, 0], xy[:, 1],
+                                     mode=machine.mode)
+    for (key, p), ok, reason in zip(points, report.ok, report.reasons, strict=True):
+        if not ok:
+            raise ScenarioError(
+                f"{key} = [{p[0] * 1e3:g}, {p[1] * 1e3:g}] mm cannot be reached: {reason}. "
+                "Teach a point inside the workspace."
+            )
+    z_low, z_up = taught["z_low_m"], taught["z_up_m"]
+    drop = (*taught["drop_m"], z_up)
+    for i, p in enumerate(taught["pickup"]):
+        approach_low, grip_low = (*p["approach_m"], z_low), (*p["grip_m"], z_low)
+        grip_up, approach_up = (*p["grip_m"], z_up), (*p["approach_m"], z_up)
+        path = [drop, approach_low, grip_low, grip_up, approach_up, drop]
+        for a, b in zip(path[:-1], path[1:], strict=True):
+            try:
+                _check_line(machine, a, b)
+            except kinematics.UnreachableError as exc:
+                raise ScenarioError(
+                    f"taught.pickup[{i}]: the move from {_mm(a)} to {_mm(b)} mm leaves the "
+                    f"workspace: {exc.reason}. Move the approach or grip point."
+                ) from None
+
+
+def _check_line(machine, a, b) -> None:
+    start = np.asarray(a, dtype=float)
+    t1, t2 = kinematics.ik(machine.geometry, start[0], start[1], mode=machine.mode)
+    joints = np.array([float(t1), float(t2), start[2]])
+    steps = np.array([d.to_steps(q) for d, q in zip(machine.drives, joints, strict=True)],
+                     dtype=np.int64).reshape(3)
+    speed = machine.eeprom.s_high_m_s
+    plan_line(steps, start, np.asarray(b, dtype=float), speed, machine.geometry,
+              machine.limits, machine.drives, machine.motion, mode=machine.mode)
+
+
+def _mm(p) -> str:
+    return "(" + ", ".join(f"{v * 1e3:g}" for v in p) + ")"

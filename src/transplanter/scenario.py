@@ -1,0 +1,415 @@
+"""Scenario files: a strict TOML schema with units in every key, read into SI values.
+
+A scenario file holds every number a user may want to change. Each key names its unit
+(`l1_mm`, `s_high_mm_s`, `mass_g`); the loader converts to SI and refuses, before anything
+runs, a file with an unknown key, a missing value, a wrong unit or a value out of range, always
+naming the key. A file may start from another one with `[scenario] base = "paper.toml"` and
+override only what differs.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "SCHEMA"]
+
+
+class ScenarioError(ValueError):
+    """A scenario file cannot be used; the message names the key and what to do."""
+
+
+@dataclass(frozen=True)
+class Key:
+    """One scenario key: its kind, SI scale factor and allowed range (in file units)."""
+
+    kind: str  # "float", "int", "bool", "str", "xy" (pair of floats), "list"
+    scale: float = 1.0
+    lo: float | None = None
+    hi: float | None = None
+    choices: tuple[str, ...] = ()
+    doc: str = ""
+
+
+_MM = 1e-3
+_DEG = math.pi / 180.0
+_G = 1e-3
+_MS = 1e-3
+_US = 1e-6
+
+# Unit suffixes the loader understands; used to tell a wrong unit from an unknown key.
+_UNIT_SUFFIXES = (
+    "_mm_s2",
+    "_mm_s",
+    "_mm_min",
+    "_mm",
+    "_m_s2",
+    "_m_s",
+    "_m",
+    "_deg",
+    "_rad",
+    "_g",
+    "_kg",
+    "_ms",
+    "_us",
+    "_s",
+    "_hz",
+    "_nm",
+    "_n",
+    "_bps",
+    "_kgm2",
+    "_n_m_s",
+)
+
+SCHEMA: dict[str, dict[str, Key]] = {
+    "scenario": {
+        "name": Key("str", doc="short name used in reports"),
+        "description": Key("str"),
+        "seed": Key("int", lo=0, doc="random seed for pot placement, size, mass and friction"),
+        "seedlings": Key("int", lo=1, hi=100000, doc="seedlings to pick in a trial"),
+    },
+    "arm": {
+        "l0_mm": Key("float", _MM, 1, 500, doc="half the distance between the two motors"),
+        "l1_mm": Key("float", _MM, 1, 1000, doc="active link length"),
+        "l2_mm": Key("float", _MM, 1, 1000, doc="passive link length"),
+        "working_mode": Key("str", choices=("+-", "-+", "++", "--")),
+    },
+    "limits": {
+        "motor1_min_deg": Key("float", _DEG, -180, 360, doc="active joint 1 window"),
+        "motor1_max_deg": Key("float", _DEG, -180, 360),
+        "motor2_min_deg": Key("float", _DEG, -180, 360, doc="active joint 2 window"),
+        "motor2_max_deg": Key("float", _DEG, -180, 360),
+        "elbow_min_deg": Key("float", _DEG, 0, 180),
+        "elbow_max_deg": Key("float", _DEG, 0, 180),
+        "transmission_min_deg": Key("float", _DEG, 0, 180),
+        "transmission_max_deg": Key("float", _DEG, 0, 180),
+        "max_condition": Key("float", 1.0, 1, 1e6),
+        "z_min_mm": Key("float", _MM, -100, 1000),
+        "z_max_mm": Key("float", _MM, -100, 1000),
+    },
+    "drives": {
+        "steps_per_rev": Key("int", lo=1, hi=100000),
+        "microsteps": Key("int", lo=1, hi=256),
+        "arm_belt_ratio": Key("float", 1.0, 0.01, 100, doc="motor revolutions per arm revolution"),
+        "z_lead_mm": Key("float", _MM, 0.1, 100, doc="lead screw travel per revolution"),
+        "max_step_rate_hz": Key("float", 1.0, 1, 1e6),
+        "holding_torque_nm": Key("float", 1.0, 0.001, 100),
+        "home_theta1_deg": Key("float", _DEG, -180, 360, doc="limit switch 1 trip angle"),
+        "home_theta2_deg": Key("float", _DEG, -180, 360, doc="limit switch 2 trip angle"),
+        "home_z_mm": Key("float", _MM, 0, 1000, doc="limit switch 3 (Z up) trip height"),
+        "homing_rate_arm_hz": Key("float", 1.0, 1, 1e5),
+        "homing_rate_z_hz": Key("float", 1.0, 1, 1e6),
+    },
+    "motion": {
+        "resolution_mm": Key("float", _MM, 0.001, 10, doc="Bresenham grid (paper 2.4)"),
+        "accel_mm_s2": Key("float", _MM, 1, 1e6),
+        "profile": Key("str", choices=("trapezoid", "scurve")),
+        "compute_time_per_point_us": Key(
+            "float",
+            _US,
+            0,
+            1e6,
+            doc="IK time per point: 198 ESP32 dual core, 276 single core, 4027 Arduino Mega",
+        ),
+    },
+    "bus": {
+        "baud_bps": Key("float", 1.0, 300, 1e7),
+        "line_numbers": Key("bool", doc="Marlin N<n> ... *<checksum> framing"),
+    },
+    "gripper": {
+        "servo_s_per_60deg": Key("float", 1.0, 0.01, 10, doc="hobby servo speed"),
+        "max_opening_mm": Key("float", _MM, 1, 200, doc="jaw opening at 180 deg servo angle"),
+        "open_deg": Key("float", _DEG, 0, 180),
+        "close_deg": Key("float", _DEG, 0, 180),
+        "grip_force_n": Key("float", 1.0, 0.01, 1000, doc="servo force limit at the jaws"),
+        "wrist_servo_s_per_60deg": Key("float", 1.0, 0.01, 10),
+        "open_dwell_ms": Key("float", _MS, 0, 10000),
+        "close_dwell_ms": Key("float", _MS, 0, 10000),
+        "release_dwell_ms": Key("float", _MS, 0, 10000),
+    },
+    "conveyor": {
+        "rows": Key("int", lo=1, hi=100),
+        "cols": Key("int", lo=1, hi=20),
+        "cell_pitch_mm": Key("float", _MM, 1, 1000),
+        "row_pitch_mm": Key("float", _MM, 1, 1000),
+        "pickup_row_y_mm": Key("float", _MM, -1000, 1000),
+        "index_time_s": Key("float", 1.0, 0.01, 60),
+    },
+    "pots": {
+        "diameter_mm": Key("float", _MM, 1, 500),
+        "diameter_sd_mm": Key("float", _MM, 0, 100),
+        "height_mm": Key("float", _MM, 1, 500),
+        "height_sd_mm": Key("float", _MM, 0, 100),
+        "mass_g": Key("float", _G, 0.1, 10000),
+        "mass_sd_g": Key("float", _G, 0, 10000),
+        "friction": Key("float", 1.0, 0, 10, doc="sliding friction coefficient pot-jaw"),
+        "friction_sd": Key("float", 1.0, 0, 10),
+        "placement_sd_mm": Key("float", _MM, 0, 100, doc="pot offset from its cell centre"),
+    },
+    "drop_tube": {
+        "x_mm": Key("float", _MM, -1000, 1000),
+        "y_mm": Key("float", _MM, -1000, 1000),
+        "funnel_top_diameter_mm": Key("float", _MM, 1, 1000),
+        "funnel_top_z_mm": Key("float", _MM, -1000, 1000),
+    },
+    "physics": {
+        "timestep_ms": Key("float", _MS, 0.01, 10),
+        "sleep": Key("bool", doc="let resting pots sleep (never changes an outcome)"),
+    },
+    "taught": {
+        "z_up_mm": Key("float", _MM, -100, 1000),
+        "z_low_mm": Key("float", _MM, -100, 1000),
+        "s_low_mm_s": Key("float", _MM, 0.1, 10000, doc="paper S_l"),
+        "s_high_mm_s": Key("float", _MM, 0.1, 10000, doc="paper S_h"),
+        "drop_mm": Key("xy", _MM, -1000, 1000, doc="drop point M_dp"),
+        "drop_elbow_deg": Key("float", _DEG, 0, 180, doc="wrist servo angle at the drop, M_dep"),
+        "pickup": Key("list", doc="pickup points, each approach_mm, grip_mm, elbow_deg"),
+    },
+}
+
+PICKUP_SCHEMA: dict[str, Key] = {
+    "approach_mm": Key("xy", _MM, -1000, 1000, doc="approach (via) point M_pd[k]"),
+    "grip_mm": Key("xy", _MM, -1000, 1000, doc="grip point M_pgd[k]"),
+    "elbow_deg": Key("float", _DEG, 0, 180, doc="wrist servo angle M_pep[k]"),
+}
+
+
+_SI_SUFFIX = {
+    "_mm_s2": "_m_s2",
+    "_mm_s": "_m_s",
+    "_mm": "_m",
+    "_deg": "_rad",
+    "_g": "_kg",
+    "_ms": "_s",
+    "_us": "_s",
+}
+
+
+def si_key(key: str) -> str:
+    """The name a file key has once its value is in SI: `l1_mm` -> `l1_m`."""
+    unit = _unit_of(key)
+    return key[: -len(unit)] + _SI_SUFFIX[unit] if unit in _SI_SUFFIX else key
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario: `values[section][si_key]` in SI (`l1_mm = 120` -> `l1_m = 0.12`)."""
+
+    path: Path | None
+    values: Mapping[str, Mapping[str, Any]]
+
+    def __getitem__(self, section: str) -> Mapping[str, Any]:
+        return self.values[section]
+
+    def get(self, dotted: str) -> Any:
+        """The SI value of a file key given as 'section.key' (`taught.s_high_mm_s`)."""
+        section, key = dotted.split(".", 1)
+        return self.values[section][si_key(key)]
+
+    @property
+    def name(self) -> str:
+        return self.values["scenario"]["name"]
+
+    @property
+    def seed(self) -> int:
+        return self.values["scenario"]["seed"]
+
+
+def _unit_of(key: str) -> str | None:
+    for suffix in _UNIT_SUFFIXES:
+        if key.endswith(suffix):
+            return suffix
+    return None
+
+
+def _stem(key: str) -> str:
+    unit = _unit_of(key)
+    return key[: -len(unit)] if unit else key
+
+
+def _unknown_key_error(where: str, key: str, known: Mapping[str, Key]) -> ScenarioError:
+    stem = _stem(key)
+    same_stem = [k for k in known if _stem(k) == stem and k != key]
+    if same_stem:
+        return ScenarioError(
+            f"{where}.{key}: wrong unit; this value must be given as '{same_stem[0]}' "
+            f"(unit {_unit_of(same_stem[0]) or 'none'}). Rename the key and convert the value."
+        )
+    return ScenarioError(
+        f"{where}.{key}: unknown key. Known keys in [{where.split('.')[0]}]: "
+        f"{', '.join(sorted(known))}."
+    )
+
+
+def _convert(where: str, key: str, spec: Key, raw: Any) -> Any:
+    name = f"{where}.{key}"
+    if spec.kind == "str":
+        if not isinstance(raw, str):
+            raise ScenarioError(f"{name}: expected a string, got {raw!r}.")
+        if spec.choices and raw not in spec.choices:
+            raise ScenarioError(f"{name}: {raw!r} is not one of {', '.join(spec.choices)}.")
+        return raw
+    if spec.kind == "bool":
+        if not isinstance(raw, bool):
+            raise ScenarioError(f"{name}: expected true or false, got {raw!r}.")
+        return raw
+    if spec.kind == "int":
+        if isinstance(raw, bool) or not isinstance(raw, int):
+            raise ScenarioError(f"{name}: expected a whole number, got {raw!r}.")
+        _check_range(name, spec, raw)
+        return raw
+    if spec.kind == "float":
+        return _number(name, spec, raw)
+    if spec.kind == "xy":
+        if not isinstance(raw, list) or len(raw) != 2:
+            raise ScenarioError(f"{name}: expected a pair [x, y], got {raw!r}.")
+        return tuple(_number(f"{name}[{i}]", spec, v) for i, v in enumerate(raw))
+    raise AssertionError(spec.kind)
+
+
+def _number(name: str, spec: Key, raw: Any) -> float:
+    if isinstance(raw, bool) or not isinstance(raw, int | float):
+        raise ScenarioError(f"{name}: expected a number, got {raw!r}.")
+    value = float(raw)
+    if not math.isfinite(value):
+        raise ScenarioError(f"{name}: {raw!r} is not a finite number.")
+    _check_range(name, spec, value)
+    return value * spec.scale
+
+
+def _check_range(name: str, spec: Key, value: float) -> None:
+    if spec.lo is not None and value < spec.lo or spec.hi is not None and value > spec.hi:
+        raise ScenarioError(f"{name}: {value} is outside the allowed range [{spec.lo}, {spec.hi}].")
+
+
+def _merge(base: dict, over: Mapping) -> dict:
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in base.items()}
+    for section, table in over.items():
+        if isinstance(table, dict) and isinstance(out.get(section), dict):
+            out[section].update(table)
+        else:
+            out[section] = table
+    return out
+
+
+def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
+    path = path.resolve()
+    if path in seen:
+        raise ScenarioError(f"{path}: 'base' files form a cycle: {' -> '.join(map(str, seen))}.")
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such scenario file.") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}.") from None
+    base = raw.get("scenario", {}).pop("base", None)
+    if base is None:
+        return raw
+    if not isinstance(base, str):
+        raise ScenarioError(f"{path}: scenario.base must be a file name, got {base!r}.")
+    return _merge(_read_raw(path.parent / base, (*seen, path)), raw)
+
+
+def _apply_overrides(raw: dict, overrides: Mapping[str, Any]) -> dict:
+    raw = _merge(raw, {})
+    for dotted, value in overrides.items():
+        section, _, key = dotted.partition(".")
+        if not key:
+            raise ScenarioError(f"override {dotted!r}: use 'section.key'.")
+        raw.setdefault(section, {})[key] = value
+    return raw
+
+
+def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, dict[str, Any]]:
+    """Check a raw TOML mapping against SCHEMA and convert it to SI."""
+    values: dict[str, dict[str, Any]] = {}
+    for section in raw:
+        if section not in SCHEMA:
+            raise ScenarioError(
+                f"{source}: unknown section [{section}]. Known sections: {', '.join(SCHEMA)}."
+            )
+    for section, keys in SCHEMA.items():
+        table = raw.get(section)
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{source}: missing section [{section}].")
+        for key in table:
+            if key not in keys:
+                raise _unknown_key_error(section, key, keys)
+        out: dict[str, Any] = {}
+        for key, spec in keys.items():
+            if key not in table:
+                hint = spec.doc or spec.kind
+                raise ScenarioError(f"{source}: {section}.{key} is missing; give a value ({hint}).")
+            if spec.kind == "list":
+                out[si_key(key)] = _pickups(section, key, table[key])
+            else:
+                out[si_key(key)] = _convert(section, key, spec, table[key])
+        values[section] = out
+    _cross_checks(values)
+    return values
+
+
+def _pickups(section: str, key: str, raw: Any) -> tuple[dict[str, Any], ...]:
+    if not isinstance(raw, list) or not raw:
+        raise ScenarioError(f"{section}.{key}: give at least one [[{section}.{key}]] table.")
+    out = []
+    for i, item in enumerate(raw):
+        where = f"{section}.{key}[{i}]"
+        if not isinstance(item, dict):
+            raise ScenarioError(f"{where}: expected a table with {', '.join(PICKUP_SCHEMA)}.")
+        for k in item:
+            if k not in PICKUP_SCHEMA:
+                raise _unknown_key_error(where, k, PICKUP_SCHEMA)
+        entry = {}
+        for k, spec in PICKUP_SCHEMA.items():
+            if k not in item:
+                raise ScenarioError(f"{where}.{k} is missing; give a value ({spec.doc}).")
+            entry[si_key(k)] = _convert(where, k, spec, item[k])
+        out.append(entry)
+    return tuple(out)
+
+
+def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
+    lim, taught = v["limits"], v["taught"]
+    for lo, hi in (
+        ("motor_min_deg", "motor_max_deg"),
+        ("elbow_min_deg", "elbow_max_deg"),
+        ("transmission_min_deg", "transmission_max_deg"),
+        ("z_min_mm", "z_max_mm"),
+    ):
+        if lim[si_key(lo)] >= lim[si_key(hi)]:
+            raise ScenarioError(f"limits.{lo} must be below limits.{hi}.")
+    z_min, z_max = lim["z_min_m"], lim["z_max_m"]
+    for key in ("z_up_mm", "z_low_mm"):
+        if not z_min <= taught[si_key(key)] <= z_max:
+            raise ScenarioError(
+                f"taught.{key} = {taught[si_key(key)] * 1e3:g} mm is outside "
+                f"[limits.z_min_mm, limits.z_max_mm] = [{z_min * 1e3:g}, {z_max * 1e3:g}] mm."
+            )
+    if taught["z_up_m"] <= taught["z_low_m"]:
+        raise ScenarioError("taught.z_up_mm must be above taught.z_low_mm.")
+    if len(taught["pickup"]) > 10:
+        raise ScenarioError("taught.pickup: the EEPROM holds at most 10 pickup points.")
+    grip = v["gripper"]
+    if grip["close_rad"] >= grip["open_rad"]:
+        raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
+
+
+def load_scenario(
+    path: str | Path,
+    overrides: Mapping[str, Any] | None = None,
+    extra_checks: Callable[[Scenario], None] | None = None,
+) -> Scenario:
+    """Read, merge (`base`), override (`{"taught.s_high_mm_s": 200}`) and validate a scenario."""
+    path = Path(path)
+    raw = _read_raw(path)
+    if overrides:
+        raw = _apply_overrides(raw, overrides)
+    scenario = Scenario(path=path, values=validate(raw, str(path)))
+    if extra_checks is not None:
+        extra_checks(scenario)
+    return scenario

@@ -1,0 +1,260 @@
+"""The twin's simulation loop: the firmware's step events drive the MuJoCo physics.
+
+PGF -> COM bus -> SGF run on the simulated clock exactly as in `firmware.rig`, but the
+limit switches come from the model's sensors and, at every physics step, each stepper's
+position servo is commanded to the position its SGF step pulses have reached at that time
+(`SGF.pulses_at`), never to a smoothed trajectory. Per-move work is done once per firmware
+event: the commands for every physics step until the next event are computed in one
+vectorised call, so the per-step path is one row copy and `mj_step`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from transplanter.firmware.bus import ComBus
+from transplanter.firmware.pgf import PGF, SentLine
+from transplanter.firmware.sgf import SGF
+from transplanter.machine import GRIPPER_SERVO, WRIST_SERVO, Machine, machine_from_scenario
+from transplanter.scenario import Scenario
+from transplanter.scene import Scene, SceneConfig, build_scene
+
+__all__ = ["Twin", "SimulationInvalid", "scene_config_from_scenario", "SCALAR_NAMES"]
+
+# Longest block of physics steps whose commands are computed at once (bounds memory).
+_MAX_BLOCK_STEPS = 2000
+
+SCALAR_NAMES = (
+    "motors/theta1_cmd_deg",
+    "motors/theta1_deg",
+    "motors/theta2_cmd_deg",
+    "motors/theta2_deg",
+    "motors/z_cmd_mm",
+    "motors/z_mm",
+    "step_rate/arm1_hz",
+    "step_rate/arm2_hz",
+    "step_rate/z_hz",
+    "gripper/opening_cmd_mm",
+    "gripper/opening_mm",
+    "gripper/force_n",
+    "gripper/wrist_deg",
+    "conveyor/position_mm",
+)
+
+
+class SimulationInvalid(RuntimeError):
+    """The physics produced a MuJoCo warning or diverged: the trial is invalid."""
+
+
+def scene_config_from_scenario(s: Scenario) -> SceneConfig:
+    """The physical parameters of a scenario as the scene builder's config."""
+    arm, drv, grip, conv, pots, tube, phys = (
+        s["arm"], s["drives"], s["gripper"], s["conveyor"], s["pots"], s["drop_tube"],
+        s["physics"],
+    )
+    return SceneConfig(
+        l0_m=arm["l0_m"],
+        l1_m=arm["l1_m"],
+        l2_m=arm["l2_m"],
+        holding_torque_nm=drv["holding_torque_nm"],
+        arm_gear=drv["arm_belt_ratio"],
+        z_lead_m=drv["z_lead_m"],
+        grip_force_n=grip["grip_force_n"],
+        max_opening_m=grip["max_opening_m"],
+        rows=conv["rows"],
+        cols=conv["cols"],
+        cell_pitch_m=conv["cell_pitch_m"],
+        row_pitch_m=conv["row_pitch_m"],
+        pickup_row_y_m=conv["pickup_row_y_m"],
+        pot_diameter_m=pots["diameter_m"],
+        pot_diameter_sd_m=pots["diameter_sd_m"],
+        pot_height_m=pots["height_m"],
+        pot_height_sd_m=pots["height_sd_m"],
+        pot_mass_kg=pots["mass_kg"],
+        pot_mass_sd_kg=pots["mass_sd_kg"],
+        pot_friction=pots["friction"],
+        pot_friction_sd=pots["friction_sd"],
+        placement_sd_m=pots["placement_sd_m"],
+        tube_xy_m=(tube["x_m"], tube["y_m"]),
+        funnel_top_diameter_m=tube["funnel_top_diameter_m"],
+        funnel_top_z_m=tube["funnel_top_z_m"],
+        timestep_s=phys["timestep_s"],
+        sleep=phys["sleep"],
+    )
+
+
+@dataclass
+class _ServoRamp:
+    """A hobby servo: turns at a constant speed towards its last command (degrees)."""
+
+    speed_deg_s: float
+    angle_deg: float
+    start_deg: float = 0.0
+    target_deg: float = 0.0
+    t0: float = 0.0
+
+    def command(self, t: float, target_deg: float) -> None:
+        self.start_deg = self.at(np.array([t]))[0]
+        self.target_deg = target_deg
+        self.t0 = t
+
+    def at(self, times: np.ndarray) -> np.ndarray:
+        travel = self.target_deg - self.start_deg
+        moved = np.minimum(self.speed_deg_s * np.maximum(times - self.t0, 0.0), abs(travel))
+        return self.start_deg + math.copysign(1.0, travel) * moved
+
+
+@dataclass
+class LineDone:
+    """A PGF line whose reply has arrived: what the trial layer watches."""
+
+    line: SentLine
+    t: float
+
+
+@dataclass
+class _Block:
+    """Commands for consecutive physics steps, computed once per firmware event."""
+
+    k0: int
+    ctrl: np.ndarray  # (n, nu)
+    pulses: np.ndarray  # (n, 3)
+    conveyor: bool = False
+
+
+@dataclass
+class Twin:
+    """One machine: scene, firmware and bus, stepped together on the simulated clock."""
+
+    scenario: Scenario
+    machine: Machine = field(init=False)
+    scene: Scene = field(init=False)
+
+    def __post_init__(self) -> None:
+        s = self.scenario
+        self.machine = machine_from_scenario(s)
+        self.scene = build_scene(scene_config_from_scenario(s), seed=s.seed)
+        self.model = self.scene.model
+        self.data = self.scene.make_data()
+        self.dt = float(self.model.opt.timestep)
+        self.sgf = SGF(self.machine.sgf)
+        self.bus = ComBus(baud_bps=self.machine.baud_bps)
+        self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
+        grip = s["gripper"]
+        self._open_m_per_deg = grip["max_opening_m"] / 180.0
+        self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"],
+                                  math.degrees(grip["open_rad"]))
+        self.gripper.command(0.0, self.gripper.angle_deg)
+        self.wrist = _ServoRamp(60.0 / grip["wrist_servo_s_per_60deg"], 90.0)
+        self.wrist.command(0.0, math.degrees(s["taught"]["drop_elbow_rad"]))
+        # Stepper positions are relative to where each motor was at power-on: the SGF's raw
+        # pulse counters start at zero there, and homing only changes its logical counters.
+        self.q_power_on = self.scene.joint_positions(self.data).copy()
+        self.unit_per_step = np.array([d.unit_per_step for d in self.machine.drives])
+        self.full_step_joint = np.array(
+            [2 * math.pi / d.steps_per_rev / d.ratio if not d.linear
+             else d.lead_m / d.steps_per_rev for d in self.machine.drives]
+        )
+        self.k = 0  # physics steps taken; time = k * dt exactly
+        self._done_index = 0
+        self._warnings0 = self._warning_counts()
+        self.line_listeners: list[Callable[[LineDone], None]] = []
+        self.block: _Block | None = None
+
+    # -- time -------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return self.k * self.dt
+
+    def _warning_counts(self) -> np.ndarray:
+        return np.array([w.number for w in self.data.warning], dtype=np.int64)
+
+    # -- firmware exchange ------------------------------------------------------------
+    def _exchange(self, t: float) -> None:
+        """Deliver bus traffic due at t, advance SGF and PGF, start servos and conveyor."""
+        for line in self.bus.device_receive(t):
+            self.sgf.receive(line, t)
+        endstops = self.scene.limit_switches(self.data)
+        for reply in self.sgf.poll(t, endstops):
+            self.bus.device_send(reply, t)
+        for line in self.pgf.poll(t, self.bus.host_receive(t)):
+            self.bus.host_send(line, t)
+        for ts, index, deg in self.sgf.drain_servo_commands():
+            servo = self.gripper if index == GRIPPER_SERVO else self.wrist
+            servo.command(ts, deg)
+        for event in self.sgf.drain_machine_events():
+            if event[1] == "conveyor_index":
+                self.scene.start_conveyor_index(self.data, event[0],
+                                                self.machine.sgf.conveyor_index_s)
+        sent = self.pgf.sent
+        while self._done_index < len(sent) and sent[self._done_index].reply is not None:
+            done = LineDone(sent[self._done_index], t)
+            self._done_index += 1
+            for listener in self.line_listeners:
+                listener(done)
+
+    def _next_exchange_time(self, t: float) -> float:
+        if self.sgf.homing:
+            return t + self.dt
+        times = [x for x in (self.bus.next_delivery_time(), self.sgf.next_event_time())
+                 if x is not None]
+        return min(times) if times else t + self.dt
+
+    # -- command blocks -----------------------------------------------------------------
+    def _block(self, t_next: float) -> _Block:
+        """Actuator commands for every physics step from now until the next exchange."""
+        n = int(np.clip(math.ceil((t_next - self.time) / self.dt - 1e-9), 1, _MAX_BLOCK_STEPS))
+        times = (self.k + 1 + np.arange(n)) * self.dt
+        pulses = self.sgf.pulses_at(times)
+        joints = self.q_power_on + pulses * self.unit_per_step
+        ctrl = np.repeat(self.data.ctrl[None, :], n, axis=0)
+        ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
+        opening = self.gripper.at(times) * self._open_m_per_deg
+        ctrl[:, self.scene.gripper_actuator] = self.scene.gripper_ctrl(opening)
+        ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - 90.0)
+        return _Block(self.k, ctrl, pulses, self.scene.conveyor_indexing(self.time))
+
+    # -- stepping ------------------------------------------------------------------------
+    def step_until(self, t_end: float, monitor: Callable[[Twin, int], None] | None = None,
+                   monitor_every: int = 5) -> None:
+        """Advance the whole machine to simulated time t_end (or until the PGF is done)."""
+        m, d = self.model, self.data
+        ctrl = d.ctrl
+        while self.time < t_end - 1e-12:
+            t = self.time
+            self._exchange(t)
+            block = self.block = self._block(min(self._next_exchange_time(t), t_end))
+            rows = block.ctrl
+            for i in range(rows.shape[0]):
+                ctrl[:] = rows[i]
+                if block.conveyor:
+                    self.scene.apply_conveyor(d, self.time)
+                mujoco.mj_step(m, d)
+                self.k += 1
+                if monitor is not None and self.k % monitor_every == 0:
+                    monitor(self, i)
+            self._check_valid()
+            if self.pgf.done or self.pgf.fault:
+                return
+
+    def _check_valid(self) -> None:
+        grown = self._warning_counts() - self._warnings0
+        if grown.any():
+            names = [mujoco.mjtWarning(i).name for i in np.flatnonzero(grown)]
+            raise SimulationInvalid(f"MuJoCo warning at t={self.time:.3f} s: {', '.join(names)}")
+        if not np.isfinite(self.data.qpos).all() or not np.isfinite(self.data.qacc).all():
+            raise SimulationInvalid(f"simulation diverged (non-finite state) at t={self.time:.3f} s")
+
+    # -- observations used by trials and recordings -------------------------------------
+    def commanded_joints(self) -> np.ndarray:
+        return self.data.ctrl[self.scene.motor_actuators] / self.scene.motor_gears
+
+    def motor_lag_full_steps(self) -> np.ndarray:
+        """|commanded - actual| per motor, in full motor steps (a stepper slips past ~2)."""
+        lag = np.abs(self.commanded_joints() - self.scene.joint_positions(self.data))
+        return lag / self.full_step_joint

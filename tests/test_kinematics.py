@@ -1,0 +1,222 @@
+import math
+
+import numpy as np
+import pytest
+
+from transplanter import kinematics as kin
+
+GEOM = kin.FiveBarGeometry()
+LIMITS = kin.KinematicLimits()
+
+
+def workspace_points(n, seed=0):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-0.1, 0.1, n), rng.uniform(0.12, 0.24, n)
+
+
+def test_geometry_and_limits_validate():
+    with pytest.raises(ValueError, match="l1_m"):
+        kin.FiveBarGeometry(l1_m=0.0)
+    with pytest.raises(ValueError, match="l0_m"):
+        kin.FiveBarGeometry(l0_m=float("nan"))
+    with pytest.raises(ValueError, match="motor 1 window"):
+        kin.KinematicLimits(motor_min_rad=2.0, motor_max_rad=1.0)
+    with pytest.raises(ValueError, match="transmission_min_rad"):
+        kin.KinematicLimits(transmission_min_rad=2.0, transmission_max_rad=1.0)
+    with pytest.raises(ValueError, match="mode"):
+        kin.ik(GEOM, 0.0, 0.2, mode="+")
+    with pytest.raises(ValueError, match="assembly"):
+        kin.fk(GEOM, 1.0, 2.0, assembly="left")
+
+
+def test_motor2_window_mirrors_motor1_by_default():
+    lo, hi = LIMITS.motor_window(2)
+    assert lo == pytest.approx(math.pi - LIMITS.motor_max_rad)
+    assert hi == pytest.approx(math.pi - LIMITS.motor_min_rad)
+    custom = kin.KinematicLimits(motor2_min_rad=-1.0, motor2_max_rad=1.5)
+    assert custom.motor_window(2) == (-1.0, 1.5)
+
+
+def test_region_form_equals_general_elbows_out_form():
+    x, y = workspace_points(20000, seed=1)
+    # include the region boundaries x = +-L0 exactly
+    x[:2] = [-GEOM.l0_m, GEOM.l0_m]
+    t1r, t2r = kin.ik_region(GEOM, x, y)
+    t1, t2 = kin.ik(GEOM, x, y, mode="+-")
+    np.testing.assert_allclose(t1r, t1, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(t2r, t2, rtol=0, atol=1e-12)
+    # all three regions are exercised
+    assert (x < -GEOM.l0_m).any() and (x > GEOM.l0_m).any() and (np.abs(x) < GEOM.l0_m).any()
+
+
+def test_ik_known_point_by_hand():
+    # C straight above the origin at 200 mm: symmetric arms, theta2 = pi - theta1
+    k = math.hypot(0.05, 0.2)
+    gamma = math.acos((0.12**2 - 0.2**2 + k * k) / (2 * 0.12 * k))
+    beta1 = math.atan2(0.2, 0.05)
+    t1, t2 = kin.ik(GEOM, 0.0, 0.2)
+    assert t1 == pytest.approx(beta1 + gamma, abs=1e-15)
+    assert t2 == pytest.approx(math.pi - (beta1 + gamma), abs=1e-15)
+    assert np.ndim(t1) == 0
+
+
+def test_ik_then_fk_up_returns_point_on_100k_points():
+    x, y = workspace_points(100_000, seed=2)
+    t1, t2 = kin.ik(GEOM, x, y)
+    xf, yf = kin.fk(GEOM, t1, t2, assembly="up")
+    err = np.hypot(xf - x, yf - y)
+    assert err.max() < 1e-12
+
+
+@pytest.mark.parametrize(
+    "mode,assembly", [("+-", "up"), ("-+", "down"), ("++", "up"), ("--", "up")]
+)
+def test_all_modes_close_the_loop(mode, assembly):
+    x, y = workspace_points(5000, seed=3)
+    t1, t2 = kin.ik(GEOM, x, y, mode=mode)
+    assert np.isfinite(t1).all() and np.isfinite(t2).all()
+    # both passive links have length L2
+    b, d = kin.elbow_points(GEOM, t1, t2)
+    np.testing.assert_allclose(np.hypot(x - b[:, 0], y - b[:, 1]), GEOM.l2_m, atol=1e-14)
+    np.testing.assert_allclose(np.hypot(x - d[:, 0], y - d[:, 1]), GEOM.l2_m, atol=1e-14)
+    assert (kin.assembly_of(GEOM, t1, t2, x, y) == (assembly == "up")).all()
+    xf, yf = kin.fk(GEOM, t1, t2, assembly=assembly)
+    assert np.hypot(xf - x, yf - y).max() < 1e-12
+    other = "down" if assembly == "up" else "up"
+    xo, yo = kin.fk(GEOM, t1, t2, assembly=other)
+    assert np.hypot(xo - x, yo - y).min() > 1e-3
+
+
+def test_modes_differ():
+    t_pm = np.array(kin.ik(GEOM, 0.03, 0.2, "+-"))
+    t_mp = np.array(kin.ik(GEOM, 0.03, 0.2, "-+"))
+    assert np.all(np.abs(t_pm - t_mp) > 0.5)
+
+
+def test_unreachable_gives_nan():
+    t1, t2 = kin.ik(GEOM, [0.0, 0.0, 0.5], [0.2, 0.03, 0.5])
+    assert np.isfinite(t1[0]) and np.isnan(t1[1]) and np.isnan(t1[2]) and np.isnan(t2[2])
+    # elbows 2 L2 + apart: links cannot close
+    x, y = kin.fk(GEOM, math.pi, 0.0)
+    assert np.isfinite(x)
+    xs, ys = kin.fk(kin.FiveBarGeometry(l0_m=0.3, l1_m=0.12, l2_m=0.2), math.pi, 0.0)
+    assert np.isnan(xs) and np.isnan(ys)
+
+
+def test_jacobian_matches_finite_differences():
+    x, y = workspace_points(200, seed=4)
+    for mode in kin.MODES:
+        t1, t2 = kin.ik(GEOM, x, y, mode)
+        assembly = "down" if mode == "-+" else "up"
+        jac = kin.jacobian(GEOM, t1, t2, x, y)
+        assert jac.shape == (200, 2, 2)
+        h = 1e-6
+        for j, (dt1, dt2) in enumerate(((h, 0.0), (0.0, h))):
+            xp, yp = kin.fk(GEOM, t1 + dt1, t2 + dt2, assembly)
+            xm, ym = kin.fk(GEOM, t1 - dt1, t2 - dt2, assembly)
+            fd = np.stack([(xp - xm) / (2 * h), (yp - ym) / (2 * h)], axis=-1)
+            np.testing.assert_allclose(jac[:, :, j], fd, rtol=0, atol=1e-7)
+
+
+def test_condition_number_matches_numpy():
+    x, y = workspace_points(300, seed=5)
+    t1, t2 = kin.ik(GEOM, x, y)
+    jac = kin.jacobian(GEOM, t1, t2, x, y)
+    np.testing.assert_allclose(kin.condition_number(jac), np.linalg.cond(jac), rtol=1e-10)
+    assert kin.condition_number(np.zeros((2, 2))) == np.inf
+
+
+def test_transmission_and_elbow_angles_by_hand():
+    # symmetric point: transmission angle = 2 * asin(|BD| / 2 / L2)
+    t1, t2 = kin.ik(GEOM, 0.0, 0.2)
+    b, d = kin.elbow_points(GEOM, t1, t2)
+    expected = 2 * math.asin(np.linalg.norm(d - b) / 2 / GEOM.l2_m)
+    assert kin.transmission_angle(GEOM, t1, t2, 0.0, 0.2) == pytest.approx(expected, abs=1e-14)
+    # elbow angle by the cosine rule in triangle O1 B C
+    k = math.hypot(0.05, 0.2)
+    cos_b = (0.12**2 + 0.2**2 - k * k) / (2 * 0.12 * 0.2)
+    e1, e2 = kin.elbow_angles(GEOM, t1, t2, 0.0, 0.2)
+    assert e1 == pytest.approx(math.acos(cos_b), abs=1e-14)
+    assert e2 == pytest.approx(e1, abs=1e-14)
+
+
+def test_design_workspace_is_reachable_with_default_limits():
+    x_mm, y_mm = np.meshgrid(np.linspace(-100, 100, 201), np.linspace(120, 240, 121))
+    report = kin.check_points(GEOM, LIMITS, x_mm * 1e-3, y_mm * 1e-3)
+    assert report.ok.all(), report.reasons[report.failing[0]]
+    # DESIGN's numbers: passive-link angle 70-116 deg, condition <= 1.7
+    assert 70.0 < np.degrees(report.transmission.min()) < 71.0
+    assert 115.0 < np.degrees(report.transmission.max()) < 116.0
+    assert report.condition.max() < 1.7
+    assert report.reasons == ("",) * x_mm.size
+
+
+def test_rejects_outside_workspace_with_reason():
+    report = kin.check_points(GEOM, LIMITS, [0.0, 0.0, 0.0], [0.2, 0.4, 0.03])
+    assert report.ok.tolist() == [True, False, False]
+    assert report.reasons[0] == ""
+    assert "outside workspace: |C-O1|=0.4031 m > L1+L2" in report.reasons[1]
+    assert "outside workspace: |C-O1|=0.0583 m < |L1-L2|" in report.reasons[2]
+
+
+def test_rejects_motor_limit_with_reason():
+    # reachable by the links, but arm 1 would have to swing to 65 deg (window 80-235 deg)
+    report = kin.check_points(GEOM, LIMITS, 0.2, 0.1)
+    assert not report.ok[0]
+    assert report.reasons[0] == "motor 1 angle 65.3 deg outside [80, 235] deg"
+    # motor 2 mirrored
+    report = kin.check_points(GEOM, LIMITS, -0.2, 0.1)
+    assert report.reasons[0] == "motor 2 angle 114.7 deg outside [-55, 100] deg"
+    # an angle just below the lower limit is shown below it, not wrapped by 360 deg
+    report = kin.check_points(GEOM, LIMITS, 0.12, 0.1)
+    assert report.reasons[0].startswith("motor 2 angle -56.4 deg")
+
+
+def test_rejects_near_parallel_singularity_with_reason():
+    # in the '++' mode the passive links nearly align over part of the workspace
+    wide = kin.KinematicLimits(motor2_min_rad=math.radians(100), motor2_max_rad=math.radians(260))
+    x, y = workspace_points(2000, seed=6)
+    report = kin.check_points(GEOM, wide, x, y, mode="++")
+    trans_deg = np.degrees(report.transmission)
+    near = trans_deg < 30.0
+    assert near.any() and (~near).any()
+    assert not report.ok[near].any()
+    for i in np.flatnonzero(near)[:20]:
+        assert (
+            f"transmission angle {trans_deg[i]:.1f} deg outside [30, 150] deg" in report.reasons[i]
+        )
+        assert "near parallel singularity" in report.reasons[i]
+
+
+def test_rejects_condition_number_with_reason():
+    strict = kin.KinematicLimits(max_condition=1.5)
+    report = kin.check_points(GEOM, strict, [0.0, -0.1], [0.2, 0.12])
+    assert report.ok.tolist() == [True, False]
+    assert report.reasons[1] == f"Jacobian condition {report.condition[1]:.3g} > 1.5"
+    t1, t2 = kin.ik(GEOM, -0.1, 0.12)
+    cond = np.linalg.cond(kin.jacobian(GEOM, t1, t2, -0.1, 0.12))
+    assert report.condition[1] == pytest.approx(cond, rel=1e-12)
+    assert report.reasons[1] == "Jacobian condition 1.54 > 1.5"
+
+
+def test_rejects_elbow_angle_with_reason():
+    # near full stretch of arm 2 (1): the elbow at D (B) opens beyond 165 deg
+    report = kin.check_points(GEOM, LIMITS, [-0.02, 0.02, -0.05], [0.31, 0.31, 0.30])
+    assert report.ok.tolist() == [False, False, True]
+    assert report.reasons[0].startswith("elbow angle at D 166.1 deg outside [15, 165] deg")
+    assert report.reasons[1].startswith("elbow angle at B 166.1 deg outside [15, 165] deg")
+    assert ";" not in report.reasons[0]
+
+
+def test_require_reachable_raises_for_first_bad_point():
+    x = np.array([0.0, 0.01, 0.2, 0.0])
+    y = np.array([0.2, 0.2, 0.1, 0.4])
+    with pytest.raises(kin.UnreachableError) as info:
+        kin.require_reachable(GEOM, LIMITS, x, y)
+    assert info.value.index == 2
+    assert info.value.reason.startswith("motor 1 angle")
+    assert "(200.000, 100.000) mm" in str(info.value)
+    assert isinstance(info.value, ValueError)
+    t1, t2 = kin.require_reachable(GEOM, LIMITS, x[:2], y[:2])
+    np.testing.assert_array_equal(t1, kin.ik(GEOM, x[:2], y[:2])[0])
+    assert t2.shape == (2,)

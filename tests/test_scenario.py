@@ -1,0 +1,93 @@
+"""Scenario loading: SI conversion, inheritance, overrides and refusals that name the key."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+from transplanter.scenario import ScenarioError, load_scenario, si_key
+
+PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
+
+
+def test_si_key_names():
+    assert si_key("l1_mm") == "l1_m"
+    assert si_key("s_high_mm_s") == "s_high_m_s"
+    assert si_key("accel_mm_s2") == "accel_m_s2"
+    assert si_key("open_deg") == "open_rad"
+    assert si_key("mass_g") == "mass_kg"
+    assert si_key("compute_time_per_point_us") == "compute_time_per_point_s"
+    assert si_key("rows") == "rows"
+
+
+def test_paper_scenario_converts_to_si():
+    s = load_scenario(PAPER)
+    assert s.name == "paper"
+    assert s["arm"]["l1_m"] == pytest.approx(0.120)
+    assert s["taught"]["s_high_m_s"] == pytest.approx(0.150)
+    assert s["limits"]["motor1_max_rad"] == pytest.approx(math.radians(235))
+    assert s["pots"]["mass_kg"] == pytest.approx(0.047)
+    assert s["physics"]["timestep_s"] == pytest.approx(0.001)
+    assert len(s["taught"]["pickup"]) == 5
+    assert s["taught"]["pickup"][4]["grip_m"] == pytest.approx((0.090, 0.215))
+
+
+def _variant(tmp_path, body: str) -> Path:
+    path = tmp_path / "variant.toml"
+    path.write_text(f'[scenario]\nbase = "{PAPER.as_posix()}"\n{body}', encoding="utf-8")
+    return path
+
+
+def test_base_file_and_override(tmp_path):
+    s = load_scenario(_variant(tmp_path, "[taught]\ns_high_mm_s = 200.0\n"))
+    assert s["taught"]["s_high_m_s"] == pytest.approx(0.2)
+    assert s["taught"]["s_low_m_s"] == pytest.approx(0.06)  # inherited
+    s2 = load_scenario(PAPER, overrides={"scenario.seed": 7, "taught.z_low_mm": 30.0})
+    assert s2.seed == 7 and s2["taught"]["z_low_m"] == pytest.approx(0.030)
+
+
+@pytest.mark.parametrize(
+    "body, needle",
+    [
+        ("[arm]\nl1_m = 0.12\n", "arm.l1_m: wrong unit; this value must be given as 'l1_mm'"),
+        ("[arm]\nlink_mm = 3.0\n", "arm.link_mm: unknown key"),
+        ("[wheels]\nn = 3\n", "unknown section [wheels]"),
+        ('[arm]\nl1_mm = "long"\n', "arm.l1_mm: expected a number"),
+        ("[arm]\nl1_mm = -3.0\n", "arm.l1_mm: -3.0 is outside the allowed range"),
+        ("seedlings = 2.5\n", "scenario.seedlings: expected a whole number"),
+        ('[motion]\nprofile = "cubic"\n', "motion.profile: 'cubic' is not one of"),
+        ("[taught]\nz_low_mm = 200.0\n", "taught.z_low_mm = 200 mm is outside"),
+        ("[taught]\ndrop_mm = [1.0]\n", "taught.drop_mm: expected a pair"),
+        ("[gripper]\nclose_deg = 170.0\n", "gripper.close_deg must be below gripper.open_deg"),
+        ("[physics]\nsleep = 1\n", "physics.sleep: expected true or false"),
+    ],
+)
+def test_bad_values_are_refused_naming_the_key(tmp_path, body, needle):
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(_variant(tmp_path, body))
+    assert needle in str(err.value)
+
+
+def test_missing_value_is_refused(tmp_path):
+    text = PAPER.read_text(encoding="utf-8").replace("index_time_s = 0.6\n", "")
+    path = tmp_path / "missing.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ScenarioError, match=r"conveyor.index_time_s is missing"):
+        load_scenario(path)
+
+
+def test_bad_pickup_table(tmp_path):
+    text = PAPER.read_text(encoding="utf-8").replace("elbow_deg = 90.0\n", "elbow_rad = 1.5\n", 1)
+    path = tmp_path / "pick.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ScenarioError, match=r"taught.pickup\[0\].elbow_rad: wrong unit"):
+        load_scenario(path)
+
+
+def test_not_toml_and_missing_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[arm\nl1_mm = 3", encoding="utf-8")
+    with pytest.raises(ScenarioError, match="not valid TOML"):
+        load_scenario(bad)
+    with pytest.raises(ScenarioError, match="no such scenario file"):
+        load_scenario(tmp_path / "nope.toml")
