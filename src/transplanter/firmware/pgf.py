@@ -1,0 +1,209 @@
+"""Position generation firmware (PGF): the paper's Algorithm 2 as a state machine.
+
+The PGF reads the taught points from the EEPROM image and sends one G-code line at a time,
+waiting for the SGF's ``ok`` (the paper's handshake) before the next. An ``error:`` reply
+stops it (``fault``). Coordinates go out in mm with 3 decimals; the ``S`` word of ``G1`` is
+the paper's speed word in mm/s; ``G4 P`` is in ms; ``M280 S`` in degrees.
+
+Per seedling i (pickup c = i mod M_pp) the lines and their phases are::
+
+    G1 X<approach> Y<approach> Z<z_low> S<s_high>      approach
+    M280 P<wrist> S<elbow_c>                           elbow
+    M280 P<gripper> S<open>                            open
+    G4 P<open_dwell>                                   open_wait
+    G1 X<grip> Y<grip> Z<z_low> S<s_low>               grip
+    M280 P<gripper> S<close>                           close
+    G4 P<close_dwell>                                  close_wait
+    G1 X<grip> Y<grip> Z<z_up> S<s_low>                lift
+    G1 X<approach> Y<approach> Z<z_up> S<s_high>       retract
+    M280 P<wrist> S<drop_elbow>                        drop_elbow
+    G1 X<drop> Y<drop> Z<z_up> S<s_high>               to_drop
+    M280 P<gripper> S<open>                            release
+    G4 P<release_dwell>                                release_wait
+    M710                                               index (after the row's last pickup)
+
+framed by ``G28`` (home), ``G90`` (absolute) at the start and ``M400`` (finish) at the end.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from transplanter.firmware.eeprom import EepromImage
+from transplanter.gcode import SERVO_INDICES, SERVO_MAX_DEG, format_line
+
+M_PER_MM = 1e-3
+S_PER_MS = 1e-3
+
+
+@dataclass(frozen=True)
+class PGFConfig:
+    """Servo wiring and timing of the pick-and-place cycle, and how many seedlings to plant."""
+
+    gripper_servo: int = 0
+    wrist_servo: int = 1
+    gripper_open_deg: float = 155.0
+    gripper_close_deg: float = 60.0
+    open_dwell_s: float = 0.20
+    close_dwell_s: float = 0.25
+    release_dwell_s: float = 0.20
+    seedlings: int = 40
+    index_conveyor: bool = True
+    line_numbers: bool = True
+    """Marlin ``N<n> ... *<checksum>`` framing on every line."""
+
+    def __post_init__(self):
+        for name in ("gripper_servo", "wrist_servo"):
+            if getattr(self, name) not in SERVO_INDICES:
+                raise ValueError(f"{name} must be one of {SERVO_INDICES}")
+        if self.gripper_servo == self.wrist_servo:
+            raise ValueError("gripper_servo and wrist_servo must be different servos")
+        for name in ("gripper_open_deg", "gripper_close_deg"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0.0 <= value <= SERVO_MAX_DEG):
+                raise ValueError(f"{name} = {value} is outside the servo range 0-180 deg")
+        for name in ("open_dwell_s", "close_dwell_s", "release_dwell_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name} = {value} s must be >= 0")
+        if isinstance(self.seedlings, bool) or not isinstance(self.seedlings, int):
+            raise ValueError(f"seedlings must be an int, got {self.seedlings!r}")
+        if self.seedlings < 1:
+            raise ValueError(f"seedlings = {self.seedlings}: plant at least one")
+
+
+@dataclass(frozen=True)
+class ProgramLine:
+    """One line of the PGF's program, before it is sent."""
+
+    seedling: int | None
+    phase: str
+    text: str
+
+
+@dataclass(frozen=True)
+class SentLine:
+    """A line the PGF sent, with the SGF's reply once it came."""
+
+    seedling: int | None
+    phase: str
+    text: str
+    t_sent: float
+    t_reply: float | None = None
+    reply: str | None = None
+
+
+def _mm(value_m: float) -> float:
+    return value_m / M_PER_MM
+
+
+def _ms(value_s: float) -> float:
+    return value_s / S_PER_MS
+
+
+def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, ...]:
+    """Every line the PGF will send, in order (Algorithm 2 unrolled)."""
+    lines: list[tuple[int | None, str, str, dict]] = [
+        (None, "home", "G28", {}),
+        (None, "absolute", "G90", {}),
+    ]
+    open_deg, close_deg = config.gripper_open_deg, config.gripper_close_deg
+    gripper, wrist = config.gripper_servo, config.wrist_servo
+    z_low, z_up = _mm(eeprom.z_low_m), _mm(eeprom.z_up_m)
+    s_low, s_high = _mm(eeprom.s_low_m_s), _mm(eeprom.s_high_m_s)
+    drop_x, drop_y = (_mm(v) for v in eeprom.drop_xy_m)
+
+    for seedling in range(config.seedlings):
+        pickup_index = seedling % eeprom.m_pp
+        pickup = eeprom.pickups[pickup_index]
+        ax, ay = (_mm(v) for v in pickup.approach_xy_m)
+        gx, gy = (_mm(v) for v in pickup.grip_xy_m)
+        cycle = [
+            ("approach", "G1", {"X": ax, "Y": ay, "Z": z_low, "S": s_high}),
+            ("elbow", "M280", {"P": wrist, "S": pickup.elbow_deg}),
+            ("open", "M280", {"P": gripper, "S": open_deg}),
+            ("open_wait", "G4", {"P": _ms(config.open_dwell_s)}),
+            ("grip", "G1", {"X": gx, "Y": gy, "Z": z_low, "S": s_low}),
+            ("close", "M280", {"P": gripper, "S": close_deg}),
+            ("close_wait", "G4", {"P": _ms(config.close_dwell_s)}),
+            ("lift", "G1", {"X": gx, "Y": gy, "Z": z_up, "S": s_low}),
+            ("retract", "G1", {"X": ax, "Y": ay, "Z": z_up, "S": s_high}),
+            ("drop_elbow", "M280", {"P": wrist, "S": eeprom.drop_elbow_deg}),
+            ("to_drop", "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
+            ("release", "M280", {"P": gripper, "S": open_deg}),
+            ("release_wait", "G4", {"P": _ms(config.release_dwell_s)}),
+        ]
+        more_follow = seedling < config.seedlings - 1
+        if config.index_conveyor and pickup_index == eeprom.m_pp - 1 and more_follow:
+            cycle.append(("index", "M710", {}))
+        lines.extend((seedling, phase, command, words) for phase, command, words in cycle)
+    lines.append((None, "finish", "M400", {}))
+
+    program = []
+    for number, (seedling, phase, command, words) in enumerate(lines, start=1):
+        text = format_line(command, words, line_number=number if config.line_numbers else None)
+        program.append(ProgramLine(seedling, phase, text))
+    return tuple(program)
+
+
+class PGF:
+    """Sends the program one line at a time, each after the previous line's ``ok``."""
+
+    def __init__(self, eeprom: EepromImage, config: PGFConfig | None = None):
+        self.eeprom = eeprom
+        self.config = config if config is not None else PGFConfig()
+        self.program = build_program(eeprom, self.config)
+        self.sent: list[SentLine] = []
+        self.info: list[tuple[float, str]] = []
+        """Replies that are neither ``ok`` nor ``error:`` (position reports, echoes)."""
+        self._fault: str | None = None
+        self._outstanding = False
+
+    @property
+    def fault(self) -> str | None:
+        """Why the PGF stopped, or None."""
+        return self._fault
+
+    @property
+    def current(self) -> SentLine | None:
+        """The line waiting for its reply, or None."""
+        return self.sent[-1] if self._outstanding else None
+
+    @property
+    def done(self) -> bool:
+        """Every line sent and acknowledged."""
+        return self._fault is None and not self._outstanding and len(self.sent) == len(self.program)
+
+    def _close_current(self, now: float, reply: str) -> None:
+        self.sent[-1] = dataclasses.replace(self.sent[-1], t_reply=now, reply=reply)
+        self._outstanding = False
+
+    def poll(self, now: float, replies: list[str]) -> list[str]:
+        """Take the SGF's replies received by ``now``; return the lines to transmit now."""
+        for raw in replies:
+            reply = raw.strip()
+            if self._fault is not None:
+                self.info.append((now, reply))
+                continue
+            if reply == "ok" or reply.startswith("ok "):
+                if not self._outstanding:
+                    self._fault = f"unexpected {reply!r} with no line outstanding"
+                    continue
+                self._close_current(now, reply)
+            elif reply.lower().startswith("error"):
+                if self._outstanding:
+                    line = self.sent[-1]
+                    self._fault = f"SGF refused {line.text!r} ({line.phase}): {reply}"
+                    self._close_current(now, reply)
+                else:
+                    self._fault = f"SGF reported {reply!r} with no line outstanding"
+            else:
+                self.info.append((now, reply))
+        if self._fault is not None or self._outstanding or len(self.sent) == len(self.program):
+            return []
+        line = self.program[len(self.sent)]
+        self.sent.append(SentLine(line.seedling, line.phase, line.text, t_sent=now))
+        self._outstanding = True
+        return [line.text]

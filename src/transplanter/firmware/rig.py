@@ -1,0 +1,115 @@
+"""PGF -> bus -> SGF on a simulated clock, without physics.
+
+``run_firmware`` jumps from event to event (a bus delivery, the end of the SGF's current
+line) and steps ``dt_homing_s`` only while the SGF homes, reading the limit switches from
+``SimulatedEndstops``, which places each switch at the SGF's home position and computes the
+motors' joint positions from their raw pulses since power-on.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from transplanter.firmware.bus import LineTransport
+from transplanter.firmware.pgf import PGF
+from transplanter.firmware.sgf import SGF, SGFConfig
+
+
+class SimulatedEndstops:
+    """Limit switches 1-4 computed from raw pulses: a switch is closed at or past its trip point.
+
+    Switches 1, 2, 3 trip where the SGF's homing expects them (home position, approached in
+    ``homing_dirs``); switch 4 (Z down) trips at or below ``z_down_trip_m``.
+    """
+
+    def __init__(
+        self,
+        sgf_config: SGFConfig,
+        initial_joint_positions: Sequence[float],
+        z_down_trip_m: float = 0.003,
+    ):
+        self.config = sgf_config
+        self.initial = np.asarray(initial_joint_positions, dtype=np.float64)
+        if self.initial.shape != (3,) or not np.isfinite(self.initial).all():
+            raise ValueError("initial_joint_positions must be (theta1 rad, theta2 rad, z m)")
+        self.unit_per_step = np.array([d.unit_per_step for d in sgf_config.drives])
+        self.trip = np.asarray(sgf_config.home_joint_positions, dtype=np.float64)
+        self.dirs = np.asarray(sgf_config.homing_dirs, dtype=np.float64)
+        self.z_down_trip_m = float(z_down_trip_m)
+        beyond = (self.initial - self.trip) * self.dirs > 0
+        if beyond.any():
+            raise ValueError(
+                f"motor {int(np.flatnonzero(beyond)[0]) + 1} starts beyond its limit switch"
+            )
+
+    def joint_positions(self, raw_pulses) -> np.ndarray:
+        """(..., 3) joint positions for (..., 3) raw pulse counts."""
+        return self.initial + np.asarray(raw_pulses) * self.unit_per_step
+
+    def trip_pulses(self) -> np.ndarray:
+        """Fewest raw pulses (signed, in the homing direction) that close switches 1-3."""
+        exact = (self.trip - self.initial) / self.unit_per_step
+        return (self.dirs * np.ceil(np.abs(exact) - 1e-9)).astype(np.int64)
+
+    def read(self, raw_pulses) -> tuple[bool, bool, bool, bool]:
+        """Switch states (1, 2, 3, 4) at the given raw pulse counts."""
+        raw = np.asarray(raw_pulses, dtype=np.int64)
+        closed = (raw - self.trip_pulses()) * self.dirs.astype(np.int64) >= 0
+        z = self.joint_positions(raw)[2]
+        return (bool(closed[0]), bool(closed[1]), bool(closed[2]), bool(z <= self.z_down_trip_m))
+
+
+@dataclass
+class RigResult:
+    """What ``run_firmware`` did: the time-stamped traffic and how it ended."""
+
+    events: list[tuple[float, str]]
+    """(t, 'pgf> line' | 'sgf< line' | 'sgf> reply' | 'pgf< reply')."""
+    end_time_s: float
+    done: bool
+    fault: str | None
+
+
+def run_firmware(
+    pgf: PGF,
+    bus: LineTransport,
+    sgf: SGF,
+    endstops: SimulatedEndstops | None = None,
+    dt_homing_s: float = 1e-3,
+    until_s: float = 1e4,
+) -> RigResult:
+    """Run the firmwares until the PGF is done or faults; RuntimeError on a stall or timeout."""
+    if not (math.isfinite(dt_homing_s) and dt_homing_s > 0):
+        raise ValueError(f"dt_homing_s must be > 0, got {dt_homing_s!r}")
+    events: list[tuple[float, str]] = []
+    t = 0.0
+    while True:
+        for line in bus.device_receive(t):
+            events.append((t, f"sgf< {line}"))
+            sgf.receive(line, t)
+        switches = endstops.read(sgf.pulses_at(t)[0]) if endstops is not None else None
+        for reply in sgf.poll(t, switches):
+            events.append((t, f"sgf> {reply}"))
+            bus.device_send(reply, t)
+        replies = bus.host_receive(t)
+        events.extend((t, f"pgf< {reply}") for reply in replies)
+        for line in pgf.poll(t, replies):
+            events.append((t, f"pgf> {line}"))
+            bus.host_send(line, t)
+        if pgf.done or pgf.fault is not None:
+            return RigResult(events, t, pgf.done, pgf.fault)
+        candidates = [x for x in (bus.next_delivery_time(), sgf.next_event_time()) if x is not None]
+        if sgf.homing:
+            candidates.append(t + dt_homing_s)
+        if not candidates:
+            raise RuntimeError(f"firmware stalled at t={t:.6f} s: nothing in flight, PGF not done")
+        t_next = min(candidates)
+        if t_next <= t:
+            raise RuntimeError(f"firmware made no progress at t={t:.6f} s")
+        if t_next > until_s:
+            raise RuntimeError(f"firmware still running at until_s={until_s} s")
+        t = t_next

@@ -1,0 +1,462 @@
+"""Signal generation firmware (SGF): G-code lines in, step pulses and handshakes out.
+
+Lines are parsed on arrival and executed one at a time in arrival order (FIFO); each gets
+its reply when it is done, so replies come back in line order:
+
+- ``G0``/``G1``: planned from the current logical step counters with
+  ``motion.plan_line`` before any step (every interpolated point checked); ``ok`` when the
+  last step has been issued. Speed: ``S`` mm/s, or ``F`` mm/min, else the last one given,
+  else ``default_speed_m_s``. ``G0`` moves like ``G1``.
+- ``G4 P<ms>``: ``ok`` after the dwell. ``M280``: servo command recorded, ``ok`` at once.
+  ``M710``: conveyor index recorded, ``ok`` after ``conveyor_index_s``. ``M400``: ``ok``
+  (the FIFO has already finished everything before it). ``M114``/``M119``: a report line,
+  then ``ok``. ``M105``: ``ok``.
+- ``G28``: every motor runs towards its limit switch until ``poll`` reads it closed, the
+  logical counter is set to the switch position, the motor pulls off; ``ok`` once all
+  three are done. Moves before homing are refused (error 9, like grbl's alarm lock).
+
+Two counters per motor: raw pulses since power-on (never reset; they drive the simulated
+motors through ``pulses_at``) and logical steps, which homing sets.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from transplanter.gcode import GcodeError, GcodeLine, parse_line
+from transplanter.kinematics import FiveBarGeometry, KinematicLimits, UnreachableError, fk
+from transplanter.motion import MotionConfig, PlannedMove, plan_line
+from transplanter.steppers import StepperDrive, default_drives
+
+M_PER_MM = 1e-3
+S_PER_MS = 1e-3
+MM_PER_MIN_TO_M_S = 1e-3 / 60.0
+_FLOOR_EPS = 1e-9  # keeps floor(k / rate * rate) at k despite rounding
+ERROR_LOCKED = 9
+ERROR_TARGET = 33
+
+
+@dataclass(frozen=True)
+class SGFConfig:
+    """Machine, homing and timing settings of the SGF (SI units)."""
+
+    geometry: FiveBarGeometry = field(default_factory=FiveBarGeometry)
+    limits: KinematicLimits = field(default_factory=KinematicLimits)
+    drives: tuple[StepperDrive, StepperDrive, StepperDrive] = field(default_factory=default_drives)
+    """(arm 1, arm 2, Z) drives."""
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    z_min_m: float = 0.005
+    z_max_m: float = 0.160
+    home_theta1_rad: float = math.radians(165.0)
+    """Motor 1 angle at which limit switch 1 trips."""
+    home_theta2_rad: float = math.radians(15.0)
+    """Motor 2 angle at which limit switch 2 trips."""
+    home_z_m: float = 0.160
+    """Z at which limit switch 3 (Z up) trips."""
+    homing_rate_hz: tuple[float, float, float] = (1600.0, 1600.0, 8000.0)
+    """Step rate of each motor while homing (seek and pull-off)."""
+    homing_dirs: tuple[int, int, int] = (+1, -1, +1)
+    """Direction (+1/-1 in step counts) in which each motor seeks its switch."""
+    homing_pulloff_steps: tuple[int, int, int] = (96, 96, 400)
+    """Steps each motor backs off its switch after it trips (3.6 deg, 3.6 deg, 1 mm)."""
+    homing_max_steps: tuple[int, int, int] = (4800, 4800, 80000)
+    """Longest seek before homing fails (half an arm revolution, 200 mm of Z)."""
+    default_speed_m_s: float = 0.05
+    conveyor_index_s: float = 0.6
+    require_checksum: bool = False
+    """Refuse lines without Marlin ``N<n> ... *<checksum>`` framing."""
+    mode: str = "+-"
+    """Five-bar working mode passed to the IK (paper: '+-', elbows out)."""
+
+    def __post_init__(self):
+        if len(self.drives) != 3:
+            raise ValueError("SGFConfig.drives must be (arm1, arm2, z)")
+        if not (math.isfinite(self.z_min_m) and self.z_min_m < self.z_max_m):
+            raise ValueError(
+                f"SGFConfig needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
+            )
+        for name in ("homing_rate_hz", "homing_dirs", "homing_pulloff_steps", "homing_max_steps"):
+            if len(getattr(self, name)) != 3:
+                raise ValueError(f"SGFConfig.{name} needs one value per motor (3)")
+        if not all(math.isfinite(r) and r > 0 for r in self.homing_rate_hz):
+            raise ValueError(f"SGFConfig.homing_rate_hz must be > 0, got {self.homing_rate_hz}")
+        if any(d not in (-1, 1) for d in self.homing_dirs):
+            raise ValueError(f"SGFConfig.homing_dirs must be +1 or -1, got {self.homing_dirs}")
+        if any(int(p) != p or p < 0 for p in self.homing_pulloff_steps):
+            raise ValueError("SGFConfig.homing_pulloff_steps must be integers >= 0")
+        if any(int(p) != p or p < 1 for p in self.homing_max_steps):
+            raise ValueError("SGFConfig.homing_max_steps must be integers >= 1")
+        if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
+            raise ValueError(
+                f"SGFConfig.default_speed_m_s must be > 0, got {self.default_speed_m_s}"
+            )
+        if not (math.isfinite(self.conveyor_index_s) and self.conveyor_index_s >= 0):
+            raise ValueError(
+                f"SGFConfig.conveyor_index_s must be >= 0, got {self.conveyor_index_s}"
+            )
+
+    @property
+    def home_joint_positions(self) -> tuple[float, float, float]:
+        """Joint positions (rad, rad, m) at which switches 1, 2, 3 trip."""
+        return (self.home_theta1_rad, self.home_theta2_rad, self.home_z_m)
+
+    @property
+    def home_steps(self) -> np.ndarray:
+        """Logical step counters homing sets when each switch trips."""
+        return np.array(
+            [
+                int(d.to_steps(q))
+                for d, q in zip(self.drives, self.home_joint_positions, strict=True)
+            ],
+            dtype=np.int64,
+        )
+
+
+class _Homing:
+    """Raw pulses of the three motors during G28, in closed form per motor."""
+
+    def __init__(self, config: SGFConfig, t0: float, raw0: np.ndarray):
+        self.t0 = t0
+        self.raw0 = raw0.copy()
+        self.rate = np.asarray(config.homing_rate_hz, dtype=np.float64)
+        self.dirs = np.asarray(config.homing_dirs, dtype=np.int64)
+        self.max_steps = np.asarray(config.homing_max_steps, dtype=np.int64)
+        self.pulloff = np.array(config.homing_pulloff_steps, dtype=np.int64)
+        self.t_stop = np.full(3, np.inf)
+        self.raw_stop = np.zeros(3, dtype=np.int64)
+        self.failed = False
+
+    def fail(self, t: float) -> None:
+        """Stop the motors still seeking where they are, without pull-off."""
+        self.failed = True
+        for motor in np.flatnonzero(~self.stopped):
+            self.pulloff[motor] = 0
+            self.stop(int(motor), t)
+
+    def _seek(self, t: np.ndarray) -> np.ndarray:
+        n = np.floor((t[:, None] - self.t0) * self.rate + _FLOOR_EPS)
+        n = np.clip(n, 0, self.max_steps).astype(np.int64)
+        return self.raw0 + self.dirs * n
+
+    def pulses(self, t: np.ndarray) -> np.ndarray:
+        seek = self._seek(t)
+        after = t[:, None] >= self.t_stop
+        if not after.any():
+            return seek
+        since = np.where(np.isfinite(self.t_stop), t[:, None] - self.t_stop, 0.0)
+        back = np.clip(np.floor(since * self.rate + _FLOOR_EPS), 0, self.pulloff).astype(np.int64)
+        return np.where(after, self.raw_stop - self.dirs * back, seek)
+
+    @property
+    def stopped(self) -> np.ndarray:
+        return np.isfinite(self.t_stop)
+
+    def stop(self, motor: int, t: float) -> None:
+        self.t_stop[motor] = t
+        self.raw_stop[motor] = self._seek(np.array([t]))[0, motor]
+
+    def seek_exhausted(self, t: float) -> np.ndarray:
+        return ~self.stopped & (
+            self._seek(np.array([t]))[0] - self.raw0 == self.dirs * self.max_steps
+        )
+
+    @property
+    def t_done(self) -> float:
+        return float(np.max(self.t_stop + self.pulloff / self.rate))
+
+
+@dataclass
+class _Job:
+    line: GcodeLine | GcodeError
+    arrival: float
+    t_start: float = math.nan
+    t_done: float = math.nan
+    replies: list[str] = field(default_factory=list)
+    homing: _Homing | None = None
+    move: PlannedMove | None = None
+    target_xyz: np.ndarray | None = None
+
+
+class SGF:
+    """The SGF state machine on a simulated clock (see the module docstring)."""
+
+    def __init__(self, config: SGFConfig | None = None):
+        self.config = config if config is not None else SGFConfig()
+        self._queue: deque[_Job] = deque()
+        self._current: _Job | None = None
+        self._t_free = -math.inf
+        self._now = -math.inf
+        self._replies: list[str] = []
+        self._servo_commands: list[tuple[float, int, float]] = []
+        self._machine_events: list[tuple[float, str]] = []
+        self._last_line_number = 0
+        self._absolute = True
+        self._speed_m_s = self.config.default_speed_m_s
+        self._endstops: tuple[bool, ...] | None = None
+        self.homed = False
+        self._raw = np.zeros(3, dtype=np.int64)  # raw pulses once the last segment ended
+        self._logical = np.zeros(3, dtype=np.int64)
+        self._position = np.full(3, np.nan)
+        # motion history for pulses_at: segment start times and evaluators
+        self._segment_starts: list[float] = []
+        self._segments: list = []
+        self.homing_trip_raw: np.ndarray | None = None
+        """Raw pulse counts at which each switch was read closed in the last homing."""
+
+    # -- state -----------------------------------------------------------------------
+    @property
+    def busy(self) -> bool:
+        return self._current is not None or bool(self._queue)
+
+    @property
+    def homing(self) -> bool:
+        """True while a G28 is running (the simulator must poll every physics step)."""
+        return self._current is not None and self._current.homing is not None
+
+    @property
+    def position_xyz(self) -> np.ndarray:
+        """Logical (x, y, z) in m after the last completed move; NaN before homing."""
+        return self._position.copy()
+
+    @property
+    def logical_steps(self) -> np.ndarray:
+        return self._logical.copy()
+
+    @property
+    def raw_pulses(self) -> np.ndarray:
+        """Raw pulse counts once everything issued so far has been stepped."""
+        return self._raw.copy()
+
+    # -- input -----------------------------------------------------------------------
+    def receive(self, line: str, now: float) -> None:
+        """A line has arrived: parse it now (for line numbering), execute it in turn."""
+        self._check_time(now)
+        try:
+            parsed = parse_line(
+                line,
+                expected_line_number=self._last_line_number + 1,
+                require_checksum=self.config.require_checksum,
+            )
+        except GcodeError as error:
+            parsed = error
+        if parsed is None:
+            return
+        if isinstance(parsed, GcodeLine) and parsed.line_number is not None:
+            self._last_line_number = parsed.line_number
+        self._queue.append(_Job(parsed, now))
+
+    def _check_time(self, now: float) -> None:
+        if not math.isfinite(now) or now < self._now:
+            raise ValueError(f"time must be finite and non-decreasing: {now} after {self._now}")
+        self._now = now
+
+    # -- time ------------------------------------------------------------------------
+    def poll(self, now: float, endstops: Sequence[bool] | None = None) -> list[str]:
+        """Advance to ``now`` (switch states read at ``now``); return the replies due."""
+        self._check_time(now)
+        if endstops is not None:
+            self._endstops = tuple(bool(e) for e in endstops)
+        while True:
+            if self._current is None:
+                if not self._queue:
+                    break
+                job = self._queue.popleft()
+                self._start(job, max(job.arrival, self._t_free))
+                self._current = job
+            job = self._current
+            if job.homing is not None:
+                self._update_homing(job, now, endstops)
+            if math.isfinite(job.t_done) and job.t_done <= now:
+                self._finish(job)
+                continue
+            break
+        replies, self._replies = self._replies, []
+        return replies
+
+    def next_event_time(self) -> float | None:
+        """When the running line completes (None if idle or still seeking switches)."""
+        if self._current is not None:
+            return self._current.t_done if math.isfinite(self._current.t_done) else None
+        if self._queue:
+            return max(self._queue[0].arrival, self._t_free)
+        return None
+
+    def pulses_at(self, times) -> np.ndarray:
+        """Raw pulse counts of the 3 motors at each time, shape (n, 3) int64."""
+        times = np.atleast_1d(np.asarray(times, dtype=np.float64))
+        out = np.zeros((times.size, 3), dtype=np.int64)
+        if not self._segments:
+            return out
+        index = np.searchsorted(np.asarray(self._segment_starts), times, side="right") - 1
+        for segment in np.unique(index):
+            if segment < 0:
+                continue
+            mask = index == segment
+            out[mask] = self._segments[segment](times[mask])
+        return out
+
+    def drain_servo_commands(self) -> list[tuple[float, int, float]]:
+        """(t, servo index, angle deg) commanded since the last drain."""
+        out, self._servo_commands = self._servo_commands, []
+        return out
+
+    def drain_machine_events(self) -> list[tuple[float, str]]:
+        """(t, name) events since the last drain: 'conveyor_index', 'homed', 'homing_failed'."""
+        out, self._machine_events = self._machine_events, []
+        return out
+
+    # -- execution -------------------------------------------------------------------
+    def _add_segment(self, t0: float, evaluator) -> None:
+        self._segment_starts.append(t0)
+        self._segments.append(evaluator)
+
+    def _start(self, job: _Job, t0: float) -> None:
+        job.t_start = t0
+        job.t_done = t0
+        line = job.line
+        if isinstance(line, GcodeError):
+            job.replies = [line.reply]
+            return
+        command, words = line.command, line.words
+        try:
+            if command in ("G0", "G1"):
+                self._start_move(job, words)
+            elif command == "G4":
+                job.t_done = t0 + words["P"] * S_PER_MS
+            elif command == "G28":
+                job.homing = _Homing(self.config, t0, self._raw)
+                self._add_segment(t0, job.homing.pulses)
+                job.t_done = math.nan
+                job.replies = ["ok"]
+                return
+            elif command == "G90":
+                self._absolute = True
+            elif command == "G91":
+                self._absolute = False
+            elif command == "M280":
+                self._servo_commands.append((t0, int(words["P"]), float(words["S"])))
+            elif command == "M710":
+                self._machine_events.append((t0, "conveyor_index"))
+                job.t_done = t0 + self.config.conveyor_index_s
+            elif command == "M114":
+                job.replies.append(self._position_report())
+            elif command == "M119":
+                job.replies.append(self._endstop_report())
+            # M400, M105: nothing to do, the FIFO already finished what came before
+        except GcodeError as error:
+            job.t_done = t0
+            job.replies = [error.reply]
+            return
+        job.replies.append("ok")
+
+    def _start_move(self, job: _Job, words: dict[str, float]) -> None:
+        if not self.homed:
+            raise GcodeError(ERROR_LOCKED, "position unknown: home first with G28")
+        target = self._position.copy()
+        for axis, letter in enumerate("XYZ"):
+            if letter in words:
+                value = words[letter] * M_PER_MM
+                target[axis] = value if self._absolute else target[axis] + value
+        if "S" in words:
+            self._speed_m_s = words["S"] * M_PER_MM
+        elif "F" in words:
+            self._speed_m_s = words["F"] * MM_PER_MIN_TO_M_S
+        z = target[2]
+        if not self.config.z_min_m <= z <= self.config.z_max_m:
+            raise GcodeError(
+                ERROR_TARGET,
+                f"Z {z / M_PER_MM:.3f} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
+                f"{self.config.z_max_m / M_PER_MM:.3f}] mm",
+            )
+        config = self.config
+        try:
+            move = plan_line(
+                self._logical, self._position, target, self._speed_m_s,
+                config.geometry, config.limits, config.drives, config.motion, config.mode,
+            )  # fmt: skip
+        except UnreachableError as error:
+            shown = ", ".join(f"{v / M_PER_MM:.3f}" for v in target)
+            raise GcodeError(
+                ERROR_TARGET,
+                f"target position not reachable: {error.reason} "
+                f"(move to ({shown}) mm, interpolated point {error.index})",
+            ) from None
+        except ValueError as error:
+            raise GcodeError(ERROR_TARGET, f"move refused: {error}") from None
+        job.move = move
+        job.target_xyz = target
+        job.t_done = job.t_start + move.duration_s
+        t0 = job.t_start
+        raw0 = self._raw.copy()
+        start_steps = move.start_steps.copy()
+
+        def evaluate(t: np.ndarray) -> np.ndarray:
+            return raw0 + (move.steps_at(t - t0) - start_steps)
+
+        self._add_segment(t0, evaluate)
+
+    def _update_homing(self, job: _Job, now: float, endstops: Sequence[bool] | None) -> None:
+        homing = job.homing
+        if homing.stopped.all():
+            return
+        if endstops is not None:
+            for motor in range(3):
+                if not homing.stopped[motor] and endstops[motor]:
+                    homing.stop(motor, now)
+        exhausted = homing.seek_exhausted(now)
+        if exhausted.any():
+            motor = int(np.flatnonzero(exhausted)[0])
+            homing.fail(now)
+            job.t_done = homing.t_done
+            job.replies = [
+                f"error:{ERROR_LOCKED} homing failed: limit switch {motor + 1} not found within "
+                f"{int(homing.max_steps[motor])} steps; check the switch and homing_dirs"
+            ]
+            self.homed = False
+            self._position[:] = np.nan
+            self._machine_events.append((now, "homing_failed"))
+            return
+        if homing.stopped.all():
+            job.t_done = homing.t_done
+
+    def _finish(self, job: _Job) -> None:
+        t = job.t_done
+        if job.homing is not None:
+            homing = job.homing
+            self._raw = homing.pulses(np.array([t]))[0]
+            if not homing.failed:
+                self.homing_trip_raw = homing.raw_stop.copy()
+                self._logical = self.config.home_steps - homing.dirs * homing.pulloff
+                self._position = self._xyz_of_steps(self._logical)
+                self.homed = True
+                self._machine_events.append((t, "homed"))
+        elif job.move is not None:
+            self._raw = self._raw + (job.move.end_steps - job.move.start_steps)
+            self._logical = job.move.end_steps.copy()
+            self._position = job.target_xyz.copy()
+        self._replies.extend(job.replies)
+        self._t_free = t
+        self._current = None
+
+    def _xyz_of_steps(self, steps: np.ndarray) -> np.ndarray:
+        joints = [float(d.to_position(s)) for d, s in zip(self.config.drives, steps, strict=True)]
+        x, y = fk(self.config.geometry, joints[0], joints[1], "up")
+        return np.array([float(x), float(y), joints[2]])
+
+    def _position_report(self) -> str:
+        x, y, z = (f"{v / M_PER_MM:.3f}".replace("-0.000", "0.000") for v in self._position)
+        a, b, c = (int(s) for s in self._logical)
+        return f"X:{x} Y:{y} Z:{z} A:{a} B:{b} C:{c}"
+
+    def _endstop_report(self) -> str:
+        if self._endstops is None:
+            return "endstops: unknown"
+        states = " ".join(
+            f"{i + 1}:{'TRIGGERED' if s else 'open'}" for i, s in enumerate(self._endstops)
+        )
+        return f"endstops: {states}"

@@ -1,0 +1,234 @@
+import numpy as np
+import pytest
+
+from transplanter.gcode import GcodeError, GcodeLine, checksum, format_line, parse_line
+
+ROUND_TRIP = [
+    ("G0", {"X": 10.0, "Y": 200.5, "Z": 32.0}),
+    ("G1", {"X": -90.0, "Y": 175.0, "Z": 32.0, "S": 150.0}),
+    ("G1", {"Z": 100.0, "F": 2400.0}),
+    ("G1", {"X": 0.125, "S": 40.0}),
+    ("G4", {"P": 200.0}),
+    ("G4", {"P": 0.0}),
+    ("G28", {}),
+    ("G90", {}),
+    ("G91", {}),
+    ("M280", {"P": 0.0, "S": 155.0}),
+    ("M280", {"P": 1.0, "S": 37.5}),
+    ("M400", {}),
+    ("M114", {}),
+    ("M119", {}),
+    ("M105", {}),
+    ("M710", {}),
+]
+
+
+@pytest.mark.parametrize(("command", "words"), ROUND_TRIP)
+@pytest.mark.parametrize("line_number", [None, 1, 4711])
+def test_round_trip_every_command(command, words, line_number):
+    text = format_line(command, words, line_number=line_number)
+    parsed = parse_line(text, expected_line_number=line_number)
+    assert parsed == GcodeLine(command, words, line_number, text)
+    if line_number is not None:
+        body, cs = text.rsplit("*", 1)
+        assert body.startswith(f"N{line_number} {command}")
+        assert int(cs) == checksum(body)
+
+
+def test_format_numbers_compact():
+    assert format_line("G1", {"X": 10, "Y": 5.25, "Z": 0.12349, "S": 150.0}) == (
+        "G1 X10 Y5.25 Z0.123 S150"
+    )
+    assert format_line("G1", {"X": -0.0001}) == "G1 X0"
+    assert format_line("G4", {"P": np.int64(250)}) == "G4 P250"
+    assert format_line("g1", {"x": 1.5}) == "G1 X1.5"
+
+
+def test_format_refuses_invalid_lines():
+    with pytest.raises(GcodeError) as info:
+        format_line("G1", {})
+    assert info.value.code == 26
+    with pytest.raises(ValueError):
+        format_line("G1", {"X": float("nan")})
+    with pytest.raises(TypeError):
+        format_line("G1", {"X": "10"})
+    with pytest.raises(ValueError):
+        format_line("G28", line_number=-1)
+
+
+def test_checksum_is_xor_of_bytes():
+    assert checksum("") == 0
+    assert checksum("N1 G28") == (ord("N") ^ ord("1") ^ ord(" ") ^ ord("G") ^ ord("2") ^ ord("8"))
+
+
+def test_normalisation_and_comments():
+    line = parse_line("g01 x1 Y2 ; move (not a comment here")
+    assert line.command == "G1" and line.words == {"X": 1.0, "Y": 2.0}
+    assert parse_line("G00X5").command == "G0"
+    assert parse_line("(hello) M400 (world)").command == "M400"
+    assert parse_line("   ") is None
+    assert parse_line("; only a comment") is None
+    assert parse_line("(only a comment)") is None
+    assert parse_line("G1 Z+.5").words == {"Z": 0.5}
+    assert parse_line("G4 P200\r\n").words == {"P": 200.0}
+
+
+def test_line_number_sequence_and_required_framing():
+    framed = format_line("G90", line_number=3)
+    assert parse_line(framed, expected_line_number=3).line_number == 3
+    assert parse_line(framed, require_checksum=True).command == "G90"
+    with pytest.raises(GcodeError) as info:
+        parse_line(framed, expected_line_number=4)
+    assert info.value.code == 61
+    assert "expected N4" in info.value.reply
+    with pytest.raises(GcodeError) as info:
+        parse_line("G90", require_checksum=True)
+    assert info.value.code == 62
+    # unframed lines are accepted when framing is optional, even if a number is expected
+    assert parse_line("G90", expected_line_number=9).line_number is None
+    assert parse_line("; comment", require_checksum=True) is None
+
+
+def _framed(body: str) -> str:
+    return f"{body}*{checksum(body)}"
+
+
+MALFORMED = [
+    # 1: expected command letter
+    ("#G1 X1", 1),
+    ("G1 X1 $", 1),
+    ("X10 Y5", 1),
+    ("G1 X1 )", 1),
+    ("12 G1", 1),
+    ("G1 X1 \u00e9", 1),
+    (_framed("N5 "), 1),
+    # 2: bad number format
+    ("G1 X1.2.3", 2),
+    ("G1 X", 2),
+    ("G1 Xinf", 2),
+    ("G1 Xnan", 2),
+    ("G1 X1,5", 2),
+    ("G1 X--1", 2),
+    ("G", 2),
+    ("N G1*0", 2),
+    # 4: negative value
+    ("G1 X1 F-100", 4),
+    ("G1 X1 S-5", 4),
+    ("G4 P-1", 4),
+    # 11: line overflow
+    ("G1 X" + "1" * 80, 11),
+    ("G1 " + " ".join(["X1"] * 40), 11),
+    # 20: unsupported command
+    ("G2 X1 Y1", 20),
+    ("M3", 20),
+    ("G1.5 X1", 20),
+    ("M999", 20),
+    ("G-1 X1", 20),
+    # 21: two commands
+    ("G90 G1 X1", 21),
+    ("M400 M114", 21),
+    # 22: undefined feed rate
+    ("G1 X1 F0", 22),
+    ("G1 X1 S0", 22),
+    # 23: integer required
+    ("M280 P0.5 S10", 23),
+    (_framed("N1.5 G28"), 23),
+    # 25: repeated word
+    ("G1 X1 X2", 25),
+    ("M280 P0 S10 S20", 25),
+    # 26: no axis words
+    ("G1", 26),
+    ("G0 F1000", 26),
+    ("G1 S100", 26),
+    # 27: line number out of range
+    (_framed("N-3 G28"), 27),
+    (_framed("N99999999999 G28"), 27),
+    # 28: missing required word
+    ("G4", 28),
+    ("M280 S90", 28),
+    ("M280 P1", 28),
+    # 36: word not used by the command
+    ("G28 X0", 36),
+    ("G4 P10 X1", 36),
+    ("G1 X1 E5", 36),
+    ("G1 X1e5", 36),
+    ("M400 S1", 36),
+    ("G1 X1 P3", 36),
+    ("G1 X1 F600 S10", 36),
+    # 60: bad checksum
+    ("N1 G28*0", 60),
+    ("N1 G28*abc", 60),
+    ("N1 G28*256", 60),
+    ("N1 G28*", 60),
+    # 62: checksum missing
+    ("N1 G28", 62),
+    # 63: servo value out of range
+    ("M280 P2 S10", 63),
+    ("M280 P0 S181", 63),
+    ("M280 P1 S-1", 63),
+    # 64: unterminated comment
+    ("G1 X1 (comment", 64),
+    # 65: checksum without line number
+    (_framed("G28"), 65),
+    # embedded line break
+    ("G1 X1\nG1 X2", 1),
+]
+
+
+@pytest.mark.parametrize(("text", "code"), MALFORMED)
+def test_malformed_line_gives_its_error_code(text, code):
+    with pytest.raises(GcodeError) as info:
+        parse_line(text)
+    assert info.value.code == code
+    reply = info.value.reply
+    assert reply.startswith(f"error:{code} ")
+    assert "\n" not in reply and len(reply) > len(f"error:{code} ") + 10
+
+
+def test_malformed_corpus_is_large_and_covers_codes():
+    assert len(MALFORMED) >= 40
+    assert {code for _, code in MALFORMED} >= {1, 2, 11, 20, 22, 60, 62}
+
+
+def test_error_is_a_value_error():
+    with pytest.raises(ValueError, match="error 20"):
+        parse_line("G2")
+
+
+def test_non_string_input_is_a_type_error():
+    with pytest.raises(TypeError):
+        parse_line(b"G28")
+
+
+def test_fuzz_random_strings_only_give_lines_or_gcode_errors():
+    rng = np.random.default_rng(1234)
+    alphabet = list("GMNXYZFSPE0123456789.-+ *;()\t#$%abcxyz\u00e9\u2603\x00\r\n") + ["\ud800"]
+    outcomes = {"none": 0, "line": 0, "error": 0}
+    for _ in range(3000):
+        length = int(rng.integers(0, 100))
+        text = "".join(rng.choice(alphabet, size=length))
+        for candidate in (text, "G1 " + text, "N1 " + text, text + "*" + str(rng.integers(0, 300))):
+            try:
+                result = parse_line(candidate, expected_line_number=1, require_checksum=False)
+            except GcodeError as error:
+                assert isinstance(error.code, int) and error.reply.startswith("error:")
+                outcomes["error"] += 1
+            else:
+                assert result is None or isinstance(result, GcodeLine)
+                outcomes["none" if result is None else "line"] += 1
+    assert outcomes["error"] > 1000
+    assert outcomes["line"] + outcomes["none"] > 0
+
+
+def test_fuzz_mutated_valid_lines():
+    rng = np.random.default_rng(99)
+    base = [format_line(c, w, line_number=n) for c, w in ROUND_TRIP for n in (None, 12)]
+    for _ in range(3000):
+        text = list(base[int(rng.integers(len(base)))])
+        position = int(rng.integers(len(text)))
+        text[position] = chr(int(rng.integers(0, 0x3000)))
+        try:
+            result = parse_line("".join(text), require_checksum=bool(rng.integers(2)))
+        except GcodeError:
+            continue
+        assert result is None or isinstance(result, GcodeLine)

@@ -1,0 +1,148 @@
+import pytest
+
+from transplanter.firmware.eeprom import EepromImage, Pickup
+from transplanter.firmware.pgf import PGF, PGFConfig, build_program
+from transplanter.gcode import checksum, parse_line
+
+CELL_X_MM = [-90, -45, 0, 45, 90]
+ELBOW_DEG = ["80", "85", "90", "95", "100.5"]
+
+
+def five_pickup_image() -> EepromImage:
+    return EepromImage(
+        pickups=tuple(
+            Pickup((x / 1000, 0.175), (x / 1000, 0.215), float(e))
+            for x, e in zip(CELL_X_MM, ELBOW_DEG, strict=True)
+        ),
+        drop_xy_m=(0.0, 0.140),
+        drop_elbow_deg=12.5,
+        z_up_m=0.100,
+        z_low_m=0.032,
+        s_low_m_s=0.040,
+        s_high_m_s=0.150,
+    )
+
+
+def expected_lines(seedlings: int) -> list[tuple[int | None, str, str]]:
+    lines = [(None, "home", "G28"), (None, "absolute", "G90")]
+    for i in range(seedlings):
+        c = i % 5
+        x, e = CELL_X_MM[c], ELBOW_DEG[c]
+        lines += [
+            (i, "approach", f"G1 X{x} Y175 Z32 S150"),
+            (i, "elbow", f"M280 P1 S{e}"),
+            (i, "open", "M280 P0 S155"),
+            (i, "open_wait", "G4 P200"),
+            (i, "grip", f"G1 X{x} Y215 Z32 S40"),
+            (i, "close", "M280 P0 S60"),
+            (i, "close_wait", "G4 P250"),
+            (i, "lift", f"G1 X{x} Y215 Z100 S40"),
+            (i, "retract", f"G1 X{x} Y175 Z100 S150"),
+            (i, "drop_elbow", "M280 P1 S12.5"),
+            (i, "to_drop", "G1 X0 Y140 Z100 S150"),
+            (i, "release", "M280 P0 S155"),
+            (i, "release_wait", "G4 P200"),
+        ]
+        if c == 4 and i < seedlings - 1:
+            lines.append((i, "index", "M710"))
+    lines.append((None, "finish", "M400"))
+    return lines
+
+
+def run_with_instant_ok(pgf: PGF, dt: float = 0.1) -> None:
+    now = 0.0
+    replies: list[str] = []
+    for _ in range(10_000):
+        sent = pgf.poll(now, replies)
+        assert len(sent) <= 1
+        replies = ["ok"] * len(sent)
+        now += dt
+        if pgf.done:
+            return
+    raise AssertionError("PGF did not finish")
+
+
+def test_exact_sequence_five_pickups_seven_seedlings_unframed():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=7, line_numbers=False))
+    run_with_instant_ok(pgf)
+    got = [(s.seedling, s.phase, s.text) for s in pgf.sent]
+    assert got == expected_lines(7)
+    # the conveyor indexes exactly once: after the 5th seedling (pickup 5 of the row)
+    assert [(s.seedling, s.text) for s in pgf.sent if s.phase == "index"] == [(4, "M710")]
+    assert all(s.reply == "ok" and s.t_reply > s.t_sent for s in pgf.sent)
+    assert pgf.done and pgf.fault is None and pgf.current is None
+
+
+def test_framed_lines_are_numbered_and_checksummed():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=7))
+    run_with_instant_ok(pgf)
+    expected = expected_lines(7)
+    assert len(pgf.sent) == len(expected)
+    for number, (sent, (_, _, text)) in enumerate(zip(pgf.sent, expected, strict=True), 1):
+        framed = f"N{number} {text}"
+        assert sent.text == f"{framed}*{checksum(framed)}"
+        assert parse_line(sent.text, expected_line_number=number, require_checksum=True)
+
+
+def test_no_index_when_disabled_or_last_seedling():
+    lines = build_program(five_pickup_image(), PGFConfig(seedlings=5, line_numbers=False))
+    assert not any(line.phase == "index" for line in lines)
+    lines = build_program(five_pickup_image(), PGFConfig(seedlings=12, index_conveyor=False))
+    assert not any(line.phase == "index" for line in lines)
+    lines = build_program(five_pickup_image(), PGFConfig(seedlings=11, line_numbers=False))
+    assert [line.seedling for line in lines if line.phase == "index"] == [4, 9]
+
+
+def test_nothing_sent_while_a_line_is_outstanding():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=1, line_numbers=False))
+    assert pgf.poll(0.0, []) == ["G28"]
+    assert pgf.current.text == "G28" and pgf.current.t_reply is None
+    for t in (0.1, 0.2, 5.0):
+        assert pgf.poll(t, []) == []
+    assert pgf.poll(5.1, ["X:0.000 Y:0.000"]) == []  # an info line is no handshake
+    assert pgf.info == [(5.1, "X:0.000 Y:0.000")]
+    assert pgf.poll(6.0, ["ok"]) == ["G90"]
+    assert pgf.sent[0].t_sent == 0.0 and pgf.sent[0].t_reply == 6.0
+    assert pgf.sent[1].t_sent == 6.0
+    assert not pgf.done
+
+
+def test_error_reply_faults_and_stops():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=2, line_numbers=False))
+    pgf.poll(0.0, [])
+    pgf.poll(1.0, ["ok"])
+    assert pgf.poll(2.0, ["ok"]) == ["G1 X-90 Y175 Z32 S150"]
+    assert pgf.poll(3.0, ["error:33 target position not reachable: x"]) == []
+    assert "not reachable" in pgf.fault and "approach" in pgf.fault
+    assert pgf.sent[-1].reply.startswith("error:33") and pgf.sent[-1].t_reply == 3.0
+    assert pgf.poll(4.0, ["ok"]) == [] and pgf.poll(5.0, []) == []
+    assert len(pgf.sent) == 3 and not pgf.done and pgf.current is None
+
+
+def test_unexpected_ok_faults():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=1))
+    assert pgf.poll(0.0, ["ok"]) == []
+    assert "unexpected" in pgf.fault
+
+
+def test_two_oks_for_one_line_fault():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=1))
+    pgf.poll(0.0, [])
+    assert pgf.poll(1.0, ["ok", "ok"]) == []
+    assert "unexpected" in pgf.fault
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"gripper_servo": 2},
+        {"wrist_servo": 0},
+        {"gripper_open_deg": 190.0},
+        {"close_dwell_s": -0.1},
+        {"seedlings": 0},
+        {"seedlings": 2.5},
+    ],
+)
+def test_config_validation(kwargs):
+    with pytest.raises(ValueError):
+        PGFConfig(**kwargs)

@@ -1,0 +1,187 @@
+import math
+
+import numpy as np
+import pytest
+
+from transplanter.firmware.bus import TO_DEVICE, TO_HOST, ComBus
+from transplanter.firmware.eeprom import EepromImage, Pickup
+from transplanter.firmware.pgf import PGF, PGFConfig
+from transplanter.firmware.rig import SimulatedEndstops, run_firmware
+from transplanter.firmware.sgf import SGF, SGFConfig
+from transplanter.gcode import checksum
+from transplanter.kinematics import ik
+
+CELL_X_MM = [-90, -45, 0, 45, 90]
+DT_HOMING_S = 1e-3
+
+
+def on_step_grid(config: SGFConfig, joints) -> np.ndarray:
+    return np.array(
+        [float(d.to_position(d.to_steps(q))) for d, q in zip(config.drives, joints, strict=True)]
+    )
+
+
+def taught_image(approach_y_m: float = 0.175) -> EepromImage:
+    return EepromImage(
+        pickups=tuple(Pickup((x / 1000, approach_y_m), (x / 1000, 0.215), 90.0) for x in CELL_X_MM),
+        drop_xy_m=(0.0, 0.140),
+        drop_elbow_deg=30.0,
+        z_up_m=0.100,
+        z_low_m=0.032,
+        s_low_m_s=0.040,
+        s_high_m_s=0.150,
+    )
+
+
+def expected_lines(seedlings: int) -> list[str]:
+    lines = ["G28", "G90"]
+    for i in range(seedlings):
+        x = CELL_X_MM[i % 5]
+        lines += [
+            f"G1 X{x} Y175 Z32 S150",
+            "M280 P1 S90",
+            "M280 P0 S155",
+            "G4 P200",
+            f"G1 X{x} Y215 Z32 S40",
+            "M280 P0 S60",
+            "G4 P250",
+            f"G1 X{x} Y215 Z100 S40",
+            f"G1 X{x} Y175 Z100 S150",
+            "M280 P1 S30",
+            "G1 X0 Y140 Z100 S150",
+            "M280 P0 S155",
+            "G4 P200",
+        ]
+        if i % 5 == 4 and i < seedlings - 1:
+            lines.append("M710")
+    lines.append("M400")
+    framed = []
+    for number, text in enumerate(lines, start=1):
+        body = f"N{number} {text}"
+        framed.append(f"{body}*{checksum(body)}")
+    return framed
+
+
+def test_simulated_endstops_trip_at_home_positions():
+    config = SGFConfig()
+    start = on_step_grid(config, (math.radians(150), math.radians(30), 0.120))
+    endstops = SimulatedEndstops(config, start)
+    trip = endstops.trip_pulses()
+    start_steps = [int(d.to_steps(q)) for d, q in zip(config.drives, start, strict=True)]
+    assert np.array_equal(trip, config.home_steps - start_steps)
+    assert endstops.read([0, 0, 0]) == (False, False, False, False)
+    assert endstops.read(trip - [1, -1, 1]) == (False, False, False, False)
+    assert endstops.read(trip) == (True, True, True, False)
+    assert endstops.read(trip + [5, -5, 5]) == (True, True, True, False)
+    below, above = (int(config.drives[2].to_steps(z - 0.120)) for z in (0.0029, 0.0031))
+    assert endstops.read([0, 0, below]) == (False, False, False, True)
+    assert endstops.read([0, 0, above]) == (False, False, False, False)
+    with pytest.raises(ValueError, match="beyond its limit switch"):
+        SimulatedEndstops(config, (math.radians(170), 0.0, 0.1))
+
+
+def test_five_pickup_cycle_through_bus(capsys):
+    config = SGFConfig()
+    start = on_step_grid(config, (math.radians(150), math.radians(30), 0.120))
+    pgf = PGF(taught_image(), PGFConfig(seedlings=5))
+    bus = ComBus(baud_bps=115200.0)
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, start)
+    result = run_firmware(pgf, bus, sgf, endstops, dt_homing_s=DT_HOMING_S)
+
+    assert result.done and result.fault is None and pgf.done
+    # the exact line sequence, each acknowledged with ok
+    assert [s.text for s in pgf.sent] == expected_lines(5)
+    assert all(s.reply == "ok" for s in pgf.sent)
+    assert not any(s.phase == "index" for s in pgf.sent)  # 5 seedlings: no row follows
+
+    # no line sent before the previous line's ok arrived, on the PGF's log and on the wire
+    for previous, line in zip(pgf.sent, pgf.sent[1:], strict=False):
+        assert line.t_sent >= previous.t_reply > previous.t_sent
+    to_device = [e for e in bus.transcript if e.direction == TO_DEVICE]
+    to_host = [e for e in bus.transcript if e.direction == TO_HOST]
+    assert len(to_device) == len(to_host) == len(pgf.sent)
+    for k in range(1, len(to_device)):
+        assert to_host[k - 1].t_sent >= to_device[k - 1].t_delivered
+        assert to_device[k].t_sent >= to_host[k - 1].t_delivered
+
+    # raw pulses: final position's step counts minus the start, plus the homing overshoot
+    drives = config.drives
+    theta1, theta2 = ik(config.geometry, 0.0, 0.140)
+    final_steps = np.array(
+        [int(drives[0].to_steps(theta1)), int(drives[1].to_steps(theta2)),
+         int(drives[2].to_steps(0.100))]
+    )  # fmt: skip
+    start_steps = np.array([int(d.to_steps(q)) for d, q in zip(drives, start, strict=True)])
+    overshoot = sgf.homing_trip_raw - endstops.trip_pulses()
+    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_rate_hz) * DT_HOMING_S))
+    assert np.array_equal(sgf.logical_steps, final_steps)
+    assert np.array_equal(sgf.raw_pulses, final_steps - start_steps + overshoot)
+    assert np.array_equal(sgf.pulses_at(result.end_time_s + 1.0)[0], sgf.raw_pulses)
+    # physically the joints sit within half a step (+ the overshoot) of the IK of the target
+    error = np.abs(endstops.joint_positions(sgf.raw_pulses) - [theta1, theta2, 0.100])
+    assert np.all(error <= (0.5 + np.abs(overshoot)) * endstops.unit_per_step + 1e-12)
+
+    # servo commands: per seedling elbow, open, close, drop elbow, release
+    servo = sgf.drain_servo_commands()
+    assert [(i, d) for _, i, d in servo] == [(1, 90.0), (0, 155.0), (0, 60.0), (1, 30.0),
+                                             (0, 155.0)] * 5  # fmt: skip
+
+    homed_at = next(s.t_reply for s in pgf.sent if s.phase == "home")
+    first = next(s.t_sent for s in pgf.sent if s.seedling == 0)
+    last = max(s.t_reply for s in pgf.sent if s.seedling == 4)
+    with capsys.disabled():
+        print(
+            f"\nfive-pickup cycle: homing done at {homed_at:.3f} s, 5 seedlings in "
+            f"{last - first:.3f} s ({(last - first) / 5:.3f} s per seedling), "
+            f"run ends at {result.end_time_s:.3f} s"
+        )
+    assert 1.0 < (last - first) / 5 < 20.0
+
+
+def test_unreachable_taught_point_gives_error_and_moves_nothing():
+    config = SGFConfig()
+    start = on_step_grid(config, (math.radians(150), math.radians(30), 0.120))
+    pgf = PGF(taught_image(approach_y_m=0.400), PGFConfig(seedlings=1))
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, start)
+    result = run_firmware(pgf, ComBus(), sgf, endstops)
+    assert not result.done
+    assert "target position not reachable" in result.fault
+    assert [s.phase for s in pgf.sent] == ["home", "absolute", "approach"]
+    assert pgf.sent[-1].reply.startswith("error:33 target position not reachable")
+    homed_raw = sgf.homing_trip_raw - np.array(config.homing_dirs) * config.homing_pulloff_steps
+    assert np.array_equal(sgf.raw_pulses, homed_raw)
+    assert np.array_equal(sgf.pulses_at([result.end_time_s, 1e3]), np.stack([homed_raw] * 2))
+
+
+def test_malformed_line_over_bus_gives_error_and_moves_nothing():
+    config = SGFConfig()
+    start = on_step_grid(config, (math.radians(150), math.radians(30), 0.120))
+    pgf = PGF(taught_image(), PGFConfig(seedlings=1))
+    pgf.program = pgf.program[:2]  # home and G90 only, then done
+    bus = ComBus()
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, start)
+    result = run_firmware(pgf, bus, sgf, endstops)
+    assert result.done
+    raw = sgf.raw_pulses
+    t = result.end_time_s
+    bus.host_send("G1 X1.2.3 Y150", t)
+    t = bus.next_delivery_time()
+    for line in bus.device_receive(t):
+        sgf.receive(line, t)
+    replies = sgf.poll(t)
+    assert len(replies) == 1 and replies[0].startswith("error:2 ")
+    assert np.array_equal(sgf.raw_pulses, raw)
+    assert np.array_equal(sgf.pulses_at([t, t + 10.0]), np.stack([raw, raw]))
+    assert not sgf.busy
+
+
+def test_rig_reports_a_stall():
+    config = SGFConfig()
+    pgf = PGF(taught_image(), PGFConfig(seedlings=1))
+    sgf = SGF(config)
+    # no endstops: homing can only fail after its seek limit, which faults the PGF
+    result = run_firmware(pgf, ComBus(), sgf, endstops=None)
+    assert "homing failed" in result.fault

@@ -1,0 +1,221 @@
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("transplanter.motion", reason="SGF plans with transplanter.motion")
+
+from transplanter.firmware.rig import SimulatedEndstops  # noqa: E402
+from transplanter.firmware.sgf import SGF, SGFConfig  # noqa: E402
+from transplanter.gcode import format_line  # noqa: E402
+from transplanter.kinematics import ik  # noqa: E402
+
+START = (math.radians(150.0), math.radians(30.0), 0.120)
+
+
+def home(sgf: SGF, endstops: SimulatedEndstops, t: float = 0.0, dt: float = 1e-3) -> float:
+    """Send G28 and poll every dt with simulated switches until its ok; return the time."""
+    sgf.receive("G28", t)
+    for _ in range(100_000):
+        replies = sgf.poll(t, endstops.read(sgf.pulses_at(t)[0]))
+        if replies:
+            assert replies == ["ok"]
+            return t
+        t_event = sgf.next_event_time()  # known once every switch has tripped
+        t = min(t + dt, t_event if t_event is not None else math.inf)
+    raise AssertionError("homing did not finish")
+
+
+def run_line(sgf: SGF, line: str, t: float) -> tuple[list[str], float]:
+    """Send a line at t, jump to its completion, return (replies, completion time)."""
+    sgf.receive(line, t)
+    replies = sgf.poll(t)
+    while not replies:
+        t = sgf.next_event_time()
+        assert t is not None
+        replies = sgf.poll(t)
+    return replies, t
+
+
+@pytest.fixture()
+def homed():
+    config = SGFConfig()
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, START)
+    t = home(sgf, endstops)
+    return sgf, endstops, t
+
+
+def test_homing_sets_logical_counters_and_keeps_raw_pulses(homed):
+    sgf, endstops, t = homed
+    config = sgf.config
+    # each switch was read closed at exactly the first pulse that reaches it (1 ms polling)
+    overshoot = sgf.homing_trip_raw - endstops.trip_pulses()
+    assert np.all(overshoot * np.array(config.homing_dirs) >= 0)
+    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_rate_hz) * 1e-3))
+    pulloff = np.array(config.homing_dirs) * np.array(config.homing_pulloff_steps)
+    assert np.array_equal(sgf.logical_steps, config.home_steps - pulloff)
+    assert np.array_equal(sgf.raw_pulses, sgf.homing_trip_raw - pulloff)
+    assert np.array_equal(sgf.pulses_at(t + 5.0)[0], sgf.raw_pulses)
+    # homing moved motor 1 up, motor 2 down, Z up
+    assert sgf.homing_trip_raw[0] > 0 > sgf.homing_trip_raw[1] and sgf.homing_trip_raw[2] > 0
+    assert sgf.homed and not sgf.busy
+    x, y, z = sgf.position_xyz
+    assert abs(x) < 1e-9 and 0.14 < y < 0.16 and z == pytest.approx(0.159)
+    events = sgf.drain_machine_events()
+    assert [name for _, name in events] == ["homed"] and events[0][0] == t
+
+
+def test_homing_pulses_are_monotone_in_homing_direction():
+    config = SGFConfig()
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, START)
+    t_done = home(sgf, endstops)
+    times = np.linspace(0.0, t_done, 2001)
+    pulses = sgf.pulses_at(times)
+    assert np.array_equal(pulses[0], [0, 0, 0])
+    steps = np.diff(pulses, axis=0)
+    assert np.all(np.abs(steps) <= np.ceil(np.array(config.homing_rate_hz) * times[1]))
+
+
+def test_homing_fails_without_switch():
+    config = SGFConfig(homing_max_steps=(200, 200, 400))
+    sgf = SGF(config)
+    sgf.receive("G28", 0.0)
+    t = 0.0
+    replies = []
+    while not replies and t < 2.0:
+        replies = sgf.poll(t, (False, False, False, False))
+        t += 1e-3
+    assert replies and replies[0].startswith("error:9 homing failed: limit switch")
+    assert not sgf.homed
+    assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
+
+
+def test_move_before_homing_is_refused():
+    sgf = SGF(SGFConfig())
+    sgf.receive("G1 X0 Y180 Z50", 0.0)
+    replies = sgf.poll(0.0)
+    assert replies == ["error:9 position unknown: home first with G28"]
+    assert np.array_equal(sgf.pulses_at([0.0, 10.0]), np.zeros((2, 3), dtype=np.int64))
+
+
+def test_move_pulses_reach_ik_of_target(homed):
+    sgf, _, t = homed
+    raw0, logical0 = sgf.raw_pulses, sgf.logical_steps
+    replies, t_done = run_line(sgf, "G1 X45 Y200 Z60 S100", t)
+    assert replies == ["ok"]
+    theta1, theta2 = ik(sgf.config.geometry, 0.045, 0.200)
+    drives = sgf.config.drives
+    expected = np.array(
+        [int(drives[0].to_steps(theta1)), int(drives[1].to_steps(theta2)),
+         int(drives[2].to_steps(0.060))]
+    )  # fmt: skip
+    assert np.array_equal(sgf.logical_steps, expected)
+    assert np.array_equal(sgf.raw_pulses - raw0, expected - logical0)
+    assert np.allclose(sgf.position_xyz, [0.045, 0.200, 0.060])
+    # pulses over the move: start, end, and never beyond the end afterwards
+    pulses = sgf.pulses_at(np.linspace(t, t_done + 1.0, 500))
+    assert np.array_equal(pulses[0], raw0) and np.array_equal(pulses[-1], sgf.raw_pulses)
+
+
+def test_speed_words_and_relative_moves(homed):
+    sgf, _, t = homed
+    _, t1 = run_line(sgf, "G1 X0 Y180 Z100 S100", t)
+    _, t2 = run_line(sgf, "G1 Y200 F6000", t1)  # 100 mm/s too: same duration over 20 mm
+    _, t3 = run_line(sgf, "G1 Y180", t2)  # keeps the last speed
+    assert t3 - t2 == pytest.approx(t2 - t1, rel=0.02)
+    _, t4 = run_line(sgf, "G91", t3)
+    _, t5 = run_line(sgf, "G1 X10 Z-5 S50", t4)
+    assert np.allclose(sgf.position_xyz, [0.010, 0.180, 0.095])
+    assert t4 == t3 and t5 > t4
+
+
+def test_unreachable_and_out_of_range_targets_move_nothing(homed):
+    sgf, _, t = homed
+    raw, logical = sgf.raw_pulses, sgf.logical_steps
+    replies, _ = run_line(sgf, "G1 X0 Y400 Z50", t)
+    assert len(replies) == 1 and replies[0].startswith("error:33 target position not reachable:")
+    replies, _ = run_line(sgf, "G1 X0 Y180 Z200", t)
+    assert replies[0].startswith("error:33 Z 200.000 mm outside")
+    replies, _ = run_line(sgf, "G1 X0 Y180 Q5", t)
+    assert replies[0].startswith("error:36")
+    assert np.array_equal(sgf.raw_pulses, raw) and np.array_equal(sgf.logical_steps, logical)
+    assert np.array_equal(sgf.pulses_at([t, t + 10.0]), np.stack([raw, raw]))
+
+
+def test_dwell_servo_conveyor_and_reports(homed):
+    sgf, endstops, t = homed
+    sgf.drain_machine_events()
+    replies, t1 = run_line(sgf, "G4 P250", t)
+    assert replies == ["ok"] and t1 == pytest.approx(t + 0.25)
+    replies, t2 = run_line(sgf, "M280 P0 S60", t1)
+    assert replies == ["ok"] and t2 == t1
+    assert sgf.drain_servo_commands() == [(t1, 0, 60.0)]
+    replies, t3 = run_line(sgf, "M710", t2)
+    assert replies == ["ok"] and t3 == pytest.approx(t2 + sgf.config.conveyor_index_s)
+    assert sgf.drain_machine_events() == [(t2, "conveyor_index")]
+    replies, _ = run_line(sgf, "M114", t3)
+    a, b, c = sgf.logical_steps
+    assert replies == [f"X:0.000 Y:{sgf.position_xyz[1] * 1e3:.3f} Z:159.000 A:{a} B:{b} C:{c}",
+                       "ok"]  # fmt: skip
+    sgf.poll(t3, (False, True, False, False))
+    replies, _ = run_line(sgf, "M119", t3)
+    assert replies == ["endstops: 1:open 2:TRIGGERED 3:open 4:open", "ok"]
+    for line in ("M105", "M400", "G90"):
+        assert run_line(sgf, line, t3) == (["ok"], t3)
+
+
+def test_fifo_replies_in_line_order(homed):
+    sgf, _, t = homed
+    sgf.receive("G1 X0 Y180 Z100 S100", t)
+    sgf.receive("G1 X1 Y2", t)  # unreachable, refused only when its turn comes
+    sgf.receive("M280 P1 S30", t)
+    sgf.receive("#bogus", t)
+    assert sgf.poll(t) == []
+    t_move = sgf.next_event_time()
+    assert t_move > t and sgf.busy
+    assert sgf.poll(t_move - 1e-6) == []
+    replies = sgf.poll(t_move)
+    assert replies[0] == "ok"
+    assert replies[1].startswith("error:33 target position not reachable")
+    assert replies[2] == "ok" and replies[3].startswith("error:1 ")
+    assert sgf.drain_servo_commands() == [(t_move, 1, 30.0)]
+    assert not sgf.busy and sgf.next_event_time() is None
+
+
+def test_line_numbers_and_required_checksum():
+    config = SGFConfig(require_checksum=True)
+    sgf = SGF(config)
+    sgf.receive(format_line("M105", line_number=1), 0.0)
+    sgf.receive(format_line("M105", line_number=3), 0.0)
+    sgf.receive("M105", 0.0)
+    sgf.receive(format_line("M105", line_number=2), 0.0)
+    replies = sgf.poll(0.0)
+    assert replies[0] == "ok"
+    assert replies[1].startswith("error:61 ")
+    assert replies[2].startswith("error:62 ")
+    assert replies[3] == "ok"
+
+
+def test_time_must_not_go_backwards():
+    sgf = SGF()
+    sgf.poll(1.0)
+    with pytest.raises(ValueError, match="non-decreasing"):
+        sgf.receive("M105", 0.5)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"z_min_m": 0.2},
+        {"homing_dirs": (1, 0, 1)},
+        {"homing_rate_hz": (0.0, 1.0, 1.0)},
+        {"homing_pulloff_steps": (1, 2)},
+        {"default_speed_m_s": 0.0},
+        {"conveyor_index_s": -1.0},
+    ],
+)
+def test_config_validation(kwargs):
+    with pytest.raises(ValueError):
+        SGFConfig(**kwargs)
