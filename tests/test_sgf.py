@@ -219,3 +219,19 @@ def test_time_must_not_go_backwards():
 def test_config_validation(kwargs):
     with pytest.raises(ValueError):
         SGFConfig(**kwargs)
+
+
+def test_every_step_is_out_at_the_ack_time(homed):
+    """The ok comes when the last step has been issued: pulses at the ack time are final."""
+    sgf, _, t = homed
+    targets = [
+        "G1 X0 Y215 Z32 S60",
+        "G1 X-90 Y175 Z32 S150",
+        "G1 X90 Y215 Z100 S60",
+        "G1 X0 Y140 Z100 S150",
+        "G1 X45 Y175 Z40 S150",
+    ]
+    for line in targets * 3:
+        replies, t = run_line(sgf, line, t)
+        assert replies == ["ok"]
+        assert np.array_equal(sgf.pulses_at(t)[0], sgf.raw_pulses), line

@@ -26,8 +26,9 @@ def check_scenario(s: Scenario) -> None:
         points.append((f"taught.pickup[{i}].approach_mm", p["approach_m"]))
         points.append((f"taught.pickup[{i}].grip_mm", p["grip_m"]))
     xy = np.array([p for _, p in points])
-    report = kinematics.check_points(machine.geometry, machine.limits, xy[:, 0], xy[:, 1],
-                                     mode=machine.mode)
+    report = kinematics.check_points(
+        machine.geometry, machine.limits, xy[:, 0], xy[:, 1], mode=machine.mode
+    )
     for (key, p), ok, reason in zip(points, report.ok, report.reasons, strict=True):
         if not ok:
             raise ScenarioError(
@@ -54,11 +55,21 @@ def _check_line(machine, a, b) -> None:
     start = np.asarray(a, dtype=float)
     t1, t2 = kinematics.ik(machine.geometry, start[0], start[1], mode=machine.mode)
     joints = np.array([float(t1), float(t2), start[2]])
-    steps = np.array([d.to_steps(q) for d, q in zip(machine.drives, joints, strict=True)],
-                     dtype=np.int64).reshape(3)
+    steps = np.array(
+        [d.to_steps(q) for d, q in zip(machine.drives, joints, strict=True)], dtype=np.int64
+    ).reshape(3)
     speed = machine.eeprom.s_high_m_s
-    plan_line(steps, start, np.asarray(b, dtype=float), speed, machine.geometry,
-              machine.limits, machine.drives, machine.motion, mode=machine.mode)
+    plan_line(
+        steps,
+        start,
+        np.asarray(b, dtype=float),
+        speed,
+        machine.geometry,
+        machine.limits,
+        machine.drives,
+        machine.motion,
+        mode=machine.mode,
+    )
 
 
 def _mm(p) -> str:

@@ -20,7 +20,7 @@ import numpy as np
 from transplanter.firmware.bus import ComBus
 from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.sgf import SGF
-from transplanter.machine import GRIPPER_SERVO, WRIST_SERVO, Machine, machine_from_scenario
+from transplanter.machine import GRIPPER_SERVO, Machine, machine_from_scenario
 from transplanter.scenario import Scenario
 from transplanter.scene import Scene, SceneConfig, build_scene
 
@@ -54,7 +54,12 @@ class SimulationInvalid(RuntimeError):
 def scene_config_from_scenario(s: Scenario) -> SceneConfig:
     """The physical parameters of a scenario as the scene builder's config."""
     arm, drv, grip, conv, pots, tube, phys = (
-        s["arm"], s["drives"], s["gripper"], s["conveyor"], s["pots"], s["drop_tube"],
+        s["arm"],
+        s["drives"],
+        s["gripper"],
+        s["conveyor"],
+        s["pots"],
+        s["drop_tube"],
         s["physics"],
     )
     return SceneConfig(
@@ -147,8 +152,7 @@ class Twin:
         self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
         grip = s["gripper"]
         self._open_m_per_deg = grip["max_opening_m"] / 180.0
-        self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"],
-                                  math.degrees(grip["open_rad"]))
+        self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"], math.degrees(grip["open_rad"]))
         self.gripper.command(0.0, self.gripper.angle_deg)
         self.wrist = _ServoRamp(60.0 / grip["wrist_servo_s_per_60deg"], 90.0)
         self.wrist.command(0.0, math.degrees(s["taught"]["drop_elbow_rad"]))
@@ -157,8 +161,12 @@ class Twin:
         self.q_power_on = self.scene.joint_positions(self.data).copy()
         self.unit_per_step = np.array([d.unit_per_step for d in self.machine.drives])
         self.full_step_joint = np.array(
-            [2 * math.pi / d.steps_per_rev / d.ratio if not d.linear
-             else d.lead_m / d.steps_per_rev for d in self.machine.drives]
+            [
+                2 * math.pi / d.steps_per_rev / d.ratio
+                if not d.linear
+                else d.lead_m / d.steps_per_rev
+                for d in self.machine.drives
+            ]
         )
         self.k = 0  # physics steps taken; time = k * dt exactly
         self._done_index = 0
@@ -189,8 +197,9 @@ class Twin:
             servo.command(ts, deg)
         for event in self.sgf.drain_machine_events():
             if event[1] == "conveyor_index":
-                self.scene.start_conveyor_index(self.data, event[0],
-                                                self.machine.sgf.conveyor_index_s)
+                self.scene.start_conveyor_index(
+                    self.data, event[0], self.machine.sgf.conveyor_index_s
+                )
         sent = self.pgf.sent
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
             done = LineDone(sent[self._done_index], t)
@@ -201,8 +210,9 @@ class Twin:
     def _next_exchange_time(self, t: float) -> float:
         if self.sgf.homing:
             return t + self.dt
-        times = [x for x in (self.bus.next_delivery_time(), self.sgf.next_event_time())
-                 if x is not None]
+        times = [
+            x for x in (self.bus.next_delivery_time(), self.sgf.next_event_time()) if x is not None
+        ]
         return min(times) if times else t + self.dt
 
     # -- command blocks -----------------------------------------------------------------
@@ -220,8 +230,12 @@ class Twin:
         return _Block(self.k, ctrl, pulses, self.scene.conveyor_indexing(self.time))
 
     # -- stepping ------------------------------------------------------------------------
-    def step_until(self, t_end: float, monitor: Callable[[Twin, int], None] | None = None,
-                   monitor_every: int = 5) -> None:
+    def step_until(
+        self,
+        t_end: float,
+        monitor: Callable[[Twin, int], None] | None = None,
+        monitor_every: int = 5,
+    ) -> None:
         """Advance the whole machine to simulated time t_end (or until the PGF is done)."""
         m, d = self.model, self.data
         ctrl = d.ctrl
@@ -248,7 +262,9 @@ class Twin:
             names = [mujoco.mjtWarning(i).name for i in np.flatnonzero(grown)]
             raise SimulationInvalid(f"MuJoCo warning at t={self.time:.3f} s: {', '.join(names)}")
         if not np.isfinite(self.data.qpos).all() or not np.isfinite(self.data.qacc).all():
-            raise SimulationInvalid(f"simulation diverged (non-finite state) at t={self.time:.3f} s")
+            raise SimulationInvalid(
+                f"simulation diverged (non-finite state) at t={self.time:.3f} s"
+            )
 
     # -- observations used by trials and recordings -------------------------------------
     def commanded_joints(self) -> np.ndarray:

@@ -164,8 +164,9 @@ class _Watcher:
                 rec.outcome = "move_rejected"
                 rec.rejected_line = f"{line.text} -> {line.reply}"
             if self.recorder is not None:
-                self.recorder.event(t, "failure", f"rejected {line.text}: {line.reply}",
-                                    line.seedling)
+                self.recorder.event(
+                    t, "failure", f"rejected {line.text}: {line.reply}", line.seedling
+                )
             return
         if self.recorder is not None:
             self.recorder.event(t, "ack", f"{line.phase}: {line.text}", line.seedling)
@@ -242,12 +243,16 @@ class _Watcher:
         """The planting unit takes the pot away: it rests far from the machine from now on."""
         d = self.twin.data
         a, v = self.pot_qadr[pot], self.pot_dadr[pot]
-        height = 2 * float(self.twin.model.geom_size[
-            self.twin.model.body_geomadr[self.pot_bodies[pot]], 1])
-        d.qpos[a:a + 3] = (1.0 + 0.1 * (self.parked % 10), -1.0 - 0.1 * (self.parked // 10),
-                           self.floor_z + height / 2 + 1e-3)
-        d.qpos[a + 3:a + 7] = (1.0, 0.0, 0.0, 0.0)
-        d.qvel[v:v + 6] = 0.0
+        height = 2 * float(
+            self.twin.model.geom_size[self.twin.model.body_geomadr[self.pot_bodies[pot]], 1]
+        )
+        d.qpos[a : a + 3] = (
+            1.0 + 0.1 * (self.parked % 10),
+            -1.0 - 0.1 * (self.parked // 10),
+            self.floor_z + height / 2 + 1e-3,
+        )
+        d.qpos[a + 3 : a + 7] = (1.0, 0.0, 0.0, 0.0)
+        d.qvel[v : v + 6] = 0.0
         self.active[pot] = False
         self.parked += 1
 
@@ -294,20 +299,26 @@ class _Progress:
             sys.stderr.write("\n")
 
 
-def run_trial(scenario: Scenario, recorder_path: str | Path | None = None,
-              record_rate_hz: float = 60.0, progress: bool = False) -> TrialResult:
+def run_trial(
+    scenario: Scenario,
+    recorder_path: str | Path | None = None,
+    record_rate_hz: float = 60.0,
+    progress: bool = False,
+) -> TrialResult:
     """Run the scenario's seedlings through the whole twin and measure what happens."""
     t_wall = time.perf_counter()
     twin = Twin(scenario)
     m_pp = twin.machine.eeprom.m_pp
-    records = [SeedlingRecord(index=i, pickup=i % m_pp)
-               for i in range(scenario["scenario"]["seedlings"])]
+    records = [
+        SeedlingRecord(index=i, pickup=i % m_pp) for i in range(scenario["scenario"]["seedlings"])
+    ]
     recorder = None
     if recorder_path is not None:
         from transplanter.recording import TrialRecorder
 
-        recorder = TrialRecorder(twin.model, recorder_path, rate_hz=record_rate_hz,
-                                 scalar_names=SCALAR_NAMES)
+        recorder = TrialRecorder(
+            twin.model, recorder_path, rate_hz=record_rate_hz, scalar_names=SCALAR_NAMES
+        )
     watcher = _Watcher(twin, records, recorder)
     twin.line_listeners.append(watcher.on_line)
     bar = _Progress(len(records), progress)
@@ -317,8 +328,9 @@ def run_trial(scenario: Scenario, recorder_path: str | Path | None = None,
         horizon = 60.0 + 30.0 * len(records)
         while not (twin.pgf.done or twin.pgf.fault) and twin.time < horizon:
             twin.step_until(min(twin.time + 1.0, horizon), monitor=monitor)
-            bar.update(sum(r.outcome != "pending" or r.t_release_s is not None for r in records),
-                       twin.time)
+            bar.update(
+                sum(r.outcome != "pending" or r.t_release_s is not None for r in records), twin.time
+            )
         twin.step_until(twin.time + SETTLE_S, monitor=monitor)
         if not (twin.pgf.done or twin.pgf.fault):
             valid, reason = False, f"the PGF did not finish within {horizon:.0f} s simulated"
@@ -352,23 +364,29 @@ def _with_recording(watcher: _Watcher, recorder: Any):
             return
         pulses = twin.block.pulses[i]
         prev, t_prev = state["pulses"], state["t"]
-        rates = (np.zeros(3) if prev is None or t <= t_prev
-                 else np.abs(pulses - prev) / (t - t_prev))
+        rates = np.zeros(3) if prev is None or t <= t_prev else np.abs(pulses - prev) / (t - t_prev)
         state["pulses"], state["t"] = pulses.copy(), t
         cmd = twin.commanded_joints()
         act = twin.scene.joint_positions(twin.data)
         d = twin.data
-        scalars = np.array([
-            math.degrees(cmd[0]), math.degrees(act[0]),
-            math.degrees(cmd[1]), math.degrees(act[1]),
-            cmd[2] * 1e3, act[2] * 1e3,
-            rates[0], rates[1], rates[2],
-            twin.gripper.at(np.array([t]))[0] * twin._open_m_per_deg * 1e3,
-            twin.scene.gripper_opening(d) * 1e3,
-            twin.scene.grip_force(d),
-            math.degrees(twin.scene.wrist_angle(d)),
-            twin.scene.conveyor_position(d) * 1e3,
-        ])
+        scalars = np.array(
+            [
+                math.degrees(cmd[0]),
+                math.degrees(act[0]),
+                math.degrees(cmd[1]),
+                math.degrees(act[1]),
+                cmd[2] * 1e3,
+                act[2] * 1e3,
+                rates[0],
+                rates[1],
+                rates[2],
+                twin.gripper.at(np.array([t]))[0] * twin._open_m_per_deg * 1e3,
+                twin.scene.gripper_opening(d) * 1e3,
+                twin.scene.grip_force(d),
+                math.degrees(twin.scene.wrist_angle(d)),
+                twin.scene.conveyor_position(d) * 1e3,
+            ]
+        )
         recorder.frame(t, d, scalars)
 
     return monitor
@@ -398,10 +416,17 @@ def format_summary(result: TrialResult) -> str:
         ("scenario", f"{d['scenario']} (seed {d['seed']})"),
         ("valid", "yes" if d["valid"] else f"NO: {d['invalid_reason']}"),
         ("seedlings", f"{d['seedlings']}"),
-        ("success rate", f"{100 * d['success_rate']:.1f} % ({d['successes']}/{d['seedlings']}), "
-                         f"95 % CI {100 * lo:.1f}-{100 * hi:.1f} %"),
-        ("cycle time", "n/a" if d["cycle_time_s"] is None else
-         f"{d['cycle_time_s']:.3f} s mean, sd {d['cycle_time_sd_s'] or 0:.3f} s"),
+        (
+            "success rate",
+            f"{100 * d['success_rate']:.1f} % ({d['successes']}/{d['seedlings']}), "
+            f"95 % CI {100 * lo:.1f}-{100 * hi:.1f} %",
+        ),
+        (
+            "cycle time",
+            "n/a"
+            if d["cycle_time_s"] is None
+            else f"{d['cycle_time_s']:.3f} s mean, sd {d['cycle_time_sd_s'] or 0:.3f} s",
+        ),
         ("seedlings per minute", f"{d['seedlings_per_min']:.1f}"),
         ("simulated time", f"{d['sim_time_s']:.1f} s"),
         ("wall time", f"{d['wall_time_s']:.1f} s"),
@@ -423,12 +448,18 @@ def run_trial_cli(args) -> int:
     from transplanter.preflight import check_scenario
 
     scenario = load_scenario(args.scenario, overrides, extra_checks=check_scenario)
-    result = run_trial(scenario, recorder_path=args.record, record_rate_hz=args.record_rate,
-                       progress=not args.quiet)
+    result = run_trial(
+        scenario,
+        recorder_path=args.record,
+        record_rate_hz=args.record_rate,
+        progress=not args.quiet,
+    )
     print(format_summary(result))
     if args.json is not None:
         write_json_atomic(args.json, result.to_dict())
         print(f"results written to {args.json}")
     if args.record is not None:
-        print(f"recording written to {args.record} (view it with: transplanter replay {args.record})")
+        print(
+            f"recording written to {args.record} (view it with: transplanter replay {args.record})"
+        )
     return 0 if result.valid else 3

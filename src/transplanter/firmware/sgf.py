@@ -391,12 +391,14 @@ class SGF:
         job.move = move
         job.target_xyz = target
         job.t_done = job.t_start + move.duration_s
-        t0 = job.t_start
+        t0, t_done = job.t_start, job.t_done
         raw0 = self._raw.copy()
         start_steps = move.start_steps.copy()
 
         def evaluate(t: np.ndarray) -> np.ndarray:
-            return raw0 + (move.steps_at(t - t0) - start_steps)
+            # (t0 + duration) - t0 can round below duration: at the ack every step is out.
+            rel = np.where(t >= t_done, move.duration_s, t - t0)
+            return raw0 + (move.steps_at(rel) - start_steps)
 
         self._add_segment(t0, evaluate)
 

@@ -1,0 +1,75 @@
+"""Plans a G-code program through the SGF on a simulated clock (`transplanter plan`).
+
+Each line goes to the SGF exactly as over the bus, one at a time after the previous reply;
+homing reads simulated limit switches. For every line it reports how long the SGF took to
+answer and the net step pulses each motor made, or stops at the first error reply.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from transplanter.firmware.rig import SimulatedEndstops
+from transplanter.firmware.sgf import SGF
+from transplanter.gcode import GcodeError, parse_line
+from transplanter.machine import Machine
+
+__all__ = ["PlanError", "PlannedLine", "plan_program"]
+
+# Where the motors are at power-on: this far short of their limit switches.
+_START_OFFSET = np.array([np.radians(5.0), np.radians(5.0), 0.010])
+_DT_HOMING_S = 1e-3
+
+
+class PlanError(ValueError):
+    """A line the SGF refused; `line_no` is its 1-based line number in the file."""
+
+    def __init__(self, line_no: int, message: str):
+        super().__init__(message)
+        self.line_no = line_no
+
+
+@dataclass(frozen=True)
+class PlannedLine:
+    line_no: int
+    text: str
+    duration_s: float
+    steps: np.ndarray  # net pulses per motor (arm 1, arm 2, Z)
+    replies: tuple[str, ...]
+
+
+def plan_program(machine: Machine, lines: Iterable[str]) -> list[PlannedLine]:
+    """Run every line through a fresh SGF; PlanError at the first refused line."""
+    config = machine.sgf
+    sgf = SGF(config)
+    start = np.asarray(config.home_joint_positions) - _START_OFFSET * np.asarray(config.homing_dirs)
+    endstops = SimulatedEndstops(config, start)
+    t = 0.0
+    rows: list[PlannedLine] = []
+    for line_no, raw in enumerate(lines, start=1):
+        text = raw.strip()
+        try:
+            if parse_line(text) is None:
+                continue
+        except GcodeError as exc:
+            raise PlanError(line_no, exc.reply) from None
+        pulses0 = sgf.pulses_at(np.array([t]))[0]
+        t0 = t
+        sgf.receive(text, t)
+        replies: list[str] = []
+        while True:
+            replies += sgf.poll(t, endstops.read(sgf.pulses_at(np.array([t]))[0]))
+            if replies and (replies[-1] == "ok" or replies[-1].startswith("error")):
+                break
+            t_next = sgf.next_event_time()
+            t = t + _DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
+            if t - t0 > 3600.0:
+                raise PlanError(line_no, f"{text!r} did not finish within an hour of machine time")
+        if replies[-1].startswith("error"):
+            raise PlanError(line_no, replies[-1])
+        steps = sgf.pulses_at(np.array([t]))[0] - pulses0
+        rows.append(PlannedLine(line_no, text, t - t0, steps, tuple(replies[:-1])))
+    return rows

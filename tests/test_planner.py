@@ -1,0 +1,62 @@
+"""G-code program planning through the SGF (the engine of `transplanter plan`)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from transplanter.machine import machine_from_scenario
+from transplanter.planner import PlanError, plan_program
+from transplanter.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def machine():
+    return machine_from_scenario(load_scenario(ROOT / "scenarios" / "paper.toml"))
+
+
+def test_example_program_durations_and_steps(machine):
+    text = (ROOT / "scenarios" / "example.gcode").read_text().splitlines()
+    rows = plan_program(machine, text)
+    assert [r.line_no for r in rows][:3] == [2, 3, 4]  # comment line 1 skipped
+    by_text = {r.text.split(";")[0].strip(): r for r in rows}
+    grip = by_text["G1 X0 Y215 Z32 S60"]
+    # 40 mm at 60 mm/s with 1.5 m/s^2 ramps: 40/60 + 60/1500 s, to the Bresenham grid
+    assert grip.duration_s == pytest.approx(40 / 60 + 0.060 / 1.5, abs=0.01)
+    assert grip.steps[2] == 0 and grip.steps[0] == -grip.steps[1]  # symmetric, no Z
+    lift = by_text["G1 X0 Y215 Z100 S60"]
+    assert list(lift.steps) == [0, 0, 68 * 400]  # 68 mm at 400 steps/mm
+    dwell = by_text["G4 P250"]
+    assert dwell.duration_s == pytest.approx(0.25) and not dwell.steps.any()
+    # the moves after homing bring the motors back to the same place: net zero for the
+    # closed cycle approach -> grip -> lift -> retract (X/Y back at the approach point)
+    retract = by_text["G1 X0 Y175 Z100 S150"]
+    assert retract.steps[0] == -grip.steps[0]
+
+
+def test_first_error_names_its_line(machine):
+    program = ["G28", "G90", "G1 X0 Y200 Z50 S100", "G1 X0 Y400 Z50", "G1 X0 Y200 Z60"]
+    with pytest.raises(PlanError) as err:
+        plan_program(machine, program)
+    assert err.value.line_no == 4
+    assert str(err.value).startswith("error:33 target position not reachable")
+
+
+def test_malformed_line_and_unhomed_move(machine):
+    with pytest.raises(PlanError) as err:
+        plan_program(machine, ["G28", "G1 X1..2"])
+    assert err.value.line_no == 2 and str(err.value).startswith("error:2")
+    with pytest.raises(PlanError, match="home first"):
+        plan_program(machine, ["G1 X0 Y200 Z50"])
+
+
+def test_homing_ends_at_the_switches(machine):
+    rows = plan_program(machine, ["G28", "M114"])
+    assert rows[0].duration_s > 0
+    report = rows[1].replies[0]
+    # switches 1-3 at theta1 = 200 deg, theta2 = -20 deg, Z = 160 mm, then the pull-off
+    # (96 microsteps = 3.6 deg at the arm, 400 = 1 mm on Z) as grbl does
+    assert report == "X:0.000 Y:78.988 Z:159.000 A:5237 B:-437 C:63600"
+    assert np.array_equal(rows[1].steps, [0, 0, 0])
