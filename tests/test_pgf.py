@@ -24,7 +24,12 @@ def five_pickup_image() -> EepromImage:
 
 
 def expected_lines(seedlings: int) -> list[tuple[int | None, str, str]]:
-    lines = [(None, "home", "G28"), (None, "absolute", "G90")]
+    lines = [
+        (None, "home", "G28"),
+        (None, "absolute", "G90"),
+        (None, "start_elbow", "M280 P1 S12.5"),
+        (None, "to_start", "G1 X0 Y140 Z100 S150"),
+    ]
     for i in range(seedlings):
         c = i % 5
         x, e = CELL_X_MM[c], ELBOW_DEG[c]
@@ -111,12 +116,14 @@ def test_error_reply_faults_and_stops():
     pgf = PGF(five_pickup_image(), PGFConfig(seedlings=2, line_numbers=False))
     pgf.poll(0.0, [])
     pgf.poll(1.0, ["ok"])
-    assert pgf.poll(2.0, ["ok"]) == ["G1 X-90 Y175 Z32 S150"]
+    assert pgf.poll(2.0, ["ok"]) == ["M280 P1 S12.5"]
+    assert pgf.poll(2.5, ["ok"]) == ["G1 X0 Y140 Z100 S150"]
+    assert pgf.poll(2.7, ["ok"]) == ["G1 X-90 Y175 Z32 S150"]
     assert pgf.poll(3.0, ["error:33 target position not reachable: x"]) == []
     assert "not reachable" in pgf.fault and "approach" in pgf.fault
     assert pgf.sent[-1].reply.startswith("error:33") and pgf.sent[-1].t_reply == 3.0
     assert pgf.poll(4.0, ["ok"]) == [] and pgf.poll(5.0, []) == []
-    assert len(pgf.sent) == 3 and not pgf.done and pgf.current is None
+    assert len(pgf.sent) == 5 and not pgf.done and pgf.current is None
 
 
 def test_unexpected_ok_faults():

@@ -34,7 +34,7 @@ def taught_image(approach_y_m: float = 0.175) -> EepromImage:
 
 
 def expected_lines(seedlings: int) -> list[str]:
-    lines = ["G28", "G90"]
+    lines = ["G28", "G90", "M280 P1 S30", "G1 X0 Y140 Z100 S150"]
     for i in range(seedlings):
         x = CELL_X_MM[i % 5]
         lines += [
@@ -124,8 +124,8 @@ def test_five_pickup_cycle_through_bus(capsys):
 
     # servo commands: per seedling elbow, open, close, drop elbow, release
     servo = sgf.drain_servo_commands()
-    assert [(i, d) for _, i, d in servo] == [(1, 90.0), (0, 155.0), (0, 60.0), (1, 30.0),
-                                             (0, 155.0)] * 5  # fmt: skip
+    assert [(i, d) for _, i, d in servo] == [(1, 30.0)] + [
+        (1, 90.0), (0, 155.0), (0, 60.0), (1, 30.0), (0, 155.0)] * 5  # fmt: skip
 
     homed_at = next(s.t_reply for s in pgf.sent if s.phase == "home")
     first = next(s.t_sent for s in pgf.sent if s.seedling == 0)
@@ -148,11 +148,13 @@ def test_unreachable_taught_point_gives_error_and_moves_nothing():
     result = run_firmware(pgf, ComBus(), sgf, endstops)
     assert not result.done
     assert "target position not reachable" in result.fault
-    assert [s.phase for s in pgf.sent] == ["home", "absolute", "approach"]
+    assert [s.phase for s in pgf.sent] == ["home", "absolute", "start_elbow", "to_start",
+                                           "approach"]
     assert pgf.sent[-1].reply.startswith("error:33 target position not reachable")
-    homed_raw = sgf.homing_trip_raw - np.array(config.homing_dirs) * config.homing_pulloff_steps
-    assert np.array_equal(sgf.raw_pulses, homed_raw)
-    assert np.array_equal(sgf.pulses_at([result.end_time_s, 1e3]), np.stack([homed_raw] * 2))
+    before = sgf.pulses_at(pgf.sent[-1].t_sent)[0]  # at the drop point, after to_start
+    assert np.allclose(sgf.position_xyz, [0.0, 0.140, 0.100])
+    assert np.array_equal(sgf.raw_pulses, before)
+    assert np.array_equal(sgf.pulses_at([result.end_time_s, 1e3]), np.stack([before] * 2))
 
 
 def test_malformed_line_over_bus_gives_error_and_moves_nothing():

@@ -22,7 +22,9 @@ Per seedling i (pickup c = i mod M_pp) the lines and their phases are::
     G4 P<release_dwell>                                release_wait
     M710                                               index (after the row's last pickup)
 
-framed by ``G28`` (home), ``G90`` (absolute) at the start and ``M400`` (finish) at the end.
+framed by ``G28`` (home), ``G90`` (absolute), the wrist to M_dep and a move to the drop point
+(the cycle's initial position, paper section 1.2) at the start, and ``M400`` (finish) at the
+end.
 """
 
 from __future__ import annotations
@@ -105,15 +107,18 @@ def _ms(value_s: float) -> float:
 
 def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, ...]:
     """Every line the PGF will send, in order (Algorithm 2 unrolled)."""
-    lines: list[tuple[int | None, str, str, dict]] = [
-        (None, "home", "G28", {}),
-        (None, "absolute", "G90", {}),
-    ]
     open_deg, close_deg = config.gripper_open_deg, config.gripper_close_deg
     gripper, wrist = config.gripper_servo, config.wrist_servo
     z_low, z_up = _mm(eeprom.z_low_m), _mm(eeprom.z_up_m)
     s_low, s_high = _mm(eeprom.s_low_m_s), _mm(eeprom.s_high_m_s)
     drop_x, drop_y = (_mm(v) for v in eeprom.drop_xy_m)
+    # The drop point is the cycle's initial position (paper 1.2): go there once after homing.
+    lines: list[tuple[int | None, str, str, dict]] = [
+        (None, "home", "G28", {}),
+        (None, "absolute", "G90", {}),
+        (None, "start_elbow", "M280", {"P": wrist, "S": eeprom.drop_elbow_deg}),
+        (None, "to_start", "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
+    ]
 
     for seedling in range(config.seedlings):
         pickup_index = seedling % eeprom.m_pp
