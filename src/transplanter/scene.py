@@ -43,6 +43,7 @@ BIT_GRIPPER = 4
 BIT_LEAF = 16
 ROW_BIT_FIRST = 8
 ROW_BITS = 24
+PASSIVE_DROP = 0.015  # passive links run this far below the active ones (visual only)
 LEAF_GAP = 0.5  # leaf proxies: margin -0.5 m and gap 0.5 m -> inactive contacts on overlap
 
 
@@ -83,6 +84,9 @@ class SceneConfig:
     # stable at 1 too with the 1 ms step and its large reflected rotor inertia).
     arm_stiffness_scale: float = 1.0
     z_stiffness_scale: float = 1.0
+    # Damping ratio of the position loop (MuJoCo dampratio: kv from the reflected inertia);
+    # it damps the ringing about the commanded step without touching the torque limit.
+    stepper_dampratio: float = 0.5
     # Mass of the Z carriage with motors and belts (kg), masses of active/passive links (kg).
     platform_mass: float = 1.0
     active_link_mass: float = 0.06
@@ -530,11 +534,11 @@ def _apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     for i in (1, 2):
         spec.geom(f"link{i}").fromto = [0, 0, 0, cfg.l1, 0, 0]
         spec.geom(f"link{i}").mass = cfg.active_link_mass
-        spec.body(f"passive{i}").pos = [cfg.l1, 0, -0.015]
+        spec.body(f"passive{i}").pos = [cfg.l1, 0, -PASSIVE_DROP]
         spec.geom(f"passive{i}").fromto = [0, 0, 0, cfg.l2, 0, 0]
         spec.geom(f"passive{i}").mass = cfg.passive_link_mass
         spec.site(f"c{i}").pos = [cfg.l2, 0, 0]
-    spec.body("gripper").pos = [cfg.l2, 0, 0]
+    spec.body("gripper").pos = [cfg.l2, 0, PASSIVE_DROP]
     spec.geom("platform").mass = cfg.platform_mass
     # Column: arm plane at column_height above the grip centre (the gripper's parts below C
     # are laid out relative to the grip centre).
@@ -565,7 +569,7 @@ def _apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         kp = scale * torque / FULL_STEP_RAD
         act.gear = [gear, 0, 0, 0, 0, 0]
         act.gainprm = [kp] + [0] * 9
-        act.biasprm = [0, -kp, 0] + [0] * 7
+        act.biasprm = [0, -kp, cfg.stepper_dampratio] + [0] * 7
         act.forcerange = [-torque, torque]
         joint = spec.joint(joint_name)
         joint.damping = [torque / cfg.pullout_zero_speed * gear**2, 0, 0]
