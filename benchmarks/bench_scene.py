@@ -1,0 +1,93 @@
+"""Steps per second of the full 40-pot scene: all resting, and while the arm works on row 0.
+
+Run: /tmp/venv/bin/python benchmarks/bench_scene.py
+"""
+
+import math
+import sys
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
+from transplanter.scene import SceneConfig, build_scene, five_bar_forward  # noqa: E402
+
+
+def ik(cfg, x, y):
+    d1, d2 = np.hypot(x + cfg.l0, y), np.hypot(x - cfg.l0, y)
+    b1, b2 = np.arctan2(y, x + cfg.l0), np.arctan2(y, x - cfg.l0)
+    g1 = np.arccos((cfg.l1**2 + d1**2 - cfg.l2**2) / (2 * cfg.l1 * d1))
+    g2 = np.arccos((cfg.l1**2 + d2**2 - cfg.l2**2) / (2 * cfg.l1 * d2))
+    return b1 + g1, b2 - g2
+
+
+def main() -> None:
+    cfg = SceneConfig()
+    scene = build_scene(cfg, seed=0)
+    model, data = scene.model, scene.make_data()
+    print(f"nq={model.nq} nv={model.nv} ngeom={model.ngeom} nbody={model.nbody}")
+    for _ in range(300):
+        mujoco.mj_step(model, data)
+
+    n = 5000
+    start = time.perf_counter()
+    for _ in range(n):
+        scene.apply_conveyor(data, data.time)
+        mujoco.mj_step(model, data)
+    print(
+        f"resting: {n / (time.perf_counter() - start):,.0f} steps/s, "
+        f"awake trees {data.ntree_awake}/{model.ntree}"
+    )
+
+    # Working on row 0: pick the centre pot, lift, move over the neighbours and back.
+    y0, z_low = cfg.pickup_row_y, 0.032
+    t1, t2 = ik(cfg, 0.0, y0 - 0.03)
+    scene.set_wrist_angle(data, math.pi / 2 - (t1 + five_bar_forward(cfg, t1, t2)[0]))
+    scene.set_gripper_opening(data, 0.041)
+    waypoints = [
+        (0.0, y0 - 0.03, 0.10),
+        (0.0, y0 - 0.03, z_low),
+        (0.0, y0, z_low),
+        "close",
+        (0.0, y0, z_low + 0.05),
+        (0.0, 0.14, z_low + 0.05),
+        "open",
+        (0.0, y0 - 0.03, 0.10),
+    ]
+    # Joint targets precomputed (the firmware does that per move, not per physics step).
+    p = data.site_xpos[scene.grip_site].copy()
+    plan, gripper_events = [], {}
+    for wp in waypoints:
+        if isinstance(wp, str):
+            gripper_events[len(plan)] = 0.0 if wp == "close" else 0.041
+            plan += [plan[-1]] * 300
+            continue
+        target = np.array(wp)
+        k = max(int(np.linalg.norm(target - p) / 0.05 / model.opt.timestep), 50)
+        for i in range(1, k + 1):
+            q = p + (target - p) * (i / k)
+            plan.append((*ik(cfg, q[0], q[1]), q[2]))
+        p = target
+    targets = np.array(plan) * scene.motor_gears
+    awake = np.zeros(len(targets))
+    ctrl, motors = data.ctrl, scene.motor_actuators
+    start = time.perf_counter()
+    for i, target in enumerate(targets):
+        if i in gripper_events:
+            scene.set_gripper_opening(data, gripper_events[i])
+        ctrl[motors] = target
+        scene.apply_conveyor(data, data.time)
+        mujoco.mj_step(model, data)
+        awake[i] = data.ntree_awake
+    elapsed = time.perf_counter() - start
+    print(
+        f"working on row 0: {len(targets) / elapsed:,.0f} steps/s over {len(targets)} steps, "
+        f"mean awake trees {awake.mean():.1f}; centre pot in tube: "
+        f"{scene.pot_in_tube(data)[2]}; warnings {data.warning.number.sum()}"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,96 @@
+"""Write the visual meshes of the twin to models/assets/ (re-runnable, deterministic).
+
+Run: /tmp/venv/bin/python scripts/make_meshes.py
+
+Meshes are visual only; every collision shape is a MuJoCo primitive (see models/*.xml and
+transplanter.scene). Sizes are the DESIGN.md defaults in metres; build_scene scales the pot
+and seedling meshes per pot with the mesh `scale` attribute, so the meshes are unit-ish shapes:
+- paper_pot.stl: tapered paper pot, 35 mm dia x 52 mm, base at z=0.
+- seedling_stem.stl, seedling_leaf.stl: stem (base at z=0, 40 mm) and one leaf blade that
+  starts at the origin and extends along +x (45 mm), curving up.
+- jaw.stl: one jaw plate, 3 x 20 x 50 mm, centred, with a ribbed inner face.
+- funnel.stl: funnel (60 mm top dia at z=0, 40 mm throat 20 mm lower) and 140 mm tube below.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+ASSETS = Path(__file__).resolve().parent.parent / "models" / "assets"
+
+
+def paper_pot() -> trimesh.Trimesh:
+    """Slightly tapered cylinder, top rim 35 mm, bottom 32 mm, 52 mm tall, base at z=0."""
+    sections = 32
+    angles = np.linspace(0.0, 2 * np.pi, sections, endpoint=False)
+    bottom = np.c_[0.016 * np.cos(angles), 0.016 * np.sin(angles), np.zeros(sections)]
+    top = np.c_[0.0175 * np.cos(angles), 0.0175 * np.sin(angles), np.full(sections, 0.052)]
+    vertices = np.vstack([bottom, top, [[0, 0, 0]], [[0, 0, 0.052]]])
+    faces = []
+    for i in range(sections):
+        j = (i + 1) % sections
+        faces += [[i, j, sections + j], [i, sections + j, sections + i]]
+        faces += [[2 * sections, j, i], [2 * sections + 1, sections + i, sections + j]]
+    return trimesh.Trimesh(vertices, np.array(faces), process=True)
+
+
+def seedling_stem() -> trimesh.Trimesh:
+    stem = trimesh.creation.cylinder(radius=0.0015, height=0.040, sections=12)
+    stem.apply_translation([0, 0, 0.020])
+    return stem
+
+
+def seedling_leaf() -> trimesh.Trimesh:
+    """Thin leaf blade along +x from the origin, 45 mm long, 18 mm wide, bending upwards."""
+    n = 16
+    s = np.linspace(0.0, 1.0, n)
+    half_width = 0.009 * np.sin(np.pi * s) + 1e-4
+    x = 0.045 * s
+    z = 0.015 * s**2
+    left = np.c_[x, half_width, z]
+    right = np.c_[x, -half_width, z]
+    vertices = np.vstack([left, right])
+    faces = []
+    for i in range(n - 1):
+        faces += [[i, n + i, i + 1], [i + 1, n + i, n + i + 1]]
+    faces = np.array(faces)
+    faces = np.vstack([faces, faces[:, ::-1]])  # two-sided
+    return trimesh.Trimesh(vertices, faces, process=True)
+
+
+def jaw() -> trimesh.Trimesh:
+    plate = trimesh.creation.box(extents=[0.003, 0.020, 0.050])
+    ribs = [
+        trimesh.creation.box(extents=[0.0008, 0.020, 0.002]).apply_translation([0, 0, z])
+        for z in np.linspace(-0.02, 0.02, 6)
+    ]
+    return trimesh.util.concatenate([plate, *ribs])
+
+
+def funnel() -> trimesh.Trimesh:
+    """Open funnel + tube as a thin shell of revolution (top of funnel at z=0)."""
+    profile_outer = np.array(
+        [[0.030, 0.0], [0.021, -0.020], [0.021, -0.160]]
+    )  # (radius, z) along the wall
+    thickness = 0.0015
+    profile = np.vstack([profile_outer, (profile_outer + [thickness, 0])[::-1]])
+    return trimesh.creation.revolve(profile, sections=48)
+
+
+def main() -> None:
+    ASSETS.mkdir(parents=True, exist_ok=True)
+    meshes = {
+        "paper_pot.stl": paper_pot(),
+        "seedling_stem.stl": seedling_stem(),
+        "seedling_leaf.stl": seedling_leaf(),
+        "jaw.stl": jaw(),
+        "funnel.stl": funnel(),
+    }
+    for name, mesh in meshes.items():
+        mesh.export(ASSETS / name)
+        print(f"wrote {ASSETS / name} ({len(mesh.faces)} faces)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,145 @@
+"""Model files: compile, run warning-free, five-bar accuracy, stepper lost steps."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from transplanter.scene import SceneConfig, build_scene, five_bar_forward, models_dir
+
+CFG = SceneConfig()
+FULL_STEP = 2 * math.pi / 200
+
+
+def ik(cfg, x, y):
+    """Elbows-out five-bar IK (paper eqs 6-7), test-local."""
+    d1, d2 = np.hypot(x + cfg.l0, y), np.hypot(x - cfg.l0, y)
+    b1, b2 = np.arctan2(y, x + cfg.l0), np.arctan2(y, x - cfg.l0)
+    g1 = np.arccos((cfg.l1**2 + d1**2 - cfg.l2**2) / (2 * cfg.l1 * d1))
+    g2 = np.arccos((cfg.l1**2 + d2**2 - cfg.l2**2) / (2 * cfg.l1 * d2))
+    return b1 + g1, b2 - g2
+
+
+def run_noisy(model, seconds=2.0, seed=0):
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    rng = np.random.default_rng(seed)
+    base = data.ctrl.copy()
+    scale = np.where(model.actuator_gear[:, 0] > 100, 0.02 * model.actuator_gear[:, 0], 0.05)
+    for _ in range(int(seconds / model.opt.timestep)):
+        data.ctrl[:] = base + scale * rng.standard_normal(model.nu)
+        lo, hi = model.actuator_ctrlrange.T
+        limited = model.actuator_ctrllimited.astype(bool)
+        data.ctrl[limited] = np.clip(data.ctrl[limited], lo[limited], hi[limited])
+        mujoco.mj_step(model, data)
+    return data
+
+
+@pytest.mark.parametrize("name", ["transplanter.xml", "scene.xml"])
+def test_model_files_run_without_warnings(name):
+    model = mujoco.MjModel.from_xml_path(str(models_dir() / name))
+    data = run_noisy(model)
+    assert data.warning.number.sum() == 0
+    assert np.all(np.isfinite(data.qpos))
+
+
+def test_built_scene_runs_without_warnings():
+    scene = build_scene(SceneConfig(rows=2, cols=5), seed=3)
+    data = run_noisy(scene.model)
+    assert data.warning.number.sum() == 0
+
+
+def test_home_keyframe_closes_the_loop_and_matches_fk():
+    model = mujoco.MjModel.from_xml_path(str(models_dir() / "transplanter.xml"))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    gap = np.linalg.norm(data.site("c1").xpos - data.site("c2").xpos)
+    assert gap < 1e-5
+    phi1, phi2 = five_bar_forward(CFG, CFG.home_theta1, CFG.home_theta2)
+    assert data.joint("phi1").qpos[0] == pytest.approx(phi1, abs=1e-5)
+    assert data.joint("phi2").qpos[0] == pytest.approx(phi2, abs=1e-5)
+    assert data.site("grip_center").xpos[2] == pytest.approx(0.150, abs=1e-9)
+
+
+def workspace_points(n, seed=0):
+    """Random points of x in [-100, 100] mm, y in [120, 240] mm whose IK lies in the joint
+    ranges (theta1 <= 170 deg, theta2 >= 10 deg); corners outside the ranges are skipped."""
+    rng = np.random.default_rng(seed)
+    points = []
+    while len(points) < n:
+        x, y = rng.uniform(-0.1, 0.1), rng.uniform(0.12, 0.24)
+        t1, t2 = ik(CFG, x, y)
+        if t1 < math.radians(168) and t2 > math.radians(12):
+            points.append((x, y))
+    return np.array(points)
+
+
+def test_grip_center_reaches_ik_targets():
+    scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
+    model, data = scene.model, scene.make_data()
+    errors = []
+    previous = data.site("grip_center").xpos[:2].copy()
+    for target in workspace_points(50):
+        for i in range(1, 301):  # straight line over 0.3 s, then 0.2 s to settle
+            t1, t2 = ik(CFG, *(previous + (target - previous) * min(i / 200, 1.0)))
+            scene.set_motor_targets(data, [t1, t2, 0.12])
+            mujoco.mj_step(model, data)
+        errors.append(np.hypot(*(data.site("grip_center").xpos[:2] - target)))
+        previous = target
+    assert max(errors) < 0.0005, max(errors)
+
+
+def test_loop_stays_closed_in_a_fast_move():
+    scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
+    model, data = scene.model, scene.make_data()
+    start, end = np.array([-0.08, 0.22]), np.array([0.08, 0.20])
+    t1, t2 = ik(CFG, *start)
+    scene.set_motor_targets(data, [t1, t2, 0.12])
+    for _ in range(500):
+        mujoco.mj_step(model, data)
+    steps = int(np.linalg.norm(end - start) / 0.5 / model.opt.timestep)
+    gaps = []
+    for i in range(1, steps + 1):
+        p = start + (end - start) * i / steps
+        t1, t2 = ik(CFG, *p)
+        scene.set_motor_targets(data, [t1, t2, 0.12])
+        mujoco.mj_step(model, data)
+        gaps.append(np.linalg.norm(data.site_xpos[scene.c1_site] - data.site_xpos[scene.c2_site]))
+    assert max(gaps) < 5e-5, max(gaps)
+    assert np.linalg.norm(data.site("grip_center").xpos[:2] - end) < 0.002
+
+
+def max_motor_lag(speed_rad_s):
+    """Ramp theta1 from 160 to 100 deg at speed_rad_s; return max motor-side lag (rad)."""
+    scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
+    model, data = scene.model, scene.make_data()
+    t0, t1 = CFG.home_theta1, math.radians(100)
+    # theta2 follows so the chain stays closable
+    q = scene.joint_positions(data)
+    lag = 0.0
+    n = int(abs(t1 - t0) / speed_rad_s / model.opt.timestep)
+    for i in range(1, n + 200):
+        s = min(i / n, 1.0)
+        scene.set_motor_targets(data, [t0 + (t1 - t0) * s, q[1], q[2]])
+        mujoco.mj_step(model, data)
+        motor = scene.motor_gears[0] * data.qpos[scene.motor_qpos_adr[0]]
+        lag = max(lag, abs(data.ctrl[scene.motor_actuators[0]] - motor))
+    return lag
+
+
+def test_overspeed_loses_steps_and_normal_move_does_not():
+    assert max_motor_lag(40.0) > 2 * FULL_STEP  # 120 rad/s at the motor > 94 rad/s pull-out
+    assert max_motor_lag(2.0) < 2 * FULL_STEP
+
+
+def test_limit_switches_trip_at_the_homing_positions():
+    scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
+    data = scene.make_data()
+    assert not scene.limit_switches(data).any()
+    adr = scene.motor_qpos_adr
+    data.qpos[adr] = [math.radians(165.5), math.radians(14.5), 0.161]
+    assert scene.limit_switches(data).tolist() == [True, True, True, False]
+    data.qpos[adr[2]] = 0.004
+    assert scene.limit_switches(data).tolist() == [True, True, False, True]

@@ -1,0 +1,187 @@
+"""Scene builder: grasp by friction, drop tube, sleeping, conveyor indexing."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from transplanter.scene import SceneConfig, build_scene, five_bar_forward
+
+
+def ik(cfg, x, y):
+    d1, d2 = np.hypot(x + cfg.l0, y), np.hypot(x - cfg.l0, y)
+    b1, b2 = np.arctan2(y, x + cfg.l0), np.arctan2(y, x - cfg.l0)
+    g1 = np.arccos((cfg.l1**2 + d1**2 - cfg.l2**2) / (2 * cfg.l1 * d1))
+    g2 = np.arccos((cfg.l1**2 + d2**2 - cfg.l2**2) / (2 * cfg.l1 * d2))
+    return b1 + g1, b2 - g2
+
+
+class Runner:
+    """Straight-line Cartesian moves with min-jerk timing, test-local."""
+
+    def __init__(self, scene):
+        self.scene, self.model = scene, scene.model
+        self.data = scene.make_data()
+        self.p = self.data.site_xpos[scene.grip_site].copy()
+
+    def step(self, n=1):
+        for _ in range(n):
+            self.scene.apply_conveyor(self.data, self.data.time)
+            mujoco.mj_step(self.model, self.data)
+
+    def move(self, target, speed):
+        target = np.asarray(target, float)
+        length = np.linalg.norm(target - self.p)
+        n = max(int(length / speed * 1.875 / self.model.opt.timestep), 20)
+        cfg = self.scene.config
+        for i in range(1, n + 1):
+            s = i / n
+            s = s**3 * (10 - 15 * s + 6 * s * s)
+            x, y, z = self.p + (target - self.p) * s
+            t1, t2 = ik(cfg, x, y)
+            self.scene.set_motor_targets(self.data, [t1, t2, z])
+            self.step()
+        self.p = target
+
+
+def grasp_and_carry(scene, cell_x=0.0, z_low=0.032):
+    run = Runner(scene)
+    run.step(300)  # let the pots settle (and fall asleep)
+    cfg, y0 = scene.config, scene.config.pickup_row_y
+    t1, t2 = ik(cfg, cell_x, y0 - 0.03)
+    psi1 = t1 + five_bar_forward(cfg, t1, t2)[0]
+    scene.set_wrist_angle(run.data, math.pi / 2 - psi1)
+    scene.set_gripper_opening(run.data, 0.041)
+    run.move([cell_x, y0 - 0.03, 0.10], 0.05)
+    run.move([cell_x, y0 - 0.03, z_low], 0.05)
+    run.move([cell_x, y0, z_low], 0.05)
+    scene.set_gripper_opening(run.data, 0.0)
+    run.step(300)
+    grip_force = scene.grip_force(run.data)
+    run.move([cell_x, y0, z_low + 0.04], 0.04)
+    run.move([cell_x + 0.075, y0, z_low + 0.04], 0.3)
+    run.move([cell_x - 0.075, y0, z_low + 0.04], 0.5)  # the 150 mm carry at 0.5 m/s
+    run.step(200)
+    return run, grip_force
+
+
+def one_heavy_pot(friction):
+    return SceneConfig(
+        rows=1,
+        cols=1,
+        pot_mass=0.08,
+        pot_mass_sd=0.0,
+        pot_friction=friction,
+        pot_friction_sd=0.0,
+        pot_friction_min=0.0,
+    )
+
+
+@pytest.mark.slow
+def test_friction_grasp_carries_an_80g_pot_and_frictionless_pot_is_lost():
+    scene = build_scene(one_heavy_pot(0.6), seed=0)
+    run, grip_force = grasp_and_carry(scene)
+    assert grip_force == pytest.approx(2 * scene.config.grip_force, rel=0.05)
+    pot = scene.pot_positions(run.data)[0]
+    grip = run.data.site_xpos[scene.grip_site]
+    assert np.linalg.norm(pot[:2] - grip[:2]) < 0.005
+    assert pot[2] > 0.055  # lifted: resting centre is at 0.026 m
+    assert scene.pots_touching_jaws(run.data).tolist() == [0]
+    assert run.data.warning.number.sum() == 0
+
+    slippery = build_scene(one_heavy_pot(0.0), seed=0)
+    run, _ = grasp_and_carry(slippery)
+    pot = slippery.pot_positions(run.data)[0]
+    assert np.linalg.norm(pot[:2] - run.data.site_xpos[slippery.grip_site][:2]) > 0.05
+    assert pot[2] < 0.03
+
+
+@pytest.mark.parametrize("offset, inside", [(0.0, True), (0.06, False)])
+def test_pot_released_above_funnel_lands_in_tube(offset, inside):
+    scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
+    data = scene.make_data()
+    adr = scene.pot_qpos_adr[0]
+    x, y = scene.config.drop_tube_xy
+    data.qpos[adr : adr + 3] = [x + offset, y, 0.06]
+    for _ in range(800):
+        mujoco.mj_step(scene.model, data)
+    assert scene.pot_in_tube(data)[0] == inside
+
+
+@pytest.mark.slow
+def test_sleeping_does_not_change_a_grasp():
+    results = []
+    for sleep in (True, False):
+        scene = build_scene(SceneConfig(rows=3, cols=1, sleep=sleep), seed=4)
+        run, _ = grasp_and_carry(scene)
+        results.append(scene.pot_positions(run.data))
+    assert np.abs(results[0] - results[1]).max() < 0.001
+
+
+@pytest.mark.slow
+def test_dense_jacobian_gives_the_same_grasp():
+    results = []
+    for jac in ("sparse", "dense"):
+        scene = build_scene(SceneConfig(rows=1, cols=3, jacobian=jac), seed=2)
+        run, _ = grasp_and_carry(scene)
+        results.append(scene.pot_positions(run.data))
+    assert np.abs(results[0] - results[1]).max() < 0.001
+
+
+def test_conveyor_index_moves_pots_one_row_and_they_rest():
+    cfg = SceneConfig(rows=3, cols=3)
+    scene = build_scene(cfg, seed=5)
+    run = Runner(scene)
+    # the pickup row has been emptied (its pots moved away onto the ground)
+    for c in range(cfg.cols):
+        adr = scene.pot_qpos_adr[c]
+        run.data.qpos[adr : adr + 3] = [0.4 + 0.05 * c, 0.0, -0.13]
+    run.step(300)
+    assert run.data.ntree_awake == 1  # only the arm: pots and conveyor asleep
+    back_rows = slice(cfg.cols, None)
+    before = scene.pot_positions(run.data)[back_rows]
+    scene.start_conveyor_index(run.data, run.data.time, 1.0)
+    assert scene.conveyor_indexing(run.data.time)
+    while scene.conveyor_indexing(run.data.time):
+        run.step()
+    run.step(300)
+    after = scene.pot_positions(run.data)[back_rows]
+    moved = before - after
+    # the cleats re-centre each pot in its cell: displacement = pitch + its placement offset
+    offset_y = scene.pot_params["offset"][back_rows, 1]
+    assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.002
+    assert np.abs(moved[:, 0]).max() < 0.002
+    cells = scene.pot_params["cell_xy"][back_rows] - [0, cfg.row_pitch]
+    assert np.abs(after[:, :2] - cells).max() < 0.004
+    assert np.abs(run.data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]).max() < 1e-3
+    assert run.data.ntree_awake == 1  # all asleep again
+    assert scene.conveyor_position(run.data) == pytest.approx(-cfg.row_pitch, abs=1e-3)
+
+
+def test_build_is_deterministic_and_seed_dependent():
+    a = build_scene(SceneConfig(rows=2, cols=2), seed=7).pot_params
+    b = build_scene(SceneConfig(rows=2, cols=2), seed=7).pot_params
+    c = build_scene(SceneConfig(rows=2, cols=2), seed=8).pot_params
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+    assert not np.array_equal(a["mass"], c["mass"])
+
+
+def test_leaf_proxies_report_hits_without_force():
+    scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
+    data = scene.make_data()
+    assert not scene.leaf_hits(data)
+    # put the pot right under the palm: its leaves overlap the gripper
+    adr = scene.pot_qpos_adr[0]
+    grip = data.site_xpos[scene.grip_site]
+    data.qpos[adr : adr + 3] = [grip[0], grip[1], grip[2] - 0.02]
+    mujoco.mj_forward(scene.model, data)
+    assert scene.leaf_hits(data)
+    assert scene.leaf_hit_pots(data).tolist() == [0]
+
+
+def test_bad_config_is_rejected():
+    with pytest.raises(ValueError, match="pot_diameter"):
+        SceneConfig(pot_diameter=0.044)
+    with pytest.raises(ValueError, match="rows"):
+        SceneConfig(rows=0)
