@@ -64,15 +64,16 @@ def test_home_keyframe_closes_the_loop_and_matches_fk():
 
 
 def workspace_points(n, seed=0):
-    """Random points of x in [-100, 100] mm, y in [120, 240] mm whose IK lies in the joint
-    ranges (theta1 <= 170 deg, theta2 >= 10 deg); corners outside the ranges are skipped."""
+    """Random points of x in [-100, 100] mm, y in [120, 240] mm (the DESIGN workspace); their
+    IK lies inside the joint ranges (theta1 in [75, 240] deg, theta2 in [-60, 105] deg)."""
     rng = np.random.default_rng(seed)
     points = []
     while len(points) < n:
         x, y = rng.uniform(-0.1, 0.1), rng.uniform(0.12, 0.24)
         t1, t2 = ik(CFG, x, y)
-        if t1 < math.radians(168) and t2 > math.radians(12):
-            points.append((x, y))
+        assert CFG.theta1_range[0] < t1 < CFG.theta1_range[1]
+        assert CFG.theta2_range[0] < t2 < CFG.theta2_range[1]
+        points.append((x, y))
     return np.array(points)
 
 
@@ -139,7 +140,7 @@ def test_limit_switches_trip_at_the_homing_positions():
     data = scene.make_data()
     assert not scene.limit_switches(data).any()
     adr = scene.motor_qpos_adr
-    data.qpos[adr] = [math.radians(165.5), math.radians(14.5), 0.161]
+    data.qpos[adr] = [math.radians(200.5), math.radians(-20.5), 0.161]
     assert scene.limit_switches(data).tolist() == [True, True, True, False]
     data.qpos[adr[2]] = 0.004
     assert scene.limit_switches(data).tolist() == [True, True, False, True]

@@ -148,8 +148,13 @@ def test_unreachable_taught_point_gives_error_and_moves_nothing():
     result = run_firmware(pgf, ComBus(), sgf, endstops)
     assert not result.done
     assert "target position not reachable" in result.fault
-    assert [s.phase for s in pgf.sent] == ["home", "absolute", "start_elbow", "to_start",
-                                           "approach"]
+    assert [s.phase for s in pgf.sent] == [
+        "home",
+        "absolute",
+        "start_elbow",
+        "to_start",
+        "approach",
+    ]
     assert pgf.sent[-1].reply.startswith("error:33 target position not reachable")
     before = sgf.pulses_at(pgf.sent[-1].t_sent)[0]  # at the drop point, after to_start
     assert np.allclose(sgf.position_xyz, [0.0, 0.140, 0.100])

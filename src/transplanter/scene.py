@@ -103,15 +103,21 @@ class SceneConfig:
     wrist_kp: float = 3.0
     wrist_torque: float = 0.25
 
-    # --- limit switches (firmware homing positions; rad, rad, m, m).
-    switch1_theta1_min: float = math.radians(165.0)
-    switch2_theta2_max: float = math.radians(15.0)
+    # --- active joint travel (rad): the elbows-out workspace needs theta1 in [95, 219] deg
+    # and theta2 in [-39, 85] deg; the hard stops sit beyond the limit switches.
+    theta1_range: tuple[float, float] = (math.radians(75.0), math.radians(240.0))
+    theta2_range: tuple[float, float] = (math.radians(-60.0), math.radians(105.0))
+
+    # --- limit switches (firmware homing positions; rad, rad, m, m): the arms fold back.
+    switch1_theta1_min: float = math.radians(200.0)
+    switch2_theta2_max: float = math.radians(-20.0)
     switch3_z_min: float = 0.160
     switch4_z_max: float = 0.005
 
-    # --- home keyframe: active angles (rad), Z (m); the gripper is fully open.
-    home_theta1: float = math.radians(160.0)
-    home_theta2: float = math.radians(20.0)
+    # --- home keyframe (power-on pose): active angles (rad), Z (m), a little short of the
+    # limit switches; the gripper is fully open.
+    home_theta1: float = math.radians(195.0)
+    home_theta2: float = math.radians(-15.0)
     home_z: float = 0.150
 
     # --- conveyor layout: rows x cols cells, cell pitch in x, row pitch in y (m); the pickup
@@ -572,6 +578,8 @@ def _apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         act.biasprm = [0, -kp, cfg.stepper_dampratio] + [0] * 7
         act.forcerange = [-torque, torque]
         joint = spec.joint(joint_name)
+        if joint_name != "z":
+            joint.range = list(cfg.theta1_range if joint_name == "theta1" else cfg.theta2_range)
         joint.damping = [torque / cfg.pullout_zero_speed * gear**2, 0, 0]
         joint.armature = cfg.rotor_inertia * gear**2
 

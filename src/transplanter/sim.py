@@ -52,43 +52,50 @@ class SimulationInvalid(RuntimeError):
 
 
 def scene_config_from_scenario(s: Scenario) -> SceneConfig:
-    """The physical parameters of a scenario as the scene builder's config."""
-    arm, drv, grip, conv, pots, tube, phys = (
-        s["arm"],
-        s["drives"],
-        s["gripper"],
-        s["conveyor"],
-        s["pots"],
-        s["drop_tube"],
-        s["physics"],
-    )
+    """The physical parameters of a scenario as the scene builder's config.
+
+    The power-on pose (the `home` keyframe) is 5 deg short of limit switches 1 and 2 and
+    10 mm below switch 3, so that G28 has a little way to travel.
+    """
+    arm, drv, grip, conv, pots, tube, phys, lim = (
+        s["arm"], s["drives"], s["gripper"], s["conveyor"], s["pots"], s["drop_tube"],
+        s["physics"], s["limits"],
+    )  # fmt: skip
+    five_deg = math.radians(5.0)
     return SceneConfig(
-        l0_m=arm["l0_m"],
-        l1_m=arm["l1_m"],
-        l2_m=arm["l2_m"],
-        holding_torque_nm=drv["holding_torque_nm"],
-        arm_gear=drv["arm_belt_ratio"],
-        z_lead_m=drv["z_lead_m"],
-        grip_force_n=grip["grip_force_n"],
-        max_opening_m=grip["max_opening_m"],
+        l0=arm["l0_m"],
+        l1=arm["l1_m"],
+        l2=arm["l2_m"],
+        holding_torque=drv["holding_torque_nm"],
+        arm_belt_ratio=drv["arm_belt_ratio"],
+        screw_lead=drv["z_lead_m"],
+        switch1_theta1_min=drv["home_theta1_rad"],
+        switch2_theta2_max=drv["home_theta2_rad"],
+        switch3_z_min=drv["home_z_m"],
+        switch4_z_max=lim["z_min_m"],
+        home_theta1=drv["home_theta1_rad"] - five_deg,
+        home_theta2=drv["home_theta2_rad"] + five_deg,
+        home_z=drv["home_z_m"] - 0.010,
+        gripper_max_opening=grip["max_opening_m"],
+        grip_force=grip["grip_force_n"],
         rows=conv["rows"],
         cols=conv["cols"],
-        cell_pitch_m=conv["cell_pitch_m"],
-        row_pitch_m=conv["row_pitch_m"],
-        pickup_row_y_m=conv["pickup_row_y_m"],
-        pot_diameter_m=pots["diameter_m"],
-        pot_diameter_sd_m=pots["diameter_sd_m"],
-        pot_height_m=pots["height_m"],
-        pot_height_sd_m=pots["height_sd_m"],
-        pot_mass_kg=pots["mass_kg"],
-        pot_mass_sd_kg=pots["mass_sd_kg"],
+        cell_pitch=conv["cell_pitch_m"],
+        row_pitch=conv["row_pitch_m"],
+        pickup_row_y=conv["pickup_row_y_m"],
+        pot_diameter=pots["diameter_m"],
+        pot_diameter_sd=pots["diameter_sd_m"],
+        pot_height=pots["height_m"],
+        pot_height_sd=pots["height_sd_m"],
+        pot_mass=pots["mass_kg"],
+        pot_mass_sd=pots["mass_sd_kg"],
         pot_friction=pots["friction"],
         pot_friction_sd=pots["friction_sd"],
-        placement_sd_m=pots["placement_sd_m"],
-        tube_xy_m=(tube["x_m"], tube["y_m"]),
-        funnel_top_diameter_m=tube["funnel_top_diameter_m"],
-        funnel_top_z_m=tube["funnel_top_z_m"],
-        timestep_s=phys["timestep_s"],
+        pot_offset_sd=pots["placement_sd_m"],
+        drop_tube_xy=(tube["x_m"], tube["y_m"]),
+        funnel_top_diameter=tube["funnel_top_diameter_m"],
+        funnel_top_z=tube["funnel_top_z_m"],
+        timestep=phys["timestep_s"],
         sleep=phys["sleep"],
     )
 
@@ -152,6 +159,7 @@ class Twin:
         self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
         grip = s["gripper"]
         self._open_m_per_deg = grip["max_opening_m"] / 180.0
+        self._max_opening = grip["max_opening_m"]
         self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"], math.degrees(grip["open_rad"]))
         self.gripper.command(0.0, self.gripper.angle_deg)
         self.wrist = _ServoRamp(60.0 / grip["wrist_servo_s_per_60deg"], 90.0)
@@ -180,7 +188,7 @@ class Twin:
         return self.k * self.dt
 
     def _warning_counts(self) -> np.ndarray:
-        return np.array([w.number for w in self.data.warning], dtype=np.int64)
+        return np.array(self.data.warning.number, dtype=np.int64)
 
     # -- firmware exchange ------------------------------------------------------------
     def _exchange(self, t: float) -> None:
@@ -225,9 +233,9 @@ class Twin:
         ctrl = np.repeat(self.data.ctrl[None, :], n, axis=0)
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         opening = self.gripper.at(times) * self._open_m_per_deg
-        ctrl[:, self.scene.gripper_actuator] = self.scene.gripper_ctrl(opening)
+        ctrl[:, self.scene.gripper_actuator] = np.clip(opening, 0.0, self._max_opening)
         ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - 90.0)
-        return _Block(self.k, ctrl, pulses, self.scene.conveyor_indexing(self.time))
+        return _Block(self.k, ctrl, pulses, self.scene.conveyor_indexing(self.time, self.data))
 
     # -- stepping ------------------------------------------------------------------------
     def step_until(
@@ -235,8 +243,10 @@ class Twin:
         t_end: float,
         monitor: Callable[[Twin, int], None] | None = None,
         monitor_every: int = 5,
+        stop_when_done: bool = True,
     ) -> None:
-        """Advance the whole machine to simulated time t_end (or until the PGF is done)."""
+        """Advance the whole machine to simulated time t_end, or until the PGF is done or
+        faults when stop_when_done (else the physics runs on with the firmware idle)."""
         m, d = self.model, self.data
         ctrl = d.ctrl
         while self.time < t_end - 1e-12:
@@ -253,7 +263,7 @@ class Twin:
                 if monitor is not None and self.k % monitor_every == 0:
                     monitor(self, i)
             self._check_valid()
-            if self.pgf.done or self.pgf.fault:
+            if stop_when_done and (self.pgf.done or self.pgf.fault):
                 return
 
     def _check_valid(self) -> None:

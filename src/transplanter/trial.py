@@ -149,8 +149,8 @@ class _Watcher:
         self.pot_bodies = np.asarray(scene.pot_bodies).ravel()
         self.active = np.ones(self.pot_bodies.size, dtype=bool)
         model = self.twin.model
-        self.pot_qadr = model.jnt_qposadr[model.body_jntadr[self.pot_bodies]]
-        self.pot_dadr = model.jnt_dofadr[model.body_jntadr[self.pot_bodies]]
+        self.pot_qadr = scene.pot_qpos_adr
+        self.pot_dadr = scene.pot_dof_adr
         planes = np.flatnonzero(model.geom_type == 0)  # mjGEOM_PLANE
         self.floor_z = float(model.geom_pos[planes, 2].min()) if planes.size else -1.0
         self.lift_m = self.taught.z_up_m - self.taught.z_low_m
@@ -264,8 +264,9 @@ class _Watcher:
         force = scene.grip_force(d)
         if force > rec.peak_grip_force_n:
             rec.peak_grip_force_n = force
-        if not rec.leaves_hit and scene.leaf_hits(d):
-            rec.leaves_hit = True
+        if not rec.leaves_hit:
+            hit = scene.leaf_hit_pots(d)
+            rec.leaves_hit = bool((hit != rec.pot).any())
         lag = float(twin.motor_lag_full_steps().max())
         if lag > rec.max_lag_full_steps:
             rec.max_lag_full_steps = lag
@@ -331,7 +332,7 @@ def run_trial(
             bar.update(
                 sum(r.outcome != "pending" or r.t_release_s is not None for r in records), twin.time
             )
-        twin.step_until(twin.time + SETTLE_S, monitor=monitor)
+        twin.step_until(twin.time + SETTLE_S, monitor=monitor, stop_when_done=False)
         if not (twin.pgf.done or twin.pgf.fault):
             valid, reason = False, f"the PGF did not finish within {horizon:.0f} s simulated"
     except SimulationInvalid as exc:
@@ -383,7 +384,7 @@ def _with_recording(watcher: _Watcher, recorder: Any):
                 twin.gripper.at(np.array([t]))[0] * twin._open_m_per_deg * 1e3,
                 twin.scene.gripper_opening(d) * 1e3,
                 twin.scene.grip_force(d),
-                math.degrees(twin.scene.wrist_angle(d)),
+                math.degrees(d.qpos[twin.scene.wrist_qpos_adr]),
                 twin.scene.conveyor_position(d) * 1e3,
             ]
         )
