@@ -113,6 +113,8 @@ class PlannedMove:
     """(3,) int64 step counters after the move (= point_steps[-1])."""
     duration_s: float
     peak_speed_m_s: float
+    path_m: np.ndarray | None = None
+    """(N,) m, distance along the straight line from the start at each point."""
 
     _counts: tuple[np.ndarray, ...] | None = field(
         default=None, init=False, repr=False, compare=False
@@ -284,14 +286,23 @@ def plan_line(
 
     if np.array_equal(start, end):
         points = start[None, :].copy()
+        line_param = np.zeros(1)
     else:
         grid = bresenham_3d(
             np.rint(start / res).astype(np.int64), np.rint(end / res).astype(np.int64)
         )
         if grid.shape[0] < 2:
             points = np.stack([start, end])
+            line_param = np.array([0.0, 1.0])
         else:
             points = grid * res
+            # The dominant axis advances one cell per point: its progress is the point's
+            # parameter along the ideal line.
+            dom = int(np.argmax(np.abs(grid[-1] - grid[0])))
+            line_param = (grid[:, dom] - grid[0, dom]) / (grid[-1, dom] - grid[0, dom])
+            # Z needs no IK: its motor follows the exact line height, so its steps (400 per
+            # mm) are spread evenly instead of bunching 40 at a time at each grid step.
+            points[:, 2] = start[2] + line_param * (end[2] - start[2])
             points[0] = start
             points[-1] = end
 
@@ -318,7 +329,7 @@ def plan_line(
             empty_d = tuple(np.empty(0, dtype=np.int8) for _ in range(3))
             return PlannedMove(
                 start, end, points, np.zeros(1), joints, point_steps, empty_t, empty_d,
-                start_counts, point_steps[0].copy(), 0.0, 0.0,
+                start_counts, point_steps[0].copy(), 0.0, 0.0, np.zeros(1),
             )  # fmt: skip
         # the machine is not where its counters say: step there at the motors' top rates
         duration = float(np.max(np.abs(correction) / rates))
@@ -327,10 +338,11 @@ def plan_line(
         return PlannedMove(
             start, end, np.stack([start, start]), t, np.stack([joints[0], joints[0]]),
             np.stack([point_steps[0], point_steps[0]]), times, dirs, start_counts,
-            point_steps[0].copy(), duration, 0.0,
+            point_steps[0].copy(), duration, 0.0, np.zeros(2),
         )  # fmt: skip
 
-    seg_len = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    # Speed is measured along the straight line, not along the grid's staircase.
+    seg_len = np.diff(line_param) * float(np.linalg.norm(end - start))
     deltas = np.diff(point_steps, axis=0)
     deltas[0] = point_steps[1] - start_counts
     steps_per_m = np.max(np.abs(deltas) / seg_len[:, None], axis=0)
@@ -338,7 +350,7 @@ def plan_line(
         step_speed_caps = np.where(steps_per_m > 0, rates / steps_per_m, np.inf)
     v_cruise = min(float(speed_m_s), float(step_speed_caps.min()), config.point_rate_speed_cap_m_s)
     v_edge = min(config.min_speed_m_s, v_cruise)
-    arc = np.concatenate([[0.0], np.cumsum(seg_len)])
+    arc = line_param * float(np.linalg.norm(end - start))
     t, v_peak = _profile_times(arc, v_edge, v_cruise, config)
     dt = np.diff(t)
     if np.any(dt < config.compute_time_per_point_s):
@@ -359,4 +371,5 @@ def plan_line(
         end_steps=point_steps[-1].copy(),
         duration_s=float(t[-1]),
         peak_speed_m_s=float(v_peak),
+        path_m=arc,
     )
