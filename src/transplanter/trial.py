@@ -261,7 +261,7 @@ class _Watcher:
         if rec is None:
             return
         scene, d = twin.scene, twin.data
-        force = scene.grip_force(d)
+        force = 0.5 * scene.grip_force(d)  # clamping force: each jaw's share of the total
         if force > rec.peak_grip_force_n:
             rec.peak_grip_force_n = force
         if not rec.leaves_hit:
@@ -383,7 +383,7 @@ def _with_recording(watcher: _Watcher, recorder: Any):
                 rates[2],
                 twin.gripper.at(np.array([t]))[0] * twin._open_m_per_deg * 1e3,
                 twin.scene.gripper_opening(d) * 1e3,
-                twin.scene.grip_force(d),
+                0.5 * twin.scene.grip_force(d),
                 math.degrees(d.qpos[twin.scene.wrist_qpos_adr]),
                 twin.scene.conveyor_position(d) * 1e3,
             ]
