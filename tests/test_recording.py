@@ -324,3 +324,19 @@ def test_replay_with_display_starts_the_viewer_on_the_file(trial, monkeypatch):
     (command,) = started
     assert command[-1] == str(trial[0])
     assert "rerun" in " ".join(command[:-1])
+
+
+def test_forced_final_frame_lands_off_the_grid(tmp_path):
+    """force=True records the last state of a trial even between frame times."""
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><freejoint/><geom size='.1'/></body></worldbody></mujoco>"
+    )
+    data = mujoco.MjData(model)
+    path = tmp_path / "f.rrd"
+    rec = TrialRecorder(model, path, rate_hz=10.0)
+    rec.frame(0.0, data)
+    rec.frame(0.05, data)  # not due: 10 Hz
+    rec.frame(0.05, data, force=True)
+    rec.close()
+    assert rec.n_frames == 2
+    assert read_summary(path)["sim_time_range"] == pytest.approx((0.0, 0.05))

@@ -150,3 +150,60 @@ def test_path_through_singular_region_refused(tmp_path):
     scenario = load_scenario(PAPER, {"taught.drop_mm": [-140.0, 100.0]})
     with pytest.raises(ScenarioError, match=r"taught.drop_mm|leaves the workspace"):
         check_scenario(scenario)
+
+
+@pytest.mark.slow
+def test_recorded_trial_reads_back(tmp_path, capsys):
+    """A 2-seedling trial recorded to .rrd, read back with rerun's own API."""
+    from transplanter.recording import read_summary
+
+    rrd = tmp_path / "two.rrd"
+    out = tmp_path / "two.json"
+    assert (
+        main(
+            [
+                "trial",
+                str(PAPER),
+                "--seedlings",
+                "2",
+                "--record",
+                str(rrd),
+                "--json",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    result = json.loads(out.read_text())
+    summary = read_summary(rrd)
+    entities = set(summary["entity_paths"])
+    for body in (
+        "link1",
+        "link2",
+        "passive1",
+        "passive2",
+        "gripper",
+        "jaw_left",
+        "platform",
+        "conveyor",
+        "pot_0_0",
+        "pot_7_4",
+    ):
+        assert f"world/bodies/{body}" in entities, body
+    t0, t1 = summary["sim_time_range"]
+    assert t0 == 0.0
+    assert t1 == pytest.approx(result["sim_time_s"], abs=1e-9)
+    events = summary["events"]
+    assert events["grasp"] == events["release"] == 2
+    assert events["success"] + events.get("failure", 0) == 2
+    assert events["sent"] == events["ack"] > 20
+    channels = set(summary["scalar_channels"])
+    assert {
+        "motors/theta1_cmd_deg",
+        "motors/theta1_deg",
+        "gripper/force_n",
+        "conveyor/position_mm",
+        "step_rate/z_hz",
+    } <= channels
+    assert "recording written to" in capsys.readouterr().out

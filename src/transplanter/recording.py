@@ -282,9 +282,12 @@ class TrialRecorder:
         """Whether ``frame(t, ...)`` would record (compute costly scalars only then)."""
         return t >= self._next_frame_t
 
-    def frame(self, t: float, data: mujoco.MjData, scalars: np.ndarray | None = None) -> None:
-        """Record the moving bodies' poses and the scalars if ``t`` reached the next frame."""
-        if t < self._next_frame_t:
+    def frame(
+        self, t: float, data: mujoco.MjData, scalars: np.ndarray | None = None, force: bool = False
+    ) -> None:
+        """Record the moving bodies' poses and the scalars if ``t`` reached the next frame
+        (or, with ``force``, now: the last state of a trial, off the frame grid)."""
+        if t < self._next_frame_t and not (force and t > self._last_frame_t):
             if t < self._last_frame_t:
                 raise ValueError(
                     f"frame time {t} s is before the last recorded frame at "

@@ -169,7 +169,8 @@ class _Watcher:
                 )
             return
         if self.recorder is not None:
-            self.recorder.event(t, "ack", f"{line.phase}: {line.text}", line.seedling)
+            self.recorder.event(line.t_sent, "sent", f"{line.phase}: {line.text}", line.seedling)
+            self.recorder.event(t, "ack", f"{line.phase}: {line.reply}", line.seedling)
         if line.seedling is None:
             return
         rec = self.records[line.seedling]
@@ -323,7 +324,9 @@ def run_trial(
     watcher = _Watcher(twin, records, recorder)
     twin.line_listeners.append(watcher.on_line)
     bar = _Progress(len(records), progress)
-    monitor = watcher.monitor if recorder is None else _with_recording(watcher, recorder)
+    monitor = watcher.monitor if recorder is None else _RecordingMonitor(watcher, recorder)
+    if recorder is not None:
+        monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state at t = 0
     valid, reason = True, None
     try:
         horizon = 60.0 + 30.0 * len(records)
@@ -341,6 +344,8 @@ def run_trial(
         bar.close()
     watcher.finish(twin.time)
     if recorder is not None:
+        if twin.block is not None:
+            monitor.record(twin, twin.block.pulses[-1], force=True)
         recorder.close()
     return TrialResult(
         scenario=scenario.name,
@@ -354,43 +359,38 @@ def run_trial(
     )
 
 
-def _with_recording(watcher: _Watcher, recorder: Any):
-    """A monitor that also feeds the recorder its frames and scalar channels."""
-    state = {"pulses": None, "t": 0.0}
+class _RecordingMonitor:
+    """Feeds the recorder its frames (poses and scalar channels) while monitoring the trial."""
 
-    def monitor(twin: Twin, i: int) -> None:
-        watcher.monitor(twin, i)
-        t = twin.time
-        if not recorder.due(t):
-            return
-        pulses = twin.block.pulses[i]
-        prev, t_prev = state["pulses"], state["t"]
-        rates = np.zeros(3) if prev is None or t <= t_prev else np.abs(pulses - prev) / (t - t_prev)
-        state["pulses"], state["t"] = pulses.copy(), t
+    def __init__(self, watcher: _Watcher, recorder: Any) -> None:
+        self.watcher, self.recorder = watcher, recorder
+        self.pulses = np.zeros(3, dtype=np.int64)
+        self.t_pulses = 0.0
+
+    def __call__(self, twin: Twin, i: int) -> None:
+        self.watcher.monitor(twin, i)
+        if self.recorder.due(twin.time):
+            self.record(twin, twin.block.pulses[i])
+
+    def record(self, twin: Twin, pulses: np.ndarray, force: bool = False) -> None:
+        t, d, scene = twin.time, twin.data, twin.scene
+        dt = t - self.t_pulses
+        rates = np.abs(pulses - self.pulses) / dt if dt > 0 else np.zeros(3)
+        self.pulses, self.t_pulses = pulses.copy(), t
         cmd = twin.commanded_joints()
-        act = twin.scene.joint_positions(twin.data)
-        d = twin.data
-        scalars = np.array(
-            [
-                math.degrees(cmd[0]),
-                math.degrees(act[0]),
-                math.degrees(cmd[1]),
-                math.degrees(act[1]),
-                cmd[2] * 1e3,
-                act[2] * 1e3,
-                rates[0],
-                rates[1],
-                rates[2],
-                twin.gripper.at(np.array([t]))[0] * twin._open_m_per_deg * 1e3,
-                twin.scene.gripper_opening(d) * 1e3,
-                0.5 * twin.scene.grip_force(d),
-                math.degrees(d.qpos[twin.scene.wrist_qpos_adr]),
-                twin.scene.conveyor_position(d) * 1e3,
-            ]
-        )
-        recorder.frame(t, d, scalars)
-
-    return monitor
+        act = scene.joint_positions(d)
+        scalars = np.array([
+            math.degrees(cmd[0]), math.degrees(act[0]),
+            math.degrees(cmd[1]), math.degrees(act[1]),
+            cmd[2] * 1e3, act[2] * 1e3,
+            rates[0], rates[1], rates[2],
+            twin.gripper.at(np.array([t]))[0] * twin._open_m_per_deg * 1e3,
+            scene.gripper_opening(d) * 1e3,
+            0.5 * scene.grip_force(d),
+            math.degrees(d.qpos[scene.wrist_qpos_adr]),
+            scene.conveyor_position(d) * 1e3,
+        ])  # fmt: skip
+        self.recorder.frame(t, d, scalars, force=force)
 
 
 def write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
