@@ -207,3 +207,16 @@ def test_recorded_trial_reads_back(tmp_path, capsys):
         "step_rate/z_hz",
     } <= channels
     assert "recording written to" in capsys.readouterr().out
+
+
+def test_rejected_move_is_recorded_and_nothing_after_it_runs(tmp_path):
+    """Without the preflight, the SGF itself refuses an unreachable grip point (error:33):
+    that seedling is 'move_rejected', the rest 'not_run', and the firmware fault is reported."""
+    text = PAPER.read_text().replace("grip_mm = [-45.0, 215.0]", "grip_mm = [-45.0, 330.0]")
+    path = tmp_path / "reject.toml"
+    path.write_text(text)
+    result = run_trial(load_scenario(path, {"scenario.seedlings": 3}))
+    outcomes = [r.outcome for r in result.per_seedling]
+    assert outcomes == ["success", "move_rejected", "not_run"]
+    assert "error:33 target position not reachable" in result.per_seedling[1].rejected_line
+    assert result.fault is not None and result.valid

@@ -33,6 +33,7 @@ FAILURE_KINDS = (
     "knocked_over",
     "lost_steps",
     "move_rejected",
+    "not_run",  # never attempted: the firmware faulted or the simulation became invalid
 )
 
 # A pot is "knocked over or out of its cell" when tilted or displaced this much at approach.
@@ -277,7 +278,7 @@ class _Watcher:
         self._resolve_pending(t)
         for rec in self.records:
             if rec.outcome == "pending":
-                rec.outcome = "move_rejected"
+                rec.outcome = "not_run"
 
 
 class _Progress:

@@ -1,0 +1,79 @@
+"""The simulation loop: step events drive the motors, homing uses the model's switches."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from transplanter.scenario import load_scenario
+from transplanter.sim import SimulationInvalid, Twin
+from transplanter.trial import run_trial
+
+PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario(PAPER, {"scenario.seedlings": 1})
+
+
+def test_motor_commands_are_the_step_positions(scenario):
+    """At every physics step each stepper is commanded exactly where its pulses have got."""
+    twin = Twin(scenario)
+    seen = []
+
+    def check(tw, i):
+        pulses = tw.block.pulses[i]
+        expected = tw.q_power_on + pulses * tw.unit_per_step
+        np.testing.assert_allclose(tw.commanded_joints(), expected, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(pulses, tw.sgf.pulses_at(np.array([tw.time]))[0])
+        seen.append(pulses.copy())
+
+    twin.step_until(6.0, monitor=check, monitor_every=7)
+    seen = np.array(seen)
+    assert len(seen) > 800
+    # the commands move in whole microsteps: every change is a multiple of one step
+    assert np.issubdtype(seen.dtype, np.integer)
+    assert np.abs(np.diff(seen[:, 2])).max() > 0  # Z has moved
+
+
+def test_homing_uses_the_model_limit_switches(scenario):
+    twin = Twin(scenario)
+    twin.step_until(2.0)
+    home = next(s for s in twin.pgf.sent if s.phase == "home")
+    assert home.reply == "ok"
+    assert twin.sgf.homed
+    # at the trip, each joint (as simulated) had reached its switch: the SGF's logical
+    # position after the pull-off is the home position minus the pull-off
+    cfg = twin.machine.sgf
+    logical = twin.sgf.logical_steps
+    expected_home = np.asarray(cfg.home_steps)
+    assert np.all(np.abs(logical - expected_home) <= np.asarray(cfg.homing_pulloff_steps) + 2)
+
+
+def test_moves_wait_for_the_handshake(scenario):
+    twin = Twin(scenario)
+    twin.step_until(8.0)
+    sent = twin.pgf.sent
+    for before, after in zip(sent[:-1], sent[1:], strict=True):
+        assert before.t_reply is not None and after.t_sent >= before.t_reply
+
+
+def test_bad_physics_marks_the_trial_invalid(monkeypatch, scenario):
+    """A diverging simulation (here an infinite force injected at 3 s) is never a success."""
+    original = Twin._block
+
+    def poisoned(self, t_next):
+        if self.time > 3.0:
+            self.data.qfrc_applied[:] = np.inf
+        return original(self, t_next)
+
+    twin = Twin(scenario)
+    monkeypatch.setattr(Twin, "_block", poisoned)
+    with pytest.raises(SimulationInvalid):
+        twin.step_until(5.0)
+    result = run_trial(scenario)
+    assert not result.valid
+    assert result.successes == 0
+    assert "MuJoCo warning" in result.invalid_reason or "diverged" in result.invalid_reason
+    assert result.per_seedling[0].outcome == "not_run"
