@@ -12,15 +12,13 @@ import mujoco
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
+from transplanter import kinematics
 from transplanter.scene import SceneConfig, build_scene, five_bar_forward  # noqa: E402
 
 
 def ik(cfg, x, y):
-    d1, d2 = np.hypot(x + cfg.l0, y), np.hypot(x - cfg.l0, y)
-    b1, b2 = np.arctan2(y, x + cfg.l0), np.arctan2(y, x - cfg.l0)
-    g1 = np.arccos((cfg.l1**2 + d1**2 - cfg.l2**2) / (2 * cfg.l1 * d1))
-    g2 = np.arccos((cfg.l1**2 + d2**2 - cfg.l2**2) / (2 * cfg.l1 * d2))
-    return b1 + g1, b2 - g2
+    """Paper working mode (elbows out) IK for a scene config."""
+    return kinematics.ik(cfg.geometry(), x, y)
 
 
 def main() -> None:

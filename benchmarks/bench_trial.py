@@ -80,8 +80,10 @@ def main() -> None:
             size = path.stat().st_size
         overhead = rec.wall_time_s / result.wall_time_s - 1.0
         per_min = size / (rec.sim_time_s / 60.0)
-        print(f"  recording at 60 Hz   +{100 * overhead:.0f} % wall time, "
-              f"{per_min / 1e6:.2f} MB per simulated minute")
+        print(
+            f"  recording at 60 Hz   +{100 * overhead:.0f} % wall time, "
+            f"{per_min / 1e6:.2f} MB per simulated minute"
+        )
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from transplanter import kinematics
 from transplanter.scene import SceneConfig, build_scene, five_bar_forward, models_dir
 
 CFG = SceneConfig()
@@ -13,12 +14,8 @@ FULL_STEP = 2 * math.pi / 200
 
 
 def ik(cfg, x, y):
-    """Elbows-out five-bar IK (paper eqs 6-7), test-local."""
-    d1, d2 = np.hypot(x + cfg.l0, y), np.hypot(x - cfg.l0, y)
-    b1, b2 = np.arctan2(y, x + cfg.l0), np.arctan2(y, x - cfg.l0)
-    g1 = np.arccos((cfg.l1**2 + d1**2 - cfg.l2**2) / (2 * cfg.l1 * d1))
-    g2 = np.arccos((cfg.l1**2 + d2**2 - cfg.l2**2) / (2 * cfg.l1 * d2))
-    return b1 + g1, b2 - g2
+    """Paper working mode (elbows out) IK for a scene config."""
+    return kinematics.ik(cfg.geometry(), x, y)
 
 
 def run_noisy(model, seconds=2.0, seed=0):

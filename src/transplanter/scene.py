@@ -33,6 +33,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from transplanter.kinematics import FiveBarGeometry
+
 FULL_STEP_RAD = 2.0 * math.pi / 200.0
 USERDATA_CONVEYOR = 6  # userdata slots used by the conveyor state machine
 
@@ -210,6 +212,10 @@ class SceneConfig:
             )
         if self.l1 + self.l2 <= self.l0:
             raise ValueError("five-bar links too short: need l1 + l2 > l0")
+
+    def geometry(self) -> FiveBarGeometry:
+        """The five-bar's link lengths for the pure-numpy kinematics."""
+        return FiveBarGeometry(l0_m=self.l0, l1_m=self.l1, l2_m=self.l2)
 
     # Derived drive numbers (documented in models/transplanter.xml).
     @property
