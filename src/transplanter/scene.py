@@ -19,9 +19,10 @@ carriage do not form one big island). Each row's ribs collide only with that row
 (collision bits 8..31), so ribs of emptied rows, which travel on past the front edge, never
 touch the arm, the gripper, the drop tube or pots of other rows.
 
-Leaves: ellipsoid proxies on each pot body that collide only with the gripper and produce
-*inactive* contacts (geom gap > margin): they are reported in `data.contact` but exert no
-force. `leaf_hits` reads them.
+Leaves: a capsule proxy per leaf on each pot body, outside collision detection (leaves are
+a few grams of soft tissue: they must not push the gripper, and colliding them every step
+tripled the narrowphase). `leaf_hit_pots` tests them against the gripper's boxes
+geometrically, only for the pots near the gripper, when the trial asks.
 """
 
 from __future__ import annotations
@@ -42,11 +43,13 @@ USERDATA_CONVEYOR = 6  # userdata slots used by the conveyor state machine
 BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
-BIT_LEAF = 16
 ROW_BIT_FIRST = 8
 ROW_BITS = 24
 PASSIVE_DROP = 0.015  # passive links run this far below the active ones (visual only)
-LEAF_GAP = 0.5  # leaf proxies: margin -0.5 m and gap 0.5 m -> inactive contacts on overlap
+# Quaternion turning a capsule's axis (local z) onto local x.
+_CAPSULE_Z_TO_X = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
+LEAF_SAMPLES = 5  # points along each leaf capsule's axis tested against the gripper boxes
+LEAF_NEAR_M = 0.09  # only pots this close (xy) to the grip centre can touch the gripper
 
 
 def models_dir() -> Path:
@@ -368,11 +371,21 @@ class Scene:
             b for b in range(m.nbody) if m.body_parentid[b] == gripper_body
         }
         self._is_gripper = np.isin(m.geom_bodyid, list(gripper_bodies)) & (m.geom_contype > 0)
-        self._leaf_pot = np.full(ngeom, -1)
-        leaf_mask = (m.geom_contype == BIT_LEAF) & (m.geom_conaffinity == 0)
+        self._gripper_boxes = np.flatnonzero(
+            self._is_gripper & (m.geom_type == mujoco.mjtGeom.mjGEOM_BOX)
+        )
+        self._gripper_half = m.geom_size[self._gripper_boxes].copy()
+        self._leaf_geoms = np.array(
+            [g for g in range(ngeom) if (m.geom(g).name or "").startswith("leaf_")], dtype=int
+        )
         body_to_pot = np.full(m.nbody, -1)
         body_to_pot[flat] = np.arange(flat.size)
-        self._leaf_pot[leaf_mask] = body_to_pot[m.geom_bodyid[leaf_mask]]
+        self._leaf_pot = body_to_pot[m.geom_bodyid[self._leaf_geoms]]
+        self._leaf_radius = m.geom_size[self._leaf_geoms, 0].copy()
+        self._leaf_axis_t = (
+            np.linspace(-1.0, 1.0, LEAF_SAMPLES)[None, :, None]
+            * (m.geom_size[self._leaf_geoms, 1][:, None, None])
+        )
 
         tube_x, tube_y = config.drop_tube_xy
         self._tube_xy = np.array([tube_x, tube_y])
@@ -454,11 +467,27 @@ class Scene:
         return np.unique(pots)
 
     def leaf_hit_pots(self, data: mujoco.MjData) -> np.ndarray:
-        """Flat indices of the pots whose seedling leaves touch the gripper, sorted."""
-        g1, g2 = self._contact_pairs(data)
-        l1, l2 = self._leaf_pot[g1], self._leaf_pot[g2]
-        mask = ((l1 >= 0) & self._is_gripper[g2]) | ((l2 >= 0) & self._is_gripper[g1])
-        return np.unique(np.maximum(l1, l2)[mask])
+        """Flat indices of the pots whose seedling leaves touch the gripper, sorted.
+
+        A leaf touches when a point of its capsule axis lies within the capsule radius of
+        the palm or a jaw (LEAF_SAMPLES points per leaf, so accurate to a few mm).
+        """
+        grip = data.site_xpos[self.grip_site, :2]
+        pot_xy = data.xpos[self.pot_bodies.ravel(), :2]
+        near = np.hypot(*(pot_xy - grip).T) < LEAF_NEAR_M
+        leaves = np.flatnonzero(near[self._leaf_pot])
+        if leaves.size == 0:
+            return np.zeros(0, dtype=int)
+        geoms = self._leaf_geoms[leaves]
+        axis = data.geom_xmat[geoms].reshape(-1, 3, 3)[:, :, 2]
+        points = data.geom_xpos[geoms][:, None, :] + self._leaf_axis_t[leaves] * axis[:, None, :]
+        hit = np.zeros(leaves.size, dtype=bool)
+        for box, half in zip(self._gripper_boxes, self._gripper_half, strict=True):
+            local = (points - data.geom_xpos[box]) @ data.geom_xmat[box].reshape(3, 3)
+            outside = np.maximum(np.abs(local) - half, 0.0)
+            dist = np.sqrt((outside * outside).sum(axis=2)).min(axis=1)
+            hit |= dist < self._leaf_radius[leaves]
+        return np.unique(self._leaf_pot[leaves[hit]])
 
     def leaf_hits(self, data: mujoco.MjData) -> bool:
         """True when the gripper touches any seedling's leaves (its own pot's included)."""
@@ -812,14 +841,15 @@ def _add_conveyor_and_pots(spec: mujoco.MjSpec, cfg: SceneConfig, rng) -> dict:
             centre = base + rot.reshape(3, 3) @ np.array([0.0225, 0.0, 0.004])
             proxy = body.add_geom()
             proxy.name = f"leaf_{r}_{c}_{k}"
-            proxy.type = mujoco.mjtGeom.mjGEOM_ELLIPSOID
-            proxy.size = [0.0225, 0.008, 0.004]
+            # A capsule along the leaf's length: capsule-box contacts with the gripper are
+            # analytic, ellipsoids would take the general convex solver (3x the narrowphase).
+            proxy.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+            proxy.size = [0.006, 0.0165, 0]
             proxy.pos = centre
-            proxy.quat = quat
-            proxy.contype = BIT_LEAF
-            proxy.conaffinity = 0
-            proxy.margin = -LEAF_GAP
-            proxy.gap = LEAF_GAP  # contacts only on overlap, all inactive: reported, no force
+            along_x = np.zeros(4)
+            mujoco.mju_mulQuat(along_x, quat, _CAPSULE_Z_TO_X)
+            proxy.quat = along_x
+            proxy.contype = proxy.conaffinity = 0  # tested geometrically: leaf_hit_pots
             proxy.group = 4
             proxy.mass = 0
             proxy.rgba = [0.2, 0.8, 0.2, 0.3]
