@@ -77,3 +77,27 @@ def test_bad_physics_marks_the_trial_invalid(monkeypatch, scenario):
     assert result.successes == 0
     assert "MuJoCo warning" in result.invalid_reason or "diverged" in result.invalid_reason
     assert result.per_seedling[0].outcome == "not_run"
+
+
+def test_overloaded_motor_loses_steps_for_good():
+    """A Z motor too weak for the 50 mm/s lift slips: the steps it loses stay lost (the
+    firmware's position and the platform's differ by them once the motor is at rest)."""
+    weak = load_scenario(PAPER, {"scenario.seedlings": 1, "drives.holding_torque_nm": 0.12})
+    twin = Twin(weak)
+    twin.step_until(2.0)  # homed (homing re-references whatever slipped on the way up)
+    lost_at_homing = twin.steps_lost.copy()
+    twin.step_until(6.2)  # through the lift, into the retract at Z_up
+    lost = twin.steps_lost - lost_at_homing
+    assert lost[2] > 1000  # microsteps: more than 2.5 mm
+    # the firmware believes it is at Z_up; the platform is short by the lost steps (within
+    # the servo's lag and the homing reference error, a few full steps)
+    z_firmware = twin.sgf.position_xyz[2]
+    z_platform = twin.scene.joint_positions(twin.data)[2]
+    gap = z_firmware - z_platform
+    assert gap == pytest.approx(lost[2] * twin.unit_per_step[2], abs=3 * twin.full_step_joint[2])
+
+
+def test_normal_motors_lose_no_steps(scenario):
+    twin = Twin(scenario)
+    twin.step_until(9.0)
+    assert not twin.steps_lost.any()

@@ -26,8 +26,11 @@ from transplanter.scene import Scene, SceneConfig, build_scene
 
 __all__ = ["Twin", "SimulationInvalid", "scene_config_from_scenario", "SCALAR_NAMES"]
 
-# Longest block of physics steps whose commands are computed at once (bounds memory).
-_MAX_BLOCK_STEPS = 2000
+# Longest block of physics steps whose commands are computed at once (bounds memory and how
+# late a MuJoCo warning is noticed).
+_MAX_BLOCK_STEPS = 500
+# The motors are checked for slipping every this many physics steps.
+SLIP_CHECK_STEPS = 5
 
 SCALAR_NAMES = (
     "motors/theta1_cmd_deg",
@@ -122,11 +125,12 @@ class _ServoRamp:
 
 
 @dataclass
-class LineDone:
-    """A PGF line whose reply has arrived: what the trial layer watches."""
+class LineEvent:
+    """A PGF line was sent ("sent") or its reply arrived ("done"): what trials watch."""
 
     line: SentLine
     t: float
+    kind: str
 
 
 @dataclass
@@ -160,10 +164,13 @@ class Twin:
         grip = s["gripper"]
         self._open_m_per_deg = grip["max_opening_m"] / 180.0
         self._max_opening = grip["max_opening_m"]
-        self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"], math.degrees(grip["open_rad"]))
-        self.gripper.command(0.0, self.gripper.angle_deg)
-        self.wrist = _ServoRamp(60.0 / grip["wrist_servo_s_per_60deg"], 90.0)
-        self.wrist.command(0.0, math.degrees(s["taught"]["drop_elbow_rad"]))
+        # Servos hold their power-on pose (the keyframe's) until an M280 moves them.
+        gripper_deg = self.scene.gripper_opening(self.data) / self._open_m_per_deg
+        wrist_deg = math.degrees(self.data.qpos[self.scene.wrist_qpos_adr]) + 90.0
+        self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"], gripper_deg)
+        self.gripper.command(0.0, gripper_deg)
+        self.wrist = _ServoRamp(60.0 / grip["wrist_servo_s_per_60deg"], wrist_deg)
+        self.wrist.command(0.0, wrist_deg)
         # Stepper positions are relative to where each motor was at power-on: the SGF's raw
         # pulse counters start at zero there, and homing only changes its logical counters.
         self.q_power_on = self.scene.joint_positions(self.data).copy()
@@ -176,10 +183,18 @@ class Twin:
                 for d in self.machine.drives
             ]
         )
+        # A stepper whose rotor falls more than two full steps behind its field slips to the
+        # next stable position, four full steps (one electrical cycle) further: the steps
+        # are lost for good, the firmware never learns of it.
+        self.electrical_cycle = 4.0 * self.full_step_joint
+        self.microsteps_per_full_step = np.array([d.microsteps for d in self.machine.drives])
+        self.slip_offset = np.zeros(3)  # joint units the motors have lost so far
+        self.steps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
         self.k = 0  # physics steps taken; time = k * dt exactly
         self._done_index = 0
+        self._sent_index = 0
         self._warnings0 = self._warning_counts()
-        self.line_listeners: list[Callable[[LineDone], None]] = []
+        self.line_listeners: list[Callable[[LineEvent], None]] = []
         self.block: _Block | None = None
 
     # -- time -------------------------------------------------------------------------
@@ -210,10 +225,15 @@ class Twin:
                 )
         sent = self.pgf.sent
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
-            done = LineDone(sent[self._done_index], t)
+            self._notify(LineEvent(sent[self._done_index], t, "done"))
             self._done_index += 1
-            for listener in self.line_listeners:
-                listener(done)
+        while self._sent_index < len(sent):
+            self._notify(LineEvent(sent[self._sent_index], t, "sent"))
+            self._sent_index += 1
+
+    def _notify(self, event: LineEvent) -> None:
+        for listener in self.line_listeners:
+            listener(event)
 
     def _next_exchange_time(self, t: float) -> float:
         if self.sgf.homing:
@@ -229,7 +249,7 @@ class Twin:
         n = int(np.clip(math.ceil((t_next - self.time) / self.dt - 1e-9), 1, _MAX_BLOCK_STEPS))
         times = (self.k + 1 + np.arange(n)) * self.dt
         pulses = self.sgf.pulses_at(times)
-        joints = self.q_power_on + pulses * self.unit_per_step
+        joints = self.q_power_on + self.slip_offset + pulses * self.unit_per_step
         ctrl = np.repeat(self.data.ctrl[None, :], n, axis=0)
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         opening = self.gripper.at(times) * self._open_m_per_deg
@@ -260,11 +280,26 @@ class Twin:
                     self.scene.apply_conveyor(d, self.time)
                 mujoco.mj_step(m, d)
                 self.k += 1
+                if self.k % SLIP_CHECK_STEPS == 0:
+                    self._slip(rows, i)
                 if monitor is not None and self.k % monitor_every == 0:
                     monitor(self, i)
             self._check_valid()
             if stop_when_done and (self.pgf.done or self.pgf.fault):
                 return
+
+    def _slip(self, rows: np.ndarray, i: int) -> None:
+        """Let every motor lagging more than two full steps slip by whole electrical cycles."""
+        lag = self.commanded_joints() - self.scene.joint_positions(self.data)
+        cycles = np.rint(lag / self.electrical_cycle)
+        if not cycles.any():
+            return
+        shift = cycles * self.electrical_cycle
+        self.slip_offset -= shift
+        self.steps_lost += (cycles * 4 * self.microsteps_per_full_step).astype(np.int64)
+        acts = self.scene.motor_actuators
+        rows[i + 1 :, acts] -= shift * self.scene.motor_gears
+        self.data.ctrl[acts] -= shift * self.scene.motor_gears
 
     def _check_valid(self) -> None:
         grown = self._warning_counts() - self._warnings0

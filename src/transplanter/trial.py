@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from transplanter.scenario import Scenario, load_scenario
-from transplanter.sim import SCALAR_NAMES, LineDone, SimulationInvalid, Twin
+from transplanter.sim import SCALAR_NAMES, LineEvent, SimulationInvalid, Twin
 
 __all__ = ["FAILURE_KINDS", "SeedlingRecord", "TrialResult", "run_trial", "wilson_interval"]
 
@@ -46,8 +46,6 @@ SETTLE_S = 0.6
 # Grip force, leaf contacts and motor lag are sampled every this many physics steps (10 ms
 # at the paper's 1 ms step: the gripper moves at most 1.5 mm between samples).
 MONITOR_EVERY_STEPS = 10
-# A stepper loses steps once the rotor lags its field by about two full steps.
-LOST_STEP_LAG_FULL_STEPS = 2.0
 
 
 @dataclass
@@ -64,6 +62,7 @@ class SeedlingRecord:
     peak_grip_force_n: float = 0.0
     leaves_hit: bool = False
     lost_steps: bool = False
+    steps_lost: int = 0  # microsteps the motors slipped during this cycle (all motors)
     max_lag_full_steps: float = 0.0
     knocked_before: bool = False
     lifted: bool | None = None
@@ -158,35 +157,37 @@ class _Watcher:
         planes = np.flatnonzero(model.geom_type == 0)  # mjGEOM_PLANE
         self.floor_z = float(model.geom_pos[planes, 2].min()) if planes.size else -1.0
         self.lift_m = self.taught.z_up_m - self.taught.z_low_m
+        self.pot_height = float(self.twin.scenario["pots"]["height_m"])
+        self.steps_lost0 = np.zeros(3, dtype=np.int64)
+        self.z0 = 0.0
 
-    # Called by the twin each time a line's reply arrives.
-    def on_line(self, done: LineDone) -> None:
-        line, t = done.line, done.t
+    def on_line(self, event: LineEvent) -> None:
+        """Follow the PGF: a seedling's cycle starts when its approach line is sent."""
+        line, t = event.line, event.t
+        rec = self.records[line.seedling] if line.seedling is not None else None
+        if event.kind == "sent":
+            if self.recorder is not None:
+                self.recorder.event(t, "sent", f"{line.phase}: {line.text}", line.seedling)
+            if rec is not None and line.phase == "approach":
+                self._start(rec, t)
+            return
         if line.reply is not None and line.reply.startswith("error"):
-            rec = self.records[line.seedling] if line.seedling is not None else None
             if rec is not None:
                 rec.outcome = "move_rejected"
                 rec.rejected_line = f"{line.text} -> {line.reply}"
+                self.current = None
             if self.recorder is not None:
                 self.recorder.event(
                     t, "failure", f"rejected {line.text}: {line.reply}", line.seedling
                 )
             return
         if self.recorder is not None:
-            self.recorder.event(line.t_sent, "sent", f"{line.phase}: {line.text}", line.seedling)
             self.recorder.event(t, "ack", f"{line.phase}: {line.reply}", line.seedling)
-        if line.seedling is None:
+        if rec is None:
             return
-        rec = self.records[line.seedling]
         d = self.twin.data
         if line.phase == "approach":
-            self._resolve_pending(t)
-            rec.t_start_s = line.t_sent
-            self.current = rec
-            pickup = self.taught.pickups[rec.pickup]
-            rec.pot, offset, tilt = self._target_pot(np.asarray(pickup.grip_xy_m))
-            rec.knocked_before = offset > KNOCKED_OFFSET_M or tilt > KNOCKED_TILT_RAD
-            self.z0 = float(d.xpos[self.pot_bodies[rec.pot], 2])
+            self._resolve_pending(t)  # the previous pot has had a whole move to land
         elif line.phase == "close" and self.recorder is not None:
             self.recorder.event(t, "grasp", f"seedling {rec.index} gripper closing", rec.index)
         elif line.phase == "lift":
@@ -199,14 +200,34 @@ class _Watcher:
         elif line.phase == "release_wait":
             rec.t_release_s = t
             rec.cycle_time_s = t - rec.t_start_s
+            self._update_lost_steps(rec)
             self.pending_outcome.append(rec)
             self.current = None
 
+    def _start(self, rec: SeedlingRecord, t: float) -> None:
+        rec.t_start_s = t
+        self.current = rec
+        self.steps_lost0 = self.twin.steps_lost.copy()
+        pickup = self.taught.pickups[rec.pickup]
+        rec.pot, offset, tilt = self._target_pot(np.asarray(pickup.grip_xy_m))
+        rec.knocked_before = offset > KNOCKED_OFFSET_M or tilt > KNOCKED_TILT_RAD
+        self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
+
+    def _update_lost_steps(self, rec: SeedlingRecord) -> None:
+        lost = np.abs(self.twin.steps_lost - self.steps_lost0)
+        rec.steps_lost = int(lost.sum())
+        rec.lost_steps = rec.steps_lost > 0
+
     def _target_pot(self, grip_xy: np.ndarray) -> tuple[int, float, float]:
+        """The pot standing nearest the grip point, its offset from it, and its tilt.
+
+        Only pots still on the belt count (a pot lying in the funnel or on the floor is
+        not one the arm can be sent for)."""
         d = self.twin.data
-        idx = np.flatnonzero(self.active)
-        xy = d.xpos[self.pot_bodies[idx], :2]
-        dist = np.linalg.norm(xy - grip_xy, axis=1)
+        pos = d.xpos[self.pot_bodies]
+        on_belt = self.active & (pos[:, 2] > 0.0) & (pos[:, 2] < self.pot_height)
+        idx = np.flatnonzero(on_belt if on_belt.any() else self.active)
+        dist = np.linalg.norm(pos[idx, :2] - grip_xy, axis=1)
         j = int(np.argmin(dist))
         pot = int(idx[j])
         zaxis_z = d.xmat[self.pot_bodies[pot], 8]  # R[2,2]: cos of the tilt
@@ -266,19 +287,23 @@ class _Watcher:
         if rec is None:
             return
         scene, d = twin.scene, twin.data
-        force = 0.5 * scene.grip_force(d)  # clamping force: each jaw's share of the total
-        if force > rec.peak_grip_force_n:
-            rec.peak_grip_force_n = force
+        if d.ncon:  # no contact, no grip force
+            force = 0.5 * scene.grip_force(d)  # clamping force: each jaw's share of the total
+            if force > rec.peak_grip_force_n:
+                rec.peak_grip_force_n = force
         if not rec.leaves_hit:
             hit = scene.leaf_hit_pots(d)
             rec.leaves_hit = bool((hit != rec.pot).any())
         lag = float(twin.motor_lag_full_steps().max())
         if lag > rec.max_lag_full_steps:
             rec.max_lag_full_steps = lag
-            rec.lost_steps = lag > LOST_STEP_LAG_FULL_STEPS
 
-    def finish(self, t: float) -> None:
-        self._resolve_pending(t)
+    def finish(self, t: float, valid: bool) -> None:
+        """Judge the last pots; on invalid physics nothing more is judged: not_run."""
+        if self.current is not None:
+            self._update_lost_steps(self.current)
+        if valid:
+            self._resolve_pending(t)
         for rec in self.records:
             if rec.outcome == "pending":
                 rec.outcome = "not_run"
@@ -352,7 +377,7 @@ def run_trial(
         valid, reason = False, str(exc)
     finally:
         bar.close()
-    watcher.finish(twin.time)
+    watcher.finish(twin.time, valid)
     if recorder is not None:
         if twin.block is not None:
             monitor.record(twin, twin.block.pulses[-1], force=True)
