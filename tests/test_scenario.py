@@ -60,6 +60,12 @@ def test_base_file_and_override(tmp_path):
         ("[taught]\ndrop_mm = [1.0]\n", "taught.drop_mm: expected a pair"),
         ("[gripper]\nclose_deg = 170.0\n", "gripper.close_deg must be below gripper.open_deg"),
         ("[physics]\nsleep = 1\n", "physics.sleep: expected true or false"),
+        ('[arm]\nworking_mode = "-+"\n', "arm.working_mode = '-+': the MJCF model is assembled"),
+        ("[drives]\nhome_theta1_deg = 250.0\n", "drives.home_theta1_deg (a limit switch) must lie"),
+        ("[drives]\nhome_z_mm = 200.0\n", "drives.home_z_mm (limit switch 3) must lie"),
+        ("[pots]\nmass_min_g = 50.0\n", "pots.mass_g must lie within"),
+        ("[motion]\ncompute_time_per_point_us = 0.0\n", "outside the allowed range"),
+        ("[drives]\npullout_zero_speed_rev_min = 900.0\n", "wrong unit; this value must be given"),
     ],
 )
 def test_bad_values_are_refused_naming_the_key(tmp_path, body, needle):
@@ -91,3 +97,10 @@ def test_not_toml_and_missing_file(tmp_path):
         load_scenario(bad)
     with pytest.raises(ScenarioError, match="no such scenario file"):
         load_scenario(tmp_path / "nope.toml")
+
+
+def test_section_that_is_not_a_table(tmp_path):
+    path = tmp_path / "flat.toml"
+    path.write_text(f'arm = 3\n[scenario]\nbase = "{PAPER.as_posix()}"\n', encoding="utf-8")
+    with pytest.raises(ScenarioError, match=r"\[arm\] must be a table of keys"):
+        load_scenario(path)

@@ -13,13 +13,23 @@ from transplanter.firmware.pgf import PGFConfig
 from transplanter.firmware.sgf import SGFConfig
 from transplanter.kinematics import FiveBarGeometry, KinematicLimits
 from transplanter.motion import MotionConfig
-from transplanter.scenario import Scenario
+from transplanter.scenario import Scenario, ScenarioError
 from transplanter.steppers import StepperDrive
 
-__all__ = ["Machine", "machine_from_scenario", "GRIPPER_SERVO", "WRIST_SERVO"]
+__all__ = [
+    "Machine",
+    "machine_from_scenario",
+    "power_on_joints",
+    "GRIPPER_SERVO",
+    "WRIST_SERVO",
+    "POWER_ON_SHORT_OF_SWITCHES",
+]
 
 GRIPPER_SERVO = 0
 WRIST_SERVO = 1
+# Where the motors are when the machine is switched on: this far short of limit switches 1,
+# 2 and 3 (rad, rad, m), so that G28 has a little way to travel.
+POWER_ON_SHORT_OF_SWITCHES = (math.radians(5.0), math.radians(5.0), 0.010)
 
 
 @dataclass(frozen=True)
@@ -37,7 +47,30 @@ class Machine:
     baud_bps: float
 
 
+def power_on_joints(sgf: SGFConfig) -> tuple[float, float, float]:
+    """theta1, theta2 (rad), Z (m) at power-on: short of the switches, against homing."""
+    home = sgf.home_joint_positions
+    return tuple(
+        float(h - d * short)
+        for h, d, short in zip(home, sgf.homing_dirs, POWER_ON_SHORT_OF_SWITCHES, strict=True)
+    )
+
+
 def machine_from_scenario(s: Scenario) -> Machine:
+    """Build the firmware side of the machine; a value the firmware refuses is a
+    ScenarioError naming the scenario's sections."""
+    try:
+        return _machine(s)
+    except ValueError as exc:
+        if isinstance(exc, ScenarioError):
+            raise
+        raise ScenarioError(
+            f"the scenario's [arm], [limits], [drives], [motion], [gripper] or [taught] values "
+            f"do not make a working machine: {exc}"
+        ) from None
+
+
+def _machine(s: Scenario) -> Machine:
     arm, lim, drv, mot, grip = s["arm"], s["limits"], s["drives"], s["motion"], s["gripper"]
     geometry = FiveBarGeometry(l0_m=arm["l0_m"], l1_m=arm["l1_m"], l2_m=arm["l2_m"])
     limits = KinematicLimits(
@@ -84,6 +117,7 @@ def machine_from_scenario(s: Scenario) -> Machine:
             drv["homing_rate_z_hz"],
         ),
         conveyor_index_s=s["conveyor"]["index_time_s"],
+        mode=arm["working_mode"],
     )
     pgf = PGFConfig(
         gripper_servo=GRIPPER_SERVO,
@@ -97,7 +131,7 @@ def machine_from_scenario(s: Scenario) -> Machine:
         line_numbers=s["bus"]["line_numbers"],
     )
     taught = s["taught"]
-    eeprom = EepromImage(
+    taught_image = EepromImage(
         pickups=tuple(
             Pickup(
                 approach_xy_m=p["approach_m"],
@@ -113,6 +147,8 @@ def machine_from_scenario(s: Scenario) -> Machine:
         s_low_m_s=taught["s_low_m_s"],
         s_high_m_s=taught["s_high_m_s"],
     )
+    # The PGF works from the EEPROM's bytes, as on the machine: quantised and CRC-checked.
+    eeprom = EepromImage.from_bytes(taught_image.to_bytes())
     return Machine(
         geometry,
         limits,

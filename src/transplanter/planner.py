@@ -15,12 +15,10 @@ import numpy as np
 from transplanter.firmware.rig import SimulatedEndstops
 from transplanter.firmware.sgf import SGF
 from transplanter.gcode import GcodeError, parse_line
-from transplanter.machine import Machine
+from transplanter.machine import Machine, power_on_joints
 
 __all__ = ["PlanError", "PlannedLine", "plan_program"]
 
-# Where the motors are at power-on: this far short of their limit switches.
-_START_OFFSET = np.array([np.radians(5.0), np.radians(5.0), 0.010])
 _DT_HOMING_S = 1e-3
 
 
@@ -45,8 +43,7 @@ def plan_program(machine: Machine, lines: Iterable[str]) -> list[PlannedLine]:
     """Run every line through a fresh SGF; PlanError at the first refused line."""
     config = machine.sgf
     sgf = SGF(config)
-    start = np.asarray(config.home_joint_positions) - _START_OFFSET * np.asarray(config.homing_dirs)
-    endstops = SimulatedEndstops(config, start)
+    endstops = SimulatedEndstops(config, power_on_joints(config))
     t = 0.0
     rows: list[PlannedLine] = []
     for line_no, raw in enumerate(lines, start=1):

@@ -41,29 +41,18 @@ _G = 1e-3
 _MS = 1e-3
 _US = 1e-6
 
-# Unit suffixes the loader understands; used to tell a wrong unit from an unknown key.
-_UNIT_SUFFIXES = (
-    "_mm_s2",
-    "_mm_s",
-    "_mm_min",
-    "_mm",
-    "_m_s2",
-    "_m_s",
-    "_m",
-    "_deg",
-    "_rad",
-    "_g",
-    "_kg",
-    "_ms",
-    "_us",
-    "_s",
-    "_hz",
-    "_nm",
-    "_n",
-    "_bps",
-    "_kgm2",
-    "_n_m_s",
-)
+# Unit suffixes the loader understands (longest first, so `_mm_s` is not read as `_s`); used
+# to tell a wrong unit from an unknown key.
+_UNIT_SUFFIXES = tuple(
+    sorted(
+        ("_mm_s2", "_mm_s", "_mm", "_m_s2", "_m_s", "_m", "_deg", "_rad", "_g", "_kg", "_ms",
+         "_us", "_s", "_hz", "_nm", "_n", "_bps", "_kgm2", "_rev_s",
+         # units the schema never uses, so that `l1_cm` is reported as a wrong unit
+         "_cm", "_in", "_mm_min", "_rev_min", "_rpm", "_min", "_lb", "_oz", "_n_mm"),
+        key=len,
+        reverse=True,
+    )
+)  # fmt: skip
 
 SCHEMA: dict[str, dict[str, Key]] = {
     "scenario": {
@@ -98,6 +87,11 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "z_lead_mm": Key("float", _MM, 0.1, 100, doc="lead screw travel per revolution"),
         "max_step_rate_hz": Key("float", 1.0, 1, 1e6),
         "holding_torque_nm": Key("float", 1.0, 0.001, 100),
+        "rotor_inertia_kgm2": Key("float", 1.0, 1e-9, 1e-2, doc="motor rotor inertia"),
+        "pullout_zero_speed_rev_s": Key(
+            "float", 1.0, 0.1, 1000, doc="motor speed at which the pull-out torque reaches 0"
+        ),
+        "screw_efficiency": Key("float", 1.0, 0.01, 1.0, doc="lead screw efficiency"),
         "home_theta1_deg": Key("float", _DEG, -180, 360, doc="limit switch 1 trip angle"),
         "home_theta2_deg": Key("float", _DEG, -180, 360, doc="limit switch 2 trip angle"),
         "home_z_mm": Key("float", _MM, 0, 1000, doc="limit switch 3 (Z up) trip height"),
@@ -111,7 +105,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "compute_time_per_point_us": Key(
             "float",
             _US,
-            0,
+            0.01,
             1e6,
             doc="IK time per point: 198 ESP32 dual core, 276 single core, 4027 Arduino Mega",
         ),
@@ -149,6 +143,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "friction": Key("float", 1.0, 0, 10, doc="sliding friction coefficient pot-jaw"),
         "friction_sd": Key("float", 1.0, 0, 10),
         "placement_sd_mm": Key("float", _MM, 0, 100, doc="pot offset from its cell centre"),
+        "placement_max_mm": Key("float", _MM, 0, 100, doc="largest offset the cell allows"),
+        "mass_min_g": Key("float", _G, 0.1, 10000, doc="masses are clipped to [min, max]"),
+        "mass_max_g": Key("float", _G, 0.1, 10000),
     },
     "drop_tube": {
         "x_mm": Key("float", _MM, -1000, 1000),
@@ -306,6 +303,9 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
         raise ScenarioError(f"{path}: no such scenario file.") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}.") from None
+    for section, table in raw.items():
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{path}: [{section}] must be a table of keys, got {table!r}.")
     base = raw.get("scenario", {}).pop("base", None)
     if base is None:
         return raw
@@ -320,7 +320,10 @@ def _apply_overrides(raw: dict, overrides: Mapping[str, Any]) -> dict:
         section, _, key = dotted.partition(".")
         if not key:
             raise ScenarioError(f"override {dotted!r}: use 'section.key'.")
-        raw.setdefault(section, {})[key] = value
+        table = raw.setdefault(section, {})
+        if not isinstance(table, dict):
+            raise ScenarioError(f"override {dotted!r}: [{section}] is not a table.")
+        table[key] = value
     return raw
 
 
@@ -334,8 +337,10 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
             )
     for section, keys in SCHEMA.items():
         table = raw.get(section)
-        if not isinstance(table, dict):
+        if table is None:
             raise ScenarioError(f"{source}: missing section [{section}].")
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{source}: [{section}] must be a table of keys, got {table!r}.")
         for key in table:
             if key not in keys:
                 raise _unknown_key_error(section, key, keys)
@@ -395,6 +400,29 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         raise ScenarioError("taught.z_up_mm must be above taught.z_low_mm.")
     if len(taught["pickup"]) > 10:
         raise ScenarioError("taught.pickup: the EEPROM holds at most 10 pickup points.")
+    if v["arm"]["working_mode"] != "+-":
+        raise ScenarioError(
+            f"arm.working_mode = {v['arm']['working_mode']!r}: the MJCF model is assembled in the "
+            "paper's working mode '+-' (elbows out, eqs 6-7); transplanter.kinematics solves all "
+            "four modes, but the twin can only run '+-'."
+        )
+    drv = v["drives"]
+    for key, lo, hi, window in (
+        ("home_theta1_deg", "motor1_min_deg", "motor1_max_deg", "limits"),
+        ("home_theta2_deg", "motor2_min_deg", "motor2_max_deg", "limits"),
+    ):
+        if not lim[si_key(lo)] <= drv[si_key(key)] <= lim[si_key(hi)]:
+            raise ScenarioError(
+                f"drives.{key} (a limit switch) must lie inside {window}.{lo}..{hi}."
+            )
+    if not z_min < drv["home_z_m"] <= z_max:
+        raise ScenarioError("drives.home_z_mm (limit switch 3) must lie in (z_min_mm, z_max_mm].")
+    pots = v["pots"]
+    if pots["mass_min_kg"] > pots["mass_kg"] or pots["mass_kg"] > pots["mass_max_kg"]:
+        raise ScenarioError("pots.mass_g must lie within [pots.mass_min_g, pots.mass_max_g].")
+    conv = v["conveyor"]
+    if conv["index_time_s"] < 0.2:
+        raise ScenarioError("conveyor.index_time_s must be at least 0.2 s (push and settle).")
     grip = v["gripper"]
     if grip["close_rad"] >= grip["open_rad"]:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")

@@ -20,7 +20,7 @@ import numpy as np
 from transplanter.firmware.bus import ComBus
 from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.sgf import SGF
-from transplanter.machine import GRIPPER_SERVO, Machine, machine_from_scenario
+from transplanter.machine import GRIPPER_SERVO, Machine, machine_from_scenario, power_on_joints
 from transplanter.scenario import Scenario
 from transplanter.scene import Scene, SceneConfig, build_scene
 
@@ -54,31 +54,34 @@ class SimulationInvalid(RuntimeError):
     """The physics produced a MuJoCo warning or diverged: the trial is invalid."""
 
 
-def scene_config_from_scenario(s: Scenario) -> SceneConfig:
+def scene_config_from_scenario(s: Scenario, machine: Machine) -> SceneConfig:
     """The physical parameters of a scenario as the scene builder's config.
 
-    The power-on pose (the `home` keyframe) is 5 deg short of limit switches 1 and 2 and
-    10 mm below switch 3, so that G28 has a little way to travel.
+    The power-on pose (the `home` keyframe) is machine.power_on_joints: a little short of
+    limit switches 1-3, so that G28 has a little way to travel.
     """
     arm, drv, grip, conv, pots, tube, phys, lim = (
         s["arm"], s["drives"], s["gripper"], s["conveyor"], s["pots"], s["drop_tube"],
         s["physics"], s["limits"],
     )  # fmt: skip
-    five_deg = math.radians(5.0)
+    theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
     return SceneConfig(
         l0=arm["l0_m"],
         l1=arm["l1_m"],
         l2=arm["l2_m"],
         holding_torque=drv["holding_torque_nm"],
+        rotor_inertia=drv["rotor_inertia_kgm2"],
+        pullout_zero_speed_rev_s=drv["pullout_zero_speed_rev_s"],
+        screw_efficiency=drv["screw_efficiency"],
         arm_belt_ratio=drv["arm_belt_ratio"],
         screw_lead=drv["z_lead_m"],
         switch1_theta1_min=drv["home_theta1_rad"],
         switch2_theta2_max=drv["home_theta2_rad"],
         switch3_z_min=drv["home_z_m"],
         switch4_z_max=lim["z_min_m"],
-        home_theta1=drv["home_theta1_rad"] - five_deg,
-        home_theta2=drv["home_theta2_rad"] + five_deg,
-        home_z=drv["home_z_m"] - 0.010,
+        home_theta1=theta1_on,
+        home_theta2=theta2_on,
+        home_z=z_on,
         gripper_max_opening=grip["max_opening_m"],
         grip_force=grip["grip_force_n"],
         rows=conv["rows"],
@@ -95,6 +98,8 @@ def scene_config_from_scenario(s: Scenario) -> SceneConfig:
         pot_friction=pots["friction"],
         pot_friction_sd=pots["friction_sd"],
         pot_offset_sd=pots["placement_sd_m"],
+        pot_offset_max=pots["placement_max_m"],
+        pot_mass_range=(pots["mass_min_kg"], pots["mass_max_kg"]),
         drop_tube_xy=(tube["x_m"], tube["y_m"]),
         funnel_top_diameter=tube["funnel_top_diameter_m"],
         funnel_top_z=tube["funnel_top_z_m"],
@@ -154,7 +159,7 @@ class Twin:
     def __post_init__(self) -> None:
         s = self.scenario
         self.machine = machine_from_scenario(s)
-        self.scene = build_scene(scene_config_from_scenario(s), seed=s.seed)
+        self.scene = build_scene(scene_config_from_scenario(s, self.machine), seed=s.seed)
         self.model = self.scene.model
         self.data = self.scene.make_data()
         self.dt = float(self.model.opt.timestep)
