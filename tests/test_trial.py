@@ -146,10 +146,38 @@ def test_unreachable_taught_point_refused_naming_the_key(tmp_path, capsys):
 
 def test_path_through_singular_region_refused(tmp_path):
     """Both ends reachable, the straight line between them not: refused before simulating."""
+    from transplanter import kinematics
+    from transplanter.machine import machine_from_scenario
     from transplanter.preflight import check_scenario
 
-    scenario = load_scenario(PAPER, {"taught.drop_mm": [-140.0, 100.0]})
-    with pytest.raises(ScenarioError, match=r"taught.drop_mm|leaves the workspace"):
+    text = (
+        PAPER.read_text()
+        .replace("drop_mm = [0.0, 140.0]", "drop_mm = [-16.0, 84.0]")
+        .replace("approach_mm = [-90.0, 180.0]", "approach_mm = [-131.0, 107.0]")
+        .replace("grip_mm = [-90.0, 215.0]", "grip_mm = [-125.0, 110.0]")
+    )
+    path = tmp_path / "singular.toml"
+    path.write_text(text)
+    scenario = load_scenario(path)
+    machine = machine_from_scenario(scenario)
+    ends = kinematics.check_points(
+        machine.geometry, machine.limits, [-0.016, -0.131, -0.125], [0.084, 0.107, 0.110]
+    )
+    assert ends.ok.all()  # every taught point on its own is fine
+    with pytest.raises(
+        ScenarioError,
+        match=r"taught.pickup\[0\]: the move from .* leaves the "
+        r"workspace: elbow angle at B",
+    ):
+        check_scenario(scenario)
+
+
+def test_first_move_from_home_is_checked():
+    """The drop point is reachable, but not on a straight line from the homed position."""
+    from transplanter.preflight import check_scenario
+
+    scenario = load_scenario(PAPER, {"taught.drop_mm": [80.0, 100.0]})
+    with pytest.raises(ScenarioError, match="the first move, from the homed position"):
         check_scenario(scenario)
 
 
@@ -221,3 +249,15 @@ def test_rejected_move_is_recorded_and_nothing_after_it_runs(tmp_path):
     assert outcomes == ["success", "move_rejected", "not_run"]
     assert "error:33 target position not reachable" in result.per_seedling[1].rejected_line
     assert result.fault is not None and result.valid
+
+
+def test_cli_exit_status_for_a_firmware_fault(tmp_path, monkeypatch, capsys):
+    text = PAPER.read_text().replace("grip_mm = [-45.0, 215.0]", "grip_mm = [-45.0, 330.0]")
+    path = tmp_path / "reject.toml"
+    path.write_text(text)
+    assert main(["trial", str(path), "--seedlings", "3", "--quiet"]) == 2  # preflight refuses
+    import transplanter.preflight
+
+    monkeypatch.setattr(transplanter.preflight, "check_scenario", lambda scenario: None)
+    assert main(["trial", str(path), "--seedlings", "3", "--quiet"]) == 4  # the SGF refuses
+    assert "firmware fault" in capsys.readouterr().out

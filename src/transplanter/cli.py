@@ -110,7 +110,12 @@ def build_parser() -> argparse.ArgumentParser:
     _scenario_arg(p)
     p.set_defaults(func=cmd_plan)
 
-    p = sub.add_parser("trial", help="run a headless pick-and-drop trial")
+    p = sub.add_parser(
+        "trial",
+        help="run a headless pick-and-drop trial",
+        epilog="exit status: 0 done, 2 scenario refused, 3 invalid physics (a MuJoCo warning "
+        "or divergence), 4 the firmware faulted (a line was refused)",
+    )
     p.add_argument("scenario", type=Path)
     p.add_argument("--seedlings", type=int, default=None, help="override scenario.seedlings")
     p.add_argument("--seed", type=int, default=None, help="override scenario.seed")

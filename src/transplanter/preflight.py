@@ -37,6 +37,15 @@ def check_scenario(s: Scenario) -> None:
             )
     z_low, z_up = taught["z_low_m"], taught["z_up_m"]
     drop = (*taught["drop_m"], z_up)
+    homed = _homed_xyz(machine)
+    try:
+        _check_line(machine, homed, drop)
+    except kinematics.UnreachableError as exc:
+        raise ScenarioError(
+            f"taught.drop_mm: the first move, from the homed position {_mm(homed)} mm to the "
+            f"drop point {_mm(drop)} mm, leaves the workspace: {exc.reason}. Move the drop "
+            "point or the limit switches (drives.home_*)."
+        ) from None
     for i, p in enumerate(taught["pickup"]):
         approach_low, grip_low = (*p["approach_m"], z_low), (*p["grip_m"], z_low)
         grip_up, approach_up = (*p["grip_m"], z_up), (*p["approach_m"], z_up)
@@ -49,6 +58,16 @@ def check_scenario(s: Scenario) -> None:
                     f"taught.pickup[{i}]: the move from {_mm(a)} to {_mm(b)} mm leaves the "
                     f"workspace: {exc.reason}. Move the approach or grip point."
                 ) from None
+
+
+def _homed_xyz(machine) -> tuple[float, float, float]:
+    """Where G28 leaves the machine: at the limit switches, less the pull-off."""
+    sgf = machine.sgf
+    joints = np.asarray(sgf.home_joint_positions, dtype=float) - np.asarray(
+        sgf.homing_dirs, dtype=float
+    ) * np.asarray(sgf.homing_pulloff_steps) * np.array([d.unit_per_step for d in machine.drives])
+    x, y = kinematics.fk(machine.geometry, joints[0], joints[1])
+    return (float(x), float(y), float(joints[2]))
 
 
 def _check_line(machine, a, b) -> None:

@@ -500,4 +500,6 @@ def run_trial_cli(args) -> int:
         print(
             f"recording written to {args.record} (view it with: transplanter replay {args.record})"
         )
-    return 0 if result.valid else 3
+    if not result.valid:
+        return 3
+    return 4 if result.fault else 0
