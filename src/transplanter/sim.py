@@ -257,8 +257,7 @@ class Twin:
         joints = self.q_power_on + self.slip_offset + pulses * self.unit_per_step
         ctrl = np.repeat(self.data.ctrl[None, :], n, axis=0)
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
-        opening = self.gripper.at(times) * self._open_m_per_deg
-        ctrl[:, self.scene.gripper_actuator] = np.clip(opening, 0.0, self._max_opening)
+        ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
         ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - 90.0)
         return _Block(self.k, ctrl, pulses, self.scene.conveyor_indexing(self.time, self.data))
 
@@ -317,6 +316,12 @@ class Twin:
             )
 
     # -- observations used by trials and recordings -------------------------------------
+    def gripper_opening_cmd(self, times: np.ndarray) -> np.ndarray:
+        """Jaw opening (m) the gripper servo is commanded to at the given times: the servo's
+        angle maps linearly onto the opening, 0 deg closed, 180 deg fully open."""
+        opening = self.gripper.at(np.asarray(times, dtype=float)) * self._open_m_per_deg
+        return np.clip(opening, 0.0, self._max_opening)
+
     def commanded_joints(self) -> np.ndarray:
         return self.data.ctrl[self.scene.motor_actuators] / self.scene.motor_gears
 

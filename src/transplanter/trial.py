@@ -421,7 +421,7 @@ class _RecordingMonitor:
             math.degrees(cmd[1]), math.degrees(act[1]),
             cmd[2] * 1e3, act[2] * 1e3,
             rates[0], rates[1], rates[2],
-            twin.gripper.at(np.array([t]))[0] * twin._open_m_per_deg * 1e3,
+            twin.gripper_opening_cmd(np.array([t]))[0] * 1e3,
             scene.gripper_opening(d) * 1e3,
             0.5 * scene.grip_force(d),
             math.degrees(d.qpos[scene.wrist_qpos_adr]),
