@@ -235,3 +235,14 @@ def test_every_step_is_out_at_the_ack_time(homed):
         replies, t = run_line(sgf, line, t)
         assert replies == ["ok"]
         assert np.array_equal(sgf.pulses_at(t)[0], sgf.raw_pulses), line
+
+
+def test_rejected_move_keeps_the_modal_speed(homed):
+    sgf, _, t = homed
+    _, t1 = run_line(sgf, "G1 X0 Y180 Z100 S100", t)
+    _, t2 = run_line(sgf, "G1 Y200", t1)
+    for refused in ("G1 X0 Y400 S5", "G1 Z200 S5", "G1 X0 Y400 F60"):
+        replies, t_refused = run_line(sgf, refused, t2)
+        assert replies[0].startswith("error:33") and t_refused == t2
+    _, t3 = run_line(sgf, "G1 Y180", t2)  # still 100 mm/s, not 5 or 1 mm/s
+    assert t3 - t2 == pytest.approx(t2 - t1, rel=0.02)

@@ -362,10 +362,11 @@ class SGF:
             if letter in words:
                 value = words[letter] * M_PER_MM
                 target[axis] = value if self._absolute else target[axis] + value
+        speed_m_s = self._speed_m_s  # modal: committed only once the move is accepted
         if "S" in words:
-            self._speed_m_s = words["S"] * M_PER_MM
+            speed_m_s = words["S"] * M_PER_MM
         elif "F" in words:
-            self._speed_m_s = words["F"] * MM_PER_MIN_TO_M_S
+            speed_m_s = words["F"] * MM_PER_MIN_TO_M_S
         z = target[2]
         if not self.config.z_min_m <= z <= self.config.z_max_m:
             raise GcodeError(
@@ -376,7 +377,7 @@ class SGF:
         config = self.config
         try:
             move = plan_line(
-                self._logical, self._position, target, self._speed_m_s,
+                self._logical, self._position, target, speed_m_s,
                 config.geometry, config.limits, config.drives, config.motion, config.mode,
             )  # fmt: skip
         except UnreachableError as error:
@@ -388,6 +389,7 @@ class SGF:
             ) from None
         except ValueError as error:
             raise GcodeError(ERROR_TARGET, f"move refused: {error}") from None
+        self._speed_m_s = speed_m_s
         job.move = move
         job.target_xyz = target
         job.t_done = job.t_start + move.duration_s
