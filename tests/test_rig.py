@@ -114,7 +114,8 @@ def test_five_pickup_cycle_through_bus(capsys):
     )  # fmt: skip
     start_steps = np.array([int(d.to_steps(q)) for d, q in zip(drives, start, strict=True)])
     overshoot = sgf.homing_trip_raw - endstops.trip_pulses()
-    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_rate_hz) * DT_HOMING_S))
+    locate_rate = np.array(config.homing_locate_rate_hz)
+    assert np.all(np.abs(overshoot) <= np.ceil(locate_rate * DT_HOMING_S))
     assert np.array_equal(sgf.logical_steps, final_steps)
     assert np.array_equal(sgf.raw_pulses, final_steps - start_steps + overshoot)
     assert np.array_equal(sgf.pulses_at(result.end_time_s + 1.0)[0], sgf.raw_pulses)

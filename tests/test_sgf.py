@@ -49,10 +49,10 @@ def homed():
 def test_homing_sets_logical_counters_and_keeps_raw_pulses(homed):
     sgf, endstops, t = homed
     config = sgf.config
-    # each switch was read closed at exactly the first pulse that reaches it (1 ms polling)
+    # the slow locate read each switch closed within a step of reaching it (1 ms polling)
     overshoot = sgf.homing_trip_raw - endstops.trip_pulses()
     assert np.all(overshoot * np.array(config.homing_dirs) >= 0)
-    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_rate_hz) * 1e-3))
+    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_locate_rate_hz) * 1e-3))
     pulloff = np.array(config.homing_dirs) * np.array(config.homing_pulloff_steps)
     assert np.array_equal(sgf.logical_steps, config.home_steps - pulloff)
     assert np.array_equal(sgf.raw_pulses, sgf.homing_trip_raw - pulloff)
@@ -66,16 +66,20 @@ def test_homing_sets_logical_counters_and_keeps_raw_pulses(homed):
     assert [name for _, name in events] == ["homed"] and events[0][0] == t
 
 
-def test_homing_pulses_are_monotone_in_homing_direction():
+def test_homing_seeks_pulls_off_locates_and_pulls_off_again():
     config = SGFConfig()
     sgf = SGF(config)
     endstops = SimulatedEndstops(config, START)
     t_done = home(sgf, endstops)
-    times = np.linspace(0.0, t_done, 2001)
+    times = np.linspace(0.0, t_done, 4001)
     pulses = sgf.pulses_at(times)
     assert np.array_equal(pulses[0], [0, 0, 0])
     steps = np.diff(pulses, axis=0)
     assert np.all(np.abs(steps) <= np.ceil(np.array(config.homing_rate_hz) * times[1]))
+    for motor, direction in enumerate(config.homing_dirs):
+        moving = steps[:, motor][steps[:, motor] != 0] * direction
+        legs = np.sign(moving[np.r_[True, np.diff(np.sign(moving)) != 0]])
+        assert legs.tolist() == [1, -1, 1, -1], motor  # seek, pull-off, locate, pull-off
 
 
 def test_homing_fails_without_switch():
@@ -246,3 +250,78 @@ def test_rejected_move_keeps_the_modal_speed(homed):
         assert replies[0].startswith("error:33") and t_refused == t2
     _, t3 = run_line(sgf, "G1 Y180", t2)  # still 100 mm/s, not 5 or 1 mm/s
     assert t3 - t2 == pytest.approx(t2 - t1, rel=0.02)
+
+
+def home_lagging(sgf: SGF, endstops: SimulatedEndstops, lag_s: float, dt: float) -> float:
+    """Home with motors that follow their commanded pulses lag_s late, switches read every dt."""
+    sgf.receive("G28", 0.0)
+    t = 0.0
+    for _ in range(100_000):
+        if sgf.poll(t, endstops.read(sgf.pulses_at(t - lag_s)[0])) == ["ok"]:
+            return t
+        t_event = sgf.next_event_time()
+        t = min(t + dt, t_event if t_event is not None else math.inf)
+    raise AssertionError("homing did not finish")
+
+
+def test_two_pass_homing_trips_within_a_step_of_the_switch():
+    """The fast seek trips ~rate * (lag + dt) late; the slow locate a tenth of that."""
+    config = SGFConfig()
+    lag_s, dt = 4e-3, 1e-3
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, START)
+    home_lagging(sgf, endstops, lag_s, dt)
+    overshoot = (sgf.homing_trip_raw - endstops.trip_pulses()) * np.array(config.homing_dirs)
+    locate_rate = np.array(config.homing_locate_rate_hz)
+    assert np.allclose(locate_rate, np.array(config.homing_rate_hz) / 10)
+    assert np.all(overshoot >= 0)
+    assert np.all(overshoot <= np.ceil(locate_rate * (lag_s + dt)))  # 1, 1, 4 steps
+    assert np.all(overshoot[:2] <= 1)  # the single-pass seek was 7-8 steps late on each arm
+
+
+def test_homing_locate_rate_is_configurable_and_validated():
+    config = SGFConfig(homing_locate_rate_hz=(50.0, 50.0, 100.0))
+    assert config.homing_locate_rate_hz == (50.0, 50.0, 100.0)
+    sgf_fast = SGF(SGFConfig())
+    sgf_slow = SGF(config)
+    t_fast = home(sgf_fast, SimulatedEndstops(sgf_fast.config, START))
+    t_slow = home(sgf_slow, SimulatedEndstops(config, START))
+    # the arms' locate covers >= 96 pull-off steps: 0.6 s at 160 Hz, 1.9 s at 50 Hz
+    assert t_slow - t_fast > 1.0
+    for bad in ((0.0, 1.0, 1.0), (1.0, 1.0), (1.0, math.nan, 1.0)):
+        with pytest.raises(ValueError, match="homing_locate_rate_hz"):
+            SGFConfig(homing_locate_rate_hz=bad)
+
+
+def test_homing_fails_when_the_switch_stays_closed_after_the_pull_off():
+    sgf = SGF(SGFConfig())
+    sgf.receive("G28", 0.0)
+    t, replies = 0.0, []
+    while not replies and t < 5.0:
+        replies = sgf.poll(t, (True, True, True, False))  # stuck-closed switches
+        t += 1e-3
+    assert replies == [
+        "error:9 homing failed: limit switch 3 still closed after the pull-off; "
+        "raise homing_pulloff_steps"
+    ]
+    assert not sgf.homed and sgf.homing_trip_raw is None
+    assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
+    # the motors stopped where they were: nothing moves afterwards
+    assert np.array_equal(sgf.pulses_at(t + 1.0)[0], sgf.raw_pulses)
+
+
+def test_homing_locate_fails_when_the_switch_is_lost():
+    """Switches that close for one poll of the seek and never again: the locate gives up."""
+    sgf = SGF(SGFConfig())
+    sgf.receive("G28", 0.0)
+    replies = []
+    for k in range(10_000):
+        replies = sgf.poll(k * 1e-3, (k == 50,) * 3 + (False,))
+        if replies:
+            break
+    # Z gives up first: 5 x 400 steps at 800 Hz after its pull-off, 2.6 s in
+    assert replies == [
+        "error:9 homing failed: limit switch 3 not found again within 2000 steps of the slow locate"
+    ]
+    assert k * 1e-3 == pytest.approx(0.05 + 400 / 8000 + 2000 / 800, abs=2e-3)
+    assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
