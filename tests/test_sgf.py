@@ -8,7 +8,7 @@ pytest.importorskip("transplanter.motion", reason="SGF plans with transplanter.m
 from transplanter.firmware.rig import SimulatedEndstops  # noqa: E402
 from transplanter.firmware.sgf import SGF, SGFConfig  # noqa: E402
 from transplanter.gcode import format_line  # noqa: E402
-from transplanter.kinematics import ik  # noqa: E402
+from transplanter.kinematics import fk, ik  # noqa: E402
 
 START = (math.radians(150.0), math.radians(30.0), 0.120)
 
@@ -61,7 +61,7 @@ def test_homing_sets_logical_counters_and_keeps_raw_pulses(homed):
     assert sgf.homing_trip_raw[0] > 0 > sgf.homing_trip_raw[1] and sgf.homing_trip_raw[2] > 0
     assert sgf.homed and not sgf.busy
     x, y, z = sgf.position_xyz
-    assert abs(x) < 1e-9 and 0.14 < y < 0.16 and z == pytest.approx(0.159)
+    assert abs(x) < 1e-9 and 0.076 < y < 0.082 and z == pytest.approx(0.159)  # pulled off
     events = sgf.drain_machine_events()
     assert [name for _, name in events] == ["homed"] and events[0][0] == t
 
@@ -200,6 +200,15 @@ def test_line_numbers_and_required_checksum():
     assert replies[1].startswith("error:61 ")
     assert replies[2].startswith("error:62 ")
     assert replies[3] == "ok"
+
+
+def test_default_home_is_the_folded_back_pose_of_the_model():
+    config = SGFConfig()
+    assert config.home_joint_positions == pytest.approx(
+        (math.radians(200.0), math.radians(-20.0), 0.160)
+    )
+    x, y = fk(config.geometry, config.home_theta1_rad, config.home_theta2_rad, "up")
+    assert (float(x), float(y)) == pytest.approx((0.0, 0.075), abs=5e-4)
 
 
 def test_time_must_not_go_backwards():

@@ -23,14 +23,15 @@ class SimulatedEndstops:
     """Limit switches 1-4 computed from raw pulses: a switch is closed at or past its trip point.
 
     Switches 1, 2, 3 trip where the SGF's homing expects them (home position, approached in
-    ``homing_dirs``); switch 4 (Z down) trips at or below ``z_down_trip_m``.
+    ``homing_dirs``); switch 4 (Z down) trips at or below ``z_down_trip_m`` (default: the
+    config's ``z_min_m``, where the machine's switch 4 sits).
     """
 
     def __init__(
         self,
         sgf_config: SGFConfig,
         initial_joint_positions: Sequence[float],
-        z_down_trip_m: float = 0.003,
+        z_down_trip_m: float | None = None,
     ):
         self.config = sgf_config
         self.initial = np.asarray(initial_joint_positions, dtype=np.float64)
@@ -39,7 +40,7 @@ class SimulatedEndstops:
         self.unit_per_step = np.array([d.unit_per_step for d in sgf_config.drives])
         self.trip = np.asarray(sgf_config.home_joint_positions, dtype=np.float64)
         self.dirs = np.asarray(sgf_config.homing_dirs, dtype=np.float64)
-        self.z_down_trip_m = float(z_down_trip_m)
+        self.z_down_trip_m = float(sgf_config.z_min_m if z_down_trip_m is None else z_down_trip_m)
         beyond = (self.initial - self.trip) * self.dirs > 0
         if beyond.any():
             raise ValueError(

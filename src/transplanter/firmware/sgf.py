@@ -58,9 +58,9 @@ class SGFConfig:
     motion: MotionConfig = field(default_factory=MotionConfig)
     z_min_m: float = 0.005
     z_max_m: float = 0.160
-    home_theta1_rad: float = math.radians(165.0)
-    """Motor 1 angle at which limit switch 1 trips."""
-    home_theta2_rad: float = math.radians(15.0)
+    home_theta1_rad: float = math.radians(200.0)
+    """Motor 1 angle at which limit switch 1 trips (arms folded back, C at (0, 75) mm)."""
+    home_theta2_rad: float = math.radians(-20.0)
     """Motor 2 angle at which limit switch 2 trips."""
     home_z_m: float = 0.160
     """Z at which limit switch 3 (Z up) trips."""
@@ -135,7 +135,7 @@ class SGFConfig:
 
     @property
     def home_steps(self) -> np.ndarray:
-        """Logical step counters homing sets when each switch trips."""
+        """Logical step counters homing sets when each switch trips (nearest step)."""
         return np.array(
             [
                 int(d.to_steps(q))
