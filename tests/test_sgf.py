@@ -211,6 +211,22 @@ def test_default_home_is_the_folded_back_pose_of_the_model():
     assert (float(x), float(y)) == pytest.approx((0.0, 0.075), abs=5e-4)
 
 
+@pytest.mark.parametrize("mode", ["+-", "-+", "++", "--"])
+def test_position_after_homing_uses_the_assembly_of_the_mode(mode):
+    """Switches placed so that the pulled-off pose is the IK of (45, 200) mm in ``mode``."""
+    base = SGFConfig()
+    unit = np.array([d.unit_per_step for d in base.drives])
+    dirs = np.array(base.homing_dirs)
+    pulled_off = np.array([*ik(base.geometry, 0.045, 0.200, mode), 0.159])
+    home_q = pulled_off + dirs * np.array(base.homing_pulloff_steps) * unit
+    config = SGFConfig(
+        mode=mode, home_theta1_rad=home_q[0], home_theta2_rad=home_q[1], home_z_m=home_q[2]
+    )
+    sgf = SGF(config)
+    home(sgf, SimulatedEndstops(config, home_q - dirs * np.radians(5.0)))
+    assert sgf.position_xyz == pytest.approx([0.045, 0.200, 0.159], abs=3e-4)
+
+
 def test_time_must_not_go_backwards():
     sgf = SGF()
     sgf.poll(1.0)

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from transplanter.gcode import GcodeError, GcodeLine, parse_line
-from transplanter.kinematics import FiveBarGeometry, KinematicLimits, UnreachableError, fk
+from transplanter.kinematics import FiveBarGeometry, KinematicLimits, UnreachableError, fk, ik
 from transplanter.motion import MotionConfig, PlannedMove, plan_line
 from transplanter.steppers import StepperDrive, default_drives
 
@@ -533,9 +533,21 @@ class SGF:
         self._current = None
 
     def _xyz_of_steps(self, steps: np.ndarray) -> np.ndarray:
-        joints = [float(d.to_position(s)) for d, s in zip(self.config.drives, steps, strict=True)]
-        x, y = fk(self.config.geometry, joints[0], joints[1], "up")
-        return np.array([float(x), float(y), joints[2]])
+        """(x, y, z) of logical step counters: the FK assembly that the IK in ``mode`` maps
+        back to these joint angles ('-+' lands in 'down', the others mostly in 'up')."""
+        config = self.config
+        theta1, theta2, z = (
+            float(d.to_position(s)) for d, s in zip(config.drives, steps, strict=True)
+        )
+        preferred = ("down", "up") if config.mode == "-+" else ("up", "down")
+        for assembly in preferred:
+            x, y = fk(config.geometry, theta1, theta2, assembly)
+            back = np.asarray(ik(config.geometry, x, y, config.mode), dtype=np.float64)
+            wrapped = np.angle(np.exp(1j * (back - [theta1, theta2])))
+            if np.all(np.abs(wrapped) < 1e-6):
+                return np.array([float(x), float(y), z])
+        x, y = fk(config.geometry, theta1, theta2, preferred[0])  # a pose of no single mode
+        return np.array([float(x), float(y), z])
 
     def _position_report(self) -> str:
         x, y, z = (f"{v / M_PER_MM:.3f}".replace("-0.000", "0.000") for v in self._position)
