@@ -6,7 +6,7 @@ import pytest
 from transplanter.firmware.bus import TO_DEVICE, TO_HOST, ComBus
 from transplanter.firmware.eeprom import EepromImage, Pickup
 from transplanter.firmware.pgf import PGF, PGFConfig
-from transplanter.firmware.rig import SimulatedEndstops, run_firmware
+from transplanter.firmware.rig import FirmwareLink, SimulatedEndstops, run_firmware
 from transplanter.firmware.sgf import SGF, SGFConfig
 from transplanter.gcode import checksum
 from transplanter.kinematics import ik
@@ -201,3 +201,32 @@ def test_rig_reports_a_stall():
     # no endstops: homing can only fail after its seek limit, which faults the PGF
     result = run_firmware(pgf, ComBus(), sgf, endstops=None)
     assert "homing failed" in result.fault
+
+
+def test_firmware_link_exchanges_and_schedules():
+    config = SGFConfig()
+    start = on_step_grid(config, (math.radians(150), math.radians(30), 0.120))
+    pgf = PGF(taught_image(), PGFConfig(seedlings=1))
+    bus, sgf = ComBus(baud_bps=115200.0), SGF(config)
+    endstops = SimulatedEndstops(config, start)
+    log: list[tuple[float, str]] = []
+    link = FirmwareLink(pgf, bus, sgf, log=log)
+    sent = link.exchange(0.0)
+    assert [(s.text, s.t_sent, s.reply) for s in sent] == [("N1 G28*18", 0.0, None)]
+    assert log == [(0.0, "pgf> N1 G28*18")]
+    t_arrive = link.next_event_time(0.0, 1e-3)
+    assert t_arrive == bus.next_delivery_time() and 0.0 < t_arrive < 1e-3  # 9 bytes at 115200
+    assert link.exchange(t_arrive, endstops.read(sgf.pulses_at(t_arrive)[0])) == []
+    assert log[-1] == (t_arrive, "sgf< N1 G28*18") and sgf.homing
+    # while homing: every dt_homing_s, to read the switches
+    assert link.next_event_time(t_arrive, 2e-3) == t_arrive + 2e-3
+    t = t_arrive
+    while pgf.current is not None and pgf.current.text.endswith("G28*18"):
+        t = link.next_event_time(t, 1e-3)
+        sent = link.exchange(t, endstops.read(sgf.pulses_at(t)[0]))
+    assert [s.phase for s in sent] == ["absolute"] and pgf.sent[0].reply == "ok"
+    assert [text for _, text in log[-3:]] == ["sgf> ok", "pgf< ok", f"pgf> {sent[0].text}"]
+    # nothing in flight once the PGF has faulted and the bus is empty
+    idle = FirmwareLink(PGF(taught_image(), PGFConfig(seedlings=1)), ComBus(), SGF(config))
+    idle.pgf.poll(0.0, ["ok"])  # an ok nobody asked for: the PGF faults, sends nothing
+    assert idle.exchange(0.0) == [] and idle.next_event_time(0.0, 1e-3) is None
