@@ -227,6 +227,19 @@ def test_position_after_homing_uses_the_assembly_of_the_mode(mode):
     assert sgf.position_xyz == pytest.approx([0.045, 0.200, 0.159], abs=3e-4)
 
 
+def test_first_move_without_speed_uses_default_speed():
+    durations = []
+    for speed_m_s in (0.05, 0.10):
+        config = SGFConfig(default_speed_m_s=speed_m_s)
+        sgf = SGF(config)
+        t = home(sgf, SimulatedEndstops(config, START))
+        _, t1 = run_line(sgf, "G1 X0 Y180 Z100", t)
+        _, t2 = run_line(sgf, "G1 Y220", t1)  # 40 mm straight line at the default speed
+        durations.append(t2 - t1)
+    assert durations[0] > 1.5 * durations[1]
+    assert durations[1] > 0.040 / 0.10
+
+
 def test_time_must_not_go_backwards():
     sgf = SGF()
     sgf.poll(1.0)

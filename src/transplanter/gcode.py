@@ -182,19 +182,17 @@ def _split_framing(text: str, star: int) -> tuple[str, int | None, int | None, s
 
 def _strip_paren_comments(body: str) -> str:
     out = []
-    depth_start = -1
-    for index, char in enumerate(body):
-        if depth_start >= 0:
-            if char == ")":
-                depth_start = -1
-            continue
-        if char == "(":
-            depth_start = index
+    in_comment = False
+    for char in body:
+        if in_comment:
+            in_comment = char != ")"
+        elif char == "(":
+            in_comment = True
         elif char == ")":
             raise GcodeError(1, "unexpected ')' without an opening '('; remove it")
         else:
             out.append(char)
-    if depth_start >= 0:
+    if in_comment:
         raise GcodeError(64, "comment '(' is never closed; add ')' or remove the comment")
     return "".join(out)
 

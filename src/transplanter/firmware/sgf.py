@@ -77,6 +77,7 @@ class SGFConfig:
     homing_locate_scalar: float = 5.0
     """The locate fails after this many pull-off distances (grbl's HOMING_AXIS_LOCATE_SCALAR)."""
     default_speed_m_s: float = 0.05
+    """Speed of G0/G1 moves until a move gives S or F (modal afterwards)."""
     conveyor_index_s: float = 0.6
     require_checksum: bool = False
     """Refuse lines without Marlin ``N<n> ... *<checksum>`` framing."""
