@@ -73,6 +73,22 @@ def test_normalisation_and_comments():
     assert parse_line("G4 P200\r\n").words == {"P": 200.0}
 
 
+def test_star_and_semicolon_inside_a_paren_comment_are_comment_text():
+    framed = "N7 G1 X1 (3*4; not framing) Y2"
+    line = parse_line(f"{framed}*{checksum(framed)}", expected_line_number=7)
+    assert line.command == "G1" and line.words == {"X": 1.0, "Y": 2.0}
+    assert line.line_number == 7
+    # the checksum covers the comment bytes as sent: dropping them changes it
+    assert checksum(framed) != checksum("N7 G1 X1  Y2")
+    with pytest.raises(GcodeError) as error:
+        parse_line(f"{framed}*{checksum('N7 G1 X1  Y2')}")
+    assert error.value.code == 60
+    assert parse_line("G1 X1 (a*b) Y2").words == {"X": 1.0, "Y": 2.0}
+    assert parse_line("M400 (x; y)").command == "M400"
+    # a '*' after a ';' comment is comment text too
+    assert parse_line("G90 ; 3*4").command == "G90"
+
+
 def test_line_number_sequence_and_required_framing():
     framed = format_line("G90", line_number=3)
     assert parse_line(framed, expected_line_number=3).line_number == 3

@@ -6,7 +6,7 @@ import pytest
 from transplanter.firmware.bus import TO_DEVICE, TO_HOST, ComBus
 from transplanter.firmware.eeprom import EepromImage, Pickup
 from transplanter.firmware.pgf import PGF, PGFConfig
-from transplanter.firmware.rig import SimulatedEndstops, run_firmware
+from transplanter.firmware.rig import FirmwareLink, SimulatedEndstops, run_firmware
 from transplanter.firmware.sgf import SGF, SGFConfig
 from transplanter.gcode import checksum
 from transplanter.kinematics import ik
@@ -68,16 +68,22 @@ def test_simulated_endstops_trip_at_home_positions():
     endstops = SimulatedEndstops(config, start)
     trip = endstops.trip_pulses()
     start_steps = [int(d.to_steps(q)) for d, q in zip(config.drives, start, strict=True)]
-    assert np.array_equal(trip, config.home_steps - start_steps)
+    # the first step at or past each switch: within a step of its nearest step
+    assert np.all(np.abs(trip - (config.home_steps - start_steps)) <= 1)
     assert endstops.read([0, 0, 0]) == (False, False, False, False)
     assert endstops.read(trip - [1, -1, 1]) == (False, False, False, False)
+    assert np.all(
+        np.abs(endstops.joint_positions(trip) - config.home_joint_positions)
+        <= endstops.unit_per_step
+    )
     assert endstops.read(trip) == (True, True, True, False)
     assert endstops.read(trip + [5, -5, 5]) == (True, True, True, False)
-    below, above = (int(config.drives[2].to_steps(z - 0.120)) for z in (0.0029, 0.0031))
+    assert endstops.z_down_trip_m == config.z_min_m == 0.005
+    below, above = (int(config.drives[2].to_steps(z - 0.120)) for z in (0.0049, 0.0051))
     assert endstops.read([0, 0, below]) == (False, False, False, True)
     assert endstops.read([0, 0, above]) == (False, False, False, False)
     with pytest.raises(ValueError, match="beyond its limit switch"):
-        SimulatedEndstops(config, (math.radians(170), 0.0, 0.1))
+        SimulatedEndstops(config, (math.radians(205), 0.0, 0.1))
 
 
 def test_five_pickup_cycle_through_bus(capsys):
@@ -112,15 +118,18 @@ def test_five_pickup_cycle_through_bus(capsys):
         [int(drives[0].to_steps(theta1)), int(drives[1].to_steps(theta2)),
          int(drives[2].to_steps(0.100))]
     )  # fmt: skip
-    start_steps = np.array([int(d.to_steps(q)) for d, q in zip(drives, start, strict=True)])
     overshoot = sgf.homing_trip_raw - endstops.trip_pulses()
-    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_rate_hz) * DT_HOMING_S))
+    locate_rate = np.array(config.homing_locate_rate_hz)
+    assert np.all(np.abs(overshoot) <= np.ceil(locate_rate * DT_HOMING_S))
     assert np.array_equal(sgf.logical_steps, final_steps)
-    assert np.array_equal(sgf.raw_pulses, final_steps - start_steps + overshoot)
+    # the logical counter was set to home_steps at raw pulse homing_trip_raw
+    trip_raw = endstops.trip_pulses() + overshoot
+    assert np.array_equal(sgf.raw_pulses, final_steps - config.home_steps + trip_raw)
     assert np.array_equal(sgf.pulses_at(result.end_time_s + 1.0)[0], sgf.raw_pulses)
-    # physically the joints sit within half a step (+ the overshoot) of the IK of the target
+    # physically the joints sit within half a step (IK rounding), plus the overshoot, plus
+    # under a step (the switch's nearest step vs the first step past it) of the IK target
     error = np.abs(endstops.joint_positions(sgf.raw_pulses) - [theta1, theta2, 0.100])
-    assert np.all(error <= (0.5 + np.abs(overshoot)) * endstops.unit_per_step + 1e-12)
+    assert np.all(error <= (1.5 + np.abs(overshoot)) * endstops.unit_per_step + 1e-12)
 
     # servo commands: per seedling elbow, open, close, drop elbow, release
     servo = sgf.drain_servo_commands()
@@ -192,3 +201,32 @@ def test_rig_reports_a_stall():
     # no endstops: homing can only fail after its seek limit, which faults the PGF
     result = run_firmware(pgf, ComBus(), sgf, endstops=None)
     assert "homing failed" in result.fault
+
+
+def test_firmware_link_exchanges_and_schedules():
+    config = SGFConfig()
+    start = on_step_grid(config, (math.radians(150), math.radians(30), 0.120))
+    pgf = PGF(taught_image(), PGFConfig(seedlings=1))
+    bus, sgf = ComBus(baud_bps=115200.0), SGF(config)
+    endstops = SimulatedEndstops(config, start)
+    log: list[tuple[float, str]] = []
+    link = FirmwareLink(pgf, bus, sgf, log=log)
+    sent = link.exchange(0.0)
+    assert [(s.text, s.t_sent, s.reply) for s in sent] == [("N1 G28*18", 0.0, None)]
+    assert log == [(0.0, "pgf> N1 G28*18")]
+    t_arrive = link.next_event_time(0.0, 1e-3)
+    assert t_arrive == bus.next_delivery_time() and 0.0 < t_arrive < 1e-3  # 9 bytes at 115200
+    assert link.exchange(t_arrive, endstops.read(sgf.pulses_at(t_arrive)[0])) == []
+    assert log[-1] == (t_arrive, "sgf< N1 G28*18") and sgf.homing
+    # while homing: every dt_homing_s, to read the switches
+    assert link.next_event_time(t_arrive, 2e-3) == t_arrive + 2e-3
+    t = t_arrive
+    while pgf.current is not None and pgf.current.text.endswith("G28*18"):
+        t = link.next_event_time(t, 1e-3)
+        sent = link.exchange(t, endstops.read(sgf.pulses_at(t)[0]))
+    assert [s.phase for s in sent] == ["absolute"] and pgf.sent[0].reply == "ok"
+    assert [text for _, text in log[-3:]] == ["sgf> ok", "pgf< ok", f"pgf> {sent[0].text}"]
+    # nothing in flight once the PGF has faulted and the bus is empty
+    idle = FirmwareLink(PGF(taught_image(), PGFConfig(seedlings=1)), ComBus(), SGF(config))
+    idle.pgf.poll(0.0, ["ok"])  # an ok nobody asked for: the PGF faults, sends nothing
+    assert idle.exchange(0.0) == [] and idle.next_event_time(0.0, 1e-3) is None

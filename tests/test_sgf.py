@@ -8,7 +8,7 @@ pytest.importorskip("transplanter.motion", reason="SGF plans with transplanter.m
 from transplanter.firmware.rig import SimulatedEndstops  # noqa: E402
 from transplanter.firmware.sgf import SGF, SGFConfig  # noqa: E402
 from transplanter.gcode import format_line  # noqa: E402
-from transplanter.kinematics import ik  # noqa: E402
+from transplanter.kinematics import fk, ik  # noqa: E402
 
 START = (math.radians(150.0), math.radians(30.0), 0.120)
 
@@ -49,10 +49,10 @@ def homed():
 def test_homing_sets_logical_counters_and_keeps_raw_pulses(homed):
     sgf, endstops, t = homed
     config = sgf.config
-    # each switch was read closed at exactly the first pulse that reaches it (1 ms polling)
+    # the slow locate read each switch closed within a step of reaching it (1 ms polling)
     overshoot = sgf.homing_trip_raw - endstops.trip_pulses()
     assert np.all(overshoot * np.array(config.homing_dirs) >= 0)
-    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_rate_hz) * 1e-3))
+    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_locate_rate_hz) * 1e-3))
     pulloff = np.array(config.homing_dirs) * np.array(config.homing_pulloff_steps)
     assert np.array_equal(sgf.logical_steps, config.home_steps - pulloff)
     assert np.array_equal(sgf.raw_pulses, sgf.homing_trip_raw - pulloff)
@@ -61,21 +61,25 @@ def test_homing_sets_logical_counters_and_keeps_raw_pulses(homed):
     assert sgf.homing_trip_raw[0] > 0 > sgf.homing_trip_raw[1] and sgf.homing_trip_raw[2] > 0
     assert sgf.homed and not sgf.busy
     x, y, z = sgf.position_xyz
-    assert abs(x) < 1e-9 and 0.14 < y < 0.16 and z == pytest.approx(0.159)
+    assert abs(x) < 1e-9 and 0.076 < y < 0.082 and z == pytest.approx(0.159)  # pulled off
     events = sgf.drain_machine_events()
     assert [name for _, name in events] == ["homed"] and events[0][0] == t
 
 
-def test_homing_pulses_are_monotone_in_homing_direction():
+def test_homing_seeks_pulls_off_locates_and_pulls_off_again():
     config = SGFConfig()
     sgf = SGF(config)
     endstops = SimulatedEndstops(config, START)
     t_done = home(sgf, endstops)
-    times = np.linspace(0.0, t_done, 2001)
+    times = np.linspace(0.0, t_done, 4001)
     pulses = sgf.pulses_at(times)
     assert np.array_equal(pulses[0], [0, 0, 0])
     steps = np.diff(pulses, axis=0)
     assert np.all(np.abs(steps) <= np.ceil(np.array(config.homing_rate_hz) * times[1]))
+    for motor, direction in enumerate(config.homing_dirs):
+        moving = steps[:, motor][steps[:, motor] != 0] * direction
+        legs = np.sign(moving[np.r_[True, np.diff(np.sign(moving)) != 0]])
+        assert legs.tolist() == [1, -1, 1, -1], motor  # seek, pull-off, locate, pull-off
 
 
 def test_homing_fails_without_switch():
@@ -198,6 +202,44 @@ def test_line_numbers_and_required_checksum():
     assert replies[3] == "ok"
 
 
+def test_default_home_is_the_folded_back_pose_of_the_model():
+    config = SGFConfig()
+    assert config.home_joint_positions == pytest.approx(
+        (math.radians(200.0), math.radians(-20.0), 0.160)
+    )
+    x, y = fk(config.geometry, config.home_theta1_rad, config.home_theta2_rad, "up")
+    assert (float(x), float(y)) == pytest.approx((0.0, 0.075), abs=5e-4)
+
+
+@pytest.mark.parametrize("mode", ["+-", "-+", "++", "--"])
+def test_position_after_homing_uses_the_assembly_of_the_mode(mode):
+    """Switches placed so that the pulled-off pose is the IK of (45, 200) mm in ``mode``."""
+    base = SGFConfig()
+    unit = np.array([d.unit_per_step for d in base.drives])
+    dirs = np.array(base.homing_dirs)
+    pulled_off = np.array([*ik(base.geometry, 0.045, 0.200, mode), 0.159])
+    home_q = pulled_off + dirs * np.array(base.homing_pulloff_steps) * unit
+    config = SGFConfig(
+        mode=mode, home_theta1_rad=home_q[0], home_theta2_rad=home_q[1], home_z_m=home_q[2]
+    )
+    sgf = SGF(config)
+    home(sgf, SimulatedEndstops(config, home_q - dirs * np.radians(5.0)))
+    assert sgf.position_xyz == pytest.approx([0.045, 0.200, 0.159], abs=3e-4)
+
+
+def test_first_move_without_speed_uses_default_speed():
+    durations = []
+    for speed_m_s in (0.05, 0.10):
+        config = SGFConfig(default_speed_m_s=speed_m_s)
+        sgf = SGF(config)
+        t = home(sgf, SimulatedEndstops(config, START))
+        _, t1 = run_line(sgf, "G1 X0 Y180 Z100", t)
+        _, t2 = run_line(sgf, "G1 Y220", t1)  # 40 mm straight line at the default speed
+        durations.append(t2 - t1)
+    assert durations[0] > 1.5 * durations[1]
+    assert durations[1] > 0.040 / 0.10
+
+
 def test_time_must_not_go_backwards():
     sgf = SGF()
     sgf.poll(1.0)
@@ -235,3 +277,89 @@ def test_every_step_is_out_at_the_ack_time(homed):
         replies, t = run_line(sgf, line, t)
         assert replies == ["ok"]
         assert np.array_equal(sgf.pulses_at(t)[0], sgf.raw_pulses), line
+
+
+def test_rejected_move_keeps_the_modal_speed(homed):
+    sgf, _, t = homed
+    _, t1 = run_line(sgf, "G1 X0 Y180 Z100 S100", t)
+    _, t2 = run_line(sgf, "G1 Y200", t1)
+    for refused in ("G1 X0 Y400 S5", "G1 Z200 S5", "G1 X0 Y400 F60"):
+        replies, t_refused = run_line(sgf, refused, t2)
+        assert replies[0].startswith("error:33") and t_refused == t2
+    _, t3 = run_line(sgf, "G1 Y180", t2)  # still 100 mm/s, not 5 or 1 mm/s
+    assert t3 - t2 == pytest.approx(t2 - t1, rel=0.02)
+
+
+def home_lagging(sgf: SGF, endstops: SimulatedEndstops, lag_s: float, dt: float) -> float:
+    """Home with motors that follow their commanded pulses lag_s late, switches read every dt."""
+    sgf.receive("G28", 0.0)
+    t = 0.0
+    for _ in range(100_000):
+        if sgf.poll(t, endstops.read(sgf.pulses_at(t - lag_s)[0])) == ["ok"]:
+            return t
+        t_event = sgf.next_event_time()
+        t = min(t + dt, t_event if t_event is not None else math.inf)
+    raise AssertionError("homing did not finish")
+
+
+def test_two_pass_homing_trips_within_a_step_of_the_switch():
+    """The fast seek trips ~rate * (lag + dt) late; the slow locate a tenth of that."""
+    config = SGFConfig()
+    lag_s, dt = 4e-3, 1e-3
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, START)
+    home_lagging(sgf, endstops, lag_s, dt)
+    overshoot = (sgf.homing_trip_raw - endstops.trip_pulses()) * np.array(config.homing_dirs)
+    locate_rate = np.array(config.homing_locate_rate_hz)
+    assert np.allclose(locate_rate, np.array(config.homing_rate_hz) / 10)
+    assert np.all(overshoot >= 0)
+    assert np.all(overshoot <= np.ceil(locate_rate * (lag_s + dt)))  # 1, 1, 4 steps
+    assert np.all(overshoot[:2] <= 1)  # the single-pass seek was 7-8 steps late on each arm
+
+
+def test_homing_locate_rate_is_configurable_and_validated():
+    config = SGFConfig(homing_locate_rate_hz=(50.0, 50.0, 100.0))
+    assert config.homing_locate_rate_hz == (50.0, 50.0, 100.0)
+    sgf_fast = SGF(SGFConfig())
+    sgf_slow = SGF(config)
+    t_fast = home(sgf_fast, SimulatedEndstops(sgf_fast.config, START))
+    t_slow = home(sgf_slow, SimulatedEndstops(config, START))
+    # the arms' locate covers >= 96 pull-off steps: 0.6 s at 160 Hz, 1.9 s at 50 Hz
+    assert t_slow - t_fast > 1.0
+    for bad in ((0.0, 1.0, 1.0), (1.0, 1.0), (1.0, math.nan, 1.0)):
+        with pytest.raises(ValueError, match="homing_locate_rate_hz"):
+            SGFConfig(homing_locate_rate_hz=bad)
+
+
+def test_homing_fails_when_the_switch_stays_closed_after_the_pull_off():
+    sgf = SGF(SGFConfig())
+    sgf.receive("G28", 0.0)
+    t, replies = 0.0, []
+    while not replies and t < 5.0:
+        replies = sgf.poll(t, (True, True, True, False))  # stuck-closed switches
+        t += 1e-3
+    assert replies == [
+        "error:9 homing failed: limit switch 3 still closed after the pull-off; "
+        "raise homing_pulloff_steps"
+    ]
+    assert not sgf.homed and sgf.homing_trip_raw is None
+    assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
+    # the motors stopped where they were: nothing moves afterwards
+    assert np.array_equal(sgf.pulses_at(t + 1.0)[0], sgf.raw_pulses)
+
+
+def test_homing_locate_fails_when_the_switch_is_lost():
+    """Switches that close for one poll of the seek and never again: the locate gives up."""
+    sgf = SGF(SGFConfig())
+    sgf.receive("G28", 0.0)
+    replies = []
+    for k in range(10_000):
+        replies = sgf.poll(k * 1e-3, (k == 50,) * 3 + (False,))
+        if replies:
+            break
+    # Z gives up first: 5 x 400 steps at 800 Hz after its pull-off, 2.6 s in
+    assert replies == [
+        "error:9 homing failed: limit switch 3 not found again within 2000 steps of the slow locate"
+    ]
+    assert k * 1e-3 == pytest.approx(0.05 + 400 / 8000 + 2000 / 800, abs=2e-3)
+    assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]

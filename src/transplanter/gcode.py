@@ -4,7 +4,8 @@ One line holds one command: ``G0``/``G1``, ``G4``, ``G28``, ``G90``, ``G91``, ``
 ``M400``, ``M114``, ``M119``, ``M105`` or ``M710``, with value words from X Y Z F S P.
 Comments (``; ...`` to the end of the line, ``( ... )`` inline) are dropped. Marlin framing
 ``N<n> <command> *<checksum>`` is optional; the checksum is the XOR of every byte before
-``*`` (after a ``;`` comment has been cut off).
+``*`` as sent, ``( ... )`` comments included (after a ``;`` comment has been cut off). A
+``*`` or ``;`` inside ``( ... )`` is comment text, not framing.
 
 Errors carry grbl's numbers where grbl has one, and numbers from 60 up for the rest:
 
@@ -115,11 +116,33 @@ def _describe(char: str) -> str:
     return repr(char) if char.isprintable() else f"U+{ord(char):04X}"
 
 
-def _split_framing(text: str) -> tuple[str, int | None, int | None, str]:
-    """Split ``N<n> body *<cs>``: returns (body, line_number, checksum, checksummed_text)."""
+def _cut_comment_find_star(line: str) -> tuple[str, int]:
+    """Cut a ``;`` comment off; return (line, index of the framing ``*`` or -1).
+
+    ``;`` and ``*`` inside a ``( ... )`` comment are comment text; an unclosed ``(`` is left
+    for ``_strip_paren_comments`` to refuse.
+    """
+    star = -1
+    in_paren = False
+    for index, char in enumerate(line):
+        if in_paren:
+            in_paren = char != ")"
+        elif char == ";":
+            return line[:index], star
+        elif star < 0 and char == "(":
+            in_paren = True
+        elif star < 0 and char == "*":
+            star = index
+    return line, star
+
+
+def _split_framing(text: str, star: int) -> tuple[str, int | None, int | None, str]:
+    """Split ``N<n> body *<cs>`` at ``star`` (-1: none).
+
+    Returns (body, line_number, checksum, checksummed_text).
+    """
     checksummed = text
     found_checksum: int | None = None
-    star = text.find("*")
     if star >= 0:
         checksummed = text[:star]
         digits = text[star + 1 :].strip()
@@ -159,19 +182,17 @@ def _split_framing(text: str) -> tuple[str, int | None, int | None, str]:
 
 def _strip_paren_comments(body: str) -> str:
     out = []
-    depth_start = -1
-    for index, char in enumerate(body):
-        if depth_start >= 0:
-            if char == ")":
-                depth_start = -1
-            continue
-        if char == "(":
-            depth_start = index
+    in_comment = False
+    for char in body:
+        if in_comment:
+            in_comment = char != ")"
+        elif char == "(":
+            in_comment = True
         elif char == ")":
             raise GcodeError(1, "unexpected ')' without an opening '('; remove it")
         else:
             out.append(char)
-    if depth_start >= 0:
+    if in_comment:
         raise GcodeError(64, "comment '(' is never closed; add ')' or remove the comment")
     return "".join(out)
 
@@ -263,10 +284,8 @@ def parse_line(
     for char in line:
         if char in "\r\n\x00":
             raise GcodeError(1, f"unexpected {_describe(char)} inside the line; send one line")
-    semicolon = line.find(";")
-    if semicolon >= 0:
-        line = line[:semicolon]
-    body, line_number, found_checksum, checksummed = _split_framing(line)
+    line, star = _cut_comment_find_star(line)
+    body, line_number, found_checksum, checksummed = _split_framing(line, star)
     body = _strip_paren_comments(body)
     payload_chars = sum(1 for char in body if not char.isspace())
     if payload_chars > MAX_PAYLOAD_CHARS:

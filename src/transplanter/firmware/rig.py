@@ -1,7 +1,9 @@
 """PGF -> bus -> SGF on a simulated clock, without physics.
 
-``run_firmware`` jumps from event to event (a bus delivery, the end of the SGF's current
-line) and steps ``dt_homing_s`` only while the SGF homes, reading the limit switches from
+``FirmwareLink`` is one exchange of traffic between the three at a time t, and when the
+next one is due; the physics twin and ``run_firmware`` both drive it. ``run_firmware``
+jumps from event to event (a bus delivery, the end of the SGF's current line) and steps
+``dt_homing_s`` only while the SGF homes, reading the limit switches from
 ``SimulatedEndstops``, which places each switch at the SGF's home position and computes the
 motors' joint positions from their raw pulses since power-on.
 """
@@ -15,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from transplanter.firmware.bus import LineTransport
-from transplanter.firmware.pgf import PGF
+from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.sgf import SGF, SGFConfig
 
 
@@ -23,14 +25,15 @@ class SimulatedEndstops:
     """Limit switches 1-4 computed from raw pulses: a switch is closed at or past its trip point.
 
     Switches 1, 2, 3 trip where the SGF's homing expects them (home position, approached in
-    ``homing_dirs``); switch 4 (Z down) trips at or below ``z_down_trip_m``.
+    ``homing_dirs``); switch 4 (Z down) trips at or below ``z_down_trip_m`` (default: the
+    config's ``z_min_m``, where the machine's switch 4 sits).
     """
 
     def __init__(
         self,
         sgf_config: SGFConfig,
         initial_joint_positions: Sequence[float],
-        z_down_trip_m: float = 0.003,
+        z_down_trip_m: float | None = None,
     ):
         self.config = sgf_config
         self.initial = np.asarray(initial_joint_positions, dtype=np.float64)
@@ -39,7 +42,7 @@ class SimulatedEndstops:
         self.unit_per_step = np.array([d.unit_per_step for d in sgf_config.drives])
         self.trip = np.asarray(sgf_config.home_joint_positions, dtype=np.float64)
         self.dirs = np.asarray(sgf_config.homing_dirs, dtype=np.float64)
-        self.z_down_trip_m = float(z_down_trip_m)
+        self.z_down_trip_m = float(sgf_config.z_min_m if z_down_trip_m is None else z_down_trip_m)
         beyond = (self.initial - self.trip) * self.dirs > 0
         if beyond.any():
             raise ValueError(
@@ -61,6 +64,55 @@ class SimulatedEndstops:
         closed = (raw - self.trip_pulses()) * self.dirs.astype(np.int64) >= 0
         z = self.joint_positions(raw)[2]
         return (bool(closed[0]), bool(closed[1]), bool(closed[2]), bool(z <= self.z_down_trip_m))
+
+
+class FirmwareLink:
+    """The PGF and the SGF talking over a bus, advanced one exchange at a time.
+
+    ``log``, if given, gets ``(t, 'pgf> line' | 'sgf< line' | 'sgf> reply' | 'pgf< reply')``
+    for every line that moves.
+    """
+
+    def __init__(
+        self, pgf: PGF, bus: LineTransport, sgf: SGF, log: list[tuple[float, str]] | None = None
+    ):
+        self.pgf, self.bus, self.sgf = pgf, bus, sgf
+        self.log = log
+
+    def _note(self, t: float, text: str) -> None:
+        if self.log is not None:
+            self.log.append((t, text))
+
+    def exchange(self, t: float, endstops: Sequence[bool] | None = None) -> list[SentLine]:
+        """At time t: bus -> SGF, SGF poll with the switches read at t (None: not read),
+        replies -> bus, bus -> PGF, PGF poll, its line -> bus. Returns the lines the PGF
+        sent at t."""
+        pgf, bus, sgf = self.pgf, self.bus, self.sgf
+        for line in bus.device_receive(t):
+            self._note(t, f"sgf< {line}")
+            sgf.receive(line, t)
+        for reply in sgf.poll(t, endstops):
+            self._note(t, f"sgf> {reply}")
+            bus.device_send(reply, t)
+        replies = bus.host_receive(t)
+        for reply in replies:
+            self._note(t, f"pgf< {reply}")
+        n_sent = len(pgf.sent)
+        for line in pgf.poll(t, replies):
+            self._note(t, f"pgf> {line}")
+            bus.host_send(line, t)
+        return pgf.sent[n_sent:]
+
+    def next_event_time(self, t: float, dt_homing_s: float) -> float | None:
+        """When the next exchange is due: the next bus delivery or SGF event, at the latest
+        t + dt_homing_s while the SGF homes (it must read its switches); None when nothing
+        is in flight."""
+        candidates = [
+            x for x in (self.bus.next_delivery_time(), self.sgf.next_event_time()) if x is not None
+        ]
+        if self.sgf.homing:
+            candidates.append(t + dt_homing_s)
+        return min(candidates) if candidates else None
 
 
 @dataclass
@@ -86,28 +138,16 @@ def run_firmware(
     if not (math.isfinite(dt_homing_s) and dt_homing_s > 0):
         raise ValueError(f"dt_homing_s must be > 0, got {dt_homing_s!r}")
     events: list[tuple[float, str]] = []
+    link = FirmwareLink(pgf, bus, sgf, log=events)
     t = 0.0
     while True:
-        for line in bus.device_receive(t):
-            events.append((t, f"sgf< {line}"))
-            sgf.receive(line, t)
         switches = endstops.read(sgf.pulses_at(t)[0]) if endstops is not None else None
-        for reply in sgf.poll(t, switches):
-            events.append((t, f"sgf> {reply}"))
-            bus.device_send(reply, t)
-        replies = bus.host_receive(t)
-        events.extend((t, f"pgf< {reply}") for reply in replies)
-        for line in pgf.poll(t, replies):
-            events.append((t, f"pgf> {line}"))
-            bus.host_send(line, t)
+        link.exchange(t, switches)
         if pgf.done or pgf.fault is not None:
             return RigResult(events, t, pgf.done, pgf.fault)
-        candidates = [x for x in (bus.next_delivery_time(), sgf.next_event_time()) if x is not None]
-        if sgf.homing:
-            candidates.append(t + dt_homing_s)
-        if not candidates:
+        t_next = link.next_event_time(t, dt_homing_s)
+        if t_next is None:
             raise RuntimeError(f"firmware stalled at t={t:.6f} s: nothing in flight, PGF not done")
-        t_next = min(candidates)
         if t_next <= t:
             raise RuntimeError(f"firmware made no progress at t={t:.6f} s")
         if t_next > until_s:

@@ -11,9 +11,15 @@ its reply when it is done, so replies come back in line order:
   ``M710``: conveyor index recorded, ``ok`` after ``conveyor_index_s``. ``M400``: ``ok``
   (the FIFO has already finished everything before it). ``M114``/``M119``: a report line,
   then ``ok``. ``M105``: ``ok``.
-- ``G28``: every motor runs towards its limit switch until ``poll`` reads it closed, the
-  logical counter is set to the switch position, the motor pulls off; ``ok`` once all
-  three are done. Moves before homing are refused (error 9, like grbl's alarm lock).
+- ``G28``: two-pass homing like grbl's, every motor at once: seek the limit switch at
+  ``homing_rate_hz`` until ``poll`` reads it closed, pull off ``homing_pulloff_steps``,
+  then locate it again slowly at ``homing_locate_rate_hz`` (the switch must read open
+  first). The fast seek trips late (the motor lags its command, the switch is read once per
+  poll); the slow locate cuts that error about tenfold. At the locate trip the logical
+  counter is set to the switch position; then the final pull-off. ``ok`` once all three
+  are done; ``error:9`` if a switch is not found (seek beyond ``homing_max_steps``, locate
+  beyond ``homing_locate_scalar`` pull-offs) or stays closed after the pull-off. Moves
+  before homing are refused (error 9, like grbl's alarm lock).
 
 Two counters per motor: raw pulses since power-on (never reset; they drive the simulated
 motors through ``pulses_at``) and logical steps, which homing sets.
@@ -29,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from transplanter.gcode import GcodeError, GcodeLine, parse_line
-from transplanter.kinematics import FiveBarGeometry, KinematicLimits, UnreachableError, fk
+from transplanter.kinematics import FiveBarGeometry, KinematicLimits, UnreachableError, fk, ik
 from transplanter.motion import MotionConfig, PlannedMove, plan_line
 from transplanter.steppers import StepperDrive, default_drives
 
@@ -52,21 +58,26 @@ class SGFConfig:
     motion: MotionConfig = field(default_factory=MotionConfig)
     z_min_m: float = 0.005
     z_max_m: float = 0.160
-    home_theta1_rad: float = math.radians(165.0)
-    """Motor 1 angle at which limit switch 1 trips."""
-    home_theta2_rad: float = math.radians(15.0)
+    home_theta1_rad: float = math.radians(200.0)
+    """Motor 1 angle at which limit switch 1 trips (arms folded back, C at (0, 75) mm)."""
+    home_theta2_rad: float = math.radians(-20.0)
     """Motor 2 angle at which limit switch 2 trips."""
     home_z_m: float = 0.160
     """Z at which limit switch 3 (Z up) trips."""
     homing_rate_hz: tuple[float, float, float] = (1600.0, 1600.0, 8000.0)
-    """Step rate of each motor while homing (seek and pull-off)."""
+    """Step rate of each motor while it seeks its switch and pulls off."""
+    homing_locate_rate_hz: tuple[float, float, float] | None = None
+    """Step rate of the slow second approach (locate); None: homing_rate_hz / 10."""
     homing_dirs: tuple[int, int, int] = (+1, -1, +1)
     """Direction (+1/-1 in step counts) in which each motor seeks its switch."""
     homing_pulloff_steps: tuple[int, int, int] = (96, 96, 400)
     """Steps each motor backs off its switch after it trips (3.6 deg, 3.6 deg, 1 mm)."""
     homing_max_steps: tuple[int, int, int] = (4800, 4800, 80000)
     """Longest seek before homing fails (half an arm revolution, 200 mm of Z)."""
+    homing_locate_scalar: float = 5.0
+    """The locate fails after this many pull-off distances (grbl's HOMING_AXIS_LOCATE_SCALAR)."""
     default_speed_m_s: float = 0.05
+    """Speed of G0/G1 moves until a move gives S or F (modal afterwards)."""
     conveyor_index_s: float = 0.6
     require_checksum: bool = False
     """Refuse lines without Marlin ``N<n> ... *<checksum>`` framing."""
@@ -80,15 +91,33 @@ class SGFConfig:
             raise ValueError(
                 f"SGFConfig needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
             )
-        for name in ("homing_rate_hz", "homing_dirs", "homing_pulloff_steps", "homing_max_steps"):
+        if self.homing_locate_rate_hz is None:
+            locate = tuple(float(r) / 10.0 for r in self.homing_rate_hz)
+            object.__setattr__(self, "homing_locate_rate_hz", locate)
+        for name in (
+            "homing_rate_hz",
+            "homing_locate_rate_hz",
+            "homing_dirs",
+            "homing_pulloff_steps",
+            "homing_max_steps",
+        ):
             if len(getattr(self, name)) != 3:
                 raise ValueError(f"SGFConfig.{name} needs one value per motor (3)")
-        if not all(math.isfinite(r) and r > 0 for r in self.homing_rate_hz):
-            raise ValueError(f"SGFConfig.homing_rate_hz must be > 0, got {self.homing_rate_hz}")
+        for name in ("homing_rate_hz", "homing_locate_rate_hz"):
+            rates = getattr(self, name)
+            if not all(math.isfinite(r) and r > 0 for r in rates):
+                raise ValueError(f"SGFConfig.{name} must be > 0, got {rates}")
         if any(d not in (-1, 1) for d in self.homing_dirs):
             raise ValueError(f"SGFConfig.homing_dirs must be +1 or -1, got {self.homing_dirs}")
-        if any(int(p) != p or p < 0 for p in self.homing_pulloff_steps):
-            raise ValueError("SGFConfig.homing_pulloff_steps must be integers >= 0")
+        if any(int(p) != p or p < 1 for p in self.homing_pulloff_steps):
+            raise ValueError(
+                "SGFConfig.homing_pulloff_steps must be integers >= 1 (the locate starts "
+                "from a switch that the pull-off has opened)"
+            )
+        if not (math.isfinite(self.homing_locate_scalar) and self.homing_locate_scalar > 1):
+            raise ValueError(
+                f"SGFConfig.homing_locate_scalar must be > 1, got {self.homing_locate_scalar}"
+            )
         if any(int(p) != p or p < 1 for p in self.homing_max_steps):
             raise ValueError("SGFConfig.homing_max_steps must be integers >= 1")
         if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
@@ -107,7 +136,7 @@ class SGFConfig:
 
     @property
     def home_steps(self) -> np.ndarray:
-        """Logical step counters homing sets when each switch trips."""
+        """Logical step counters homing sets when each switch trips (nearest step)."""
         return np.array(
             [
                 int(d.to_steps(q))
@@ -118,56 +147,124 @@ class SGFConfig:
 
 
 class _Homing:
-    """Raw pulses of the three motors during G28, in closed form per motor."""
+    """Raw pulses of the three motors during G28, in closed form.
+
+    Each motor runs a list of legs ``(t_start, raw_start, direction, rate_hz, max_steps)``;
+    a leg lasts until the next one starts. Phases per motor: 0 seek, 1 pull-off then locate,
+    2 final pull-off (or stopped after a failure).
+    """
 
     def __init__(self, config: SGFConfig, t0: float, raw0: np.ndarray):
-        self.t0 = t0
-        self.raw0 = raw0.copy()
-        self.rate = np.asarray(config.homing_rate_hz, dtype=np.float64)
+        self.seek_rate = np.asarray(config.homing_rate_hz, dtype=np.float64)
+        self.locate_rate = np.asarray(config.homing_locate_rate_hz, dtype=np.float64)
         self.dirs = np.asarray(config.homing_dirs, dtype=np.int64)
         self.max_steps = np.asarray(config.homing_max_steps, dtype=np.int64)
-        self.pulloff = np.array(config.homing_pulloff_steps, dtype=np.int64)
-        self.t_stop = np.full(3, np.inf)
-        self.raw_stop = np.zeros(3, dtype=np.int64)
+        self.pulloff = np.asarray(config.homing_pulloff_steps, dtype=np.int64)
+        self.locate_max_steps = np.ceil(config.homing_locate_scalar * self.pulloff).astype(np.int64)
+        self.legs = [
+            [
+                (
+                    t0,
+                    int(raw0[m]),
+                    int(self.dirs[m]),
+                    float(self.seek_rate[m]),
+                    int(self.max_steps[m]),
+                )
+            ]
+            for m in range(3)
+        ]
+        self.phase = np.zeros(3, dtype=np.int64)
+        self.t_locate = np.full(3, np.inf)
+        self.cleared = np.zeros(3, dtype=bool)  # switch read open since the locate began
+        self.t_end = np.full(3, np.inf)
+        self.trip_raw = np.zeros(3, dtype=np.int64)
         self.failed = False
 
-    def fail(self, t: float) -> None:
-        """Stop the motors still seeking where they are, without pull-off."""
-        self.failed = True
-        for motor in np.flatnonzero(~self.stopped):
-            self.pulloff[motor] = 0
-            self.stop(int(motor), t)
-
-    def _seek(self, t: np.ndarray) -> np.ndarray:
-        n = np.floor((t[:, None] - self.t0) * self.rate + _FLOOR_EPS)
-        n = np.clip(n, 0, self.max_steps).astype(np.int64)
-        return self.raw0 + self.dirs * n
+    def _motor(self, motor: int, t: np.ndarray) -> np.ndarray:
+        t_start, raw_start, direction, rate, count = (
+            np.array(column) for column in zip(*self.legs[motor], strict=True)
+        )
+        leg = np.maximum(np.searchsorted(t_start, t, side="right") - 1, 0)
+        n = np.floor((t - t_start[leg]) * rate[leg] + _FLOOR_EPS)
+        n = np.clip(n, 0, count[leg]).astype(np.int64)
+        return raw_start[leg] + direction[leg] * n
 
     def pulses(self, t: np.ndarray) -> np.ndarray:
-        seek = self._seek(t)
-        after = t[:, None] >= self.t_stop
-        if not after.any():
-            return seek
-        since = np.where(np.isfinite(self.t_stop), t[:, None] - self.t_stop, 0.0)
-        back = np.clip(np.floor(since * self.rate + _FLOOR_EPS), 0, self.pulloff).astype(np.int64)
-        return np.where(after, self.raw_stop - self.dirs * back, seek)
+        return np.stack([self._motor(m, t) for m in range(3)], axis=1)
+
+    def _raw(self, motor: int, t: float) -> int:
+        return int(self._motor(motor, np.array([t]))[0])
+
+    def _exhausted(self, motor: int, t: float) -> bool:
+        t_start, raw_start, direction, _, count = self.legs[motor][-1]
+        return t >= t_start and self._raw(motor, t) == raw_start + direction * count
+
+    def _pull_off(self, motor: int, t: float) -> int:
+        raw = self._raw(motor, t)
+        steps = int(self.pulloff[motor])
+        self.legs[motor].append(
+            (t, raw, -int(self.dirs[motor]), float(self.seek_rate[motor]), steps)
+        )
+        return raw
+
+    def update(self, now: float, endstops: Sequence[bool] | None) -> str | None:
+        """Act on the switches read at ``now``; a failure message if homing failed."""
+        for motor in range(3):
+            closed = endstops is not None and bool(endstops[motor])
+            direction = int(self.dirs[motor])
+            if self.phase[motor] == 0:
+                if closed:
+                    raw = self._pull_off(motor, now)
+                    self.t_locate[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
+                    self.legs[motor].append(
+                        (
+                            float(self.t_locate[motor]),
+                            raw - direction * int(self.pulloff[motor]),
+                            direction,
+                            float(self.locate_rate[motor]),
+                            int(self.locate_max_steps[motor]),
+                        )
+                    )
+                    self.phase[motor] = 1
+                elif self._exhausted(motor, now):
+                    return self._fail(
+                        now,
+                        f"limit switch {motor + 1} not found within "
+                        f"{int(self.max_steps[motor])} steps; check the switch and homing_dirs",
+                    )
+            elif self.phase[motor] == 1 and now >= self.t_locate[motor]:
+                if endstops is not None and not closed:
+                    self.cleared[motor] = True
+                elif closed and self.cleared[motor]:
+                    self.trip_raw[motor] = self._pull_off(motor, now)
+                    self.t_end[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
+                    self.phase[motor] = 2
+                    continue
+                if self._exhausted(motor, now):
+                    steps = int(self.locate_max_steps[motor])
+                    if self.cleared[motor]:
+                        why = f"not found again within {steps} steps of the slow locate"
+                    else:
+                        why = "still closed after the pull-off; raise homing_pulloff_steps"
+                    return self._fail(now, f"limit switch {motor + 1} {why}")
+        return None
+
+    def _fail(self, now: float, message: str) -> str:
+        """Stop the motors still seeking or locating where they are."""
+        self.failed = True
+        for motor in np.flatnonzero(self.phase < 2):
+            self.legs[motor].append((now, self._raw(int(motor), now), 1, 0.0, 0))
+            self.t_end[motor] = now
+            self.phase[motor] = 2
+        return message
 
     @property
-    def stopped(self) -> np.ndarray:
-        return np.isfinite(self.t_stop)
-
-    def stop(self, motor: int, t: float) -> None:
-        self.t_stop[motor] = t
-        self.raw_stop[motor] = self._seek(np.array([t]))[0, motor]
-
-    def seek_exhausted(self, t: float) -> np.ndarray:
-        return ~self.stopped & (
-            self._seek(np.array([t]))[0] - self.raw0 == self.dirs * self.max_steps
-        )
+    def done_seeking(self) -> bool:
+        return bool(np.all(self.phase == 2))
 
     @property
     def t_done(self) -> float:
-        return float(np.max(self.t_stop + self.pulloff / self.rate))
+        return float(np.max(self.t_end))
 
 
 @dataclass
@@ -206,7 +303,7 @@ class SGF:
         self._segment_starts: list[float] = []
         self._segments: list = []
         self.homing_trip_raw: np.ndarray | None = None
-        """Raw pulse counts at which each switch was read closed in the last homing."""
+        """Raw pulse counts at which each switch was read closed by the last homing's locate."""
 
     # -- state -----------------------------------------------------------------------
     @property
@@ -362,10 +459,11 @@ class SGF:
             if letter in words:
                 value = words[letter] * M_PER_MM
                 target[axis] = value if self._absolute else target[axis] + value
+        speed_m_s = self._speed_m_s  # modal: committed only once the move is accepted
         if "S" in words:
-            self._speed_m_s = words["S"] * M_PER_MM
+            speed_m_s = words["S"] * M_PER_MM
         elif "F" in words:
-            self._speed_m_s = words["F"] * MM_PER_MIN_TO_M_S
+            speed_m_s = words["F"] * MM_PER_MIN_TO_M_S
         z = target[2]
         if not self.config.z_min_m <= z <= self.config.z_max_m:
             raise GcodeError(
@@ -376,7 +474,7 @@ class SGF:
         config = self.config
         try:
             move = plan_line(
-                self._logical, self._position, target, self._speed_m_s,
+                self._logical, self._position, target, speed_m_s,
                 config.geometry, config.limits, config.drives, config.motion, config.mode,
             )  # fmt: skip
         except UnreachableError as error:
@@ -388,6 +486,7 @@ class SGF:
             ) from None
         except ValueError as error:
             raise GcodeError(ERROR_TARGET, f"move refused: {error}") from None
+        self._speed_m_s = speed_m_s
         job.move = move
         job.target_xyz = target
         job.t_done = job.t_start + move.duration_s
@@ -404,26 +503,15 @@ class SGF:
 
     def _update_homing(self, job: _Job, now: float, endstops: Sequence[bool] | None) -> None:
         homing = job.homing
-        if homing.stopped.all():
+        if homing.done_seeking:
             return
-        if endstops is not None:
-            for motor in range(3):
-                if not homing.stopped[motor] and endstops[motor]:
-                    homing.stop(motor, now)
-        exhausted = homing.seek_exhausted(now)
-        if exhausted.any():
-            motor = int(np.flatnonzero(exhausted)[0])
-            homing.fail(now)
-            job.t_done = homing.t_done
-            job.replies = [
-                f"error:{ERROR_LOCKED} homing failed: limit switch {motor + 1} not found within "
-                f"{int(homing.max_steps[motor])} steps; check the switch and homing_dirs"
-            ]
+        failure = homing.update(now, endstops)
+        if failure is not None:
+            job.replies = [f"error:{ERROR_LOCKED} homing failed: {failure}"]
             self.homed = False
             self._position[:] = np.nan
             self._machine_events.append((now, "homing_failed"))
-            return
-        if homing.stopped.all():
+        if homing.done_seeking:
             job.t_done = homing.t_done
 
     def _finish(self, job: _Job) -> None:
@@ -432,7 +520,7 @@ class SGF:
             homing = job.homing
             self._raw = homing.pulses(np.array([t]))[0]
             if not homing.failed:
-                self.homing_trip_raw = homing.raw_stop.copy()
+                self.homing_trip_raw = homing.trip_raw.copy()
                 self._logical = self.config.home_steps - homing.dirs * homing.pulloff
                 self._position = self._xyz_of_steps(self._logical)
                 self.homed = True
@@ -446,9 +534,21 @@ class SGF:
         self._current = None
 
     def _xyz_of_steps(self, steps: np.ndarray) -> np.ndarray:
-        joints = [float(d.to_position(s)) for d, s in zip(self.config.drives, steps, strict=True)]
-        x, y = fk(self.config.geometry, joints[0], joints[1], "up")
-        return np.array([float(x), float(y), joints[2]])
+        """(x, y, z) of logical step counters: the FK assembly that the IK in ``mode`` maps
+        back to these joint angles ('-+' lands in 'down', the others mostly in 'up')."""
+        config = self.config
+        theta1, theta2, z = (
+            float(d.to_position(s)) for d, s in zip(config.drives, steps, strict=True)
+        )
+        preferred = ("down", "up") if config.mode == "-+" else ("up", "down")
+        for assembly in preferred:
+            x, y = fk(config.geometry, theta1, theta2, assembly)
+            back = np.asarray(ik(config.geometry, x, y, config.mode), dtype=np.float64)
+            wrapped = np.angle(np.exp(1j * (back - [theta1, theta2])))
+            if np.all(np.abs(wrapped) < 1e-6):
+                return np.array([float(x), float(y), z])
+        x, y = fk(config.geometry, theta1, theta2, preferred[0])  # a pose of no single mode
+        return np.array([float(x), float(y), z])
 
     def _position_report(self) -> str:
         x, y, z = (f"{v / M_PER_MM:.3f}".replace("-0.000", "0.000") for v in self._position)
