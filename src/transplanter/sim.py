@@ -19,6 +19,7 @@ import numpy as np
 
 from transplanter.firmware.bus import ComBus
 from transplanter.firmware.pgf import PGF, SentLine
+from transplanter.firmware.rig import FirmwareLink
 from transplanter.firmware.sgf import SGF
 from transplanter.machine import GRIPPER_SERVO, Machine, machine_from_scenario, power_on_joints
 from transplanter.scenario import Scenario
@@ -166,6 +167,7 @@ class Twin:
         self.sgf = SGF(self.machine.sgf)
         self.bus = ComBus(baud_bps=self.machine.baud_bps)
         self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
+        self.link = FirmwareLink(self.pgf, self.bus, self.sgf)
         grip = s["gripper"]
         self._open_m_per_deg = grip["max_opening_m"] / 180.0
         self._max_opening = grip["max_opening_m"]
@@ -197,7 +199,6 @@ class Twin:
         self.steps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
         self.k = 0  # physics steps taken; time = k * dt exactly
         self._done_index = 0
-        self._sent_index = 0
         self._warnings0 = self._warning_counts()
         self.line_listeners: list[Callable[[LineEvent], None]] = []
         self.block: _Block | None = None
@@ -213,40 +214,29 @@ class Twin:
     # -- firmware exchange ------------------------------------------------------------
     def _exchange(self, t: float) -> None:
         """Deliver bus traffic due at t, advance SGF and PGF, start servos and conveyor."""
-        for line in self.bus.device_receive(t):
-            self.sgf.receive(line, t)
-        endstops = self.scene.limit_switches(self.data)
-        for reply in self.sgf.poll(t, endstops):
-            self.bus.device_send(reply, t)
-        for line in self.pgf.poll(t, self.bus.host_receive(t)):
-            self.bus.host_send(line, t)
+        sent_now = self.link.exchange(t, self.scene.limit_switches(self.data))
         for ts, index, deg in self.sgf.drain_servo_commands():
             servo = self.gripper if index == GRIPPER_SERVO else self.wrist
             servo.command(ts, deg)
-        for event in self.sgf.drain_machine_events():
-            if event[1] == "conveyor_index":
+        for t_event, name in self.sgf.drain_machine_events():
+            if name == "conveyor_index":
                 self.scene.start_conveyor_index(
-                    self.data, event[0], self.machine.sgf.conveyor_index_s
+                    self.data, t_event, self.machine.sgf.conveyor_index_s
                 )
         sent = self.pgf.sent
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
             self._notify(LineEvent(sent[self._done_index], t, "done"))
             self._done_index += 1
-        while self._sent_index < len(sent):
-            self._notify(LineEvent(sent[self._sent_index], t, "sent"))
-            self._sent_index += 1
+        for line in sent_now:
+            self._notify(LineEvent(line, t, "sent"))
 
     def _notify(self, event: LineEvent) -> None:
         for listener in self.line_listeners:
             listener(event)
 
     def _next_exchange_time(self, t: float) -> float:
-        if self.sgf.homing:
-            return t + self.dt
-        times = [
-            x for x in (self.bus.next_delivery_time(), self.sgf.next_event_time()) if x is not None
-        ]
-        return min(times) if times else t + self.dt
+        t_next = self.link.next_event_time(t, self.dt)
+        return t + self.dt if t_next is None else t_next
 
     # -- command blocks -----------------------------------------------------------------
     def _block(self, t_next: float) -> _Block:
