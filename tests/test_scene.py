@@ -187,3 +187,30 @@ def test_bad_config_is_rejected():
         SceneConfig(pot_diameter=0.044)
     with pytest.raises(ValueError, match="rows"):
         SceneConfig(rows=0)
+
+
+def test_joint_ranges_come_from_the_config():
+    cfg = SceneConfig(rows=1, cols=1, z_range=(0.002, 0.170), theta2_range=(-1.2, 1.9))
+    model = build_scene(cfg, seed=0).model
+    assert model.joint("z").range.tolist() == [0.002, 0.170]
+    assert model.joint("theta2").range.tolist() == [-1.2, 1.9]
+    assert model.joint("theta1").range.tolist() == pytest.approx(
+        [math.radians(75.0), math.radians(240.0)]
+    )
+
+
+@pytest.mark.parametrize(
+    "fields, names",
+    [
+        ({"switch1_theta1_min": math.radians(245.0)}, "switch1_theta1_min.*theta1_range"),
+        ({"switch2_theta2_max": math.radians(-65.0)}, "switch2_theta2_max.*theta2_range"),
+        ({"switch3_z_min": 0.170}, "switch3_z_min.*z_range"),
+        ({"z_range": (0.010, 0.165)}, "switch4_z_max.*z_range"),
+        ({"home_z": -0.001}, "home_z.*z_range"),
+        ({"home_theta1": math.radians(241.0)}, "home_theta1.*theta1_range"),
+        ({"theta2_range": (0.5, -0.5)}, "theta2_range"),
+    ],
+)
+def test_switches_and_home_outside_the_joint_ranges_are_rejected(fields, names):
+    with pytest.raises(ValueError, match=names):
+        SceneConfig(**fields)

@@ -112,6 +112,8 @@ class SceneConfig:
     # and theta2 in [-39, 85] deg; the hard stops sit beyond the limit switches.
     theta1_range: tuple[float, float] = (math.radians(75.0), math.radians(240.0))
     theta2_range: tuple[float, float] = (math.radians(-60.0), math.radians(105.0))
+    # Z slide travel (m) of the grip centre above the belt; its ends are the hard stops.
+    z_range: tuple[float, float] = (0.0, 0.165)
 
     # --- limit switches (firmware homing positions; rad, rad, m, m): the arms fold back.
     switch1_theta1_min: float = math.radians(200.0)
@@ -215,6 +217,31 @@ class SceneConfig:
             )
         if self.l1 + self.l2 <= self.l0:
             raise ValueError("five-bar links too short: need l1 + l2 > l0")
+        self._check_joint_positions()
+
+    def _check_joint_positions(self) -> None:
+        """Limit switches and the home keyframe must lie inside the joint travel."""
+        for range_name in ("theta1_range", "theta2_range", "z_range"):
+            lo, hi = getattr(self, range_name)
+            if not lo < hi:
+                raise ValueError(f"SceneConfig.{range_name} must be (low, high), got {(lo, hi)}")
+        for name, range_name in (
+            ("switch1_theta1_min", "theta1_range"),
+            ("switch2_theta2_max", "theta2_range"),
+            ("switch3_z_min", "z_range"),
+            ("switch4_z_max", "z_range"),
+            ("home_theta1", "theta1_range"),
+            ("home_theta2", "theta2_range"),
+            ("home_z", "z_range"),
+        ):
+            lo, hi = getattr(self, range_name)
+            value = getattr(self, name)
+            if not lo <= value <= hi:
+                raise ValueError(
+                    f"SceneConfig.{name} = {value:.6g} lies outside {range_name} = "
+                    f"[{lo:.6g}, {hi:.6g}]: the joint could never reach it; move it inside "
+                    f"or widen {range_name}"
+                )
 
     def geometry(self) -> FiveBarGeometry:
         """The five-bar's link lengths for the pure-numpy kinematics."""
@@ -613,8 +640,7 @@ def _apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         act.biasprm = [0, -kp, cfg.stepper_dampratio] + [0] * 7
         act.forcerange = [-torque, torque]
         joint = spec.joint(joint_name)
-        if joint_name != "z":
-            joint.range = list(cfg.theta1_range if joint_name == "theta1" else cfg.theta2_range)
+        joint.range = list(getattr(cfg, f"{joint_name}_range"))
         joint.damping = [torque / cfg.pullout_zero_speed * gear**2, 0, 0]
         joint.armature = cfg.rotor_inertia * gear**2
 
