@@ -10,7 +10,7 @@ from transplanter import kinematics
 from transplanter.scene import SceneConfig, build_scene, five_bar_forward, models_dir
 
 CFG = SceneConfig()
-FULL_STEP = 2 * math.pi / 200
+FULL_STEP = CFG.full_step_rad
 
 
 def ik(cfg, x, y):
@@ -130,6 +130,16 @@ def max_motor_lag(speed_rad_s):
 def test_overspeed_loses_steps_and_normal_move_does_not():
     assert max_motor_lag(40.0) > 2 * FULL_STEP  # 120 rad/s at the motor > 94 rad/s pull-out
     assert max_motor_lag(2.0) < 2 * FULL_STEP
+
+
+@pytest.mark.parametrize("steps_per_rev", [200, 400])
+def test_stepper_stiffness_is_holding_torque_per_full_step(steps_per_rev):
+    cfg = SceneConfig(rows=1, cols=1, steps_per_rev=steps_per_rev)
+    model = build_scene(cfg, seed=0).model
+    full_step = 2 * math.pi / steps_per_rev
+    assert model.actuator("theta1").gainprm[0] == pytest.approx(0.45 / full_step)
+    assert model.actuator("theta2").biasprm[1] == pytest.approx(-0.45 / full_step)
+    assert model.actuator("z").gainprm[0] == pytest.approx(0.45 * 0.35 / full_step)
 
 
 def test_limit_switches_trip_at_the_homing_positions():

@@ -214,3 +214,9 @@ def test_joint_ranges_come_from_the_config():
 def test_switches_and_home_outside_the_joint_ranges_are_rejected(fields, names):
     with pytest.raises(ValueError, match=names):
         SceneConfig(**fields)
+
+
+@pytest.mark.parametrize("steps", [0, 1.5])
+def test_steps_per_rev_must_be_a_positive_integer(steps):
+    with pytest.raises(ValueError, match="steps_per_rev"):
+        SceneConfig(steps_per_rev=steps)

@@ -36,7 +36,6 @@ import numpy as np
 
 from transplanter.kinematics import FiveBarGeometry
 
-FULL_STEP_RAD = 2.0 * math.pi / 200.0
 USERDATA_CONVEYOR = 6  # userdata slots used by the conveyor state machine
 
 # Collision bits (contype/conaffinity).
@@ -80,12 +79,15 @@ class SceneConfig:
     # (kg*m^2), motor speed (rev/s) at which the pull-out torque reaches zero.
     holding_torque: float = 0.45
     rotor_inertia: float = 5.4e-6
+    # Full steps per motor revolution (200 for a 1.8 deg stepper): the torque of a stepper
+    # peaks about one full step of error, so it sets the position stiffness.
+    steps_per_rev: int = 200
     pullout_zero_speed_rev_s: float = 15.0
     arm_belt_ratio: float = 3.0
     screw_lead: float = 0.008
     # Fraction of the motor torque that reaches the Z slide through the T8 lead screw.
     screw_efficiency: float = 0.35
-    # kp = holding torque / one full step, times this factor (1 for the arms; the Z drive is
+    # kp = holding torque / full_step_rad, times this factor (1 for the arms; the Z drive is
     # stable at 1 too with the 1 ms step and its large reflected rotor inertia).
     arm_stiffness_scale: float = 1.0
     z_stiffness_scale: float = 1.0
@@ -200,6 +202,10 @@ class SceneConfig:
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"SceneConfig.{name} must be > 0, got {getattr(self, name)}")
+        if not (isinstance(self.steps_per_rev, (int, np.integer)) and self.steps_per_rev >= 1):
+            raise ValueError(
+                f"SceneConfig.steps_per_rev must be a positive integer, got {self.steps_per_rev!r}"
+            )
         if self.rows < 1 or self.cols < 1:
             raise ValueError(
                 f"SceneConfig needs rows >= 1 and cols >= 1, got {self.rows}x{self.cols}"
@@ -252,6 +258,11 @@ class SceneConfig:
     def screw_gear(self) -> float:
         """Motor radians per metre of Z travel."""
         return 2.0 * math.pi / self.screw_lead
+
+    @property
+    def full_step_rad(self) -> float:
+        """One full step of the motor shaft (rad)."""
+        return 2.0 * math.pi / self.steps_per_rev
 
     @property
     def pullout_zero_speed(self) -> float:
@@ -634,7 +645,7 @@ def _apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         ("z", screw_gear, screw_torque, cfg.z_stiffness_scale),
     ):
         act = spec.actuator(joint_name)
-        kp = scale * torque / FULL_STEP_RAD
+        kp = scale * torque / cfg.full_step_rad
         act.gear = [gear, 0, 0, 0, 0, 0]
         act.gainprm = [kp] + [0] * 9
         act.biasprm = [0, -kp, cfg.stepper_dampratio] + [0] * 7
