@@ -131,8 +131,10 @@ def test_dense_jacobian_gives_the_same_grasp():
     assert np.abs(results[0] - results[1]).max() < 0.001
 
 
-def test_conveyor_index_moves_pots_one_row_and_they_rest():
-    cfg = SceneConfig(rows=3, cols=3)
+@pytest.mark.parametrize("pot_diameter", [0.035, 0.033, 0.030])
+def test_conveyor_index_moves_pots_one_row_and_they_rest(pot_diameter):
+    cfg = SceneConfig(rows=3, cols=3, pot_diameter=pot_diameter)
+    assert cfg.index_overshoot == pytest.approx((0.045 - 0.002 - pot_diameter) / 2)
     scene = build_scene(cfg, seed=5)
     run = Runner(scene)
     # the pickup row has been emptied (its pots moved away onto the ground)
@@ -150,15 +152,24 @@ def test_conveyor_index_moves_pots_one_row_and_they_rest():
     run.step(300)
     after = scene.pot_positions(run.data)[back_rows]
     moved = before - after
-    # the cleats re-centre each pot in its cell: displacement = pitch + its placement offset
+    # the ribs re-centre each pot in its cell (whatever the pot size): displacement = pitch +
+    # its placement offset; a fixed 4 mm overshoot left 30 mm pots 2.8 mm off centre
     offset_y = scene.pot_params["offset"][back_rows, 1]
-    assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.002
+    assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.001
     assert np.abs(moved[:, 0]).max() < 0.002
     cells = scene.pot_params["cell_xy"][back_rows] - [0, cfg.row_pitch]
+    assert np.abs(after[:, 1] - cells[:, 1]).max() < 0.001
     assert np.abs(after[:, :2] - cells).max() < 0.004
     assert np.abs(run.data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]).max() < 1e-3
     assert run.data.ntree_awake == 1  # all asleep again
     assert scene.conveyor_position(run.data) == pytest.approx(-cfg.row_pitch, abs=1e-3)
+
+
+def test_conveyor_overshoot_can_be_set():
+    assert SceneConfig(conveyor_overshoot=0.002).index_overshoot == 0.002
+    assert SceneConfig().index_overshoot == pytest.approx(0.004)
+    with pytest.raises(ValueError, match="conveyor_overshoot"):
+        SceneConfig(conveyor_overshoot=-0.001)
 
 
 def test_build_is_deterministic_and_seed_dependent():

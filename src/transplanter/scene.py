@@ -140,13 +140,14 @@ class SceneConfig:
     rib_thickness: float = 0.002
     # Conveyor carriage: mass (kg), dry friction of its slide (N), PD gains of the index drive
     # (N/m, N*s/m), settle time after the profile before the force is released (s), and the
-    # overshoot (m) that centres the pots (= cell clearance between pot and rib).
+    # overshoot (m) past one row pitch before coming back; None: the cell clearance
+    # (SceneConfig.cell_clearance), which leaves every nominal pot centred in its new cell.
     conveyor_mass: float = 1.0
     conveyor_frictionloss: float = 5.0
     conveyor_kp: float = 20000.0
     conveyor_kd: float = 400.0
     conveyor_settle_s: float = 0.15
-    conveyor_overshoot: float = 0.004
+    conveyor_overshoot: float | None = None
 
     # --- paper pots: nominal size (m), mass (kg) and their spreads (normal sd, clipped),
     # placement offset sd in the cell (m, clipped to +-pot_offset_max), friction of the
@@ -217,6 +218,11 @@ class SceneConfig:
                 "pots do not fit their cells: pot_diameter + 2*pot_offset_max + rib_thickness "
                 "must be below cell_pitch and row_pitch"
             )
+        if self.conveyor_overshoot is not None and not self.conveyor_overshoot >= 0:
+            raise ValueError(
+                "SceneConfig.conveyor_overshoot must be >= 0 m (or None for the cell "
+                f"clearance), got {self.conveyor_overshoot}"
+            )
         if self.jacobian not in ("auto", "dense", "sparse"):
             raise ValueError(
                 f"SceneConfig.jacobian must be auto, dense or sparse, got {self.jacobian!r}"
@@ -258,6 +264,26 @@ class SceneConfig:
     def screw_gear(self) -> float:
         """Motor radians per metre of Z travel."""
         return 2.0 * math.pi / self.screw_lead
+
+    @property
+    def cell_clearance(self) -> float:
+        """Gap (m) along y between a centred nominal pot and each cross rib of its cell.
+
+        The cross ribs of a row sit at +-row_pitch/2 from the cell centre, rib_thickness thick.
+        """
+        return (self.row_pitch - self.rib_thickness - self.pot_diameter) / 2
+
+    @property
+    def index_overshoot(self) -> float:
+        """Overshoot (m) of the conveyor index: conveyor_overshoot, or the cell clearance.
+
+        The back rib pushes each pot row_pitch + overshoot - clearance - its offset, so with
+        overshoot = clearance a pot ends exactly one row pitch forward, centred in its cell;
+        the carriage then comes back by the overshoot, leaving the pot clear of both ribs.
+        """
+        if self.conveyor_overshoot is not None:
+            return self.conveyor_overshoot
+        return self.cell_clearance
 
     @property
     def full_step_rad(self) -> float:
@@ -568,14 +594,15 @@ class Scene:
         cfg = self.config
         push_share = 0.75
         t = min(max(now - t0, 0.0), duration)
-        travel = cfg.row_pitch + cfg.conveyor_overshoot
+        overshoot = cfg.index_overshoot
+        travel = cfg.row_pitch + overshoot
         if t < push_share * duration:
             T = push_share * duration
             s, ds = _min_jerk(t / T)
             return q0 - travel * s, -travel * ds / T
         T = (1 - push_share) * duration
         s, ds = _min_jerk((t - push_share * duration) / T)
-        return q0 - travel + cfg.conveyor_overshoot * s, cfg.conveyor_overshoot * ds / T
+        return q0 - travel + overshoot * s, overshoot * ds / T
 
     def apply_conveyor(self, data: mujoco.MjData, now: float) -> None:
         """Call before every physics step: PD force along the index profile, else nothing."""
