@@ -231,3 +231,30 @@ def test_switches_and_home_outside_the_joint_ranges_are_rejected(fields, names):
 def test_steps_per_rev_must_be_a_positive_integer(steps):
     with pytest.raises(ValueError, match="steps_per_rev"):
         SceneConfig(steps_per_rev=steps)
+
+
+@pytest.mark.parametrize(
+    "theta1, theta2, phi1, phi2",
+    [  # values of the former circle-intersection implementation
+        (3.4033920413889427, -0.2617993877991494, -2.8109069303869374, 2.8109069303869374),
+        (2.0, 1.0, -1.0343383966671946, 1.1001743575806646),
+        (2.6179938779914944, 0.5235987755982988, -1.925435895031676, 1.9254358950316757),
+        (1.9198621771937625, -0.5235987755982988, -1.8104598062679087, 2.3273008656294945),
+        (3.6651914291880923, 1.3962634015954636, -2.2236494718946593, 1.6443842775585358),
+    ],
+)
+def test_five_bar_forward_passive_angles(theta1, theta2, phi1, phi2):
+    assert five_bar_forward(SceneConfig(), theta1, theta2) == pytest.approx((phi1, phi2), abs=1e-12)
+
+
+def test_five_bar_forward_closes_the_chain_and_rejects_an_open_one():
+    cfg = SceneConfig(l0=0.04, l1=0.1, l2=0.18)
+    theta1, theta2 = 2.2, 0.8
+    phi1, phi2 = five_bar_forward(cfg, theta1, theta2)
+    assert (phi1, phi2) == pytest.approx((-1.2913393613934392, 1.3455715703266806), abs=1e-12)
+    b, d = kinematics.elbow_points(cfg.geometry(), theta1, theta2)
+    c1 = b + cfg.l2 * np.array([math.cos(theta1 + phi1), math.sin(theta1 + phi1)])
+    c2 = d + cfg.l2 * np.array([math.cos(theta2 + phi2), math.sin(theta2 + phi2)])
+    assert np.linalg.norm(c1 - c2) < 1e-12
+    with pytest.raises(ValueError, match="cannot close"):
+        five_bar_forward(SceneConfig(l2=0.1), math.pi, 0.0)

@@ -34,6 +34,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from transplanter import kinematics
 from transplanter.kinematics import FiveBarGeometry
 
 USERDATA_CONVEYOR = 6  # userdata slots used by the conveyor state machine
@@ -297,20 +298,27 @@ class SceneConfig:
 
 
 def five_bar_forward(config: SceneConfig, theta1: float, theta2: float) -> tuple[float, float]:
-    """Passive joint angles (phi1, phi2) of the elbows-out closed chain at (theta1, theta2)."""
-    b1 = np.array([-config.l0 + config.l1 * math.cos(theta1), config.l1 * math.sin(theta1)])
-    b2 = np.array([config.l0 + config.l1 * math.cos(theta2), config.l1 * math.sin(theta2)])
-    span = b2 - b1
-    dist = float(np.linalg.norm(span))
-    if not 0 < dist < 2 * config.l2:
-        raise ValueError(f"five-bar cannot close at theta=({theta1}, {theta2}) rad")
-    height = math.sqrt(config.l2**2 - (dist / 2) ** 2)
-    normal = np.array([-span[1], span[0]]) / dist
-    c = (b1 + b2) / 2 + height * normal
-    psi1 = math.atan2(c[1] - b1[1], c[0] - b1[0])
-    psi2 = math.atan2(c[1] - b2[1], c[0] - b2[0])
-    wrap = lambda a: (a + math.pi) % (2 * math.pi) - math.pi  # noqa: E731
-    return wrap(psi1 - theta1), wrap(psi2 - theta2)
+    """Passive joint angles (phi1, phi2) of the elbows-out closed chain at (theta1, theta2).
+
+    phi_i = direction of passive link i (elbow -> C, with C from kinematics.fk's 'up'
+    assembly) minus theta_i, wrapped to (-pi, pi].
+    """
+    geom = config.geometry()
+    x, y = kinematics.fk(geom, theta1, theta2, "up")
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ValueError(
+            f"five-bar cannot close at theta=({theta1}, {theta2}) rad: the elbows are more "
+            f"than 2*l2 = {2 * config.l2} m apart (or coincide)"
+        )
+    b, d = kinematics.elbow_points(geom, theta1, theta2)
+    psi1 = math.atan2(y - b[1], x - b[0])
+    psi2 = math.atan2(y - d[1], x - d[0])
+    return _wrap_angle(psi1 - theta1), _wrap_angle(psi2 - theta2)
+
+
+def _wrap_angle(angle: float) -> float:
+    """Angle wrapped to (-pi, pi]."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 def ring_boxes(
