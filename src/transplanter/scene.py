@@ -28,7 +28,7 @@ geometrically, only for the pots near the gripper, when the trial asks.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -37,7 +37,10 @@ import numpy as np
 from transplanter import kinematics
 from transplanter.kinematics import FiveBarGeometry
 
-USERDATA_CONVEYOR = 6  # userdata slots used by the conveyor state machine
+# The conveyor index state lives in data.userdata[0:USERDATA_CONVEYOR] (so it is part of the
+# MjData and copies with it): active flag, start time (s), duration (s), start position (m).
+USERDATA_CONVEYOR = 4
+_U_ACTIVE, _U_T0, _U_DURATION, _U_Q0 = range(USERDATA_CONVEYOR)
 
 # Collision bits (contype/conaffinity).
 BIT_WORLD = 1
@@ -46,6 +49,15 @@ BIT_GRIPPER = 4
 ROW_BIT_FIRST = 8
 ROW_BITS = 24
 PASSIVE_DROP = 0.015  # passive links run this far below the active ones (visual only)
+# Gripper layout of models/transplanter.xml (m): it is drawn for a column height of
+# XML_COLUMN_HEIGHT; the column runs from just under the wrist servo (WRIST_SERVO_BOTTOM
+# below C) down to the top of the palm, which sits PALM_HEIGHT above the jaws' top edge
+# (JAW_HALF_HEIGHT above the grip centre). The jaws start JAW_HALF_THICKNESS off the centre.
+XML_COLUMN_HEIGHT = 0.120
+WRIST_SERVO_BOTTOM = 0.042
+JAW_HALF_HEIGHT = 0.025
+PALM_HEIGHT = 0.025
+JAW_HALF_THICKNESS = 0.0015
 # Quaternion turning a capsule's axis (local z) onto local x.
 _CAPSULE_Z_TO_X = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
 LEAF_SAMPLES = 5  # points along each leaf capsule's axis tested against the gripper boxes
@@ -193,13 +205,11 @@ class SceneConfig:
     contact_solref: tuple[float, float] = (0.004, 1.0)
     contact_solimp: tuple[float, float, float, float, float] = (0.95, 0.99, 0.0005, 0.5, 2.0)
 
-    extra: dict = field(default_factory=dict, compare=False, repr=False)
-
     def __post_init__(self) -> None:
         positive = (
             "l0 l1 l2 column_height holding_torque rotor_inertia pullout_zero_speed_rev_s "
             "arm_belt_ratio screw_lead screw_efficiency gripper_max_opening grip_force "
-            "cell_pitch row_pitch pot_diameter pot_height pot_mass timestep row_pitch"
+            "cell_pitch row_pitch pot_diameter pot_height pot_mass timestep"
         ).split()
         for name in positive:
             if not getattr(self, name) > 0:
@@ -393,7 +403,6 @@ class Scene:
         self.motor_gears = m.actuator_gear[self.motor_actuators, 0].copy()
         motor_joints = [name(mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("theta1", "theta2", "z")]
         self.motor_qpos_adr = m.jnt_qposadr[motor_joints].copy()
-        self.motor_dof_adr = m.jnt_dofadr[motor_joints].copy()
         self.gripper_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "gripper")
         self.wrist_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "wrist")
         self.wrist_qpos_adr = m.jnt_qposadr[name(mujoco.mjtObj.mjOBJ_JOINT, "wrist")]
@@ -405,6 +414,11 @@ class Scene:
         self.conveyor_qpos_adr = int(m.jnt_qposadr[conveyor_joint])
         self.conveyor_dof_adr = int(m.jnt_dofadr[conveyor_joint])
         self.home_key = name(mujoco.mjtObj.mjOBJ_KEY, "home")
+        if m.nuserdata < USERDATA_CONVEYOR:
+            raise ValueError(
+                f"the model has nuserdata={m.nuserdata}; the conveyor needs "
+                f"{USERDATA_CONVEYOR} (<size nuserdata=...> in models/transplanter.xml)"
+            )
 
         trip_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_trip")]
         sense_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_sense")]
@@ -569,19 +583,19 @@ class Scene:
     def start_conveyor_index(self, data: mujoco.MjData, now: float, duration_s: float) -> None:
         """Index the conveyor by one row (towards -y) over duration_s, starting at `now`.
 
-        The state lives in data.userdata[0:6] (active, t0, duration, q0, -, -).
+        The state lives in data.userdata[0:USERDATA_CONVEYOR].
         """
         if duration_s <= 0:
             raise ValueError(f"conveyor index duration must be > 0 s, got {duration_s}")
         u = data.userdata
-        if u[0] != 0.0:
+        if u[_U_ACTIVE] != 0.0:
             raise RuntimeError(
                 "conveyor is already indexing; wait until conveyor_indexing() is False"
             )
         q0 = (
             round(data.qpos[self.conveyor_qpos_adr] / self.config.row_pitch) * self.config.row_pitch
         )
-        u[0], u[1], u[2], u[3] = 1.0, now, duration_s, q0
+        u[_U_ACTIVE], u[_U_T0], u[_U_DURATION], u[_U_Q0] = 1.0, now, duration_s, q0
         self._last_conveyor_data = data
 
     def conveyor_indexing(self, now: float, data: mujoco.MjData | None = None) -> bool:
@@ -590,15 +604,15 @@ class Scene:
         `data` defaults to the MjData last passed to start_conveyor_index.
         """
         data = data if data is not None else self._last_conveyor_data
-        if data is None or data.userdata[0] == 0.0:
+        if data is None or data.userdata[_U_ACTIVE] == 0.0:
             return False
         u = data.userdata
-        return now < u[1] + u[2] + self.config.conveyor_settle_s
+        return now < u[_U_T0] + u[_U_DURATION] + self.config.conveyor_settle_s
 
     def conveyor_reference(self, data: mujoco.MjData, now: float) -> tuple[float, float]:
         """Reference position (m) and velocity (m/s) of the carriage at `now`."""
         u = data.userdata
-        t0, duration, q0 = u[1], u[2], u[3]
+        t0, duration, q0 = u[_U_T0], u[_U_DURATION], u[_U_Q0]
         cfg = self.config
         push_share = 0.75
         t = min(max(now - t0, 0.0), duration)
@@ -615,12 +629,12 @@ class Scene:
     def apply_conveyor(self, data: mujoco.MjData, now: float) -> None:
         """Call before every physics step: PD force along the index profile, else nothing."""
         u = data.userdata
-        if u[0] == 0.0:
+        if u[_U_ACTIVE] == 0.0:
             return
         cfg = self.config
-        if now >= u[1] + u[2] + cfg.conveyor_settle_s:
+        if now >= u[_U_T0] + u[_U_DURATION] + cfg.conveyor_settle_s:
             data.qfrc_applied[self.conveyor_dof_adr] = 0.0
-            u[0] = 0.0
+            u[_U_ACTIVE] = 0.0
             return
         q_ref, v_ref = self.conveyor_reference(data, now)
         q = data.qpos[self.conveyor_qpos_adr]
@@ -656,20 +670,21 @@ def _apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     spec.geom("platform").mass = cfg.platform_mass
     # Column: arm plane at column_height above the grip centre (the gripper's parts below C
     # are laid out relative to the grip centre).
-    shift = cfg.column_height - 0.120
+    shift = cfg.column_height - XML_COLUMN_HEIGHT
     spec.body("platform").pos = [0, 0, cfg.column_height]
     for geom_name in ("palm", "palm_visual"):
         g = spec.geom(geom_name)
         g.pos = [g.pos[0], g.pos[1], g.pos[2] - shift]
     column = spec.geom("column")
-    column_top, column_bottom = -0.042, -(cfg.column_height - 0.025 - 0.025)
+    column_top = -WRIST_SERVO_BOTTOM
+    column_bottom = -(cfg.column_height - JAW_HALF_HEIGHT - PALM_HEIGHT)
     if column_bottom >= column_top:
         raise ValueError("SceneConfig.column_height too small for the wrist servo and palm")
     column.size = [column.size[0], (column_top - column_bottom) / 2, 0]
     column.pos = [0, 0, (column_top + column_bottom) / 2]
     spec.site("grip_center").pos = [0, 0, -cfg.column_height]
-    spec.body("jaw_left").pos = [-0.0015, 0, -cfg.column_height]
-    spec.body("jaw_right").pos = [0.0015, 0, -cfg.column_height]
+    spec.body("jaw_left").pos = [-JAW_HALF_THICKNESS, 0, -cfg.column_height]
+    spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height]
 
     # Stepper drives.
     arm_gear, screw_gear = cfg.arm_belt_ratio, cfg.screw_gear
