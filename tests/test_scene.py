@@ -156,10 +156,11 @@ def test_conveyor_index_moves_pots_one_row_and_they_rest(pot_diameter):
     # its placement offset; a fixed 4 mm overshoot left 30 mm pots 2.8 mm off centre
     offset_y = scene.pot_params["offset"][back_rows, 1]
     assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.001
-    assert np.abs(moved[:, 0]).max() < 0.002
+    # sideways the smaller pots have more play in their cells (5 mm each side for 33 mm)
+    assert np.abs(moved[:, 0]).max() < 0.003
     cells = scene.pot_params["cell_xy"][back_rows] - [0, cfg.row_pitch]
     assert np.abs(after[:, 1] - cells[:, 1]).max() < 0.001
-    assert np.abs(after[:, :2] - cells).max() < 0.004
+    assert np.abs(after[:, 0] - cells[:, 0]).max() < cfg.pot_offset_max + 0.003
     assert np.abs(run.data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]).max() < 1e-3
     assert run.data.ntree_awake == 1  # all asleep again
     assert scene.conveyor_position(run.data) == pytest.approx(-cfg.row_pitch, abs=1e-3)
@@ -258,3 +259,44 @@ def test_five_bar_forward_closes_the_chain_and_rejects_an_open_one():
     assert np.linalg.norm(c1 - c2) < 1e-12
     with pytest.raises(ValueError, match="cannot close"):
         five_bar_forward(SceneConfig(l2=0.1), math.pi, 0.0)
+
+
+def test_conveyor_index_is_done_within_the_index_time():
+    """The SGF acknowledges M710 after the index time: by then the carriage is at rest, its
+    force released, and the next index may start."""
+    cfg = SceneConfig(rows=3, cols=3)
+    scene = build_scene(cfg, seed=5)
+    assert scene.conveyor_index_phases(0.6) == pytest.approx((0.5, 0.1))
+    assert scene.conveyor_index_phases(0.2) == pytest.approx((0.15, 0.05))
+    run = Runner(scene)
+    run.step(300)
+    data, dof = run.data, scene.conveyor_dof_adr
+    for index in (1, 2):  # the second index starts the moment the first is acknowledged
+        for c in range(cfg.cols):  # the pickup row has been emptied
+            adr = scene.pot_qpos_adr[(index - 1) * cfg.cols + c]
+            data.qpos[adr : adr + 3] = [0.4 + 0.05 * c, 0.1 * index, -0.13]
+        t0 = data.time
+        scene.start_conveyor_index(data, t0, 0.6)
+        while data.time < t0 + 0.59:
+            run.step()
+        assert scene.conveyor_indexing(data.time)
+        with pytest.raises(RuntimeError, match="already indexing"):
+            scene.start_conveyor_index(data, data.time, 0.6)
+        while data.time < t0 + 0.6 - 1e-9:
+            run.step()
+        assert not scene.conveyor_indexing(data.time)
+        assert abs(data.qvel[dof]) < 1e-3
+        back_rows = slice(index * cfg.cols, None)
+        pot_vel = data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]
+        assert np.abs(pot_vel).max() < 5e-3  # a few mm/s of rocking, asleep soon after
+        assert scene.conveyor_position(data) == pytest.approx(-index * cfg.row_pitch, abs=2e-4)
+        scene.apply_conveyor(data, data.time)
+        assert data.qfrc_applied[dof] == 0.0
+    run.step(300)
+    assert data.ntree_awake == 1  # carriage and pots asleep again
+
+
+def test_conveyor_index_time_must_be_positive():
+    scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
+    with pytest.raises(ValueError, match="index time"):
+        scene.start_conveyor_index(scene.make_data(), 0.0, 0.0)

@@ -9,7 +9,9 @@ Frames and joint conventions: docs/architecture.md and the header of models/tran
 
 Conveyor: the belt table is static (it ends at the front edge of the pickup row); the pots
 stand on it and are pushed by 3 mm ribs on the `conveyor` carriage, an UNACTUATED slide (so
-it sleeps with its resting pots). `start_conveyor_index` arms a smooth profile, and
+it sleeps with its resting pots). `start_conveyor_index(data, now, total_s)` arms a smooth
+profile followed by a short hold, all within total_s (the carriage is at rest and released by
+now + total_s, when the firmware acknowledges M710), and
 `apply_conveyor` (call it before every physics step) writes a PD force following it into
 `qfrc_applied` of the conveyor dof; a non-zero applied force is MuJoCo's documented way to
 wake a sleeping tree, and writing back an exact 0.0 at the end lets it fall asleep again.
@@ -38,9 +40,10 @@ from transplanter import kinematics
 from transplanter.kinematics import FiveBarGeometry
 
 # The conveyor index state lives in data.userdata[0:USERDATA_CONVEYOR] (so it is part of the
-# MjData and copies with it): active flag, start time (s), duration (s), start position (m).
-USERDATA_CONVEYOR = 4
-_U_ACTIVE, _U_T0, _U_DURATION, _U_Q0 = range(USERDATA_CONVEYOR)
+# MjData and copies with it): active flag, start time (s), profile duration (s), end time (s:
+# at rest and released), start position (m).
+USERDATA_CONVEYOR = 5
+_U_ACTIVE, _U_T0, _U_PROFILE, _U_END, _U_Q0 = range(USERDATA_CONVEYOR)
 
 # Collision bits (contype/conaffinity).
 BIT_WORLD = 1
@@ -152,14 +155,19 @@ class SceneConfig:
     rib_height: float = 0.003
     rib_thickness: float = 0.002
     # Conveyor carriage: mass (kg), dry friction of its slide (N), PD gains of the index drive
-    # (N/m, N*s/m), settle time after the profile before the force is released (s), and the
+    # (N/m, N*s/m), settle time held after the profile before the force is released (s; at
+    # most a quarter of the index time, see Scene.conveyor_index_phases), the share of the
+    # profile spent pushing (the rest returns by the overshoot: 4 mm, no pot contact). With
+    # the paper's 0.6 s index that is a 0.425 s push; a 0.34 s push (settle 0.15 s, share
+    # 0.75) tipped 1-8 back-row pots per 40-pot trial onto the ribs. Last, the
     # overshoot (m) past one row pitch before coming back; None: the cell clearance
     # (SceneConfig.cell_clearance), which leaves every nominal pot centred in its new cell.
     conveyor_mass: float = 1.0
     conveyor_frictionloss: float = 5.0
     conveyor_kp: float = 20000.0
     conveyor_kd: float = 400.0
-    conveyor_settle_s: float = 0.15
+    conveyor_settle_s: float = 0.10
+    conveyor_push_share: float = 0.85
     conveyor_overshoot: float | None = None
 
     # --- paper pots: nominal size (m), mass (kg) and their spreads (normal sd, clipped),
@@ -229,6 +237,14 @@ class SceneConfig:
                 "pots do not fit their cells: pot_diameter + 2*pot_offset_max + rib_thickness "
                 "must be below cell_pitch and row_pitch"
             )
+        if not 0 < self.conveyor_push_share < 1:
+            raise ValueError(
+                f"SceneConfig.conveyor_push_share must be in (0, 1), got {self.conveyor_push_share}"
+            )
+        if not self.conveyor_settle_s >= 0:
+            raise ValueError(
+                f"SceneConfig.conveyor_settle_s must be >= 0 s, got {self.conveyor_settle_s}"
+            )
         if self.conveyor_overshoot is not None and not self.conveyor_overshoot >= 0:
             raise ValueError(
                 "SceneConfig.conveyor_overshoot must be >= 0 m (or None for the cell "
@@ -292,6 +308,14 @@ class SceneConfig:
         overshoot = clearance a pot ends exactly one row pitch forward, centred in its cell;
         the carriage then comes back by the overshoot, leaving the pot clear of both ribs.
         """
+        if not 0 < self.conveyor_push_share < 1:
+            raise ValueError(
+                f"SceneConfig.conveyor_push_share must be in (0, 1), got {self.conveyor_push_share}"
+            )
+        if not self.conveyor_settle_s >= 0:
+            raise ValueError(
+                f"SceneConfig.conveyor_settle_s must be >= 0 s, got {self.conveyor_settle_s}"
+            )
         if self.conveyor_overshoot is not None:
             return self.conveyor_overshoot
         return self.cell_clearance
@@ -580,41 +604,68 @@ class Scene:
         return self.leaf_hit_pots(data).size > 0
 
     # ----- conveyor -----
-    def start_conveyor_index(self, data: mujoco.MjData, now: float, duration_s: float) -> None:
-        """Index the conveyor by one row (towards -y) over duration_s, starting at `now`.
+    def conveyor_index_phases(self, total_s: float) -> tuple[float, float]:
+        """Split an index's total time (s) into (profile, settle) durations (s).
 
-        The state lives in data.userdata[0:USERDATA_CONVEYOR].
+        settle = min(conveyor_settle_s, 0.25 * total_s): the PD hold at the end of the profile
+        that lets the carriage and the pots come to rest before the force is released.
         """
-        if duration_s <= 0:
-            raise ValueError(f"conveyor index duration must be > 0 s, got {duration_s}")
+        settle = min(self.config.conveyor_settle_s, 0.25 * total_s)
+        return total_s - settle, settle
+
+    def start_conveyor_index(self, data: mujoco.MjData, now: float, total_s: float) -> None:
+        """Index the conveyor by one row (towards -y), done by `now + total_s`.
+
+        total_s is the whole index time (the scenario's index time, after which the SGF
+        acknowledges M710): the carriage follows the push-and-return profile, is held while
+        it settles (conveyor_index_phases), and by now + total_s it is at rest, the drive
+        force is released and a new index may start. The state lives in
+        data.userdata[0:USERDATA_CONVEYOR].
+        """
+        if not (math.isfinite(total_s) and total_s > 0):
+            raise ValueError(f"conveyor index time must be > 0 s, got {total_s}")
         u = data.userdata
         if u[_U_ACTIVE] != 0.0:
-            raise RuntimeError(
-                "conveyor is already indexing; wait until conveyor_indexing() is False"
-            )
-        q0 = (
-            round(data.qpos[self.conveyor_qpos_adr] / self.config.row_pitch) * self.config.row_pitch
+            if not self._conveyor_done(data, now):
+                raise RuntimeError(
+                    f"conveyor is already indexing until t = {u[_U_END]:.4f} s (now {now:.4f} "
+                    "s); wait until conveyor_indexing() is False"
+                )
+            self._release_conveyor(data)
+        profile_s, _ = self.conveyor_index_phases(total_s)
+        pitch = self.config.row_pitch
+        q0 = round(data.qpos[self.conveyor_qpos_adr] / pitch) * pitch
+        u[_U_ACTIVE], u[_U_T0], u[_U_PROFILE], u[_U_END], u[_U_Q0] = (
+            1.0,
+            now,
+            profile_s,
+            now + total_s,
+            q0,
         )
-        u[_U_ACTIVE], u[_U_T0], u[_U_DURATION], u[_U_Q0] = 1.0, now, duration_s, q0
         self._last_conveyor_data = data
 
     def conveyor_indexing(self, now: float, data: mujoco.MjData | None = None) -> bool:
-        """True while an index (including its settle time) is under way.
+        """True while an index (profile and settle) is under way, until start + total_s.
+
+        It ends half a timestep early, so that rounding in data.time cannot add a step.
 
         `data` defaults to the MjData last passed to start_conveyor_index.
         """
         data = data if data is not None else self._last_conveyor_data
         if data is None or data.userdata[_U_ACTIVE] == 0.0:
             return False
-        u = data.userdata
-        return now < u[_U_T0] + u[_U_DURATION] + self.config.conveyor_settle_s
+        return not self._conveyor_done(data, now)
 
     def conveyor_reference(self, data: mujoco.MjData, now: float) -> tuple[float, float]:
-        """Reference position (m) and velocity (m/s) of the carriage at `now`."""
+        """Reference position (m) and velocity (m/s) of the carriage at `now`.
+
+        Min-jerk push by row_pitch + overshoot over conveyor_push_share of the profile, then
+        min-jerk return by the overshoot; after the profile it holds the end position.
+        """
         u = data.userdata
-        t0, duration, q0 = u[_U_T0], u[_U_DURATION], u[_U_Q0]
+        t0, duration, q0 = u[_U_T0], u[_U_PROFILE], u[_U_Q0]
         cfg = self.config
-        push_share = 0.75
+        push_share = cfg.conveyor_push_share
         t = min(max(now - t0, 0.0), duration)
         overshoot = cfg.index_overshoot
         travel = cfg.row_pitch + overshoot
@@ -631,17 +682,25 @@ class Scene:
         u = data.userdata
         if u[_U_ACTIVE] == 0.0:
             return
-        cfg = self.config
-        if now >= u[_U_T0] + u[_U_DURATION] + cfg.conveyor_settle_s:
-            data.qfrc_applied[self.conveyor_dof_adr] = 0.0
-            u[_U_ACTIVE] = 0.0
+        if self._conveyor_done(data, now):
+            self._release_conveyor(data)
             return
+        cfg = self.config
         q_ref, v_ref = self.conveyor_reference(data, now)
         q = data.qpos[self.conveyor_qpos_adr]
         v = data.qvel[self.conveyor_dof_adr]
         force = cfg.conveyor_kp * (q_ref - q) + cfg.conveyor_kd * (v_ref - v)
         # -0.0 would also wake the tree; an exact zero would let it sleep mid-index.
         data.qfrc_applied[self.conveyor_dof_adr] = force if force != 0.0 else 1e-12
+
+    def _conveyor_done(self, data: mujoco.MjData, now: float) -> bool:
+        # Half a timestep of slack: data.time, a sum of timesteps, drifts by rounding.
+        return now >= data.userdata[_U_END] - 0.5 * self.model.opt.timestep
+
+    def _release_conveyor(self, data: mujoco.MjData) -> None:
+        # An exact 0.0 lets the carriage's tree fall asleep again.
+        data.qfrc_applied[self.conveyor_dof_adr] = 0.0
+        data.userdata[_U_ACTIVE] = 0.0
 
     def conveyor_position(self, data: mujoco.MjData) -> float:
         return float(data.qpos[self.conveyor_qpos_adr])
