@@ -173,12 +173,28 @@ def test_conveyor_overshoot_can_be_set():
         SceneConfig(conveyor_overshoot=-0.001)
 
 
-def test_build_is_deterministic_and_seed_dependent():
-    a = build_scene(SceneConfig(rows=2, cols=2), seed=7).pot_params
-    b = build_scene(SceneConfig(rows=2, cols=2), seed=7).pot_params
-    c = build_scene(SceneConfig(rows=2, cols=2), seed=8).pot_params
+def rollout_qpos(seed, steps=200):
+    """qpos after `steps` physics steps of a fresh 2x2 scene with the arm moving."""
+    scene = build_scene(SceneConfig(rows=2, cols=2), seed=seed)
+    data = scene.make_data()
+    home = scene.joint_positions(data)
+    for i in range(steps):
+        scene.set_motor_targets(data, home + [-0.002 * i, 0.001 * i, -0.0002 * i])
+        scene.apply_conveyor(data, data.time)
+        mujoco.mj_step(scene.model, data)
+    pot_xyz = data.qpos[scene.pot_qpos_adr[:, None] + np.arange(3)].copy()
+    return scene.pot_params, data.qpos.copy(), pot_xyz
+
+
+def test_build_and_rollout_are_deterministic_and_seed_dependent():
+    a, qpos_a, pots_a = rollout_qpos(7)
+    b, qpos_b, _ = rollout_qpos(7)
+    c, qpos_c, pots_c = rollout_qpos(8)
     assert all(np.array_equal(a[k], b[k]) for k in a)
     assert not np.array_equal(a["mass"], c["mass"])
+    assert np.array_equal(qpos_a, qpos_b)  # bit-identical
+    assert not np.array_equal(qpos_a, qpos_c)
+    assert not np.array_equal(pots_a, pots_c)
 
 
 def test_leaf_proxies_report_hits_without_force():
