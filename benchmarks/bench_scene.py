@@ -1,4 +1,5 @@
-"""Steps per second of the full 40-pot scene: all resting, and while the arm works on row 0.
+"""Steps per second of the full 40-pot scene: all resting, while the arm works on row 0
+(joint targets from transplanter.kinematics), and during a 0.6 s conveyor index.
 
 Run: /tmp/venv/bin/python benchmarks/bench_scene.py
 """
@@ -12,7 +13,7 @@ import mujoco
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
-from transplanter import kinematics
+from transplanter import kinematics  # noqa: E402
 from transplanter.scene import SceneConfig, build_scene, five_bar_forward  # noqa: E402
 
 
@@ -84,6 +85,27 @@ def main() -> None:
         f"working on row 0: {len(targets) / elapsed:,.0f} steps/s over {len(targets)} steps, "
         f"mean awake trees {awake.mean():.1f}; centre pot in tube: "
         f"{scene.pot_in_tube(data)[2]}; warnings {data.warning.number.sum()}"
+    )
+
+    # Conveyor index with the pickup row emptied: every pot of rows 1-7 is pushed (awake).
+    for c in range(cfg.cols):
+        adr = scene.pot_qpos_adr[c]
+        data.qpos[adr : adr + 3] = [0.4 + 0.05 * c, 0.0, -0.13]
+    index_s = 0.6
+    n = int(round(index_s / model.opt.timestep))
+    scene.start_conveyor_index(data, data.time, index_s)
+    awake = np.zeros(n)
+    start = time.perf_counter()
+    for i in range(n):
+        scene.apply_conveyor(data, data.time)
+        mujoco.mj_step(model, data)
+        awake[i] = data.ntree_awake
+    elapsed = time.perf_counter() - start
+    print(
+        f"conveyor index: {n / elapsed:,.0f} steps/s over {n} steps, "
+        f"mean awake trees {awake.mean():.1f}; done: {not scene.conveyor_indexing(data.time)}, "
+        f"conveyor at {scene.conveyor_position(data) * 1000:.2f} mm; "
+        f"warnings {data.warning.number.sum()}"
     )
 
 

@@ -1,4 +1,4 @@
-"""Model files: compile, run warning-free, five-bar accuracy, stepper lost steps."""
+"""Model files: compile, run warning-free, five-bar accuracy, stepper lag and stiffness."""
 
 import math
 
@@ -10,7 +10,7 @@ from transplanter import kinematics
 from transplanter.scene import SceneConfig, build_scene, five_bar_forward, models_dir
 
 CFG = SceneConfig()
-FULL_STEP = 2 * math.pi / 200
+FULL_STEP = CFG.full_step_rad
 
 
 def ik(cfg, x, y):
@@ -110,12 +110,12 @@ def test_loop_stays_closed_in_a_fast_move():
 
 
 def max_motor_lag(speed_rad_s):
-    """Ramp theta1 from 160 to 100 deg at speed_rad_s; return max motor-side lag (rad)."""
+    """Ramp theta1 from home (195 deg) to 100 deg at speed_rad_s, theta2 and Z held at home;
+    return the max lag of motor 1 behind its command (motor rad)."""
     scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
     model, data = scene.model, scene.make_data()
     t0, t1 = CFG.home_theta1, math.radians(100)
-    # theta2 follows so the chain stays closable
-    q = scene.joint_positions(data)
+    q = scene.joint_positions(data)  # theta2 and Z stay here; the chain closes all the way
     lag = 0.0
     n = int(abs(t1 - t0) / speed_rad_s / model.opt.timestep)
     for i in range(1, n + 200):
@@ -127,9 +127,20 @@ def max_motor_lag(speed_rad_s):
     return lag
 
 
-def test_overspeed_loses_steps_and_normal_move_does_not():
+def test_overspeed_lags_by_steps_and_normal_move_does_not():
+    # the scene shows the lag; turning lag into permanently lost steps is sim.py's job
     assert max_motor_lag(40.0) > 2 * FULL_STEP  # 120 rad/s at the motor > 94 rad/s pull-out
     assert max_motor_lag(2.0) < 2 * FULL_STEP
+
+
+@pytest.mark.parametrize("steps_per_rev", [200, 400])
+def test_stepper_stiffness_is_holding_torque_per_full_step(steps_per_rev):
+    cfg = SceneConfig(rows=1, cols=1, steps_per_rev=steps_per_rev)
+    model = build_scene(cfg, seed=0).model
+    full_step = 2 * math.pi / steps_per_rev
+    assert model.actuator("theta1").gainprm[0] == pytest.approx(0.45 / full_step)
+    assert model.actuator("theta2").biasprm[1] == pytest.approx(-0.45 / full_step)
+    assert model.actuator("z").gainprm[0] == pytest.approx(0.45 * 0.35 / full_step)
 
 
 def test_limit_switches_trip_at_the_homing_positions():

@@ -131,8 +131,10 @@ def test_dense_jacobian_gives_the_same_grasp():
     assert np.abs(results[0] - results[1]).max() < 0.001
 
 
-def test_conveyor_index_moves_pots_one_row_and_they_rest():
-    cfg = SceneConfig(rows=3, cols=3)
+@pytest.mark.parametrize("pot_diameter", [0.035, 0.033, 0.030])
+def test_conveyor_index_moves_pots_one_row_and_they_rest(pot_diameter):
+    cfg = SceneConfig(rows=3, cols=3, pot_diameter=pot_diameter)
+    assert cfg.index_overshoot == pytest.approx((0.045 - 0.002 - pot_diameter) / 2)
     scene = build_scene(cfg, seed=5)
     run = Runner(scene)
     # the pickup row has been emptied (its pots moved away onto the ground)
@@ -150,23 +152,49 @@ def test_conveyor_index_moves_pots_one_row_and_they_rest():
     run.step(300)
     after = scene.pot_positions(run.data)[back_rows]
     moved = before - after
-    # the cleats re-centre each pot in its cell: displacement = pitch + its placement offset
+    # the ribs re-centre each pot in its cell (whatever the pot size): displacement = pitch +
+    # its placement offset; a fixed 4 mm overshoot left 30 mm pots 2.8 mm off centre
     offset_y = scene.pot_params["offset"][back_rows, 1]
-    assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.002
-    assert np.abs(moved[:, 0]).max() < 0.002
+    assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.001
+    # sideways the smaller pots have more play in their cells (5 mm each side for 33 mm)
+    assert np.abs(moved[:, 0]).max() < 0.003
     cells = scene.pot_params["cell_xy"][back_rows] - [0, cfg.row_pitch]
-    assert np.abs(after[:, :2] - cells).max() < 0.004
+    assert np.abs(after[:, 1] - cells[:, 1]).max() < 0.001
+    assert np.abs(after[:, 0] - cells[:, 0]).max() < cfg.pot_offset_max + 0.003
     assert np.abs(run.data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]).max() < 1e-3
     assert run.data.ntree_awake == 1  # all asleep again
     assert scene.conveyor_position(run.data) == pytest.approx(-cfg.row_pitch, abs=1e-3)
 
 
-def test_build_is_deterministic_and_seed_dependent():
-    a = build_scene(SceneConfig(rows=2, cols=2), seed=7).pot_params
-    b = build_scene(SceneConfig(rows=2, cols=2), seed=7).pot_params
-    c = build_scene(SceneConfig(rows=2, cols=2), seed=8).pot_params
+def test_conveyor_overshoot_can_be_set():
+    assert SceneConfig(conveyor_overshoot=0.002).index_overshoot == 0.002
+    assert SceneConfig().index_overshoot == pytest.approx(0.004)
+    with pytest.raises(ValueError, match="conveyor_overshoot"):
+        SceneConfig(conveyor_overshoot=-0.001)
+
+
+def rollout_qpos(seed, steps=200):
+    """qpos after `steps` physics steps of a fresh 2x2 scene with the arm moving."""
+    scene = build_scene(SceneConfig(rows=2, cols=2), seed=seed)
+    data = scene.make_data()
+    home = scene.joint_positions(data)
+    for i in range(steps):
+        scene.set_motor_targets(data, home + [-0.002 * i, 0.001 * i, -0.0002 * i])
+        scene.apply_conveyor(data, data.time)
+        mujoco.mj_step(scene.model, data)
+    pot_xyz = data.qpos[scene.pot_qpos_adr[:, None] + np.arange(3)].copy()
+    return scene.pot_params, data.qpos.copy(), pot_xyz
+
+
+def test_build_and_rollout_are_deterministic_and_seed_dependent():
+    a, qpos_a, pots_a = rollout_qpos(7)
+    b, qpos_b, _ = rollout_qpos(7)
+    c, qpos_c, pots_c = rollout_qpos(8)
     assert all(np.array_equal(a[k], b[k]) for k in a)
     assert not np.array_equal(a["mass"], c["mass"])
+    assert np.array_equal(qpos_a, qpos_b)  # bit-identical
+    assert not np.array_equal(qpos_a, qpos_c)
+    assert not np.array_equal(pots_a, pots_c)
 
 
 def test_leaf_proxies_report_hits_without_force():
@@ -187,3 +215,104 @@ def test_bad_config_is_rejected():
         SceneConfig(pot_diameter=0.044)
     with pytest.raises(ValueError, match="rows"):
         SceneConfig(rows=0)
+
+
+def test_joint_ranges_come_from_the_config():
+    cfg = SceneConfig(rows=1, cols=1, z_range=(0.002, 0.170), theta2_range=(-1.2, 1.9))
+    model = build_scene(cfg, seed=0).model
+    assert model.joint("z").range.tolist() == [0.002, 0.170]
+    assert model.joint("theta2").range.tolist() == [-1.2, 1.9]
+    assert model.joint("theta1").range.tolist() == pytest.approx(
+        [math.radians(75.0), math.radians(240.0)]
+    )
+
+
+@pytest.mark.parametrize(
+    "fields, names",
+    [
+        ({"switch1_theta1_min": math.radians(245.0)}, "switch1_theta1_min.*theta1_range"),
+        ({"switch2_theta2_max": math.radians(-65.0)}, "switch2_theta2_max.*theta2_range"),
+        ({"switch3_z_min": 0.170}, "switch3_z_min.*z_range"),
+        ({"z_range": (0.010, 0.165)}, "switch4_z_max.*z_range"),
+        ({"home_z": -0.001}, "home_z.*z_range"),
+        ({"home_theta1": math.radians(241.0)}, "home_theta1.*theta1_range"),
+        ({"theta2_range": (0.5, -0.5)}, "theta2_range"),
+    ],
+)
+def test_switches_and_home_outside_the_joint_ranges_are_rejected(fields, names):
+    with pytest.raises(ValueError, match=names):
+        SceneConfig(**fields)
+
+
+@pytest.mark.parametrize("steps", [0, 1.5])
+def test_steps_per_rev_must_be_a_positive_integer(steps):
+    with pytest.raises(ValueError, match="steps_per_rev"):
+        SceneConfig(steps_per_rev=steps)
+
+
+@pytest.mark.parametrize(
+    "theta1, theta2, phi1, phi2",
+    [  # values of the former circle-intersection implementation
+        (3.4033920413889427, -0.2617993877991494, -2.8109069303869374, 2.8109069303869374),
+        (2.0, 1.0, -1.0343383966671946, 1.1001743575806646),
+        (2.6179938779914944, 0.5235987755982988, -1.925435895031676, 1.9254358950316757),
+        (1.9198621771937625, -0.5235987755982988, -1.8104598062679087, 2.3273008656294945),
+        (3.6651914291880923, 1.3962634015954636, -2.2236494718946593, 1.6443842775585358),
+    ],
+)
+def test_five_bar_forward_passive_angles(theta1, theta2, phi1, phi2):
+    assert five_bar_forward(SceneConfig(), theta1, theta2) == pytest.approx((phi1, phi2), abs=1e-12)
+
+
+def test_five_bar_forward_closes_the_chain_and_rejects_an_open_one():
+    cfg = SceneConfig(l0=0.04, l1=0.1, l2=0.18)
+    theta1, theta2 = 2.2, 0.8
+    phi1, phi2 = five_bar_forward(cfg, theta1, theta2)
+    assert (phi1, phi2) == pytest.approx((-1.2913393613934392, 1.3455715703266806), abs=1e-12)
+    b, d = kinematics.elbow_points(cfg.geometry(), theta1, theta2)
+    c1 = b + cfg.l2 * np.array([math.cos(theta1 + phi1), math.sin(theta1 + phi1)])
+    c2 = d + cfg.l2 * np.array([math.cos(theta2 + phi2), math.sin(theta2 + phi2)])
+    assert np.linalg.norm(c1 - c2) < 1e-12
+    with pytest.raises(ValueError, match="cannot close"):
+        five_bar_forward(SceneConfig(l2=0.1), math.pi, 0.0)
+
+
+def test_conveyor_index_is_done_within_the_index_time():
+    """The SGF acknowledges M710 after the index time: by then the carriage is at rest, its
+    force released, and the next index may start."""
+    cfg = SceneConfig(rows=3, cols=3)
+    scene = build_scene(cfg, seed=5)
+    assert scene.conveyor_index_phases(0.6) == pytest.approx((0.5, 0.1))
+    assert scene.conveyor_index_phases(0.2) == pytest.approx((0.15, 0.05))
+    run = Runner(scene)
+    run.step(300)
+    data, dof = run.data, scene.conveyor_dof_adr
+    for index in (1, 2):  # the second index starts the moment the first is acknowledged
+        for c in range(cfg.cols):  # the pickup row has been emptied
+            adr = scene.pot_qpos_adr[(index - 1) * cfg.cols + c]
+            data.qpos[adr : adr + 3] = [0.4 + 0.05 * c, 0.1 * index, -0.13]
+        t0 = data.time
+        scene.start_conveyor_index(data, t0, 0.6)
+        while data.time < t0 + 0.59:
+            run.step()
+        assert scene.conveyor_indexing(data.time)
+        with pytest.raises(RuntimeError, match="already indexing"):
+            scene.start_conveyor_index(data, data.time, 0.6)
+        while data.time < t0 + 0.6 - 1e-9:
+            run.step()
+        assert not scene.conveyor_indexing(data.time)
+        assert abs(data.qvel[dof]) < 1e-3
+        back_rows = slice(index * cfg.cols, None)
+        pot_vel = data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]
+        assert np.abs(pot_vel).max() < 5e-3  # a few mm/s of rocking, asleep soon after
+        assert scene.conveyor_position(data) == pytest.approx(-index * cfg.row_pitch, abs=2e-4)
+        scene.apply_conveyor(data, data.time)
+        assert data.qfrc_applied[dof] == 0.0
+    run.step(300)
+    assert data.ntree_awake == 1  # carriage and pots asleep again
+
+
+def test_conveyor_index_time_must_be_positive():
+    scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
+    with pytest.raises(ValueError, match="index time"):
+        scene.start_conveyor_index(scene.make_data(), 0.0, 0.0)

@@ -9,7 +9,9 @@ Frames and joint conventions: docs/architecture.md and the header of models/tran
 
 Conveyor: the belt table is static (it ends at the front edge of the pickup row); the pots
 stand on it and are pushed by 3 mm ribs on the `conveyor` carriage, an UNACTUATED slide (so
-it sleeps with its resting pots). `start_conveyor_index` arms a smooth profile, and
+it sleeps with its resting pots). `start_conveyor_index(data, now, total_s)` arms a smooth
+profile followed by a short hold, all within total_s (the carriage is at rest and released by
+now + total_s, when the firmware acknowledges M710), and
 `apply_conveyor` (call it before every physics step) writes a PD force following it into
 `qfrc_applied` of the conveyor dof; a non-zero applied force is MuJoCo's documented way to
 wake a sleeping tree, and writing back an exact 0.0 at the end lets it fall asleep again.
@@ -28,16 +30,20 @@ geometrically, only for the pots near the gripper, when the trial asks.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
+from transplanter import kinematics
 from transplanter.kinematics import FiveBarGeometry
 
-FULL_STEP_RAD = 2.0 * math.pi / 200.0
-USERDATA_CONVEYOR = 6  # userdata slots used by the conveyor state machine
+# The conveyor index state lives in data.userdata[0:USERDATA_CONVEYOR] (so it is part of the
+# MjData and copies with it): active flag, start time (s), profile duration (s), end time (s:
+# at rest and released), start position (m).
+USERDATA_CONVEYOR = 5
+_U_ACTIVE, _U_T0, _U_PROFILE, _U_END, _U_Q0 = range(USERDATA_CONVEYOR)
 
 # Collision bits (contype/conaffinity).
 BIT_WORLD = 1
@@ -46,6 +52,15 @@ BIT_GRIPPER = 4
 ROW_BIT_FIRST = 8
 ROW_BITS = 24
 PASSIVE_DROP = 0.015  # passive links run this far below the active ones (visual only)
+# Gripper layout of models/transplanter.xml (m): it is drawn for a column height of
+# XML_COLUMN_HEIGHT; the column runs from just under the wrist servo (WRIST_SERVO_BOTTOM
+# below C) down to the top of the palm, which sits PALM_HEIGHT above the jaws' top edge
+# (JAW_HALF_HEIGHT above the grip centre). The jaws start JAW_HALF_THICKNESS off the centre.
+XML_COLUMN_HEIGHT = 0.120
+WRIST_SERVO_BOTTOM = 0.042
+JAW_HALF_HEIGHT = 0.025
+PALM_HEIGHT = 0.025
+JAW_HALF_THICKNESS = 0.0015
 # Quaternion turning a capsule's axis (local z) onto local x.
 _CAPSULE_Z_TO_X = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
 LEAF_SAMPLES = 5  # points along each leaf capsule's axis tested against the gripper boxes
@@ -80,12 +95,15 @@ class SceneConfig:
     # (kg*m^2), motor speed (rev/s) at which the pull-out torque reaches zero.
     holding_torque: float = 0.45
     rotor_inertia: float = 5.4e-6
+    # Full steps per motor revolution (200 for a 1.8 deg stepper): the torque of a stepper
+    # peaks about one full step of error, so it sets the position stiffness.
+    steps_per_rev: int = 200
     pullout_zero_speed_rev_s: float = 15.0
     arm_belt_ratio: float = 3.0
     screw_lead: float = 0.008
     # Fraction of the motor torque that reaches the Z slide through the T8 lead screw.
     screw_efficiency: float = 0.35
-    # kp = holding torque / one full step, times this factor (1 for the arms; the Z drive is
+    # kp = holding torque / full_step_rad, times this factor (1 for the arms; the Z drive is
     # stable at 1 too with the 1 ms step and its large reflected rotor inertia).
     arm_stiffness_scale: float = 1.0
     z_stiffness_scale: float = 1.0
@@ -112,6 +130,8 @@ class SceneConfig:
     # and theta2 in [-39, 85] deg; the hard stops sit beyond the limit switches.
     theta1_range: tuple[float, float] = (math.radians(75.0), math.radians(240.0))
     theta2_range: tuple[float, float] = (math.radians(-60.0), math.radians(105.0))
+    # Z slide travel (m) of the grip centre above the belt; its ends are the hard stops.
+    z_range: tuple[float, float] = (0.0, 0.165)
 
     # --- limit switches (firmware homing positions; rad, rad, m, m): the arms fold back.
     switch1_theta1_min: float = math.radians(200.0)
@@ -135,14 +155,20 @@ class SceneConfig:
     rib_height: float = 0.003
     rib_thickness: float = 0.002
     # Conveyor carriage: mass (kg), dry friction of its slide (N), PD gains of the index drive
-    # (N/m, N*s/m), settle time after the profile before the force is released (s), and the
-    # overshoot (m) that centres the pots (= cell clearance between pot and rib).
+    # (N/m, N*s/m), settle time held after the profile before the force is released (s; at
+    # most a quarter of the index time, see Scene.conveyor_index_phases), the share of the
+    # profile spent pushing (the rest returns by the overshoot: 4 mm, no pot contact). With
+    # the paper's 0.6 s index that is a 0.425 s push; a 0.34 s push (settle 0.15 s, share
+    # 0.75) tipped 1-8 back-row pots per 40-pot trial onto the ribs. Last, the
+    # overshoot (m) past one row pitch before coming back; None: the cell clearance
+    # (SceneConfig.cell_clearance), which leaves every nominal pot centred in its new cell.
     conveyor_mass: float = 1.0
     conveyor_frictionloss: float = 5.0
     conveyor_kp: float = 20000.0
     conveyor_kd: float = 400.0
-    conveyor_settle_s: float = 0.15
-    conveyor_overshoot: float = 0.004
+    conveyor_settle_s: float = 0.10
+    conveyor_push_share: float = 0.85
+    conveyor_overshoot: float | None = None
 
     # --- paper pots: nominal size (m), mass (kg) and their spreads (normal sd, clipped),
     # placement offset sd in the cell (m, clipped to +-pot_offset_max), friction of the
@@ -187,17 +213,19 @@ class SceneConfig:
     contact_solref: tuple[float, float] = (0.004, 1.0)
     contact_solimp: tuple[float, float, float, float, float] = (0.95, 0.99, 0.0005, 0.5, 2.0)
 
-    extra: dict = field(default_factory=dict, compare=False, repr=False)
-
     def __post_init__(self) -> None:
         positive = (
             "l0 l1 l2 column_height holding_torque rotor_inertia pullout_zero_speed_rev_s "
             "arm_belt_ratio screw_lead screw_efficiency gripper_max_opening grip_force "
-            "cell_pitch row_pitch pot_diameter pot_height pot_mass timestep row_pitch"
+            "cell_pitch row_pitch pot_diameter pot_height pot_mass timestep"
         ).split()
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"SceneConfig.{name} must be > 0, got {getattr(self, name)}")
+        if not (isinstance(self.steps_per_rev, (int, np.integer)) and self.steps_per_rev >= 1):
+            raise ValueError(
+                f"SceneConfig.steps_per_rev must be a positive integer, got {self.steps_per_rev!r}"
+            )
         if self.rows < 1 or self.cols < 1:
             raise ValueError(
                 f"SceneConfig needs rows >= 1 and cols >= 1, got {self.rows}x{self.cols}"
@@ -209,12 +237,50 @@ class SceneConfig:
                 "pots do not fit their cells: pot_diameter + 2*pot_offset_max + rib_thickness "
                 "must be below cell_pitch and row_pitch"
             )
+        if not 0 < self.conveyor_push_share < 1:
+            raise ValueError(
+                f"SceneConfig.conveyor_push_share must be in (0, 1), got {self.conveyor_push_share}"
+            )
+        if not self.conveyor_settle_s >= 0:
+            raise ValueError(
+                f"SceneConfig.conveyor_settle_s must be >= 0 s, got {self.conveyor_settle_s}"
+            )
+        if self.conveyor_overshoot is not None and not self.conveyor_overshoot >= 0:
+            raise ValueError(
+                "SceneConfig.conveyor_overshoot must be >= 0 m (or None for the cell "
+                f"clearance), got {self.conveyor_overshoot}"
+            )
         if self.jacobian not in ("auto", "dense", "sparse"):
             raise ValueError(
                 f"SceneConfig.jacobian must be auto, dense or sparse, got {self.jacobian!r}"
             )
         if self.l1 + self.l2 <= self.l0:
             raise ValueError("five-bar links too short: need l1 + l2 > l0")
+        self._check_joint_positions()
+
+    def _check_joint_positions(self) -> None:
+        """Limit switches and the home keyframe must lie inside the joint travel."""
+        for range_name in ("theta1_range", "theta2_range", "z_range"):
+            lo, hi = getattr(self, range_name)
+            if not lo < hi:
+                raise ValueError(f"SceneConfig.{range_name} must be (low, high), got {(lo, hi)}")
+        for name, range_name in (
+            ("switch1_theta1_min", "theta1_range"),
+            ("switch2_theta2_max", "theta2_range"),
+            ("switch3_z_min", "z_range"),
+            ("switch4_z_max", "z_range"),
+            ("home_theta1", "theta1_range"),
+            ("home_theta2", "theta2_range"),
+            ("home_z", "z_range"),
+        ):
+            lo, hi = getattr(self, range_name)
+            value = getattr(self, name)
+            if not lo <= value <= hi:
+                raise ValueError(
+                    f"SceneConfig.{name} = {value:.6g} lies outside {range_name} = "
+                    f"[{lo:.6g}, {hi:.6g}]: the joint could never reach it; move it inside "
+                    f"or widen {range_name}"
+                )
 
     def geometry(self) -> FiveBarGeometry:
         """The five-bar's link lengths for the pure-numpy kinematics."""
@@ -227,26 +293,66 @@ class SceneConfig:
         return 2.0 * math.pi / self.screw_lead
 
     @property
+    def cell_clearance(self) -> float:
+        """Gap (m) along y between a centred nominal pot and each cross rib of its cell.
+
+        The cross ribs of a row sit at +-row_pitch/2 from the cell centre, rib_thickness thick.
+        """
+        return (self.row_pitch - self.rib_thickness - self.pot_diameter) / 2
+
+    @property
+    def index_overshoot(self) -> float:
+        """Overshoot (m) of the conveyor index: conveyor_overshoot, or the cell clearance.
+
+        The back rib pushes each pot row_pitch + overshoot - clearance - its offset, so with
+        overshoot = clearance a pot ends exactly one row pitch forward, centred in its cell;
+        the carriage then comes back by the overshoot, leaving the pot clear of both ribs.
+        """
+        if not 0 < self.conveyor_push_share < 1:
+            raise ValueError(
+                f"SceneConfig.conveyor_push_share must be in (0, 1), got {self.conveyor_push_share}"
+            )
+        if not self.conveyor_settle_s >= 0:
+            raise ValueError(
+                f"SceneConfig.conveyor_settle_s must be >= 0 s, got {self.conveyor_settle_s}"
+            )
+        if self.conveyor_overshoot is not None:
+            return self.conveyor_overshoot
+        return self.cell_clearance
+
+    @property
+    def full_step_rad(self) -> float:
+        """One full step of the motor shaft (rad)."""
+        return 2.0 * math.pi / self.steps_per_rev
+
+    @property
     def pullout_zero_speed(self) -> float:
         """Motor speed (rad/s) where the pull-out torque reaches zero."""
         return 2.0 * math.pi * self.pullout_zero_speed_rev_s
 
 
 def five_bar_forward(config: SceneConfig, theta1: float, theta2: float) -> tuple[float, float]:
-    """Passive joint angles (phi1, phi2) of the elbows-out closed chain at (theta1, theta2)."""
-    b1 = np.array([-config.l0 + config.l1 * math.cos(theta1), config.l1 * math.sin(theta1)])
-    b2 = np.array([config.l0 + config.l1 * math.cos(theta2), config.l1 * math.sin(theta2)])
-    span = b2 - b1
-    dist = float(np.linalg.norm(span))
-    if not 0 < dist < 2 * config.l2:
-        raise ValueError(f"five-bar cannot close at theta=({theta1}, {theta2}) rad")
-    height = math.sqrt(config.l2**2 - (dist / 2) ** 2)
-    normal = np.array([-span[1], span[0]]) / dist
-    c = (b1 + b2) / 2 + height * normal
-    psi1 = math.atan2(c[1] - b1[1], c[0] - b1[0])
-    psi2 = math.atan2(c[1] - b2[1], c[0] - b2[0])
-    wrap = lambda a: (a + math.pi) % (2 * math.pi) - math.pi  # noqa: E731
-    return wrap(psi1 - theta1), wrap(psi2 - theta2)
+    """Passive joint angles (phi1, phi2) of the elbows-out closed chain at (theta1, theta2).
+
+    phi_i = direction of passive link i (elbow -> C, with C from kinematics.fk's 'up'
+    assembly) minus theta_i, wrapped to (-pi, pi].
+    """
+    geom = config.geometry()
+    x, y = kinematics.fk(geom, theta1, theta2, "up")
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ValueError(
+            f"five-bar cannot close at theta=({theta1}, {theta2}) rad: the elbows are more "
+            f"than 2*l2 = {2 * config.l2} m apart (or coincide)"
+        )
+    b, d = kinematics.elbow_points(geom, theta1, theta2)
+    psi1 = math.atan2(y - b[1], x - b[0])
+    psi2 = math.atan2(y - d[1], x - d[0])
+    return _wrap_angle(psi1 - theta1), _wrap_angle(psi2 - theta2)
+
+
+def _wrap_angle(angle: float) -> float:
+    """Angle wrapped to (-pi, pi]."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 def ring_boxes(
@@ -321,7 +427,6 @@ class Scene:
         self.motor_gears = m.actuator_gear[self.motor_actuators, 0].copy()
         motor_joints = [name(mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("theta1", "theta2", "z")]
         self.motor_qpos_adr = m.jnt_qposadr[motor_joints].copy()
-        self.motor_dof_adr = m.jnt_dofadr[motor_joints].copy()
         self.gripper_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "gripper")
         self.wrist_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "wrist")
         self.wrist_qpos_adr = m.jnt_qposadr[name(mujoco.mjtObj.mjOBJ_JOINT, "wrist")]
@@ -333,6 +438,11 @@ class Scene:
         self.conveyor_qpos_adr = int(m.jnt_qposadr[conveyor_joint])
         self.conveyor_dof_adr = int(m.jnt_dofadr[conveyor_joint])
         self.home_key = name(mujoco.mjtObj.mjOBJ_KEY, "home")
+        if m.nuserdata < USERDATA_CONVEYOR:
+            raise ValueError(
+                f"the model has nuserdata={m.nuserdata}; the conveyor needs "
+                f"{USERDATA_CONVEYOR} (<size nuserdata=...> in models/transplanter.xml)"
+            )
 
         trip_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_trip")]
         sense_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_sense")]
@@ -494,67 +604,103 @@ class Scene:
         return self.leaf_hit_pots(data).size > 0
 
     # ----- conveyor -----
-    def start_conveyor_index(self, data: mujoco.MjData, now: float, duration_s: float) -> None:
-        """Index the conveyor by one row (towards -y) over duration_s, starting at `now`.
+    def conveyor_index_phases(self, total_s: float) -> tuple[float, float]:
+        """Split an index's total time (s) into (profile, settle) durations (s).
 
-        The state lives in data.userdata[0:6] (active, t0, duration, q0, -, -).
+        settle = min(conveyor_settle_s, 0.25 * total_s): the PD hold at the end of the profile
+        that lets the carriage and the pots come to rest before the force is released.
         """
-        if duration_s <= 0:
-            raise ValueError(f"conveyor index duration must be > 0 s, got {duration_s}")
+        settle = min(self.config.conveyor_settle_s, 0.25 * total_s)
+        return total_s - settle, settle
+
+    def start_conveyor_index(self, data: mujoco.MjData, now: float, total_s: float) -> None:
+        """Index the conveyor by one row (towards -y), done by `now + total_s`.
+
+        total_s is the whole index time (the scenario's index time, after which the SGF
+        acknowledges M710): the carriage follows the push-and-return profile, is held while
+        it settles (conveyor_index_phases), and by now + total_s it is at rest, the drive
+        force is released and a new index may start. The state lives in
+        data.userdata[0:USERDATA_CONVEYOR].
+        """
+        if not (math.isfinite(total_s) and total_s > 0):
+            raise ValueError(f"conveyor index time must be > 0 s, got {total_s}")
         u = data.userdata
-        if u[0] != 0.0:
-            raise RuntimeError(
-                "conveyor is already indexing; wait until conveyor_indexing() is False"
-            )
-        q0 = (
-            round(data.qpos[self.conveyor_qpos_adr] / self.config.row_pitch) * self.config.row_pitch
+        if u[_U_ACTIVE] != 0.0:
+            if not self._conveyor_done(data, now):
+                raise RuntimeError(
+                    f"conveyor is already indexing until t = {u[_U_END]:.4f} s (now {now:.4f} "
+                    "s); wait until conveyor_indexing() is False"
+                )
+            self._release_conveyor(data)
+        profile_s, _ = self.conveyor_index_phases(total_s)
+        pitch = self.config.row_pitch
+        q0 = round(data.qpos[self.conveyor_qpos_adr] / pitch) * pitch
+        u[_U_ACTIVE], u[_U_T0], u[_U_PROFILE], u[_U_END], u[_U_Q0] = (
+            1.0,
+            now,
+            profile_s,
+            now + total_s,
+            q0,
         )
-        u[0], u[1], u[2], u[3] = 1.0, now, duration_s, q0
         self._last_conveyor_data = data
 
     def conveyor_indexing(self, now: float, data: mujoco.MjData | None = None) -> bool:
-        """True while an index (including its settle time) is under way.
+        """True while an index (profile and settle) is under way, until start + total_s.
+
+        It ends half a timestep early, so that rounding in data.time cannot add a step.
 
         `data` defaults to the MjData last passed to start_conveyor_index.
         """
         data = data if data is not None else self._last_conveyor_data
-        if data is None or data.userdata[0] == 0.0:
+        if data is None or data.userdata[_U_ACTIVE] == 0.0:
             return False
-        u = data.userdata
-        return now < u[1] + u[2] + self.config.conveyor_settle_s
+        return not self._conveyor_done(data, now)
 
     def conveyor_reference(self, data: mujoco.MjData, now: float) -> tuple[float, float]:
-        """Reference position (m) and velocity (m/s) of the carriage at `now`."""
+        """Reference position (m) and velocity (m/s) of the carriage at `now`.
+
+        Min-jerk push by row_pitch + overshoot over conveyor_push_share of the profile, then
+        min-jerk return by the overshoot; after the profile it holds the end position.
+        """
         u = data.userdata
-        t0, duration, q0 = u[1], u[2], u[3]
+        t0, duration, q0 = u[_U_T0], u[_U_PROFILE], u[_U_Q0]
         cfg = self.config
-        push_share = 0.75
+        push_share = cfg.conveyor_push_share
         t = min(max(now - t0, 0.0), duration)
-        travel = cfg.row_pitch + cfg.conveyor_overshoot
+        overshoot = cfg.index_overshoot
+        travel = cfg.row_pitch + overshoot
         if t < push_share * duration:
             T = push_share * duration
             s, ds = _min_jerk(t / T)
             return q0 - travel * s, -travel * ds / T
         T = (1 - push_share) * duration
         s, ds = _min_jerk((t - push_share * duration) / T)
-        return q0 - travel + cfg.conveyor_overshoot * s, cfg.conveyor_overshoot * ds / T
+        return q0 - travel + overshoot * s, overshoot * ds / T
 
     def apply_conveyor(self, data: mujoco.MjData, now: float) -> None:
         """Call before every physics step: PD force along the index profile, else nothing."""
         u = data.userdata
-        if u[0] == 0.0:
+        if u[_U_ACTIVE] == 0.0:
+            return
+        if self._conveyor_done(data, now):
+            self._release_conveyor(data)
             return
         cfg = self.config
-        if now >= u[1] + u[2] + cfg.conveyor_settle_s:
-            data.qfrc_applied[self.conveyor_dof_adr] = 0.0
-            u[0] = 0.0
-            return
         q_ref, v_ref = self.conveyor_reference(data, now)
         q = data.qpos[self.conveyor_qpos_adr]
         v = data.qvel[self.conveyor_dof_adr]
         force = cfg.conveyor_kp * (q_ref - q) + cfg.conveyor_kd * (v_ref - v)
         # -0.0 would also wake the tree; an exact zero would let it sleep mid-index.
         data.qfrc_applied[self.conveyor_dof_adr] = force if force != 0.0 else 1e-12
+
+    def _conveyor_done(self, data: mujoco.MjData, now: float) -> bool:
+        # Half a timestep of slack: data.time, a sum of timesteps, drifts by rounding.
+        return now >= data.userdata[_U_END] - 0.5 * self.model.opt.timestep
+
+    def _release_conveyor(self, data: mujoco.MjData) -> None:
+        # An exact 0.0 lets the carriage's tree fall asleep again.
+        data.qfrc_applied[self.conveyor_dof_adr] = 0.0
+        data.userdata[_U_ACTIVE] = 0.0
 
     def conveyor_position(self, data: mujoco.MjData) -> float:
         return float(data.qpos[self.conveyor_qpos_adr])
@@ -583,20 +729,21 @@ def _apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     spec.geom("platform").mass = cfg.platform_mass
     # Column: arm plane at column_height above the grip centre (the gripper's parts below C
     # are laid out relative to the grip centre).
-    shift = cfg.column_height - 0.120
+    shift = cfg.column_height - XML_COLUMN_HEIGHT
     spec.body("platform").pos = [0, 0, cfg.column_height]
     for geom_name in ("palm", "palm_visual"):
         g = spec.geom(geom_name)
         g.pos = [g.pos[0], g.pos[1], g.pos[2] - shift]
     column = spec.geom("column")
-    column_top, column_bottom = -0.042, -(cfg.column_height - 0.025 - 0.025)
+    column_top = -WRIST_SERVO_BOTTOM
+    column_bottom = -(cfg.column_height - JAW_HALF_HEIGHT - PALM_HEIGHT)
     if column_bottom >= column_top:
         raise ValueError("SceneConfig.column_height too small for the wrist servo and palm")
     column.size = [column.size[0], (column_top - column_bottom) / 2, 0]
     column.pos = [0, 0, (column_top + column_bottom) / 2]
     spec.site("grip_center").pos = [0, 0, -cfg.column_height]
-    spec.body("jaw_left").pos = [-0.0015, 0, -cfg.column_height]
-    spec.body("jaw_right").pos = [0.0015, 0, -cfg.column_height]
+    spec.body("jaw_left").pos = [-JAW_HALF_THICKNESS, 0, -cfg.column_height]
+    spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height]
 
     # Stepper drives.
     arm_gear, screw_gear = cfg.arm_belt_ratio, cfg.screw_gear
@@ -607,14 +754,13 @@ def _apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         ("z", screw_gear, screw_torque, cfg.z_stiffness_scale),
     ):
         act = spec.actuator(joint_name)
-        kp = scale * torque / FULL_STEP_RAD
+        kp = scale * torque / cfg.full_step_rad
         act.gear = [gear, 0, 0, 0, 0, 0]
         act.gainprm = [kp] + [0] * 9
         act.biasprm = [0, -kp, cfg.stepper_dampratio] + [0] * 7
         act.forcerange = [-torque, torque]
         joint = spec.joint(joint_name)
-        if joint_name != "z":
-            joint.range = list(cfg.theta1_range if joint_name == "theta1" else cfg.theta2_range)
+        joint.range = list(getattr(cfg, f"{joint_name}_range"))
         joint.damping = [torque / cfg.pullout_zero_speed * gear**2, 0, 0]
         joint.armature = cfg.rotor_inertia * gear**2
 
