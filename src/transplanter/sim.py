@@ -66,10 +66,13 @@ def scene_config_from_scenario(s: Scenario, machine: Machine) -> SceneConfig:
         s["physics"], s["limits"],
     )  # fmt: skip
     theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
+    # Hard stops a little beyond the motor windows the firmware enforces, and above switch 3.
+    stop = math.radians(5.0)
     return SceneConfig(
         l0=arm["l0_m"],
         l1=arm["l1_m"],
         l2=arm["l2_m"],
+        steps_per_rev=drv["steps_per_rev"],
         holding_torque=drv["holding_torque_nm"],
         rotor_inertia=drv["rotor_inertia_kgm2"],
         pullout_zero_speed_rev_s=drv["pullout_zero_speed_rev_s"],
@@ -80,6 +83,9 @@ def scene_config_from_scenario(s: Scenario, machine: Machine) -> SceneConfig:
         switch2_theta2_max=drv["home_theta2_rad"],
         switch3_z_min=drv["home_z_m"],
         switch4_z_max=lim["z_min_m"],
+        theta1_range=(lim["motor1_min_rad"] - stop, lim["motor1_max_rad"] + stop),
+        theta2_range=(lim["motor2_min_rad"] - stop, lim["motor2_max_rad"] + stop),
+        z_range=(0.0, max(lim["z_max_m"], drv["home_z_m"]) + 0.005),
         home_theta1=theta1_on,
         home_theta2=theta2_on,
         home_z=z_on,
