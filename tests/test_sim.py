@@ -101,3 +101,33 @@ def test_normal_motors_lose_no_steps(scenario):
     twin = Twin(scenario)
     twin.step_until(9.0)
     assert not twin.steps_lost.any()
+
+
+def test_conveyor_index_ends_at_one_pitch_and_at_rest():
+    """After the row's last pickup the PGF sends M710: the conveyor moves one row pitch, its
+    drive force is released by the time the SGF acknowledges, and the pots come to rest."""
+    five = load_scenario(PAPER, {"scenario.seedlings": 6})
+    twin = Twin(five)
+    while not any(s.phase == "index" and s.reply for s in twin.pgf.sent):
+        twin.step_until(twin.time + 0.05)
+    twin.step_until(twin.time + 0.1)  # the next approach is under way, far from the pots
+    index = next(s for s in twin.pgf.sent if s.phase == "index")
+    assert index.reply == "ok"
+    assert index.t_reply - index.t_sent == pytest.approx(0.6, abs=0.01)
+    scene, d = twin.scene, twin.data
+    pitch = five["conveyor"]["row_pitch_m"]
+    assert scene.conveyor_position(d) == pytest.approx(-pitch, abs=0.0005)
+    # the emptied row went round the front drum: its ribs no longer touch anything (they
+    # would otherwise sweep through the drop tube and jam on the pot dropped last)
+    m = twin.model
+    ribs = [g for g in range(m.ngeom) if (m.geom(g).name or "").startswith("rib_")]
+    row0 = [g for g in ribs if m.geom(g).name.startswith("rib_0_")]
+    assert (m.geom_conaffinity[row0] == 0).all()
+    assert (m.geom_conaffinity[[g for g in ribs if g not in row0]] != 0).all()
+    assert d.qfrc_applied[scene.conveyor_dof_adr] == 0.0
+    assert not scene.conveyor_armed(d)
+    # the next row stands in the pickup row, upright, every pot in its cell
+    pots = scene.pot_positions(d).reshape(scene.pot_bodies.shape + (3,))
+    row1 = pots[1]
+    assert np.abs(row1[:, 1] - five["conveyor"]["pickup_row_y_m"]).max() < 0.004
+    assert np.abs(row1[:, 2] - five["pots"]["height_m"] / 2).max() < 0.003

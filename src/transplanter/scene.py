@@ -458,6 +458,11 @@ class Scene:
             ]
         )
         flat = self.pot_bodies.ravel()
+        self._rib_geoms_by_row = [
+            np.array([g for g in range(m.ngeom) if (m.geom(g).name or "").startswith(f"rib_{r}_")])
+            for r in range(rows)
+        ]
+        self._row_y = config.pickup_row_y + np.arange(rows) * config.row_pitch
         self.pot_geoms = np.array(
             [
                 name(mujoco.mjtObj.mjOBJ_GEOM, f"pot_{r}_{c}")
@@ -635,6 +640,7 @@ class Scene:
         profile_s, _ = self.conveyor_index_phases(total_s)
         pitch = self.config.row_pitch
         q0 = round(data.qpos[self.conveyor_qpos_adr] / pitch) * pitch
+        self._drop_rows_past_the_edge(q0 - pitch)
         u[_U_ACTIVE], u[_U_T0], u[_U_PROFILE], u[_U_END], u[_U_Q0] = (
             1.0,
             now,
@@ -655,6 +661,22 @@ class Scene:
         if data is None or data.userdata[_U_ACTIVE] == 0.0:
             return False
         return not self._conveyor_done(data, now)
+
+    def _drop_rows_past_the_edge(self, q_after: float) -> None:
+        """Rows whose cells leave the belt's top run at this index go round the front drum:
+        their ribs stop touching anything and are no longer drawn. Without this the ribs of
+        emptied rows would sweep on through the drop tube and jam on the pot dropped last.
+        (This edits the model, which a Scene shares with its MjData: one simulation each.)"""
+        edge = self.config.pickup_row_y - self.config.row_pitch / 2
+        for y, geoms in zip(self._row_y, self._rib_geoms_by_row, strict=True):
+            if y + q_after < edge - 1e-9 and self.model.geom_conaffinity[geoms[0]] != 0:
+                self.model.geom_conaffinity[geoms] = 0
+                self.model.geom_rgba[geoms, 3] = 0.0
+
+    def conveyor_armed(self, data: mujoco.MjData) -> bool:
+        """True from start_conveyor_index until apply_conveyor has released the drive: as
+        long as this holds, apply_conveyor must be called before every physics step."""
+        return data.userdata[_U_ACTIVE] != 0.0
 
     def conveyor_reference(self, data: mujoco.MjData, now: float) -> tuple[float, float]:
         """Reference position (m) and velocity (m/s) of the carriage at `now`.

@@ -255,7 +255,7 @@ class Twin:
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
         ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - 90.0)
-        return _Block(self.k, ctrl, pulses, self.scene.conveyor_indexing(self.time, self.data))
+        return _Block(self.k, ctrl, pulses, self.scene.conveyor_armed(self.data))
 
     # -- stepping ------------------------------------------------------------------------
     def step_until(
