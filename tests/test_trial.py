@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "scenarios" / "paper.toml"
 
 # Baseline recorded from the 40-seedling paper trial, seed 1 (2026-11-21): 40/40 successes
-# (100 %, 95 % Wilson interval 91.2-100 %), mean cycle 3.503 s; seeds 2-4 also gave 40/40.
+# (100 %, 95 % Wilson interval 91.2-100 %), mean cycle 3.503 s; seeds 2-6 also gave 40/40.
 # The paper reports 93.3 %: the twin has fewer failure modes than the field (see README).
 BASELINE_SEED = 1
 BASELINE_SUCCESSES = 40

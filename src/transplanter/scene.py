@@ -152,8 +152,11 @@ class SceneConfig:
     cell_pitch: float = 0.045
     row_pitch: float = 0.045
     pickup_row_y: float = 0.215
-    rib_height: float = 0.003
+    rib_height: float = 0.005
     rib_thickness: float = 0.002
+    # Sliding friction of the ribs' smooth plastic on a paper pot; the ribs' contact priority
+    # wins over the pots', so this, not the pot's friction with the jaws, acts at the ribs.
+    rib_friction: float = 0.2
     # Conveyor carriage: mass (kg), dry friction of its slide (N), PD gains of the index drive
     # (N/m, N*s/m), settle time held after the profile before the force is released (s; at
     # most a quarter of the index time, see Scene.conveyor_index_phases), the share of the
@@ -931,6 +934,8 @@ def _add_conveyor_and_pots(spec: mujoco.MjSpec, cfg: SceneConfig, rng) -> dict:
             g.pos = pos
             g.contype = 0
             g.conaffinity = bit
+            g.priority = 2
+            g.friction = [cfg.rib_friction, 0.005, 0.0001]
             g.mass = 0
             g.rgba = [0.2, 0.2, 0.2, 1]
 
