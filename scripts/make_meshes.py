@@ -8,7 +8,7 @@ and seedling meshes per pot with the mesh `scale` attribute, so the meshes are u
 - paper_pot.stl: tapered paper pot, 35 mm dia x 52 mm, base at z=0.
 - seedling_stem.stl, seedling_leaf.stl: stem (base at z=0, 40 mm) and one leaf blade that
   starts at the origin and extends along +x (45 mm), curving up.
-- jaw.stl: one jaw plate, 3 x 20 x 50 mm, centred, with a ribbed inner face.
+- jaw.stl: one jaw plate, 3 x 20 x 45 mm, centred, with a ribbed inner face.
 - funnel.stl: funnel (60 mm top dia at z=0, 40 mm throat 20 mm lower) and 140 mm tube below.
 """
 
@@ -60,10 +60,10 @@ def seedling_leaf() -> trimesh.Trimesh:
 
 
 def jaw() -> trimesh.Trimesh:
-    plate = trimesh.creation.box(extents=[0.003, 0.020, 0.050])
+    plate = trimesh.creation.box(extents=[0.003, 0.020, 0.045])
     ribs = [
         trimesh.creation.box(extents=[0.0008, 0.020, 0.002]).apply_translation([0, 0, z])
-        for z in np.linspace(-0.02, 0.02, 6)
+        for z in np.linspace(-0.018, 0.018, 6)
     ]
     return trimesh.util.concatenate([plate, *ribs])
 

@@ -27,7 +27,7 @@ def test_plan_prints_every_line_and_total(capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0].split()[:2] == ["line", "duration_s"]
     assert out[-1].startswith("total")
-    assert len(out) == 1 + 16 + 1  # header, 16 G-code lines, total
+    assert len(out) == 1 + 18 + 1  # header, 18 G-code lines, total
 
 
 def test_plan_error_has_line_number(tmp_path, capsys):

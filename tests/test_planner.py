@@ -20,19 +20,19 @@ def machine():
 def test_example_program_durations_and_steps(machine):
     text = (ROOT / "scenarios" / "example.gcode").read_text().splitlines()
     rows = plan_program(machine, text)
-    assert [r.line_no for r in rows][:3] == [2, 3, 4]  # comment line 1 skipped
+    assert [r.line_no for r in rows][:3] == [3, 4, 5]  # comment lines 1-2 skipped
     by_text = {r.text.split(";")[0].strip(): r for r in rows}
-    grip = by_text["G1 X0 Y215 Z32 S60"]
-    # 40 mm at 60 mm/s with 1.5 m/s^2 ramps: 40/60 + 60/1500 s, to the Bresenham grid
-    assert grip.duration_s == pytest.approx(40 / 60 + 0.060 / 1.5, abs=0.01)
+    grip = by_text["G1 X0 Y215 Z34 S60"]
+    # 35 mm at 60 mm/s with 1.5 m/s^2 ramps: 35/60 + 60/1500 s
+    assert grip.duration_s == pytest.approx(35 / 60 + 0.060 / 1.5, abs=0.01)
     assert grip.steps[2] == 0 and grip.steps[0] == -grip.steps[1]  # symmetric, no Z
-    lift = by_text["G1 X0 Y215 Z100 S60"]
-    assert list(lift.steps) == [0, 0, 68 * 400]  # 68 mm at 400 steps/mm
+    lift = by_text["G1 X0 Y215 Z60 S60"]
+    assert list(lift.steps) == [0, 0, 26 * 400]  # 26 mm at 400 steps/mm
     dwell = by_text["G4 P250"]
     assert dwell.duration_s == pytest.approx(0.25) and not dwell.steps.any()
     # the moves after homing bring the motors back to the same place: net zero for the
     # closed cycle approach -> grip -> lift -> retract (X/Y back at the approach point)
-    retract = by_text["G1 X0 Y175 Z100 S150"]
+    retract = by_text["G1 X0 Y180 Z60 S150"]
     assert retract.steps[0] == -grip.steps[0]
 
 

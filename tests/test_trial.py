@@ -104,13 +104,15 @@ def test_raising_s_high_shortens_the_cycle():
 
 @pytest.mark.slow
 def test_approach_too_low_knocks_the_neighbours():
-    """At Z_low = 20 mm the palm (25 mm above the grip centre) sweeps at 45 mm, below the
-    neighbouring pots' rims (52 mm): it pushes them, and the success rate drops."""
+    """The paper approaches at Z_low. At Z_low = 26 mm the jaws still clear the belt (3.5 mm),
+    but the palm above them (from 22.5 mm over the grip centre) sweeps at 48.5 mm, below the
+    52 mm rims of the pot and its neighbours: it pushes them, and the success rate drops."""
     good = run_trial(_small(10))
-    low = run_trial(_small(10, **{"taught.z_low_mm": 20.0}))
-    assert good.success_rate >= 0.9
-    assert low.success_rate <= good.success_rate - 0.3
-    assert low.failures()["knocked_over"] + low.failures()["not_gripped"] >= 3
+    low = run_trial(_small(10, **{"taught.z_low_mm": 26.0}))
+    assert good.success_rate == 1.0
+    assert low.success_rate <= 0.5
+    failures = low.failures()
+    assert failures["not_gripped"] + failures["knocked_over"] + failures["slipped"] >= 4
 
 
 def test_wilson_interval_known_values():

@@ -58,7 +58,7 @@ PASSIVE_DROP = 0.015  # passive links run this far below the active ones (visual
 # (JAW_HALF_HEIGHT above the grip centre). The jaws start JAW_HALF_THICKNESS off the centre.
 XML_COLUMN_HEIGHT = 0.120
 WRIST_SERVO_BOTTOM = 0.042
-JAW_HALF_HEIGHT = 0.025
+JAW_HALF_HEIGHT = 0.0225
 PALM_HEIGHT = 0.025
 JAW_HALF_THICKNESS = 0.0015
 # Quaternion turning a capsule's axis (local z) onto local x.
