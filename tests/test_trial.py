@@ -176,7 +176,7 @@ def test_first_move_from_home_is_checked():
     from transplanter.preflight import check_scenario
 
     scenario = load_scenario(PAPER, {"taught.drop_mm": [80.0, 100.0]})
-    with pytest.raises(ScenarioError, match="the first move, from the homed position"):
+    with pytest.raises(ScenarioError, match="the first move, from the homed position .* to "):
         check_scenario(scenario)
 
 

@@ -38,26 +38,36 @@ def check_scenario(s: Scenario) -> None:
     z_low, z_up = taught["z_low_m"], taught["z_up_m"]
     drop = (*taught["drop_m"], z_up)
     homed = _homed_xyz(machine)
-    try:
-        _check_line(machine, homed, drop)
-    except kinematics.UnreachableError as exc:
-        raise ScenarioError(
-            f"taught.drop_mm: the first move, from the homed position {_mm(homed)} mm to the "
-            f"drop point {_mm(drop)} mm, leaves the workspace: {exc.reason}. Move the drop "
-            "point or the limit switches (drives.home_*)."
-        ) from None
+    _require_line(
+        machine,
+        homed,
+        drop,
+        "taught.drop_mm: the first move, from the homed position",
+        "Move the drop point or the limit switches (drives.home_*).",
+    )
     for i, p in enumerate(taught["pickup"]):
         approach_low, grip_low = (*p["approach_m"], z_low), (*p["grip_m"], z_low)
         grip_up, approach_up = (*p["grip_m"], z_up), (*p["approach_m"], z_up)
         path = [drop, approach_low, grip_low, grip_up, approach_up, drop]
         for a, b in zip(path[:-1], path[1:], strict=True):
-            try:
-                _check_line(machine, a, b)
-            except kinematics.UnreachableError as exc:
-                raise ScenarioError(
-                    f"taught.pickup[{i}]: the move from {_mm(a)} to {_mm(b)} mm leaves the "
-                    f"workspace: {exc.reason}. Move the approach or grip point."
-                ) from None
+            _require_line(
+                machine,
+                a,
+                b,
+                f"taught.pickup[{i}]: the move from",
+                "Move the approach or grip point.",
+            )
+
+
+def _require_line(machine, a, b, what: str, hint: str) -> None:
+    """ScenarioError '<what> a to b mm leaves the workspace: <reason>. <hint>' if the SGF
+    would refuse the straight line from a to b."""
+    try:
+        _check_line(machine, a, b)
+    except kinematics.UnreachableError as exc:
+        raise ScenarioError(
+            f"{what} {_mm(a)} to {_mm(b)} mm leaves the workspace: {exc.reason}. {hint}"
+        ) from None
 
 
 def _homed_xyz(machine) -> tuple[float, float, float]:
