@@ -10,7 +10,7 @@ M280 P0 S155             ; open the gripper
 G4 P200                  ; let the servo open
 G1 X0 Y215 Z34 S60       ; slide the jaws around the pot, S_l = 60 mm/s
 M280 P0 S90              ; close the gripper
-G4 P250
+G4 P300                  ; let the servo squeeze
 G1 X0 Y215 Z60 S60       ; lift to Z_up
 G1 X0 Y180 Z60 S150      ; back to the approach point
 M280 P1 S135             ; wrist for the drop

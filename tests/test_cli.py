@@ -37,3 +37,12 @@ def test_plan_error_has_line_number(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"{bad}:3: error:33" in err
     assert main(["plan", str(tmp_path / "missing.gcode")]) == 1
+
+
+def test_ik_and_plan_refuse_a_missing_scenario(tmp_path, capsys):
+    assert main(["ik", "0", "200", "--scenario", str(tmp_path / "none.toml")]) == 2
+    assert "scenario refused" in capsys.readouterr().err
+    binary = tmp_path / "bin.gcode"
+    binary.write_bytes(bytes(range(256)))
+    assert main(["plan", str(binary)]) == 1
+    assert "not a text file" in capsys.readouterr().err

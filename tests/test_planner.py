@@ -28,8 +28,8 @@ def test_example_program_durations_and_steps(machine):
     assert grip.steps[2] == 0 and grip.steps[0] == -grip.steps[1]  # symmetric, no Z
     lift = by_text["G1 X0 Y215 Z60 S60"]
     assert list(lift.steps) == [0, 0, 26 * 400]  # 26 mm at 400 steps/mm
-    dwell = by_text["G4 P250"]
-    assert dwell.duration_s == pytest.approx(0.25) and not dwell.steps.any()
+    dwell = by_text["G4 P300"]
+    assert dwell.duration_s == pytest.approx(0.3) and not dwell.steps.any()
     # the moves after homing bring the motors back to the same place: net zero for the
     # closed cycle approach -> grip -> lift -> retract (X/Y back at the approach point)
     retract = by_text["G1 X0 Y180 Z60 S150"]

@@ -131,3 +131,25 @@ def test_conveyor_index_ends_at_one_pitch_and_at_rest():
     row1 = pots[1]
     assert np.abs(row1[:, 1] - five["conveyor"]["pickup_row_y_m"]).max() < 0.004
     assert np.abs(row1[:, 2] - five["pots"]["height_m"] / 2).max() < 0.003
+
+
+def test_servos_hold_their_power_on_pose_until_commanded(scenario):
+    """Before the first M280 the gripper stays fully open and the wrist where it was."""
+    twin = Twin(scenario)
+    scene, d = twin.scene, twin.data
+    opening0 = scene.gripper_opening(d)
+    wrist0 = d.qpos[scene.wrist_qpos_adr]
+    first_servo = None
+    while first_servo is None:
+        twin.step_until(twin.time + 0.01)
+        first_servo = next(
+            (
+                s.t_sent
+                for s in twin.pgf.sent
+                if s.text.split()[1:2] == ["M280"] or s.text.startswith("M280")
+            ),
+            None,
+        )
+        assert scene.gripper_opening(d) == pytest.approx(opening0, abs=2e-4)
+        assert d.qpos[scene.wrist_qpos_adr] == pytest.approx(wrist0, abs=0.01)  # servo compliance
+    assert twin.gripper_opening_cmd(np.array([0.0, first_servo]))[0] == pytest.approx(opening0)

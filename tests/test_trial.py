@@ -260,3 +260,59 @@ def test_cli_exit_status_for_a_firmware_fault(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(transplanter.preflight, "check_scenario", lambda scenario: None)
     assert main(["trial", str(path), "--seedlings", "3", "--quiet"]) == 4  # the SGF refuses
     assert "firmware fault" in capsys.readouterr().out
+
+
+def test_a_missing_pot_is_a_failure_not_a_crash(tmp_path):
+    """Pickup 1 taught 40 mm beside its cell: no pot stands there, the gripper closes on
+    nothing, and the seedling counts as knocked over or out of its cell."""
+    text = (
+        PAPER.read_text()
+        .replace("approach_mm = [-90.0, 180.0]", "approach_mm = [-130.0, 180.0]")
+        .replace("grip_mm = [-90.0, 215.0]", "grip_mm = [-130.0, 215.0]")
+    )
+    path = tmp_path / "beside.toml"
+    path.write_text(text)
+    result = run_trial(load_scenario(path, {"scenario.seedlings": 2}))
+    first, second = result.per_seedling
+    assert first.pot is None and first.outcome == "knocked_over"
+    assert first.peak_grip_force_n == 0.0  # the jaws closed on air
+    assert second.outcome == "success"
+    assert result.to_dict()["seedlings_per_min"] > 0
+
+
+def test_seedlings_per_minute_counts_only_attempted(tmp_path, monkeypatch):
+    text = PAPER.read_text().replace("grip_mm = [-45.0, 215.0]", "grip_mm = [-45.0, 330.0]")
+    path = tmp_path / "reject.toml"
+    path.write_text(text)
+    result = run_trial(load_scenario(path, {"scenario.seedlings": 5}))
+    assert result.attempted == 2  # one success, one rejected; three never ran
+    d = result.to_dict()
+    assert d["seedlings_per_min"] == pytest.approx(60 * 2 / d["sim_time_s"])
+
+
+def test_cli_refuses_bad_output_paths_before_simulating(tmp_path, capsys):
+    base = ["trial", str(PAPER), "--seedlings", "1", "--quiet"]
+    assert main([*base, "--json", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err
+    assert main([*base, "--record", str(tmp_path / "x.txt")]) == 2
+    assert "must end in .rrd" in capsys.readouterr().err
+    assert main([*base, "--json", str(tmp_path / "missing" / "r.json")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main([*base, "--record", str(tmp_path / "r.rrd"), "--record-rate", "0"]) == 2
+    assert main(["trial", str(ROOT / "scenarios"), "--quiet"]) == 2
+    assert "is a directory" in capsys.readouterr().err
+    assert main(["trial", str(PAPER), "--seedlings", "41", "--quiet"]) == 2
+    assert "more than the conveyor holds" in capsys.readouterr().err
+
+
+def test_json_is_readable_by_others(tmp_path):
+    from transplanter.trial import write_json_atomic
+
+    umask = os.umask(0o022)
+    try:
+        write_json_atomic(tmp_path / "r.json", {"a": 1})
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "r.json").stat().st_mode & 0o777 == 0o644
+    assert json.loads((tmp_path / "r.json").read_text()) == {"a": 1}
+    assert [p.name for p in tmp_path.iterdir()] == ["r.json"]  # no temporary left behind

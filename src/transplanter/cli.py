@@ -21,12 +21,24 @@ def _scenario_arg(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _machine(path: Path):
+    """The machine of a scenario file, or None after saying why it was refused."""
+    from transplanter.machine import machine_from_scenario
+    from transplanter.scenario import ScenarioError, load_scenario
+
+    try:
+        return machine_from_scenario(load_scenario(path))
+    except ScenarioError as exc:
+        print(f"scenario refused: {exc}", file=sys.stderr)
+        return None
+
+
 def cmd_ik(args: argparse.Namespace) -> int:
     from transplanter import kinematics
-    from transplanter.machine import machine_from_scenario
-    from transplanter.scenario import load_scenario
 
-    machine = machine_from_scenario(load_scenario(args.scenario))
+    machine = _machine(args.scenario)
+    if machine is None:
+        return 2
     x, y = args.x * 1e-3, args.y * 1e-3
     report = kinematics.check_points(
         machine.geometry, machine.limits, np.array([x]), np.array([y]), mode=machine.mode
@@ -43,15 +55,18 @@ def cmd_ik(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from transplanter.machine import machine_from_scenario
     from transplanter.planner import PlanError, plan_program
-    from transplanter.scenario import load_scenario
 
-    machine = machine_from_scenario(load_scenario(args.scenario))
+    machine = _machine(args.scenario)
+    if machine is None:
+        return 2
     try:
         text = Path(args.file).read_text(encoding="utf-8")
     except OSError as exc:
         print(f"{args.file}: cannot read: {exc.strerror}", file=sys.stderr)
+        return 1
+    except UnicodeDecodeError:
+        print(f"{args.file}: not a text file (G-code is ASCII text)", file=sys.stderr)
         return 1
     try:
         rows = plan_program(machine, text.splitlines())
@@ -121,7 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=None, help="override scenario.seed")
     p.add_argument("--json", type=Path, default=None, help="write results to this JSON file")
     p.add_argument("--record", type=Path, default=None, help="write a rerun .rrd recording")
-    p.add_argument("--record-rate", type=float, default=60.0, help="recording rate in Hz")
+    p.add_argument("--record-rate", type=float, default=60.0, help="recording rate in Hz (> 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_trial)
 

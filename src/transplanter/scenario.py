@@ -301,6 +301,12 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ScenarioError(f"{path}: no such scenario file.") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"{path}: is a directory; give a scenario .toml file.") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read: {exc.strerror}.") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{path}: not a text file (UTF-8 TOML expected).") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}.") from None
     for section, table in raw.items():
@@ -421,6 +427,12 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     if pots["mass_min_kg"] > pots["mass_kg"] or pots["mass_kg"] > pots["mass_max_kg"]:
         raise ScenarioError("pots.mass_g must lie within [pots.mass_min_g, pots.mass_max_g].")
     conv = v["conveyor"]
+    cells = conv["rows"] * conv["cols"]
+    if v["scenario"]["seedlings"] > cells:
+        raise ScenarioError(
+            f"scenario.seedlings = {v['scenario']['seedlings']} is more than the conveyor holds "
+            f"(conveyor.rows x conveyor.cols = {cells} pots)."
+        )
     if conv["index_time_s"] < 0.2:
         raise ScenarioError("conveyor.index_time_s must be at least 0.2 s (push and settle).")
     grip = v["gripper"]

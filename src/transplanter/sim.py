@@ -5,7 +5,8 @@ limit switches come from the model's sensors and, at every physics step, each st
 position servo is commanded to the position its SGF step pulses have reached at that time
 (`SGF.pulses_at`), never to a smoothed trajectory. Per-move work is done once per firmware
 event: the commands for every physics step until the next event are computed in one
-vectorised call, so the per-step path is one row copy and `mj_step`.
+vectorised call, so the per-step path is one row copy and `mj_step` (plus the conveyor's
+drive while it indexes, a slip check every few steps and the caller's monitor).
 """
 
 from __future__ import annotations
@@ -117,13 +118,17 @@ def scene_config_from_scenario(s: Scenario, machine: Machine) -> SceneConfig:
 
 @dataclass
 class _ServoRamp:
-    """A hobby servo: turns at a constant speed towards its last command (degrees)."""
+    """A hobby servo: holds its power-on angle, then turns at a constant speed towards its
+    last command (degrees)."""
 
     speed_deg_s: float
-    angle_deg: float
-    start_deg: float = 0.0
-    target_deg: float = 0.0
+    power_on_deg: float
+    start_deg: float = field(init=False)
+    target_deg: float = field(init=False)
     t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.start_deg = self.target_deg = self.power_on_deg
 
     def command(self, t: float, target_deg: float) -> None:
         self.start_deg = self.at(np.array([t]))[0]
@@ -181,9 +186,7 @@ class Twin:
         gripper_deg = self.scene.gripper_opening(self.data) / self._open_m_per_deg
         wrist_deg = math.degrees(self.data.qpos[self.scene.wrist_qpos_adr]) + 90.0
         self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"], gripper_deg)
-        self.gripper.command(0.0, gripper_deg)
         self.wrist = _ServoRamp(60.0 / grip["wrist_servo_s_per_60deg"], wrist_deg)
-        self.wrist.command(0.0, wrist_deg)
         # Stepper positions are relative to where each motor was at power-on: the SGF's raw
         # pulse counters start at zero there, and homing only changes its logical counters.
         self.q_power_on = self.scene.joint_positions(self.data).copy()

@@ -97,6 +97,11 @@ class TrialResult:
         return len(self.per_seedling)
 
     @property
+    def attempted(self) -> int:
+        """Seedlings whose cycle ran (not stopped by a fault or invalid physics first)."""
+        return sum(r.outcome != "not_run" for r in self.per_seedling)
+
+    @property
     def successes(self) -> int:
         return sum(r.outcome == "success" for r in self.per_seedling)
 
@@ -127,7 +132,9 @@ class TrialResult:
             "failures": self.failures(),
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,
             "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,
-            "seedlings_per_min": 60.0 * self.seedlings / self.sim_time_s if self.sim_time_s else 0,
+            "seedlings_per_min": (
+                60.0 * self.attempted / self.sim_time_s if self.sim_time_s else 0.0
+            ),
             "sim_time_s": self.sim_time_s,
             "wall_time_s": self.wall_time_s,
             "real_time_factor": self.sim_time_s / self.wall_time_s if self.wall_time_s else None,
@@ -158,6 +165,8 @@ class _Watcher:
         self.floor_z = float(model.geom_pos[planes, 2].min()) if planes.size else -1.0
         self.lift_m = self.taught.z_up_m - self.taught.z_low_m
         self.pot_height = float(self.twin.scenario["pots"]["height_m"])
+        self.half_cell = 0.5 * float(self.twin.scenario["conveyor"]["cell_pitch_m"])
+        self.gripping = False  # between the close and release lines
         self.steps_lost0 = np.zeros(3, dtype=np.int64)
         self.z0 = 0.0
 
@@ -188,15 +197,19 @@ class _Watcher:
         d = self.twin.data
         if line.phase == "approach":
             self._resolve_pending(t)  # the previous pot has had a whole move to land
-        elif line.phase == "close" and self.recorder is not None:
-            self.recorder.event(t, "grasp", f"seedling {rec.index} gripper closing", rec.index)
-        elif line.phase == "lift":
+        elif line.phase == "close":
+            if self.recorder is not None:
+                self.recorder.event(t, "grasp", f"seedling {rec.index} gripper closing", rec.index)
+            self.gripping = True
+        elif line.phase == "lift" and rec.pot is not None:
             z = float(d.xpos[self.pot_bodies[rec.pot], 2])
             rec.lifted = z - self.z0 > LIFTED_FRACTION * self.lift_m
-        elif line.phase == "to_drop":
+        elif line.phase == "to_drop" and rec.pot is not None:
             rec.in_gripper_at_drop = self._between_jaws(rec.pot)
-        elif line.phase == "release" and self.recorder is not None:
-            self.recorder.event(t, "release", f"seedling {rec.index} released", rec.index)
+        elif line.phase == "release":
+            self.gripping = False
+            if self.recorder is not None:
+                self.recorder.event(t, "release", f"seedling {rec.index} released", rec.index)
         elif line.phase == "release_wait":
             rec.t_release_s = t
             rec.cycle_time_s = t - rec.t_start_s
@@ -211,24 +224,30 @@ class _Watcher:
         pickup = self.taught.pickups[rec.pickup]
         rec.pot, offset, tilt = self._target_pot(np.asarray(pickup.grip_xy_m))
         rec.knocked_before = offset > KNOCKED_OFFSET_M or tilt > KNOCKED_TILT_RAD
-        self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
+        if rec.pot is not None:
+            self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
 
     def _update_lost_steps(self, rec: SeedlingRecord) -> None:
         lost = np.abs(self.twin.steps_lost - self.steps_lost0)
         rec.steps_lost = int(lost.sum())
         rec.lost_steps = rec.steps_lost > 0
 
-    def _target_pot(self, grip_xy: np.ndarray) -> tuple[int, float, float]:
-        """The pot standing nearest the grip point, its offset from it, and its tilt.
+    def _target_pot(self, grip_xy: np.ndarray) -> tuple[int | None, float, float]:
+        """The pot standing nearest the grip point, its offset from it, and its tilt; None
+        (and an infinite offset) when no pot on the belt is within half a cell of it.
 
         Only pots still on the belt count (a pot lying in the funnel or on the floor is
         not one the arm can be sent for)."""
         d = self.twin.data
         pos = d.xpos[self.pot_bodies]
         on_belt = self.active & (pos[:, 2] > 0.0) & (pos[:, 2] < self.pot_height)
-        idx = np.flatnonzero(on_belt if on_belt.any() else self.active)
+        idx = np.flatnonzero(on_belt)
+        if idx.size == 0:
+            return None, math.inf, 0.0
         dist = np.linalg.norm(pos[idx, :2] - grip_xy, axis=1)
         j = int(np.argmin(dist))
+        if dist[j] > self.half_cell:
+            return None, math.inf, 0.0
         pot = int(idx[j])
         zaxis_z = d.xmat[self.pot_bodies[pot], 8]  # R[2,2]: cos of the tilt
         return pot, float(dist[j]), float(math.acos(np.clip(zaxis_z, -1.0, 1.0)))
@@ -244,7 +263,7 @@ class _Watcher:
             return
         in_tube = self.twin.scene.pot_in_tube(self.twin.data)
         for rec in self.pending_outcome:
-            ok = bool(in_tube[rec.pot])
+            ok = rec.pot is not None and bool(in_tube[rec.pot])
             rec.outcome = "success" if ok else self._failure_kind(rec)
             if ok:
                 self._park(rec.pot)
@@ -287,13 +306,13 @@ class _Watcher:
         if rec is None:
             return
         scene, d = twin.scene, twin.data
-        if d.ncon:  # no contact, no grip force
-            force = 0.5 * scene.grip_force(d)  # clamping force: each jaw's share of the total
+        if self.gripping and d.ncon:  # the clamping force while the gripper holds the pot
+            force = 0.5 * scene.grip_force(d)  # each jaw's share of the total normal force
             if force > rec.peak_grip_force_n:
                 rec.peak_grip_force_n = force
         if not rec.leaves_hit:
             hit = scene.leaf_hit_pots(d)
-            rec.leaves_hit = bool((hit != rec.pot).any())
+            rec.leaves_hit = bool((hit != rec.pot).any())  # the neighbours' leaves
         lag = float(twin.motor_lag_full_steps().max())
         if lag > rec.max_lag_full_steps:
             rec.max_lag_full_steps = lag
@@ -377,11 +396,11 @@ def run_trial(
         valid, reason = False, str(exc)
     finally:
         bar.close()
-    watcher.finish(twin.time, valid)
-    if recorder is not None:
-        if twin.block is not None:
-            monitor.record(twin, twin.block.pulses[-1], force=True)
-        recorder.close()
+        watcher.finish(twin.time, valid)
+        if recorder is not None:
+            if twin.block is not None:
+                monitor.record(twin, twin.block.pulses[-1], force=True)
+            recorder.close()
     return TrialResult(
         scenario=scenario.name,
         seed=scenario.seed,
@@ -433,7 +452,6 @@ class _RecordingMonitor:
 def write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
     """Write JSON so that the file is either the old one or the complete new one."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
@@ -441,6 +459,9 @@ def write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
             f.write("\n")
             f.flush()
             os.fsync(f.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; results are for sharing
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -477,7 +498,31 @@ def format_summary(result: TrialResult) -> str:
     return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
 
 
+def _output_problem(path: Path | None, suffix: str | None) -> str | None:
+    """Why an output file cannot be written there (checked before simulating), or None."""
+    if path is None:
+        return None
+    path = Path(path)
+    if path.is_dir():
+        return f"{path} is a directory; give a file name"
+    if not path.parent.is_dir():
+        return f"{path.parent} does not exist; create it first"
+    if not os.access(path.parent, os.W_OK):
+        return f"{path.parent} is not writable"
+    if suffix is not None and path.suffix != suffix:
+        return f"{path} must end in {suffix}"
+    return None
+
+
 def run_trial_cli(args) -> int:
+    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
+        problem = _output_problem(path, suffix)
+        if problem is not None:
+            print(f"{option}: {problem}", file=sys.stderr)
+            return 2
+    if not args.record_rate > 0:
+        print(f"--record-rate must be > 0 Hz, got {args.record_rate}", file=sys.stderr)
+        return 2
     overrides: dict[str, Any] = {}
     if args.seedlings is not None:
         overrides["scenario.seedlings"] = args.seedlings
@@ -490,7 +535,7 @@ def run_trial_cli(args) -> int:
         scenario,
         recorder_path=args.record,
         record_rate_hz=args.record_rate,
-        progress=not args.quiet,
+        progress=not args.quiet and sys.stderr.isatty(),
     )
     print(format_summary(result))
     if args.json is not None:
