@@ -111,6 +111,11 @@ def _machine(s: Scenario) -> Machine:
         home_theta1_rad=drv["home_theta1_rad"],
         home_theta2_rad=drv["home_theta2_rad"],
         home_z_m=drv["home_z_m"],
+        homing_locate_rate_hz=(
+            drv["homing_locate_rate_arm_hz"],
+            drv["homing_locate_rate_arm_hz"],
+            drv["homing_locate_rate_z_hz"],
+        ),
         homing_rate_hz=(
             drv["homing_rate_arm_hz"],
             drv["homing_rate_arm_hz"],

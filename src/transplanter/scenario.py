@@ -97,6 +97,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "home_z_mm": Key("float", _MM, 0, 1000, doc="limit switch 3 (Z up) trip height"),
         "homing_rate_arm_hz": Key("float", 1.0, 1, 1e5),
         "homing_rate_z_hz": Key("float", 1.0, 1, 1e6),
+        "homing_locate_rate_arm_hz": Key("float", 1.0, 1, 1e5, doc="slow second homing pass"),
+        "homing_locate_rate_z_hz": Key("float", 1.0, 1, 1e6),
     },
     "motion": {
         "resolution_mm": Key("float", _MM, 0.001, 10, doc="Bresenham grid (paper 2.4)"),
@@ -152,6 +154,19 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "y_mm": Key("float", _MM, -1000, 1000),
         "funnel_top_diameter_mm": Key("float", _MM, 1, 1000),
         "funnel_top_z_mm": Key("float", _MM, -1000, 1000),
+    },
+    "metrics": {
+        "knocked_offset_mm": Key(
+            "float", _MM, 0.1, 100, doc="a pot this far from its grip point is out of its cell"
+        ),
+        "knocked_tilt_deg": Key("float", _DEG, 1, 90, doc="a pot tilted this much is knocked over"),
+        "lifted_fraction": Key(
+            "float", 1.0, 0.01, 1.0, doc="share of the lift a gripped pot must rise"
+        ),
+        "between_jaws_mm": Key(
+            "float", _MM, 1, 100, doc="pot centre within this (xy) of the grip centre at the drop"
+        ),
+        "settle_s": Key("float", 1.0, 0.0, 60, doc="physics kept running after the last line"),
     },
     "physics": {
         "timestep_ms": Key("float", _MS, 0.01, 10),

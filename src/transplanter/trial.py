@@ -36,13 +36,6 @@ FAILURE_KINDS = (
     "not_run",  # never attempted: the firmware faulted or the simulation became invalid
 )
 
-# A pot is "knocked over or out of its cell" when tilted or displaced this much at approach.
-KNOCKED_TILT_RAD = math.radians(25.0)
-KNOCKED_OFFSET_M = 0.008
-# A lifted pot rose at least this fraction of the commanded lift.
-LIFTED_FRACTION = 0.5
-# Time the physics keeps running after the last line, so the last pot can land.
-SETTLE_S = 0.6
 # Grip force, leaf contacts and motor lag are sampled every this many physics steps (10 ms
 # at the paper's 1 ms step: the gripper moves at most 1.5 mm between samples).
 MONITOR_EVERY_STEPS = 10
@@ -165,6 +158,7 @@ class _Watcher:
         self.floor_z = float(model.geom_pos[planes, 2].min()) if planes.size else -1.0
         self.lift_m = self.taught.z_up_m - self.taught.z_low_m
         self.pot_height = float(self.twin.scenario["pots"]["height_m"])
+        self.metrics = self.twin.scenario["metrics"]
         self.half_cell = 0.5 * float(self.twin.scenario["conveyor"]["cell_pitch_m"])
         self.gripping = False  # between the close and release lines
         self.steps_lost0 = np.zeros(3, dtype=np.int64)
@@ -203,7 +197,7 @@ class _Watcher:
             self.gripping = True
         elif line.phase == "lift" and rec.pot is not None:
             z = float(d.xpos[self.pot_bodies[rec.pot], 2])
-            rec.lifted = z - self.z0 > LIFTED_FRACTION * self.lift_m
+            rec.lifted = z - self.z0 > self.metrics["lifted_fraction"] * self.lift_m
         elif line.phase == "to_drop" and rec.pot is not None:
             rec.in_gripper_at_drop = self._between_jaws(rec.pot)
         elif line.phase == "release":
@@ -223,7 +217,9 @@ class _Watcher:
         self.steps_lost0 = self.twin.steps_lost.copy()
         pickup = self.taught.pickups[rec.pickup]
         rec.pot, offset, tilt = self._target_pot(np.asarray(pickup.grip_xy_m))
-        rec.knocked_before = offset > KNOCKED_OFFSET_M or tilt > KNOCKED_TILT_RAD
+        rec.knocked_before = (
+            offset > self.metrics["knocked_offset_m"] or tilt > self.metrics["knocked_tilt_rad"]
+        )
         if rec.pot is not None:
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
 
@@ -256,7 +252,10 @@ class _Watcher:
         d = self.twin.data
         grip = d.site_xpos[self.twin.scene.grip_site]
         rel = d.xpos[self.pot_bodies[pot]] - grip
-        return bool(np.hypot(rel[0], rel[1]) < 0.015 and abs(rel[2]) < 0.03)
+        return bool(
+            np.hypot(rel[0], rel[1]) < self.metrics["between_jaws_m"]
+            and abs(rel[2]) < self.pot_height / 2
+        )
 
     def _resolve_pending(self, t: float) -> None:
         if not self.pending_outcome:
@@ -385,7 +384,7 @@ def run_trial(
                 sum(r.outcome != "pending" or r.t_release_s is not None for r in records), twin.time
             )
         twin.step_until(
-            twin.time + SETTLE_S,
+            twin.time + scenario["metrics"]["settle_s"],
             monitor=monitor,
             monitor_every=every,
             stop_when_done=False,
