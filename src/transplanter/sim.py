@@ -154,7 +154,6 @@ class LineEvent:
 class _Block:
     """Commands for consecutive physics steps, computed once per firmware event."""
 
-    k0: int
     ctrl: np.ndarray  # (n, nu)
     pulses: np.ndarray  # (n, 3)
     conveyor: bool = False
@@ -258,7 +257,7 @@ class Twin:
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
         ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - 90.0)
-        return _Block(self.k, ctrl, pulses, self.scene.conveyor_armed(self.data))
+        return _Block(ctrl, pulses, self.scene.conveyor_armed(self.data))
 
     # -- stepping ------------------------------------------------------------------------
     def step_until(
