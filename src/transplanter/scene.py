@@ -29,6 +29,7 @@ geometrically, only for the pots near the gripper, when the trial asks.
 
 from __future__ import annotations
 
+import importlib.resources
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,16 +69,8 @@ LEAF_NEAR_M = 0.09  # only pots this close (xy) to the grip centre can touch the
 
 
 def models_dir() -> Path:
-    """The repository's models/ directory (works from a checkout or an editable install)."""
-    here = Path(__file__).resolve()
-    for parent in here.parents:
-        candidate = parent / "models" / "scene.xml"
-        if candidate.is_file():
-            return candidate.parent
-    raise FileNotFoundError(
-        f"models/scene.xml not found above {here}; run from a checkout of the repository "
-        "or install it editable (pip install -e .)"
-    )
+    """The MJCF models shipped with the package (models/ of the repository)."""
+    return Path(str(importlib.resources.files("transplanter.models")))
 
 
 @dataclass(frozen=True)
