@@ -17,30 +17,23 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from transplanter.config import assemble
 from transplanter.scenario import load_scenario
 from transplanter.sim import Twin
 from transplanter.trial import run_trial
 
-PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
-
 TARGET_WALL_S = 10.0  # issue 4: the 40-seedling paper trial in under 10 s wall on one core
 
 
-def bare_replay(scenario, seconds: float) -> tuple[float, int]:
+def bare_replay(config, seconds: float) -> tuple[float, int]:
     """Run the twin once to log its commands, then time bare mj_step on the same commands."""
-    twin = Twin(scenario)
+    twin = Twin(config)
     rows: list[np.ndarray] = []
-    original = twin._block
-
-    def logging_block(t_next):
-        block = original(t_next)
-        rows.append(block.ctrl)
-        return block
-
-    twin._block = logging_block
-    twin.step_until(seconds)
-    ctrl = np.concatenate(rows)[: twin.k]
-    fresh = Twin(scenario)
+    twin.step_until(
+        seconds, monitor=lambda tw, i: rows.append(tw.data.ctrl.copy()), monitor_every=1
+    )
+    ctrl = np.array(rows)
+    fresh = Twin(config)
     m, d = fresh.model, fresh.data
     t0 = time.perf_counter()
     for row in ctrl:
@@ -54,11 +47,11 @@ def main() -> None:
     parser.add_argument("--seedlings", type=int, default=40)
     parser.add_argument("--record", action="store_true", help="also time a 60 Hz recording")
     args = parser.parse_args()
-    scenario = load_scenario(PAPER, {"scenario.seedlings": args.seedlings})
+    config = assemble(load_scenario("paper", {"scenario.seedlings": args.seedlings}))
 
-    result = run_trial(scenario)
+    result = run_trial(config)
     d = result.to_dict()
-    steps = round(result.sim_time_s / scenario["physics"]["timestep_s"])
+    steps = round(result.sim_time_s / config.scene.timestep)
     print(f"paper trial, {d['seedlings']} seedlings, seed {d['seed']}")
     print(f"  success rate         {100 * d['success_rate']:.1f} %  failures {d['failures']}")
     print(f"  cycle time           {d['cycle_time_s']:.3f} s (sd {d['cycle_time_sd_s']:.3f})")
@@ -67,7 +60,7 @@ def main() -> None:
     print(f"  real-time factor     {d['real_time_factor']:.1f}x")
     print(f"  pipeline steps/s     {steps / result.wall_time_s:,.0f}")
 
-    bare_s, bare_steps = bare_replay(scenario, result.sim_time_s)
+    bare_s, bare_steps = bare_replay(config, result.sim_time_s)
     pipeline_per_step = result.wall_time_s / steps
     bare_per_step = bare_s / bare_steps
     print(f"  bare mj_step         {bare_steps / bare_s:,.0f} steps/s on the same commands")
@@ -76,7 +69,7 @@ def main() -> None:
     if args.record:
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "paper.rrd"
-            rec = run_trial(scenario, recorder_path=path)
+            rec = run_trial(config, record_path=path)
             size = path.stat().st_size
         overhead = rec.wall_time_s / result.wall_time_s - 1.0
         per_min = size / (rec.sim_time_s / 60.0)

@@ -1,10 +1,7 @@
-"""The `transplanter` command line: ik and plan (trial and replay are tested with their modules)."""
+"""The `transplanter` command line: ik, plan and trial (replay is tested with recording)."""
 
-from pathlib import Path
-
+from conftest import ROOT, variant
 from transplanter.cli import main
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_ik_prints_angles(capsys):
@@ -46,3 +43,42 @@ def test_ik_and_plan_refuse_a_missing_scenario(tmp_path, capsys):
     binary.write_bytes(bytes(range(256)))
     assert main(["plan", str(binary)]) == 1
     assert "not a text file" in capsys.readouterr().err
+
+
+def test_trial_refuses_an_unknown_key_before_simulating(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[scenario]\nbase = "paper.toml"\n[taught]\nspeed_high = 3\n')
+    assert main(["trial", str(bad), "--quiet"]) == 2
+    assert "taught.speed_high: unknown key" in capsys.readouterr().err
+
+
+def test_trial_refuses_an_unreachable_taught_point_naming_the_key(tmp_path, capsys):
+    bad = variant(tmp_path, {"grip_mm = [90.0, 215.0]": "grip_mm = [90.0, 340.0]"})
+    assert main(["trial", str(bad), "--quiet"]) == 2
+    assert "taught.pickup[4].grip_mm = [90, 340] mm cannot be reached" in capsys.readouterr().err
+
+
+def test_trial_exit_status_for_a_firmware_fault(tmp_path, capsys):
+    path = variant(tmp_path, {"grip_mm = [-45.0, 215.0]": "grip_mm = [-45.0, 330.0]"})
+    assert main(["trial", str(path), "--seedlings", "3", "--quiet"]) == 2  # preflight refuses
+    capsys.readouterr()
+    args = ["trial", str(path), "--seedlings", "3", "--quiet", "--no-preflight"]
+    assert main(args) == 4  # the SGF refuses the move itself
+    out = capsys.readouterr().out
+    assert "firmware fault" in out and "failures: move_rejected    1" in out
+
+
+def test_trial_refuses_bad_output_paths_before_simulating(tmp_path, capsys):
+    base = ["trial", "paper", "--seedlings", "1", "--quiet"]
+    assert main([*base, "--json", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err
+    assert main([*base, "--record", str(tmp_path / "x.txt")]) == 2
+    assert "must end in .rrd" in capsys.readouterr().err
+    assert main([*base, "--json", str(tmp_path / "missing" / "r.json")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main([*base, "--record", str(tmp_path / "r.rrd"), "--record-rate", "0"]) == 2
+    assert main(["trial", str(ROOT / "scenarios"), "--quiet"]) == 2
+    assert "is a directory" in capsys.readouterr().err
+    assert main(["trial", "paper", "--seedlings", "41", "--quiet"]) == 2
+    assert "more than the conveyor holds" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())  # nothing was written

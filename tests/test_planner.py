@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from transplanter.machine import machine_from_scenario
+from transplanter.config import machine_config
 from transplanter.planner import PlanError, plan_program
 from transplanter.scenario import load_scenario
 
@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def machine():
-    return machine_from_scenario(load_scenario(ROOT / "scenarios" / "paper.toml"))
+    return machine_config(load_scenario(ROOT / "scenarios" / "paper.toml"))
 
 
 def test_example_program_durations_and_steps(machine):

@@ -23,13 +23,13 @@ def test_si_key_names():
 def test_paper_scenario_converts_to_si():
     s = load_scenario(PAPER)
     assert s.name == "paper"
-    assert s["arm"]["l1_m"] == pytest.approx(0.120)
-    assert s["taught"]["s_high_m_s"] == pytest.approx(0.150)
-    assert s["limits"]["motor1_max_rad"] == pytest.approx(math.radians(235))
-    assert s["pots"]["mass_kg"] == pytest.approx(0.047)
-    assert s["physics"]["timestep_s"] == pytest.approx(0.001)
-    assert len(s["taught"]["pickup"]) == 5
-    assert s["taught"]["pickup"][4]["grip_m"] == pytest.approx((0.090, 0.215))
+    assert s.arm.l1_m == pytest.approx(0.120)
+    assert s.taught.s_high_m_s == pytest.approx(0.150)
+    assert s.limits.motor1_max_rad == pytest.approx(math.radians(235))
+    assert s.pots.mass_kg == pytest.approx(0.047)
+    assert s.physics.timestep_s == pytest.approx(0.001)
+    assert len(s.taught.pickup) == 5
+    assert s.taught.pickup[4].grip_m == pytest.approx((0.090, 0.215))
 
 
 def _variant(tmp_path, body: str) -> Path:
@@ -40,10 +40,10 @@ def _variant(tmp_path, body: str) -> Path:
 
 def test_base_file_and_override(tmp_path):
     s = load_scenario(_variant(tmp_path, "[taught]\ns_high_mm_s = 200.0\n"))
-    assert s["taught"]["s_high_m_s"] == pytest.approx(0.2)
-    assert s["taught"]["s_low_m_s"] == pytest.approx(0.06)  # inherited
+    assert s.taught.s_high_m_s == pytest.approx(0.2)
+    assert s.taught.s_low_m_s == pytest.approx(0.06)  # inherited
     s2 = load_scenario(PAPER, overrides={"scenario.seed": 7, "taught.z_low_mm": 30.0})
-    assert s2.seed == 7 and s2["taught"]["z_low_m"] == pytest.approx(0.030)
+    assert s2.seed == 7 and s2.taught.z_low_m == pytest.approx(0.030)
 
 
 @pytest.mark.parametrize(
@@ -104,3 +104,53 @@ def test_section_that_is_not_a_table(tmp_path):
     path.write_text(f'arm = 3\n[scenario]\nbase = "{PAPER.as_posix()}"\n', encoding="utf-8")
     with pytest.raises(ScenarioError, match=r"\[arm\] must be a table of keys"):
         load_scenario(path)
+
+
+def test_packaged_scenario_by_name_and_as_base(tmp_path):
+    from transplanter.scenario import packaged_scenarios
+
+    assert "paper" in packaged_scenarios()
+    by_name = load_scenario("paper")
+    assert by_name.taught == load_scenario(PAPER).taught and by_name.arm == load_scenario(PAPER).arm
+    # a variant elsewhere may start from the packaged scenario by its bare name
+    path = tmp_path / "faster.toml"
+    path.write_text(
+        '[scenario]\nbase = "paper.toml"\nname = "faster"\n[taught]\ns_high_mm_s = 200\n'
+    )
+    s = load_scenario(path)
+    assert s.name == "faster" and s.taught.s_high_m_s == pytest.approx(0.2)
+    with pytest.raises(ScenarioError, match="no packaged scenario of that name"):
+        load_scenario("no_such_scenario")
+
+
+def test_sections_are_typed_and_frozen():
+    import dataclasses
+
+    s = load_scenario(PAPER, {"taught.z_low_mm": 30.0})
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.taught.z_low_m = 0.1
+    assert isinstance(s.drives.steps_per_rev, int)
+    assert isinstance(s.taught.pickup[0].grip_m, tuple)
+    assert s.overrides == (("taught.z_low_mm", 30.0),)
+    assert s.get("taught.z_low_mm") == pytest.approx(0.030)
+    with pytest.raises(ScenarioError, match="not a scenario key"):
+        s.get("taught.z_low_m")
+
+
+def test_every_schema_key_is_a_section_field_with_its_unit_scale():
+    from transplanter.scenario import SCHEMA, SECTIONS
+
+    for section, keys in SCHEMA.items():
+        names = {f.name for f in dataclasses_fields(SECTIONS[section])}
+        assert {si_key(k) for k in keys} == names
+    assert SCHEMA["arm"]["l1_mm"].scale == 1e-3
+    assert SCHEMA["limits"]["motor1_min_deg"].scale == pytest.approx(math.pi / 180)
+    assert SCHEMA["pots"]["mass_g"].scale == 1e-3
+    assert SCHEMA["motion"]["compute_time_per_point_us"].scale == 1e-6
+    assert SCHEMA["conveyor"]["index_time_s"].scale == 1.0
+
+
+def dataclasses_fields(cls):
+    import dataclasses
+
+    return dataclasses.fields(cls)

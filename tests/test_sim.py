@@ -1,20 +1,15 @@
 """The simulation loop: step events drive the motors, homing uses the model's switches."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from transplanter.scenario import load_scenario
-from transplanter.sim import SimulationInvalid, Twin
-from transplanter.trial import run_trial
-
-PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
+from conftest import paper_config
+from transplanter.sim import LineEventKind, SimulationInvalid, Twin
 
 
 @pytest.fixture(scope="module")
 def scenario():
-    return load_scenario(PAPER, {"scenario.seedlings": 1})
+    return paper_config(1)
 
 
 def test_motor_commands_are_the_step_positions(scenario):
@@ -53,41 +48,47 @@ def test_homing_uses_the_model_limit_switches(scenario):
 
 def test_moves_wait_for_the_handshake(scenario):
     twin = Twin(scenario)
+    events = []
+    twin.line_listeners.append(lambda e: events.append((e.kind, e.line.text, e.t)))
     twin.step_until(8.0)
     sent = twin.pgf.sent
+    assert len(sent) >= 15  # homing, the first move and most of the first cycle
     for before, after in zip(sent[:-1], sent[1:], strict=True):
         assert before.t_reply is not None and after.t_sent >= before.t_reply
+    # every line is announced when sent and when its reply arrives, in that order
+    kinds = [k for k, _, _ in events]
+    assert kinds.count(LineEventKind.SENT) == len(sent)
+    assert kinds.count(LineEventKind.DONE) == sum(s.reply is not None for s in sent)
+    first_sent = {text: t for k, text, t in events if k == LineEventKind.SENT}
+    for k, text, t in events:
+        if k == LineEventKind.DONE:
+            assert t >= first_sent[text]
 
 
-def test_bad_physics_marks_the_trial_invalid(monkeypatch, scenario):
-    """A diverging simulation (here an infinite force injected at 3 s) is never a success."""
-    original = Twin._block
+def test_bad_physics_is_an_error_not_a_result(scenario):
+    """A diverging simulation (here an infinite force injected at 3 s) raises
+    SimulationInvalid; trials turn it into an invalid result (tested in test_trial)."""
 
-    def poisoned(self, t_next):
-        if self.time > 3.0:
-            self.data.qfrc_applied[:] = np.inf
-        return original(self, t_next)
+    def poison(tw):
+        if tw.time > 3.0:
+            tw.data.qfrc_applied[:] = np.inf
 
     twin = Twin(scenario)
-    monkeypatch.setattr(Twin, "_block", poisoned)
-    with pytest.raises(SimulationInvalid):
+    twin.exchange_listeners.append(poison)
+    with pytest.raises(SimulationInvalid, match="MuJoCo warning|diverged"):
         twin.step_until(5.0)
-    result = run_trial(scenario)
-    assert not result.valid
-    assert result.successes == 0
-    assert "MuJoCo warning" in result.invalid_reason or "diverged" in result.invalid_reason
-    assert result.per_seedling[0].outcome == "not_run"
+    assert 3.0 < twin.time < 5.0
 
 
 def test_overloaded_motor_loses_steps_for_good():
     """A Z motor too weak for the 50 mm/s lift slips: the steps it loses stay lost (the
     firmware's position and the platform's differ by them once the motor is at rest)."""
-    weak = load_scenario(PAPER, {"scenario.seedlings": 1, "drives.holding_torque_nm": 0.12})
+    weak = paper_config(1, **{"drives.holding_torque_nm": 0.12})
     twin = Twin(weak)
     twin.step_until(2.0)  # homed (homing re-references whatever slipped on the way up)
-    lost_at_homing = twin.steps_lost.copy()
+    lost_at_homing = twin.microsteps_lost.copy()
     twin.step_until(6.2)  # through the lift, into the retract at Z_up
-    lost = twin.steps_lost - lost_at_homing
+    lost = twin.microsteps_lost - lost_at_homing
     assert lost[2] > 1000  # microsteps: more than 2.5 mm
     # the firmware believes it is at Z_up; the platform is short by the lost steps (within
     # the servo's lag and the homing reference error, a few full steps)
@@ -100,22 +101,24 @@ def test_overloaded_motor_loses_steps_for_good():
 def test_normal_motors_lose_no_steps(scenario):
     twin = Twin(scenario)
     twin.step_until(9.0)
-    assert not twin.steps_lost.any()
+    assert not twin.microsteps_lost.any()
 
 
 def test_conveyor_index_ends_at_one_pitch_and_at_rest():
     """After the row's last pickup the PGF sends M710: the conveyor moves one row pitch, its
     drive force is released by the time the SGF acknowledges, and the pots come to rest."""
-    five = load_scenario(PAPER, {"scenario.seedlings": 6})
+    five = paper_config(6)
     twin = Twin(five)
-    while not any(s.phase == "index" and s.reply for s in twin.pgf.sent):
+    for _ in range(1000):  # the index is acknowledged near 21 s
+        if any(s.phase == "index" and s.reply for s in twin.pgf.sent):
+            break
         twin.step_until(twin.time + 0.05)
     twin.step_until(twin.time + 0.1)  # the next approach is under way, far from the pots
     index = next(s for s in twin.pgf.sent if s.phase == "index")
     assert index.reply == "ok"
     assert index.t_reply - index.t_sent == pytest.approx(0.6, abs=0.01)
     scene, d = twin.scene, twin.data
-    pitch = five["conveyor"]["row_pitch_m"]
+    pitch = five.scene.row_pitch
     assert scene.conveyor_position(d) == pytest.approx(-pitch, abs=0.0005)
     # the emptied row went round the front drum: its ribs no longer touch anything (they
     # would otherwise sweep through the drop tube and jam on the pot dropped last)
@@ -129,8 +132,8 @@ def test_conveyor_index_ends_at_one_pitch_and_at_rest():
     # the next row stands in the pickup row, upright, every pot in its cell
     pots = scene.pot_positions(d).reshape(scene.pot_bodies.shape + (3,))
     row1 = pots[1]
-    assert np.abs(row1[:, 1] - five["conveyor"]["pickup_row_y_m"]).max() < 0.004
-    assert np.abs(row1[:, 2] - five["pots"]["height_m"] / 2).max() < 0.003
+    assert np.abs(row1[:, 1] - five.scene.pickup_row_y).max() < 0.004
+    assert np.abs(row1[:, 2] - five.scene.pot_height / 2).max() < 0.003
 
 
 def test_servos_hold_their_power_on_pose_until_commanded(scenario):
@@ -140,7 +143,9 @@ def test_servos_hold_their_power_on_pose_until_commanded(scenario):
     opening0 = scene.gripper_opening(d)
     wrist0 = d.qpos[scene.wrist_qpos_adr]
     first_servo = None
-    while first_servo is None:
+    for _ in range(500):  # the first M280 goes out after homing, near 2 s
+        if first_servo is not None:
+            break
         twin.step_until(twin.time + 0.01)
         first_servo = next(
             (
@@ -152,4 +157,5 @@ def test_servos_hold_their_power_on_pose_until_commanded(scenario):
         )
         assert scene.gripper_opening(d) == pytest.approx(opening0, abs=2e-4)
         assert d.qpos[scene.wrist_qpos_adr] == pytest.approx(wrist0, abs=0.01)  # servo compliance
+    assert first_servo is not None
     assert twin.gripper_opening_cmd(np.array([0.0, first_servo]))[0] == pytest.approx(opening0)

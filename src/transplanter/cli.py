@@ -1,4 +1,8 @@
-"""The `transplanter` command: inverse kinematics, G-code planning, trials and replay."""
+"""The `transplanter` command: inverse kinematics, G-code planning, trials and replay.
+
+Argument parsing and what is printed live here; the work is done by the domain modules
+(`config.assemble`, `trial.run_trial`, `planner.plan_program`, `report`).
+"""
 
 from __future__ import annotations
 
@@ -6,28 +10,30 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "paper.toml"
+DEFAULT_SCENARIO = "paper"  # the packaged paper scenario
+
+EXIT_OK, EXIT_REFUSED, EXIT_INVALID_PHYSICS, EXIT_FIRMWARE_FAULT = 0, 2, 3, 4
 
 
 def _scenario_arg(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--scenario",
-        type=Path,
         default=DEFAULT_SCENARIO,
-        help="scenario file giving the machine (default: scenarios/paper.toml)",
+        help="scenario file, or the name of a packaged scenario (default: paper)",
     )
 
 
-def _machine(path: Path):
-    """The machine of a scenario file, or None after saying why it was refused."""
-    from transplanter.machine import machine_from_scenario
+def _machine(path: str):
+    """The machine of a scenario, or None after saying why it was refused."""
+    from transplanter.config import machine_config
     from transplanter.scenario import ScenarioError, load_scenario
 
     try:
-        return machine_from_scenario(load_scenario(path))
+        return machine_config(load_scenario(path))
     except ScenarioError as exc:
         print(f"scenario refused: {exc}", file=sys.stderr)
         return None
@@ -69,7 +75,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         print(f"{args.file}: not a text file (G-code is ASCII text)", file=sys.stderr)
         return 1
     try:
-        rows = plan_program(machine, text.splitlines())
+        rows = plan_program(machine, text.splitlines())  # TODO split on newline only
     except PlanError as exc:
         print(f"{args.file}:{exc.line_no}: {exc}", file=sys.stderr)
         return 1
@@ -91,14 +97,48 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_trial(args: argparse.Namespace) -> int:
-    from transplanter.scenario import ScenarioError
-    from transplanter.trial import run_trial_cli
+    from transplanter.config import assemble
+    from transplanter.report import format_summary, output_problem, progress_bar, write_json_atomic
+    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.trial import run_trial
 
+    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
+        problem = output_problem(path, suffix)
+        if problem is not None:
+            print(f"{option}: {problem}", file=sys.stderr)
+            return EXIT_REFUSED
+    if not args.record_rate > 0:
+        print(f"--record-rate must be > 0 Hz, got {args.record_rate}", file=sys.stderr)
+        return EXIT_REFUSED
+    overrides: dict[str, Any] = {}
+    if args.seedlings is not None:
+        overrides["scenario.seedlings"] = args.seedlings
+    if args.seed is not None:
+        overrides["scenario.seed"] = args.seed
     try:
-        return run_trial_cli(args)
+        config = assemble(load_scenario(args.scenario, overrides), preflight=not args.no_preflight)
     except ScenarioError as exc:
         print(f"scenario refused: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_REFUSED
+    bar, update = progress_bar(config.seedlings, not args.quiet and sys.stderr.isatty())
+    try:
+        result = run_trial(
+            config, record_path=args.record, record_rate_hz=args.record_rate, progress=update
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    print(format_summary(result))
+    if args.json is not None:
+        write_json_atomic(args.json, result.to_dict())
+        print(f"results written to {args.json}")
+    if args.record is not None:
+        print(
+            f"recording written to {args.record} (view it with: transplanter replay {args.record})"
+        )
+    if not result.valid:
+        return EXIT_INVALID_PHYSICS
+    return EXIT_FIRMWARE_FAULT if result.fault else EXIT_OK
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -131,13 +171,19 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="exit status: 0 done, 2 scenario refused, 3 invalid physics (a MuJoCo warning "
         "or divergence), 4 the firmware faulted (a line was refused)",
     )
-    p.add_argument("scenario", type=Path)
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
     p.add_argument("--seedlings", type=int, default=None, help="override scenario.seedlings")
     p.add_argument("--seed", type=int, default=None, help="override scenario.seed")
     p.add_argument("--json", type=Path, default=None, help="write results to this JSON file")
     p.add_argument("--record", type=Path, default=None, help="write a rerun .rrd recording")
     p.add_argument("--record-rate", type=float, default=60.0, help="recording rate in Hz (> 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--no-preflight",
+        action="store_true",
+        help="skip the check of every taught point and move before the trial: the SGF then "
+        "refuses an unreachable move itself (exit status 4), as the real firmware would",
+    )
     p.set_defaults(func=cmd_trial)
 
     p = sub.add_parser("replay", help="open a recorded trial in the rerun viewer")

@@ -1,4 +1,4 @@
-"""Checks a scenario's taught points before any simulation starts.
+"""Checks a machine's taught points before any simulation starts.
 
 Every taught point must be reachable (kinematics limits, Z range), and every straight line
 the PGF will ask for must be reachable at every interpolated point, so a trial never starts
@@ -10,21 +10,21 @@ from __future__ import annotations
 import numpy as np
 
 from transplanter import kinematics
-from transplanter.machine import machine_from_scenario
+from transplanter.machine import Machine
 from transplanter.motion import plan_line
-from transplanter.scenario import Scenario, ScenarioError
+from transplanter.scenario import ScenarioError
 
-__all__ = ["check_scenario"]
+__all__ = ["check_machine"]
 
 
-def check_scenario(s: Scenario) -> None:
-    """Raise ScenarioError naming the key of the first taught point or move that fails."""
-    machine = machine_from_scenario(s)
-    taught = s["taught"]
-    points: list[tuple[str, tuple[float, float]]] = [("taught.drop_mm", taught["drop_m"])]
-    for i, p in enumerate(taught["pickup"]):
-        points.append((f"taught.pickup[{i}].approach_mm", p["approach_m"]))
-        points.append((f"taught.pickup[{i}].grip_mm", p["grip_m"]))
+def check_machine(machine: Machine) -> None:
+    """Raise ScenarioError naming the scenario key of the first taught point (as stored in
+    the EEPROM image) or move that fails."""
+    taught = machine.eeprom
+    points: list[tuple[str, tuple[float, float]]] = [("taught.drop_mm", taught.drop_xy_m)]
+    for i, p in enumerate(taught.pickups):
+        points.append((f"taught.pickup[{i}].approach_mm", p.approach_xy_m))
+        points.append((f"taught.pickup[{i}].grip_mm", p.grip_xy_m))
     xy = np.array([p for _, p in points])
     report = kinematics.check_points(
         machine.geometry, machine.limits, xy[:, 0], xy[:, 1], mode=machine.mode
@@ -35,8 +35,8 @@ def check_scenario(s: Scenario) -> None:
                 f"{key} = [{p[0] * 1e3:g}, {p[1] * 1e3:g}] mm cannot be reached: {reason}. "
                 "Teach a point inside the workspace."
             )
-    z_low, z_up = taught["z_low_m"], taught["z_up_m"]
-    drop = (*taught["drop_m"], z_up)
+    z_low, z_up = taught.z_low_m, taught.z_up_m
+    drop = (*taught.drop_xy_m, z_up)
     homed = _homed_xyz(machine)
     _require_line(
         machine,
@@ -45,9 +45,9 @@ def check_scenario(s: Scenario) -> None:
         "taught.drop_mm: the first move, from the homed position",
         "Move the drop point or the limit switches (drives.home_*).",
     )
-    for i, p in enumerate(taught["pickup"]):
-        approach_low, grip_low = (*p["approach_m"], z_low), (*p["grip_m"], z_low)
-        grip_up, approach_up = (*p["grip_m"], z_up), (*p["approach_m"], z_up)
+    for i, p in enumerate(taught.pickups):
+        approach_low, grip_low = (*p.approach_xy_m, z_low), (*p.grip_xy_m, z_low)
+        grip_up, approach_up = (*p.grip_xy_m, z_up), (*p.approach_xy_m, z_up)
         path = [drop, approach_low, grip_low, grip_up, approach_up, drop]
         for a, b in zip(path[:-1], path[1:], strict=True):
             _require_line(

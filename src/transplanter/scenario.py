@@ -4,19 +4,34 @@ A scenario file holds every number a user may want to change. Each key names its
 (`l1_mm`, `s_high_mm_s`, `mass_g`); the loader converts to SI and refuses, before anything
 runs, a file with an unknown key, a missing value, a wrong unit or a value out of range, always
 naming the key. A file may start from another one with `[scenario] base = "paper.toml"` and
-override only what differs.
+override only what differs (a bare name not found beside the file is a packaged scenario).
+
+The result is a `Scenario` of typed, frozen section dataclasses (`scenario.taught.z_low_m`),
+values in SI and field names carrying their SI unit. Only `transplanter.config` turns them into
+the configs of the firmware, the scene, the servos and the judge.
 """
 
 from __future__ import annotations
 
+import importlib.resources
 import math
 import tomllib
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "SCHEMA"]
+from transplanter.firmware.eeprom import MAX_PICKUPS
+
+__all__ = [
+    "Scenario",
+    "ScenarioError",
+    "load_scenario",
+    "resolve_scenario_path",
+    "packaged_scenarios",
+    "SCHEMA",
+    "SECTIONS",
+]
 
 
 class ScenarioError(ValueError):
@@ -35,11 +50,13 @@ class Key:
     doc: str = ""
 
 
-_MM = 1e-3
 _DEG = math.pi / 180.0
-_G = 1e-3
-_MS = 1e-3
-_US = 1e-6
+
+# SI scale of each unit suffix a file key may carry (the key's unit is its suffix).
+_SCALE = {
+    "_mm_s2": 1e-3, "_mm_s": 1e-3, "_mm": 1e-3, "_deg": _DEG, "_g": 1e-3, "_ms": 1e-3,
+    "_us": 1e-6,
+}  # fmt: skip
 
 # Unit suffixes the loader understands (longest first, so `_mm_s` is not read as `_s`); used
 # to tell a wrong unit from an unknown key.
@@ -54,142 +71,6 @@ _UNIT_SUFFIXES = tuple(
     )
 )  # fmt: skip
 
-SCHEMA: dict[str, dict[str, Key]] = {
-    "scenario": {
-        "name": Key("str", doc="short name used in reports"),
-        "description": Key("str"),
-        "seed": Key("int", lo=0, doc="random seed for pot placement, size, mass and friction"),
-        "seedlings": Key("int", lo=1, hi=100000, doc="seedlings to pick in a trial"),
-    },
-    "arm": {
-        "l0_mm": Key("float", _MM, 1, 500, doc="half the distance between the two motors"),
-        "l1_mm": Key("float", _MM, 1, 1000, doc="active link length"),
-        "l2_mm": Key("float", _MM, 1, 1000, doc="passive link length"),
-        "working_mode": Key("str", choices=("+-", "-+", "++", "--")),
-    },
-    "limits": {
-        "motor1_min_deg": Key("float", _DEG, -180, 360, doc="active joint 1 window"),
-        "motor1_max_deg": Key("float", _DEG, -180, 360),
-        "motor2_min_deg": Key("float", _DEG, -180, 360, doc="active joint 2 window"),
-        "motor2_max_deg": Key("float", _DEG, -180, 360),
-        "elbow_min_deg": Key("float", _DEG, 0, 180),
-        "elbow_max_deg": Key("float", _DEG, 0, 180),
-        "transmission_min_deg": Key("float", _DEG, 0, 180),
-        "transmission_max_deg": Key("float", _DEG, 0, 180),
-        "max_condition": Key("float", 1.0, 1, 1e6),
-        "z_min_mm": Key("float", _MM, -100, 1000),
-        "z_max_mm": Key("float", _MM, -100, 1000),
-    },
-    "drives": {
-        "steps_per_rev": Key("int", lo=1, hi=100000),
-        "microsteps": Key("int", lo=1, hi=256),
-        "arm_belt_ratio": Key("float", 1.0, 0.01, 100, doc="motor revolutions per arm revolution"),
-        "z_lead_mm": Key("float", _MM, 0.1, 100, doc="lead screw travel per revolution"),
-        "max_step_rate_hz": Key("float", 1.0, 1, 1e6),
-        "holding_torque_nm": Key("float", 1.0, 0.001, 100),
-        "rotor_inertia_kgm2": Key("float", 1.0, 1e-9, 1e-2, doc="motor rotor inertia"),
-        "pullout_zero_speed_rev_s": Key(
-            "float", 1.0, 0.1, 1000, doc="motor speed at which the pull-out torque reaches 0"
-        ),
-        "screw_efficiency": Key("float", 1.0, 0.01, 1.0, doc="lead screw efficiency"),
-        "home_theta1_deg": Key("float", _DEG, -180, 360, doc="limit switch 1 trip angle"),
-        "home_theta2_deg": Key("float", _DEG, -180, 360, doc="limit switch 2 trip angle"),
-        "home_z_mm": Key("float", _MM, 0, 1000, doc="limit switch 3 (Z up) trip height"),
-        "homing_rate_arm_hz": Key("float", 1.0, 1, 1e5),
-        "homing_rate_z_hz": Key("float", 1.0, 1, 1e6),
-        "homing_locate_rate_arm_hz": Key("float", 1.0, 1, 1e5, doc="slow second homing pass"),
-        "homing_locate_rate_z_hz": Key("float", 1.0, 1, 1e6),
-    },
-    "motion": {
-        "resolution_mm": Key("float", _MM, 0.001, 10, doc="Bresenham grid (paper 2.4)"),
-        "accel_mm_s2": Key("float", _MM, 1, 1e6),
-        "profile": Key("str", choices=("trapezoid", "scurve")),
-        "compute_time_per_point_us": Key(
-            "float",
-            _US,
-            0.01,
-            1e6,
-            doc="IK time per point: 198 ESP32 dual core, 276 single core, 4027 Arduino Mega",
-        ),
-    },
-    "bus": {
-        "baud_bps": Key("float", 1.0, 300, 1e7),
-        "line_numbers": Key("bool", doc="Marlin N<n> ... *<checksum> framing"),
-    },
-    "gripper": {
-        "servo_s_per_60deg": Key("float", 1.0, 0.01, 10, doc="hobby servo speed"),
-        "max_opening_mm": Key("float", _MM, 1, 200, doc="jaw opening at 180 deg servo angle"),
-        "open_deg": Key("float", _DEG, 0, 180),
-        "close_deg": Key("float", _DEG, 0, 180),
-        "grip_force_n": Key("float", 1.0, 0.01, 1000, doc="servo force limit at the jaws"),
-        "wrist_servo_s_per_60deg": Key("float", 1.0, 0.01, 10),
-        "open_dwell_ms": Key("float", _MS, 0, 10000),
-        "close_dwell_ms": Key("float", _MS, 0, 10000),
-        "release_dwell_ms": Key("float", _MS, 0, 10000),
-    },
-    "conveyor": {
-        "rows": Key("int", lo=1, hi=100),
-        "cols": Key("int", lo=1, hi=20),
-        "cell_pitch_mm": Key("float", _MM, 1, 1000),
-        "row_pitch_mm": Key("float", _MM, 1, 1000),
-        "pickup_row_y_mm": Key("float", _MM, -1000, 1000),
-        "index_time_s": Key("float", 1.0, 0.01, 60),
-    },
-    "pots": {
-        "diameter_mm": Key("float", _MM, 1, 500),
-        "diameter_sd_mm": Key("float", _MM, 0, 100),
-        "height_mm": Key("float", _MM, 1, 500),
-        "height_sd_mm": Key("float", _MM, 0, 100),
-        "mass_g": Key("float", _G, 0.1, 10000),
-        "mass_sd_g": Key("float", _G, 0, 10000),
-        "friction": Key("float", 1.0, 0, 10, doc="sliding friction coefficient pot-jaw"),
-        "friction_sd": Key("float", 1.0, 0, 10),
-        "placement_sd_mm": Key("float", _MM, 0, 100, doc="pot offset from its cell centre"),
-        "placement_max_mm": Key("float", _MM, 0, 100, doc="largest offset the cell allows"),
-        "mass_min_g": Key("float", _G, 0.1, 10000, doc="masses are clipped to [min, max]"),
-        "mass_max_g": Key("float", _G, 0.1, 10000),
-    },
-    "drop_tube": {
-        "x_mm": Key("float", _MM, -1000, 1000),
-        "y_mm": Key("float", _MM, -1000, 1000),
-        "funnel_top_diameter_mm": Key("float", _MM, 1, 1000),
-        "funnel_top_z_mm": Key("float", _MM, -1000, 1000),
-    },
-    "metrics": {
-        "knocked_offset_mm": Key(
-            "float", _MM, 0.1, 100, doc="a pot this far from its grip point is out of its cell"
-        ),
-        "knocked_tilt_deg": Key("float", _DEG, 1, 90, doc="a pot tilted this much is knocked over"),
-        "lifted_fraction": Key(
-            "float", 1.0, 0.01, 1.0, doc="share of the lift a gripped pot must rise"
-        ),
-        "between_jaws_mm": Key(
-            "float", _MM, 1, 100, doc="pot centre within this (xy) of the grip centre at the drop"
-        ),
-        "settle_s": Key("float", 1.0, 0.0, 60, doc="physics kept running after the last line"),
-    },
-    "physics": {
-        "timestep_ms": Key("float", _MS, 0.01, 10),
-        "sleep": Key("bool", doc="let resting pots sleep (never changes an outcome)"),
-    },
-    "taught": {
-        "z_up_mm": Key("float", _MM, -100, 1000),
-        "z_low_mm": Key("float", _MM, -100, 1000),
-        "s_low_mm_s": Key("float", _MM, 0.1, 10000, doc="paper S_l"),
-        "s_high_mm_s": Key("float", _MM, 0.1, 10000, doc="paper S_h"),
-        "drop_mm": Key("xy", _MM, -1000, 1000, doc="drop point M_dp"),
-        "drop_elbow_deg": Key("float", _DEG, 0, 180, doc="wrist servo angle at the drop, M_dep"),
-        "pickup": Key("list", doc="pickup points, each approach_mm, grip_mm, elbow_deg"),
-    },
-}
-
-PICKUP_SCHEMA: dict[str, Key] = {
-    "approach_mm": Key("xy", _MM, -1000, 1000, doc="approach (via) point M_pd[k]"),
-    "grip_mm": Key("xy", _MM, -1000, 1000, doc="grip point M_pgd[k]"),
-    "elbow_deg": Key("float", _DEG, 0, 180, doc="wrist servo angle M_pep[k]"),
-}
-
-
 _SI_SUFFIX = {
     "_mm_s2": "_m_s2",
     "_mm_s": "_m_s",
@@ -199,36 +80,6 @@ _SI_SUFFIX = {
     "_ms": "_s",
     "_us": "_s",
 }
-
-
-def si_key(key: str) -> str:
-    """The name a file key has once its value is in SI: `l1_mm` -> `l1_m`."""
-    unit = _unit_of(key)
-    return key[: -len(unit)] + _SI_SUFFIX[unit] if unit in _SI_SUFFIX else key
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """A validated scenario: `values[section][si_key]` in SI (`l1_mm = 120` -> `l1_m = 0.12`)."""
-
-    path: Path | None
-    values: Mapping[str, Mapping[str, Any]]
-
-    def __getitem__(self, section: str) -> Mapping[str, Any]:
-        return self.values[section]
-
-    def get(self, dotted: str) -> Any:
-        """The SI value of a file key given as 'section.key' (`taught.s_high_mm_s`)."""
-        section, key = dotted.split(".", 1)
-        return self.values[section][si_key(key)]
-
-    @property
-    def name(self) -> str:
-        return self.values["scenario"]["name"]
-
-    @property
-    def seed(self) -> int:
-        return self.values["scenario"]["seed"]
 
 
 def _unit_of(key: str) -> str | None:
@@ -241,6 +92,307 @@ def _unit_of(key: str) -> str | None:
 def _stem(key: str) -> str:
     unit = _unit_of(key)
     return key[: -len(unit)] if unit else key
+
+
+def si_key(key: str) -> str:
+    """The name a file key has once its value is in SI: `l1_mm` -> `l1_m`."""
+    unit = _unit_of(key)
+    return key[: -len(unit)] + _SI_SUFFIX[unit] if unit in _SI_SUFFIX else key
+
+
+def key(
+    kind: str,
+    lo: float | None = None,
+    hi: float | None = None,
+    doc: str = "",
+    choices: tuple[str, ...] = (),
+):
+    """A section dataclass field that is a scenario key: its kind, allowed range (in the
+    file's unit) and meaning. The file key is the field name with its file unit (the field
+    `l1_m` is read from `l1_mm`; see FILE_KEYS), the scale follows from that unit."""
+    return field(metadata={"key": Key(kind, 1.0, lo, hi, choices, doc)})
+
+
+# ---------------------------------------------------------------------------------------
+# The sections. Field names carry the SI unit of the value; the file key carries the unit
+# the file uses. A new key is a field here plus one line in transplanter.config.
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MetaSection:
+    """[scenario]: the trial's name, seed and size."""
+
+    name: str = key("str", doc="short name used in reports")
+    description: str = key("str")
+    seed: int = key("int", lo=0, hi=2**63 - 1, doc="random seed of the pots")
+    seedlings: int = key("int", lo=1, hi=100000, doc="seedlings to pick in a trial")
+
+
+@dataclass(frozen=True)
+class ArmSection:
+    """[arm]: the five-bar's geometry and working mode."""
+
+    l0_m: float = key("float", 1, 500, doc="half the distance between the two motors")
+    l1_m: float = key("float", 1, 1000, doc="active link length")
+    l2_m: float = key("float", 1, 1000, doc="passive link length")
+    working_mode: str = key("str", choices=("+-", "-+", "++", "--"))
+
+
+@dataclass(frozen=True)
+class LimitsSection:
+    """[limits]: joint windows and conditioning limits the firmware enforces."""
+
+    motor1_min_rad: float = key("float", -180, 360, doc="active joint 1 window")
+    motor1_max_rad: float = key("float", -180, 360)
+    motor2_min_rad: float = key("float", -180, 360, doc="active joint 2 window")
+    motor2_max_rad: float = key("float", -180, 360)
+    elbow_min_rad: float = key("float", 0, 180)
+    elbow_max_rad: float = key("float", 0, 180)
+    transmission_min_rad: float = key("float", 0, 180)
+    transmission_max_rad: float = key("float", 0, 180)
+    max_condition: float = key("float", 1, 1e6)
+    z_min_m: float = key("float", -100, 1000)
+    z_max_m: float = key("float", -100, 1000)
+
+
+@dataclass(frozen=True)
+class DrivesSection:
+    """[drives]: stepper motors, transmissions, limit switches and homing rates."""
+
+    steps_per_rev: int = key("int", lo=1, hi=100000)
+    microsteps: int = key("int", lo=1, hi=256)
+    arm_belt_ratio: float = key("float", 0.01, 100, doc="motor revolutions per arm revolution")
+    z_lead_m: float = key("float", 0.1, 100, doc="lead screw travel per revolution")
+    max_step_rate_hz: float = key("float", 1, 1e6)
+    holding_torque_nm: float = key("float", 0.001, 100)
+    rotor_inertia_kgm2: float = key("float", 1e-9, 1e-2, doc="motor rotor inertia")
+    pullout_zero_speed_rev_s: float = key(
+        "float", 0.1, 1000, doc="motor speed at which the pull-out torque reaches 0"
+    )
+    screw_efficiency: float = key("float", 0.01, 1.0, doc="lead screw efficiency")
+    home_theta1_rad: float = key("float", -180, 360, doc="limit switch 1 trip angle")
+    home_theta2_rad: float = key("float", -180, 360, doc="limit switch 2 trip angle")
+    home_z_m: float = key("float", 0, 1000, doc="limit switch 3 (Z up) trip height")
+    homing_rate_arm_hz: float = key("float", 1, 1e5)
+    homing_rate_z_hz: float = key("float", 1, 1e6)
+    homing_locate_rate_arm_hz: float = key("float", 1, 1e5, doc="slow second homing pass")
+    homing_locate_rate_z_hz: float = key("float", 1, 1e6)
+
+
+@dataclass(frozen=True)
+class MotionSection:
+    """[motion]: the SGF's interpolation and speed profile."""
+
+    resolution_m: float = key("float", 0.001, 10, doc="Bresenham grid (paper 2.4)")
+    accel_m_s2: float = key("float", 1, 1e6)
+    profile: str = key("str", choices=("trapezoid", "scurve"))
+    compute_time_per_point_s: float = key(
+        "float",
+        0.01,
+        1e6,
+        doc="IK time per point: 198 ESP32 dual core, 276 single core, 4027 Arduino Mega",
+    )
+
+
+@dataclass(frozen=True)
+class BusSection:
+    """[bus]: the UART between the PGF and the SGF."""
+
+    baud_bps: float = key("float", 300, 1e7)
+    line_numbers: bool = key("bool", doc="Marlin N<n> ... *<checksum> framing")
+
+
+@dataclass(frozen=True)
+class GripperSection:
+    """[gripper]: gripper and wrist servos and the PGF's dwells."""
+
+    servo_s_per_60deg: float = key("float", 0.01, 10, doc="hobby servo speed")
+    max_opening_m: float = key("float", 1, 200, doc="jaw opening at 180 deg servo angle")
+    open_rad: float = key("float", 0, 180)
+    close_rad: float = key("float", 0, 180)
+    grip_force_n: float = key("float", 0.01, 1000, doc="servo force limit at the jaws")
+    wrist_servo_s_per_60deg: float = key("float", 0.01, 10)
+    open_dwell_s: float = key("float", 0, 10000)
+    close_dwell_s: float = key("float", 0, 10000)
+    release_dwell_s: float = key("float", 0, 10000)
+
+
+@dataclass(frozen=True)
+class ConveyorSection:
+    """[conveyor]: the feeding conveyor's cells and index time."""
+
+    rows: int = key("int", lo=1, hi=100)
+    cols: int = key("int", lo=1, hi=20)
+    cell_pitch_m: float = key("float", 1, 1000)
+    row_pitch_m: float = key("float", 1, 1000)
+    pickup_row_y_m: float = key("float", -1000, 1000)
+    index_time_s: float = key("float", 0.01, 60)
+
+
+@dataclass(frozen=True)
+class PotsSection:
+    """[pots]: paper pots and their spread."""
+
+    diameter_m: float = key("float", 1, 500)
+    diameter_sd_m: float = key("float", 0, 100)
+    height_m: float = key("float", 1, 500)
+    height_sd_m: float = key("float", 0, 100)
+    mass_kg: float = key("float", 0.1, 10000)
+    mass_sd_kg: float = key("float", 0, 10000)
+    friction: float = key("float", 0, 10, doc="sliding friction coefficient pot-jaw")
+    friction_sd: float = key("float", 0, 10)
+    placement_sd_m: float = key("float", 0, 100, doc="pot offset from its cell centre")
+    placement_max_m: float = key("float", 0, 100, doc="largest offset the cell allows")
+    mass_min_kg: float = key("float", 0.1, 10000, doc="masses are clipped to [min, max]")
+    mass_max_kg: float = key("float", 0.1, 10000)
+
+
+@dataclass(frozen=True)
+class DropTubeSection:
+    """[drop_tube]: where the drop tube's funnel is."""
+
+    x_m: float = key("float", -1000, 1000)
+    y_m: float = key("float", -1000, 1000)
+    funnel_top_diameter_m: float = key("float", 1, 1000)
+    funnel_top_z_m: float = key("float", -1000, 1000)
+
+
+@dataclass(frozen=True)
+class MetricsSection:
+    """[metrics]: how a trial judges each seedling (not physics)."""
+
+    knocked_offset_m: float = key(
+        "float", 0.1, 100, doc="a pot this far from its grip point is out of its cell"
+    )
+    knocked_tilt_rad: float = key("float", 1, 90, doc="a pot tilted this much is knocked over")
+    lifted_fraction: float = key(
+        "float", 0.01, 1.0, doc="share of the lift a gripped pot must rise"
+    )
+    between_jaws_m: float = key(
+        "float", 1, 100, doc="pot centre within this (xy) of the grip centre at the drop"
+    )
+    settle_s: float = key("float", 0.0, 60, doc="physics kept running after the last line")
+
+
+@dataclass(frozen=True)
+class PhysicsSection:
+    """[physics]: solver settings."""
+
+    timestep_s: float = key("float", 0.01, 10)
+    sleep: bool = key("bool", doc="let resting pots sleep (never changes an outcome)")
+
+
+@dataclass(frozen=True)
+class TaughtPickup:
+    """One [[taught.pickup]]: approach (via) point M_pd, grip point M_pgd, wrist angle M_pep."""
+
+    approach_m: tuple[float, float] = key("xy", -1000, 1000, doc="approach (via) point M_pd[k]")
+    grip_m: tuple[float, float] = key("xy", -1000, 1000, doc="grip point M_pgd[k]")
+    elbow_rad: float = key("float", 0, 180, doc="wrist servo angle M_pep[k]")
+
+
+@dataclass(frozen=True)
+class TaughtSection:
+    """[taught]: the EEPROM image (paper Fig. 9) as entered on the HMI."""
+
+    z_up_m: float = key("float", -100, 1000)
+    z_low_m: float = key("float", -100, 1000)
+    s_low_m_s: float = key("float", 0.1, 10000, doc="paper S_l")
+    s_high_m_s: float = key("float", 0.1, 10000, doc="paper S_h")
+    drop_m: tuple[float, float] = key("xy", -1000, 1000, doc="drop point M_dp")
+    drop_elbow_rad: float = key("float", 0, 180, doc="wrist servo angle at the drop, M_dep")
+    pickup: tuple[TaughtPickup, ...] = key(
+        "list", doc="pickup points, each approach_mm, grip_mm, elbow_deg"
+    )
+
+
+# The file key of every field whose file unit differs from its SI unit.
+_FILE_KEY_OVERRIDES = {
+    "mass_kg": "mass_g", "mass_sd_kg": "mass_sd_g", "mass_min_kg": "mass_min_g",
+    "mass_max_kg": "mass_max_g", "open_dwell_s": "open_dwell_ms",
+    "close_dwell_s": "close_dwell_ms", "release_dwell_s": "release_dwell_ms",
+    "compute_time_per_point_s": "compute_time_per_point_us", "timestep_s": "timestep_ms",
+}  # fmt: skip
+_FILE_SUFFIX = {"_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm", "_rad": "_deg"}
+
+SECTIONS: dict[str, type] = {
+    "scenario": MetaSection,
+    "arm": ArmSection,
+    "limits": LimitsSection,
+    "drives": DrivesSection,
+    "motion": MotionSection,
+    "bus": BusSection,
+    "gripper": GripperSection,
+    "conveyor": ConveyorSection,
+    "pots": PotsSection,
+    "drop_tube": DropTubeSection,
+    "metrics": MetricsSection,
+    "physics": PhysicsSection,
+    "taught": TaughtSection,
+}
+
+
+def _file_key(field_name: str) -> str:
+    if field_name in _FILE_KEY_OVERRIDES:
+        return _FILE_KEY_OVERRIDES[field_name]
+    for si, unit in _FILE_SUFFIX.items():
+        if field_name.endswith(si) and not field_name.endswith("_rev_s"):
+            return field_name[: -len(si)] + unit
+    return field_name
+
+
+def _schema_of(cls: type) -> dict[str, Key]:
+    """{file key: Key} of a section dataclass, the scale taken from the file key's unit."""
+    out = {}
+    for f in fields(cls):
+        spec: Key = f.metadata["key"]
+        file_key = _file_key(f.name)
+        assert si_key(file_key) == f.name, (file_key, f.name)
+        out[file_key] = replace(spec, scale=_SCALE.get(_unit_of(file_key) or "", 1.0))
+    return out
+
+
+SCHEMA: dict[str, dict[str, Key]] = {name: _schema_of(cls) for name, cls in SECTIONS.items()}
+PICKUP_SCHEMA: dict[str, Key] = _schema_of(TaughtPickup)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario: one typed, frozen section per table, values in SI."""
+
+    path: Path | None
+    meta: MetaSection
+    arm: ArmSection
+    limits: LimitsSection
+    drives: DrivesSection
+    motion: MotionSection
+    bus: BusSection
+    gripper: GripperSection
+    conveyor: ConveyorSection
+    pots: PotsSection
+    drop_tube: DropTubeSection
+    metrics: MetricsSection
+    physics: PhysicsSection
+    taught: TaughtSection
+    overrides: tuple[tuple[str, Any], ...] = ()
+    """The 'section.key' = value overrides applied on top of the file, as given."""
+
+    def get(self, dotted: str) -> Any:
+        """The SI value of a file key given as 'section.key' (`taught.s_high_mm_s`)."""
+        section, _, name = dotted.partition(".")
+        if section not in SECTIONS or name not in SCHEMA[section]:
+            raise ScenarioError(f"{dotted!r} is not a scenario key ('section.key').")
+        attr = "meta" if section == "scenario" else section
+        return getattr(getattr(self, attr), si_key(name))
+
+    @property
+    def name(self) -> str:
+        return self.meta.name
+
+    @property
+    def seed(self) -> int:
+        return self.meta.seed
 
 
 def _unknown_key_error(where: str, key: str, known: Mapping[str, Key]) -> ScenarioError:
@@ -332,7 +484,10 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
         return raw
     if not isinstance(base, str):
         raise ScenarioError(f"{path}: scenario.base must be a file name, got {base!r}.")
-    return _merge(_read_raw(path.parent / base, (*seen, path)), raw)
+    base_path = path.parent / base
+    if not base_path.exists() and len(Path(base).parts) == 1:
+        base_path = resolve_scenario_path(base)  # a packaged scenario by name
+    return _merge(_read_raw(base_path, (*seen, path)), raw)
 
 
 def _apply_overrides(raw: dict, overrides: Mapping[str, Any]) -> dict:
@@ -349,7 +504,7 @@ def _apply_overrides(raw: dict, overrides: Mapping[str, Any]) -> dict:
 
 
 def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, dict[str, Any]]:
-    """Check a raw TOML mapping against SCHEMA and convert it to SI."""
+    """Check a raw TOML mapping against SCHEMA and convert it to SI: {section: {field: value}}."""
     values: dict[str, dict[str, Any]] = {}
     for section in raw:
         if section not in SCHEMA:
@@ -362,24 +517,26 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
             raise ScenarioError(f"{source}: missing section [{section}].")
         if not isinstance(table, dict):
             raise ScenarioError(f"{source}: [{section}] must be a table of keys, got {table!r}.")
-        for key in table:
-            if key not in keys:
-                raise _unknown_key_error(section, key, keys)
+        for key_name in table:
+            if key_name not in keys:
+                raise _unknown_key_error(section, key_name, keys)
         out: dict[str, Any] = {}
-        for key, spec in keys.items():
-            if key not in table:
+        for key_name, spec in keys.items():
+            if key_name not in table:
                 hint = spec.doc or spec.kind
-                raise ScenarioError(f"{source}: {section}.{key} is missing; give a value ({hint}).")
+                raise ScenarioError(
+                    f"{source}: {section}.{key_name} is missing; give a value ({hint})."
+                )
             if spec.kind == "list":
-                out[si_key(key)] = _pickups(section, key, table[key])
+                out[si_key(key_name)] = _pickups(section, key_name, table[key_name])
             else:
-                out[si_key(key)] = _convert(section, key, spec, table[key])
+                out[si_key(key_name)] = _convert(section, key_name, spec, table[key_name])
         values[section] = out
     _cross_checks(values)
     return values
 
 
-def _pickups(section: str, key: str, raw: Any) -> tuple[dict[str, Any], ...]:
+def _pickups(section: str, key: str, raw: Any) -> tuple[TaughtPickup, ...]:
     if not isinstance(raw, list) or not raw:
         raise ScenarioError(f"{section}.{key}: give at least one [[{section}.{key}]] table.")
     out = []
@@ -395,7 +552,7 @@ def _pickups(section: str, key: str, raw: Any) -> tuple[dict[str, Any], ...]:
             if k not in item:
                 raise ScenarioError(f"{where}.{k} is missing; give a value ({spec.doc}).")
             entry[si_key(k)] = _convert(where, k, spec, item[k])
-        out.append(entry)
+        out.append(TaughtPickup(**entry))
     return tuple(out)
 
 
@@ -419,8 +576,11 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
             )
     if taught["z_up_m"] <= taught["z_low_m"]:
         raise ScenarioError("taught.z_up_mm must be above taught.z_low_mm.")
-    if len(taught["pickup"]) > 10:
-        raise ScenarioError("taught.pickup: the EEPROM holds at most 10 pickup points.")
+    if len(taught["pickup"]) > MAX_PICKUPS:
+        raise ScenarioError(
+            f"taught.pickup: the EEPROM holds at most {MAX_PICKUPS} pickup points, "
+            f"got {len(taught['pickup'])}."
+        )
     if v["arm"]["working_mode"] != "+-":
         raise ScenarioError(
             f"arm.working_mode = {v['arm']['working_mode']!r}: the MJCF model is assembled in the "
@@ -455,17 +615,35 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
 
 
-def load_scenario(
-    path: str | Path,
-    overrides: Mapping[str, Any] | None = None,
-    extra_checks: Callable[[Scenario], None] | None = None,
-) -> Scenario:
-    """Read, merge (`base`), override (`{"taught.s_high_mm_s": 200}`) and validate a scenario."""
-    path = Path(path)
+def packaged_scenarios() -> list[str]:
+    """Names of the scenarios shipped with the package (`paper`, ...)."""
+    root = importlib.resources.files("transplanter.scenarios")
+    return sorted(p.name[: -len(".toml")] for p in root.iterdir() if p.name.endswith(".toml"))
+
+
+def resolve_scenario_path(name: str | Path) -> Path:
+    """A scenario file: the path as given if it exists, else a packaged scenario by name
+    (`paper` or `paper.toml`)."""
+    path = Path(name)
+    if path.exists() or len(path.parts) != 1:
+        return path
+    stem = path.name[: -len(".toml")] if path.name.endswith(".toml") else path.name
+    packaged = importlib.resources.files("transplanter.scenarios") / f"{stem}.toml"
+    if packaged.is_file():
+        return Path(str(packaged))
+    raise ScenarioError(
+        f"{name}: no such scenario file, and no packaged scenario of that name "
+        f"(packaged: {', '.join(packaged_scenarios())})."
+    )
+
+
+def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:
+    """Read, merge (`base`), override (`{"taught.s_high_mm_s": 200}`, file units) and
+    validate a scenario file, or a packaged scenario by name (`paper`)."""
+    path = resolve_scenario_path(path)
     raw = _read_raw(path)
     if overrides:
         raw = _apply_overrides(raw, overrides)
-    scenario = Scenario(path=path, values=validate(raw, str(path)))
-    if extra_checks is not None:
-        extra_checks(scenario)
-    return scenario
+    values = validate(raw, str(path))
+    sections = {("meta" if k == "scenario" else k): SECTIONS[k](**v) for k, v in values.items()}
+    return Scenario(path=path, overrides=tuple((overrides or {}).items()), **sections)

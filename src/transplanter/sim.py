@@ -14,106 +14,34 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
 
 import mujoco
 import numpy as np
 
+from transplanter.config import TwinConfig
 from transplanter.firmware.bus import ComBus
 from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.rig import FirmwareLink
 from transplanter.firmware.sgf import SGF
-from transplanter.machine import GRIPPER_SERVO, Machine, machine_from_scenario, power_on_joints
-from transplanter.scenario import Scenario
-from transplanter.scene import Scene, SceneConfig, build_scene
+from transplanter.machine import GRIPPER_SERVO, Machine
+from transplanter.scene import Scene, build_scene
 
-__all__ = ["Twin", "SimulationInvalid", "scene_config_from_scenario", "SCALAR_NAMES"]
+__all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind"]
 
 # Longest block of physics steps whose commands are computed at once (bounds memory and how
 # late a MuJoCo warning is noticed).
 _MAX_BLOCK_STEPS = 500
 # The motors are checked for slipping every this many physics steps.
 SLIP_CHECK_STEPS = 5
-
-SCALAR_NAMES = (
-    "motors/theta1_cmd_deg",
-    "motors/theta1_deg",
-    "motors/theta2_cmd_deg",
-    "motors/theta2_deg",
-    "motors/z_cmd_mm",
-    "motors/z_mm",
-    "step_rate/arm1_hz",
-    "step_rate/arm2_hz",
-    "step_rate/z_hz",
-    "gripper/opening_cmd_mm",
-    "gripper/opening_mm",
-    "gripper/force_n",
-    "gripper/wrist_deg",
-    "conveyor/position_mm",
-)
+# A hobby servo turns through 180 deg; the gripper's opening maps linearly onto it.
+SERVO_RANGE_DEG = 180.0
+# Wrist servo angle at which the jaws point along passive link 1 (the wrist joint's zero).
+WRIST_SERVO_ZERO_DEG = 90.0
 
 
 class SimulationInvalid(RuntimeError):
     """The physics produced a MuJoCo warning or diverged: the trial is invalid."""
-
-
-def scene_config_from_scenario(s: Scenario, machine: Machine) -> SceneConfig:
-    """The physical parameters of a scenario as the scene builder's config.
-
-    The power-on pose (the `home` keyframe) is machine.power_on_joints: a little short of
-    limit switches 1-3, so that G28 has a little way to travel.
-    """
-    arm, drv, grip, conv, pots, tube, phys, lim = (
-        s["arm"], s["drives"], s["gripper"], s["conveyor"], s["pots"], s["drop_tube"],
-        s["physics"], s["limits"],
-    )  # fmt: skip
-    theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
-    # Hard stops a little beyond the motor windows the firmware enforces, and above switch 3.
-    stop = math.radians(5.0)
-    return SceneConfig(
-        l0=arm["l0_m"],
-        l1=arm["l1_m"],
-        l2=arm["l2_m"],
-        steps_per_rev=drv["steps_per_rev"],
-        holding_torque=drv["holding_torque_nm"],
-        rotor_inertia=drv["rotor_inertia_kgm2"],
-        pullout_zero_speed_rev_s=drv["pullout_zero_speed_rev_s"],
-        screw_efficiency=drv["screw_efficiency"],
-        arm_belt_ratio=drv["arm_belt_ratio"],
-        screw_lead=drv["z_lead_m"],
-        switch1_theta1_min=drv["home_theta1_rad"],
-        switch2_theta2_max=drv["home_theta2_rad"],
-        switch3_z_min=drv["home_z_m"],
-        switch4_z_max=lim["z_min_m"],
-        theta1_range=(lim["motor1_min_rad"] - stop, lim["motor1_max_rad"] + stop),
-        theta2_range=(lim["motor2_min_rad"] - stop, lim["motor2_max_rad"] + stop),
-        z_range=(0.0, max(lim["z_max_m"], drv["home_z_m"]) + 0.005),
-        home_theta1=theta1_on,
-        home_theta2=theta2_on,
-        home_z=z_on,
-        gripper_max_opening=grip["max_opening_m"],
-        grip_force=grip["grip_force_n"],
-        rows=conv["rows"],
-        cols=conv["cols"],
-        cell_pitch=conv["cell_pitch_m"],
-        row_pitch=conv["row_pitch_m"],
-        pickup_row_y=conv["pickup_row_y_m"],
-        pot_diameter=pots["diameter_m"],
-        pot_diameter_sd=pots["diameter_sd_m"],
-        pot_height=pots["height_m"],
-        pot_height_sd=pots["height_sd_m"],
-        pot_mass=pots["mass_kg"],
-        pot_mass_sd=pots["mass_sd_kg"],
-        pot_friction=pots["friction"],
-        pot_friction_sd=pots["friction_sd"],
-        pot_offset_sd=pots["placement_sd_m"],
-        pot_offset_max=pots["placement_max_m"],
-        pot_mass_range=(pots["mass_min_kg"], pots["mass_max_kg"]),
-        drop_tube_xy=(tube["x_m"], tube["y_m"]),
-        funnel_top_diameter=tube["funnel_top_diameter_m"],
-        funnel_top_z=tube["funnel_top_z_m"],
-        timestep=phys["timestep_s"],
-        sleep=phys["sleep"],
-    )
 
 
 @dataclass
@@ -141,13 +69,18 @@ class _ServoRamp:
         return self.start_deg + math.copysign(1.0, travel) * moved
 
 
+class LineEventKind(StrEnum):
+    SENT = "sent"  # the PGF put the line on the bus
+    DONE = "done"  # its reply reached the PGF
+
+
 @dataclass
 class LineEvent:
-    """A PGF line was sent ("sent") or its reply arrived ("done"): what trials watch."""
+    """A PGF line was sent or its reply arrived: what trials watch."""
 
     line: SentLine
     t: float
-    kind: str
+    kind: LineEventKind
 
 
 @dataclass
@@ -163,14 +96,14 @@ class _Block:
 class Twin:
     """One machine: scene, firmware and bus, stepped together on the simulated clock."""
 
-    scenario: Scenario
+    config: TwinConfig
     machine: Machine = field(init=False)
     scene: Scene = field(init=False)
 
     def __post_init__(self) -> None:
-        s = self.scenario
-        self.machine = machine_from_scenario(s)
-        self.scene = build_scene(scene_config_from_scenario(s, self.machine), seed=s.seed)
+        cfg = self.config
+        self.machine = cfg.machine
+        self.scene = build_scene(cfg.scene, seed=cfg.seed)
         self.model = self.scene.model
         self.data = self.scene.make_data()
         self.dt = float(self.model.opt.timestep)
@@ -178,14 +111,13 @@ class Twin:
         self.bus = ComBus(baud_bps=self.machine.baud_bps)
         self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
         self.link = FirmwareLink(self.pgf, self.bus, self.sgf)
-        grip = s["gripper"]
-        self._open_m_per_deg = grip["max_opening_m"] / 180.0
-        self._max_opening = grip["max_opening_m"]
+        self._max_opening = cfg.gripper_servo.max_opening_m
+        self._open_m_per_deg = self._max_opening / SERVO_RANGE_DEG
         # Servos hold their power-on pose (the keyframe's) until an M280 moves them.
         gripper_deg = self.scene.gripper_opening(self.data) / self._open_m_per_deg
-        wrist_deg = math.degrees(self.data.qpos[self.scene.wrist_qpos_adr]) + 90.0
-        self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"], gripper_deg)
-        self.wrist = _ServoRamp(60.0 / grip["wrist_servo_s_per_60deg"], wrist_deg)
+        wrist_deg = math.degrees(self.data.qpos[self.scene.wrist_qpos_adr]) + WRIST_SERVO_ZERO_DEG
+        self.gripper = _ServoRamp(cfg.gripper_servo.speed_deg_s, gripper_deg)
+        self.wrist = _ServoRamp(cfg.wrist_servo.speed_deg_s, wrist_deg)
         # Stepper positions are relative to where each motor was at power-on: the SGF's raw
         # pulse counters start at zero there, and homing only changes its logical counters.
         self.q_power_on = self.scene.joint_positions(self.data).copy()
@@ -204,11 +136,14 @@ class Twin:
         self.electrical_cycle = 4.0 * self.full_step_joint
         self.microsteps_per_full_step = np.array([d.microsteps for d in self.machine.drives])
         self.slip_offset = np.zeros(3)  # joint units the motors have lost so far
-        self.steps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
+        self.microsteps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
         self.k = 0  # physics steps taken; time = k * dt exactly
         self._done_index = 0
         self._warnings0 = self._warning_counts()
         self.line_listeners: list[Callable[[LineEvent], None]] = []
+        # Called with the twin at every firmware exchange, before the next block of physics
+        # steps is computed: an observer may read the state or apply external forces.
+        self.exchange_listeners: list[Callable[[Twin], None]] = []
         self.block: _Block | None = None
 
     # -- time -------------------------------------------------------------------------
@@ -233,10 +168,12 @@ class Twin:
                 )
         sent = self.pgf.sent
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
-            self._notify(LineEvent(sent[self._done_index], t, "done"))
+            self._notify(LineEvent(sent[self._done_index], t, LineEventKind.DONE))
             self._done_index += 1
         for line in sent_now:
-            self._notify(LineEvent(line, t, "sent"))
+            self._notify(LineEvent(line, t, LineEventKind.SENT))
+        for listener in self.exchange_listeners:
+            listener(self)
 
     def _notify(self, event: LineEvent) -> None:
         for listener in self.line_listeners:
@@ -256,7 +193,7 @@ class Twin:
         ctrl = np.repeat(self.data.ctrl[None, :], n, axis=0)
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
-        ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - 90.0)
+        ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - WRIST_SERVO_ZERO_DEG)
         return _Block(ctrl, pulses, self.scene.conveyor_armed(self.data))
 
     # -- stepping ------------------------------------------------------------------------
@@ -298,7 +235,7 @@ class Twin:
             return
         shift = cycles * self.electrical_cycle
         self.slip_offset -= shift
-        self.steps_lost += (cycles * 4 * self.microsteps_per_full_step).astype(np.int64)
+        self.microsteps_lost += (cycles * 4 * self.microsteps_per_full_step).astype(np.int64)
         acts = self.scene.motor_actuators
         rows[i + 1 :, acts] -= shift * self.scene.motor_gears
         self.data.ctrl[acts] -= shift * self.scene.motor_gears
@@ -316,7 +253,7 @@ class Twin:
     # -- observations used by trials and recordings -------------------------------------
     def gripper_opening_cmd(self, times: np.ndarray) -> np.ndarray:
         """Jaw opening (m) the gripper servo is commanded to at the given times: the servo's
-        angle maps linearly onto the opening, 0 deg closed, 180 deg fully open."""
+        angle maps linearly onto the opening, 0 deg closed, SERVO_RANGE_DEG fully open."""
         opening = self.gripper.at(np.asarray(times, dtype=float)) * self._open_m_per_deg
         return np.clip(opening, 0.0, self._max_opening)
 

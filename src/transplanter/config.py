@@ -1,0 +1,266 @@
+"""The one place where a scenario becomes the configs the twin's parts take.
+
+`assemble(scenario)` maps the typed scenario sections onto the firmware side (`Machine`:
+kinematics, drives, motion, SGF, PGF, EEPROM image), the scene (`SceneConfig`), the hobby
+servos (`ServoConfig`) and the trial's judge (`JudgeConfig`), builds the Machine once and
+(by default) runs the preflight checks. No other module reads scenario sections: a new
+scenario key is a field in `transplanter.scenario` plus one line here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from transplanter.firmware.eeprom import EepromImage, Pickup
+from transplanter.firmware.pgf import PGFConfig
+from transplanter.firmware.sgf import SGFConfig
+from transplanter.kinematics import FiveBarGeometry, KinematicLimits
+from transplanter.machine import GRIPPER_SERVO, WRIST_SERVO, Machine, power_on_joints
+from transplanter.motion import MotionConfig
+from transplanter.scenario import Scenario, ScenarioError
+from transplanter.scene import SceneConfig
+from transplanter.steppers import StepperDrive
+
+__all__ = [
+    "JudgeConfig",
+    "ServoConfig",
+    "TwinConfig",
+    "assemble",
+    "machine_config",
+    "scene_config",
+]
+
+# Hard stops of the scene's joints sit this far beyond the motor windows the firmware
+# enforces (rad), and the Z slide's top stop this far above switch 3 (m).
+HARD_STOP_BEYOND_WINDOW_RAD = math.radians(5.0)
+Z_STOP_ABOVE_SWITCH_M = 0.005
+
+
+@dataclass(frozen=True)
+class ServoConfig:
+    """A hobby servo: rated speed (deg/s); for the gripper, the jaw opening at 180 deg (m)."""
+
+    speed_deg_s: float
+    max_opening_m: float | None = None
+
+
+@dataclass(frozen=True)
+class JudgeConfig:
+    """How a trial judges each seedling (scenario [metrics]) and the sizes it needs."""
+
+    knocked_offset_m: float
+    knocked_tilt_rad: float
+    lifted_fraction: float
+    between_jaws_m: float
+    settle_s: float
+    pot_height_m: float
+    cell_pitch_m: float
+    row_pitch_m: float
+
+
+@dataclass(frozen=True)
+class TwinConfig:
+    """Everything a Twin and a trial need, built once from a scenario."""
+
+    name: str
+    seed: int
+    seedlings: int
+    machine: Machine
+    scene: SceneConfig
+    gripper_servo: ServoConfig
+    wrist_servo: ServoConfig
+    judge: JudgeConfig
+
+
+def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
+    """The twin's configs for a scenario; with preflight, every taught point and move is
+    checked first (ScenarioError naming the key)."""
+    machine = machine_config(scenario)
+    if preflight:
+        from transplanter.preflight import check_machine
+
+        check_machine(machine)
+    s = scenario
+    return TwinConfig(
+        name=s.meta.name,
+        seed=s.meta.seed,
+        seedlings=s.meta.seedlings,
+        machine=machine,
+        scene=scene_config(s, machine),
+        gripper_servo=ServoConfig(
+            speed_deg_s=60.0 / s.gripper.servo_s_per_60deg,
+            max_opening_m=s.gripper.max_opening_m,
+        ),
+        wrist_servo=ServoConfig(speed_deg_s=60.0 / s.gripper.wrist_servo_s_per_60deg),
+        judge=JudgeConfig(
+            knocked_offset_m=s.metrics.knocked_offset_m,
+            knocked_tilt_rad=s.metrics.knocked_tilt_rad,
+            lifted_fraction=s.metrics.lifted_fraction,
+            between_jaws_m=s.metrics.between_jaws_m,
+            settle_s=s.metrics.settle_s,
+            pot_height_m=s.pots.height_m,
+            cell_pitch_m=s.conveyor.cell_pitch_m,
+            row_pitch_m=s.conveyor.row_pitch_m,
+        ),
+    )
+
+
+def machine_config(s: Scenario) -> Machine:
+    """The firmware side of the machine; a value the firmware refuses is a ScenarioError
+    naming the scenario's sections."""
+    try:
+        return _machine(s)
+    except ValueError as exc:
+        if isinstance(exc, ScenarioError):
+            raise
+        raise ScenarioError(
+            f"the scenario's [arm], [limits], [drives], [motion], [gripper] or [taught] values "
+            f"do not make a working machine: {exc}"
+        ) from None
+
+
+def _machine(s: Scenario) -> Machine:
+    arm, lim, drv, mot, grip = s.arm, s.limits, s.drives, s.motion, s.gripper
+    geometry = FiveBarGeometry(l0_m=arm.l0_m, l1_m=arm.l1_m, l2_m=arm.l2_m)
+    limits = KinematicLimits(
+        motor_min_rad=lim.motor1_min_rad,
+        motor_max_rad=lim.motor1_max_rad,
+        motor2_min_rad=lim.motor2_min_rad,
+        motor2_max_rad=lim.motor2_max_rad,
+        elbow_min_rad=lim.elbow_min_rad,
+        elbow_max_rad=lim.elbow_max_rad,
+        transmission_min_rad=lim.transmission_min_rad,
+        transmission_max_rad=lim.transmission_max_rad,
+        max_condition=lim.max_condition,
+    )
+    common = dict(
+        steps_per_rev=drv.steps_per_rev,
+        microsteps=drv.microsteps,
+        max_step_rate_hz=drv.max_step_rate_hz,
+        holding_torque_nm=drv.holding_torque_nm,
+    )
+    drives = (
+        StepperDrive("arm1", ratio=drv.arm_belt_ratio, **common),
+        StepperDrive("arm2", ratio=drv.arm_belt_ratio, **common),
+        StepperDrive("z", ratio=1.0, lead_m=drv.z_lead_m, **common),
+    )
+    motion = MotionConfig(
+        resolution_m=mot.resolution_m,
+        accel_m_s2=mot.accel_m_s2,
+        profile=mot.profile,
+        compute_time_per_point_s=mot.compute_time_per_point_s,
+    )
+    sgf = SGFConfig(
+        geometry=geometry,
+        limits=limits,
+        drives=drives,
+        motion=motion,
+        z_min_m=lim.z_min_m,
+        z_max_m=lim.z_max_m,
+        home_theta1_rad=drv.home_theta1_rad,
+        home_theta2_rad=drv.home_theta2_rad,
+        home_z_m=drv.home_z_m,
+        homing_locate_rate_hz=(
+            drv.homing_locate_rate_arm_hz,
+            drv.homing_locate_rate_arm_hz,
+            drv.homing_locate_rate_z_hz,
+        ),
+        homing_rate_hz=(drv.homing_rate_arm_hz, drv.homing_rate_arm_hz, drv.homing_rate_z_hz),
+        conveyor_index_s=s.conveyor.index_time_s,
+        mode=arm.working_mode,
+    )
+    pgf = PGFConfig(
+        gripper_servo=GRIPPER_SERVO,
+        wrist_servo=WRIST_SERVO,
+        gripper_open_deg=math.degrees(grip.open_rad),
+        gripper_close_deg=math.degrees(grip.close_rad),
+        open_dwell_s=grip.open_dwell_s,
+        close_dwell_s=grip.close_dwell_s,
+        release_dwell_s=grip.release_dwell_s,
+        seedlings=s.meta.seedlings,
+        line_numbers=s.bus.line_numbers,
+    )
+    taught = s.taught
+    taught_image = EepromImage(
+        pickups=tuple(
+            Pickup(
+                approach_xy_m=p.approach_m,
+                grip_xy_m=p.grip_m,
+                elbow_deg=math.degrees(p.elbow_rad),
+            )
+            for p in taught.pickup
+        ),
+        drop_xy_m=taught.drop_m,
+        drop_elbow_deg=math.degrees(taught.drop_elbow_rad),
+        z_up_m=taught.z_up_m,
+        z_low_m=taught.z_low_m,
+        s_low_m_s=taught.s_low_m_s,
+        s_high_m_s=taught.s_high_m_s,
+    )
+    # The PGF works from the EEPROM's bytes, as on the machine: quantised and CRC-checked.
+    eeprom = EepromImage.from_bytes(taught_image.to_bytes())
+    return Machine(
+        geometry, limits, arm.working_mode, drives, motion, sgf, pgf, eeprom, s.bus.baud_bps
+    )
+
+
+def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
+    """The physical parameters of a scenario as the scene builder's config.
+
+    The power-on pose (the `home` keyframe) is machine.power_on_joints: a little short of
+    limit switches 1-3, so that G28 has a little way to travel.
+    """
+    arm, drv, grip, conv, pots, tube, phys, lim = (
+        s.arm, s.drives, s.gripper, s.conveyor, s.pots, s.drop_tube, s.physics, s.limits,
+    )  # fmt: skip
+    theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
+    stop = HARD_STOP_BEYOND_WINDOW_RAD
+    try:
+        return SceneConfig(
+            l0=arm.l0_m,
+            l1=arm.l1_m,
+            l2=arm.l2_m,
+            steps_per_rev=drv.steps_per_rev,
+            holding_torque=drv.holding_torque_nm,
+            rotor_inertia=drv.rotor_inertia_kgm2,
+            pullout_zero_speed_rev_s=drv.pullout_zero_speed_rev_s,
+            screw_efficiency=drv.screw_efficiency,
+            arm_belt_ratio=drv.arm_belt_ratio,
+            screw_lead=drv.z_lead_m,
+            switch1_theta1_min=drv.home_theta1_rad,
+            switch2_theta2_max=drv.home_theta2_rad,
+            switch3_z_min=drv.home_z_m,
+            switch4_z_max=lim.z_min_m,
+            theta1_range=(lim.motor1_min_rad - stop, lim.motor1_max_rad + stop),
+            theta2_range=(lim.motor2_min_rad - stop, lim.motor2_max_rad + stop),
+            z_range=(0.0, max(lim.z_max_m, drv.home_z_m) + Z_STOP_ABOVE_SWITCH_M),
+            home_theta1=theta1_on,
+            home_theta2=theta2_on,
+            home_z=z_on,
+            gripper_max_opening=grip.max_opening_m,
+            grip_force=grip.grip_force_n,
+            rows=conv.rows,
+            cols=conv.cols,
+            cell_pitch=conv.cell_pitch_m,
+            row_pitch=conv.row_pitch_m,
+            pickup_row_y=conv.pickup_row_y_m,
+            pot_diameter=pots.diameter_m,
+            pot_diameter_sd=pots.diameter_sd_m,
+            pot_height=pots.height_m,
+            pot_height_sd=pots.height_sd_m,
+            pot_mass=pots.mass_kg,
+            pot_mass_sd=pots.mass_sd_kg,
+            pot_friction=pots.friction,
+            pot_friction_sd=pots.friction_sd,
+            pot_offset_sd=pots.placement_sd_m,
+            pot_offset_max=pots.placement_max_m,
+            pot_mass_range=(pots.mass_min_kg, pots.mass_max_kg),
+            drop_tube_xy=(tube.x_m, tube.y_m),
+            funnel_top_diameter=tube.funnel_top_diameter_m,
+            funnel_top_z=tube.funnel_top_z_m,
+            timestep=phys.timestep_s,
+            sleep=phys.sleep,
+        )
+    except ValueError as exc:
+        raise ScenarioError(f"the scenario does not make a buildable scene: {exc}") from None

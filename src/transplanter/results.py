@@ -1,0 +1,152 @@
+"""What a trial measured: per-seedling records, the trial's result and its statistics."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from enum import StrEnum
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "FAILURE_KINDS",
+    "EventKind",
+    "Outcome",
+    "SeedlingRecord",
+    "TrialResult",
+    "wilson_interval",
+]
+
+
+class Outcome(StrEnum):
+    """A seedling's fate. A failure is named by the first check it failed (see judge)."""
+
+    PENDING = "pending"  # its cycle has not been judged yet
+    SUCCESS = "success"  # its pot is in the drop tube
+    NOT_GRIPPED = "not_gripped"  # the pot did not rise with the jaws
+    SLIPPED = "slipped"  # lifted, but no longer between the jaws over the drop tube
+    DROPPED_OUTSIDE = "dropped_outside"  # released over the tube, but it did not land inside
+    KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
+    NO_POT = "no_pot"  # the cell the pickup points at holds no pot
+    LOST_STEPS = "lost_steps"  # a motor slipped during the cycle (the arm is off its path)
+    MOVE_REJECTED = "move_rejected"  # the SGF refused one of its lines
+    NOT_RUN = "not_run"  # never attempted: the firmware faulted or the physics went invalid
+
+
+class EventKind(StrEnum):
+    """Kinds of the trial's event log (recordings show them on the timeline)."""
+
+    SENT = "sent"  # a G-code line went on the bus
+    ACK = "ack"  # its reply came back
+    GRASP = "grasp"  # the gripper starts closing on a pot
+    RELEASE = "release"  # the gripper opens over the drop tube
+    SUCCESS = "success"  # a seedling's pot is in the tube
+    FAILURE = "failure"  # a seedling failed, or a line was refused
+
+
+FAILURE_KINDS: tuple[Outcome, ...] = tuple(
+    o for o in Outcome if o not in (Outcome.PENDING, Outcome.SUCCESS)
+)
+
+
+@dataclass
+class SeedlingRecord:
+    """What happened to one seedling."""
+
+    index: int
+    pickup: int
+    pot: int | None = None
+    outcome: Outcome = Outcome.PENDING
+    t_start_s: float | None = None
+    t_release_s: float | None = None
+    cycle_time_s: float | None = None
+    peak_grip_force_n: float = 0.0  # largest clamping force per jaw while holding
+    leaves_hit: bool = False  # the gripper touched a neighbour's leaves
+    microsteps_lost: int = 0  # microsteps the motors slipped during this cycle (all motors)
+    max_lag_full_steps: float = 0.0
+    knocked_before: bool = False
+    lifted: bool | None = None
+    in_gripper_at_drop: bool | None = None
+    rejected_line: str | None = None
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """95 % Wilson score interval of a binomial proportion."""
+    if n == 0:
+        return (0.0, 1.0)
+    p = successes / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+@dataclass
+class TrialResult:
+    """A whole trial: its seedlings, the simulated and wall time, and whether it is valid."""
+
+    scenario: str
+    seed: int
+    per_seedling: list[SeedlingRecord]
+    sim_time_s: float
+    wall_time_s: float
+    valid: bool = True
+    invalid_reason: str | None = None
+    fault: str | None = None
+
+    @property
+    def seedlings(self) -> int:
+        return len(self.per_seedling)
+
+    @property
+    def attempted(self) -> int:
+        """Seedlings whose cycle ran (not stopped by a fault or invalid physics first)."""
+        return sum(r.outcome != Outcome.NOT_RUN for r in self.per_seedling)
+
+    @property
+    def successes(self) -> int:
+        return sum(r.outcome == Outcome.SUCCESS for r in self.per_seedling)
+
+    @property
+    def success_rate(self) -> float:
+        return self.successes / self.seedlings if self.seedlings else 0.0
+
+    @property
+    def cycle_times(self) -> np.ndarray:
+        return np.array([r.cycle_time_s for r in self.per_seedling if r.cycle_time_s is not None])
+
+    def failures(self) -> dict[str, int]:
+        return {str(k): sum(r.outcome == k for r in self.per_seedling) for k in FAILURE_KINDS}
+
+    def to_dict(self) -> dict[str, Any]:
+        """The results as plain JSON types (the same trial gives the same dict, bar the
+        wall time and the real-time factor)."""
+        cycles = self.cycle_times
+        lo, hi = wilson_interval(self.successes, self.seedlings)
+        per_seedling = []
+        for r in self.per_seedling:
+            row = asdict(r)
+            row["outcome"] = str(r.outcome)
+            per_seedling.append(row)
+        return {
+            "scenario": self.scenario,
+            "seed": self.seed,
+            "valid": self.valid,
+            "invalid_reason": self.invalid_reason,
+            "fault": self.fault,
+            "seedlings": self.seedlings,
+            "successes": self.successes,
+            "success_rate": self.success_rate,
+            "success_rate_ci95": [lo, hi],
+            "failures": self.failures(),
+            "cycle_time_s": float(cycles.mean()) if cycles.size else None,
+            "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,
+            "seedlings_per_min": (
+                60.0 * self.attempted / self.sim_time_s if self.sim_time_s else 0.0
+            ),
+            "sim_time_s": self.sim_time_s,
+            "wall_time_s": self.wall_time_s,
+            "real_time_factor": self.sim_time_s / self.wall_time_s if self.wall_time_s else None,
+            "per_seedling": per_seedling,
+        }

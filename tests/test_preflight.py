@@ -1,0 +1,49 @@
+"""Preflight: every taught point and straight move is checked before a trial starts."""
+
+import pytest
+
+from conftest import paper_scenario, variant
+from transplanter import kinematics
+from transplanter.config import assemble, machine_config
+from transplanter.preflight import check_machine
+from transplanter.scenario import ScenarioError, load_scenario
+
+
+def test_paper_program_passes(paper_twin_config):
+    check_machine(paper_twin_config.machine)  # raises on any failure
+
+
+def test_unreachable_taught_point_is_refused_naming_the_key(tmp_path):
+    path = variant(tmp_path, {"grip_mm = [90.0, 215.0]": "grip_mm = [90.0, 340.0]"})
+    with pytest.raises(ScenarioError, match=r"taught.pickup\[4\].grip_mm = \[90, 340\] mm"):
+        assemble(load_scenario(path))
+    assemble(load_scenario(path), preflight=False)  # the firmware may still be run on it
+
+
+def test_path_through_singular_region_refused(tmp_path):
+    """Both ends reachable, the straight line between them not: refused before simulating."""
+    path = variant(
+        tmp_path,
+        {
+            "drop_mm = [0.0, 140.0]": "drop_mm = [-16.0, 84.0]",
+            "approach_mm = [-90.0, 180.0]": "approach_mm = [-131.0, 107.0]",
+            "grip_mm = [-90.0, 215.0]": "grip_mm = [-125.0, 110.0]",
+        },
+    )
+    machine = machine_config(load_scenario(path))
+    ends = kinematics.check_points(
+        machine.geometry, machine.limits, [-0.016, -0.131, -0.125], [0.084, 0.107, 0.110]
+    )
+    assert ends.ok.all()  # every taught point on its own is fine
+    with pytest.raises(
+        ScenarioError,
+        match=r"taught.pickup\[0\]: the move from .* leaves the workspace: elbow angle at B",
+    ):
+        check_machine(machine)
+
+
+def test_first_move_from_home_is_checked():
+    """The drop point is reachable, but not on a straight line from the homed position."""
+    machine = machine_config(paper_scenario(**{"taught.drop_mm": [80.0, 100.0]}))
+    with pytest.raises(ScenarioError, match="the first move, from the homed position .* to "):
+        check_machine(machine)
