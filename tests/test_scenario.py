@@ -61,8 +61,8 @@ def test_base_file_and_override(tmp_path):
         ("[gripper]\nclose_deg = 170.0\n", "gripper.close_deg must be below gripper.open_deg"),
         ("[physics]\nsleep = 1\n", "physics.sleep: expected true or false"),
         ('[arm]\nworking_mode = "-+"\n', "arm.working_mode = '-+': the MJCF model is assembled"),
-        ("[drives]\nhome_theta1_deg = 250.0\n", "drives.home_theta1_deg (a limit switch) must lie"),
-        ("[drives]\nhome_z_mm = 200.0\n", "drives.home_z_mm (limit switch 3) must lie"),
+        ("[drives]\nswitch1_theta1_deg = 250.0\n", "drives.switch1_theta1_deg (a limit switch) must"),
+        ("[drives]\nswitch3_z_mm = 200.0\n", "drives.switch3_z_mm (limit switch 3) must lie"),
         ("[pots]\nmass_min_g = 50.0\n", "pots.mass_g must lie within"),
         ("[motion]\ncompute_time_per_point_us = 0.0\n", "outside the allowed range"),
         ("[drives]\npullout_zero_speed_rev_min = 900.0\n", "wrong unit; this value must be given"),
@@ -83,10 +83,10 @@ def test_missing_value_is_refused(tmp_path):
 
 
 def test_bad_pickup_table(tmp_path):
-    text = PAPER.read_text(encoding="utf-8").replace("elbow_deg = 112.4\n", "elbow_rad = 1.5\n", 1)
+    text = PAPER.read_text(encoding="utf-8").replace("wrist_deg = 112.4\n", "wrist_rad = 1.5\n", 1)
     path = tmp_path / "pick.toml"
     path.write_text(text, encoding="utf-8")
-    with pytest.raises(ScenarioError, match=r"taught.pickup\[0\].elbow_rad: wrong unit"):
+    with pytest.raises(ScenarioError, match=r"taught.pickup\[0\].wrist_rad: wrong unit"):
         load_scenario(path)
 
 

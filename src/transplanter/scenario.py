@@ -171,9 +171,9 @@ class DrivesSection:
         "float", 0.1, 1000, doc="motor speed at which the pull-out torque reaches 0"
     )
     screw_efficiency: float = key("float", 0.01, 1.0, doc="lead screw efficiency")
-    home_theta1_rad: float = key("float", -180, 360, doc="limit switch 1 trip angle")
-    home_theta2_rad: float = key("float", -180, 360, doc="limit switch 2 trip angle")
-    home_z_m: float = key("float", 0, 1000, doc="limit switch 3 (Z up) trip height")
+    switch1_theta1_rad: float = key("float", -180, 360, doc="limit switch 1 trip angle")
+    switch2_theta2_rad: float = key("float", -180, 360, doc="limit switch 2 trip angle")
+    switch3_z_m: float = key("float", 0, 1000, doc="limit switch 3 (Z up) trip height")
     homing_rate_arm_hz: float = key("float", 1, 1e5)
     homing_rate_z_hz: float = key("float", 1, 1e6)
     homing_locate_rate_arm_hz: float = key("float", 1, 1e5, doc="slow second homing pass")
@@ -289,7 +289,7 @@ class TaughtPickup:
 
     approach_m: tuple[float, float] = key("xy", -1000, 1000, doc="approach (via) point M_pd[k]")
     grip_m: tuple[float, float] = key("xy", -1000, 1000, doc="grip point M_pgd[k]")
-    elbow_rad: float = key("float", 0, 180, doc="wrist servo angle M_pep[k]")
+    wrist_rad: float = key("float", 0, 180, doc="wrist servo angle M_pep[k]")
 
 
 @dataclass(frozen=True)
@@ -301,9 +301,9 @@ class TaughtSection:
     s_low_m_s: float = key("float", 0.1, 10000, doc="paper S_l")
     s_high_m_s: float = key("float", 0.1, 10000, doc="paper S_h")
     drop_m: tuple[float, float] = key("xy", -1000, 1000, doc="drop point M_dp")
-    drop_elbow_rad: float = key("float", 0, 180, doc="wrist servo angle at the drop, M_dep")
+    drop_wrist_rad: float = key("float", 0, 180, doc="wrist servo angle at the drop, M_dep")
     pickup: tuple[TaughtPickup, ...] = key(
-        "list", doc="pickup points, each approach_mm, grip_mm, elbow_deg"
+        "list", doc="pickup points, each approach_mm, grip_mm, wrist_deg"
     )
 
 
@@ -589,15 +589,15 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         )
     drv = v["drives"]
     for key, lo, hi, window in (
-        ("home_theta1_deg", "motor1_min_deg", "motor1_max_deg", "limits"),
-        ("home_theta2_deg", "motor2_min_deg", "motor2_max_deg", "limits"),
+        ("switch1_theta1_deg", "motor1_min_deg", "motor1_max_deg", "limits"),
+        ("switch2_theta2_deg", "motor2_min_deg", "motor2_max_deg", "limits"),
     ):
         if not lim[si_key(lo)] <= drv[si_key(key)] <= lim[si_key(hi)]:
             raise ScenarioError(
                 f"drives.{key} (a limit switch) must lie inside {window}.{lo}..{hi}."
             )
-    if not z_min < drv["home_z_m"] <= z_max:
-        raise ScenarioError("drives.home_z_mm (limit switch 3) must lie in (z_min_mm, z_max_mm].")
+    if not z_min < drv["switch3_z_m"] <= z_max:
+        raise ScenarioError("drives.switch3_z_mm (limit switch 3) must lie in (z_min_mm, z_max_mm].")
     pots = v["pots"]
     if pots["mass_min_kg"] > pots["mass_kg"] or pots["mass_kg"] > pots["mass_max_kg"]:
         raise ScenarioError("pots.mass_g must lie within [pots.mass_min_g, pots.mass_max_g].")
