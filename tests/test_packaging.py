@@ -1,0 +1,63 @@
+"""The package installs from a wheel and runs without a checkout: models and scenarios inside."""
+
+import os
+import subprocess
+import sys
+import zipfile
+
+import pytest
+from conftest import ROOT
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory):
+    out = tmp_path_factory.mktemp("wheel")
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+         "-w", str(out), str(ROOT)],
+        check=True,
+        capture_output=True,
+    )  # fmt: skip
+    (path,) = out.glob("transplanter-*.whl")
+    return path
+
+
+@pytest.mark.slow
+def test_wheel_holds_models_scenarios_and_every_module(wheel):
+    names = set(zipfile.ZipFile(wheel).namelist())
+    for f in ("scene.xml", "transplanter.xml"):
+        assert f"transplanter/models/{f}" in names
+    assert {n for n in names if n.startswith("transplanter/models/assets/")} == {
+        f"transplanter/models/assets/{p.name}" for p in (ROOT / "models" / "assets").iterdir()
+    }
+    assert "transplanter/scenarios/paper.toml" in names
+    for module in (ROOT / "src" / "transplanter").rglob("*.py"):
+        rel = module.relative_to(ROOT / "src").as_posix()
+        assert rel in names, rel
+
+
+@pytest.mark.slow
+def test_installed_wheel_runs_a_trial_outside_the_checkout(wheel, tmp_path):
+    """The wheel installed on its own (dependencies from this environment), then
+    `transplanter trial paper` from another directory: no path into a checkout."""
+    target = tmp_path / "site"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-index",
+         "--target", str(target), str(wheel)],
+        check=True,
+        capture_output=True,
+    )  # fmt: skip
+    work = tmp_path / "elsewhere"
+    work.mkdir()
+    env = dict(os.environ, PYTHONPATH=str(target))
+    probe = subprocess.run(
+        [sys.executable, "-c", "import transplanter.scene as s; print(s.__file__, s.models_dir())"],
+        cwd=work, env=env, capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    assert probe.stdout.count(str(target)) == 2, probe.stdout  # the wheel's code and models
+    run = subprocess.run(
+        [str(target / "bin" / "transplanter"), "trial", "paper", "--seedlings", "1", "--quiet"],
+        cwd=work, env=env, capture_output=True, text=True,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert "success rate               100.0 % (1/1)" in run.stdout
