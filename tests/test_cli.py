@@ -1,5 +1,15 @@
 """The `transplanter` command line: ik, plan and trial (replay is tested with recording)."""
 
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
 from conftest import ROOT, variant
 from transplanter.cli import main
 
@@ -82,3 +92,75 @@ def test_trial_refuses_bad_output_paths_before_simulating(tmp_path, capsys):
     assert main(["trial", "paper", "--seedlings", "41", "--quiet"]) == 2
     assert "more than the conveyor holds" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())  # nothing was written
+
+
+def _cli(args, **kwargs):
+    return subprocess.Popen(
+        [sys.executable, "-m", "transplanter.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kwargs,
+    )
+
+
+def test_trial_refuses_a_non_finite_record_rate(tmp_path, capsys):
+    for rate in ("inf", "nan", "-1"):
+        args = ["trial", "paper", "--quiet", "--record", str(tmp_path / "r.rrd")]
+        assert main([*args, "--record-rate", rate]) == 2
+        assert "--record-rate must be a finite number of Hz > 0" in capsys.readouterr().err
+
+
+def test_trial_refuses_endless_scenario_inputs(tmp_path, capsys):
+    assert main(["trial", "/dev/zero", "--quiet"]) == 2
+    assert "/dev/zero is a character device" in capsys.readouterr().err
+    fifo = tmp_path / "s.toml"
+    os.mkfifo(fifo)
+    assert main(["trial", str(fifo), "--quiet"]) == 2  # refused, not a hang
+    assert "named pipe" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_recording_that_cannot_be_written_loses_no_results(tmp_path):
+    """The disk fills while the recording is written (a 200 kB file-size limit on the child
+    process): the summary and the JSON are still written, the failure is one line, exit 5."""
+    script = (
+        "import resource, signal, sys\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))\n"
+        "from transplanter.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    rrd, out = tmp_path / "r.rrd", tmp_path / "r.json"
+    args = ["trial", "paper", "--seedlings", "1", "--quiet", "--record", str(rrd)]
+    run = subprocess.run(
+        [sys.executable, "-c", script, *args, "--json", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 5, run.stderr
+    assert "success rate               100.0 % (1/1)" in run.stdout
+    assert json.loads(out.read_text())["successes"] == 1
+    assert run.stderr.count("\n") == 1 and "could not be written" in run.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]  # no .rrd, no temp
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_cleanly_and_never_replaces_a_complete_recording(tmp_path):
+    rrd, out = tmp_path / "r.rrd", tmp_path / "r.json"
+    rrd.write_text("a complete earlier recording")
+    child = _cli(["trial", "paper", "--quiet", "--record", str(rrd), "--json", str(out)])
+    time.sleep(5.0)  # imports and homing done, the 40-seedling trial (~150 s simulated) runs
+    child.send_signal(signal.SIGINT)
+    stdout, stderr = child.communicate(timeout=60)
+    assert child.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    done = int(re.search(r"interrupted after (\d+) seedlings", stderr).group(1))
+    assert 0 <= done < 40
+    result = json.loads(out.read_text())
+    assert result["interrupted"] is True
+    judged = [s for s in result["per_seedling"] if s["outcome"] != "not_run"]
+    assert len(judged) == done and all(s["outcome"] == "success" for s in judged)
+    assert rrd.read_text() == "a complete earlier recording"
+    assert (tmp_path / "r.partial.rrd").stat().st_size > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "r.partial.rrd", "r.rrd"]

@@ -1,29 +1,7 @@
-"""Presentation: the summary table, output path checks and atomic JSON files."""
+"""Presentation: the summary table and text safe for a terminal."""
 
-import json
-import os
-
-from transplanter.report import format_summary, output_problem, write_json_atomic
+from transplanter.report import format_summary, printable
 from transplanter.results import Outcome, SeedlingRecord, TrialResult
-
-
-def test_json_is_readable_by_others_and_leaves_no_temp(tmp_path):
-    umask = os.umask(0o022)
-    try:
-        write_json_atomic(tmp_path / "r.json", {"a": 1})
-    finally:
-        os.umask(umask)
-    assert (tmp_path / "r.json").stat().st_mode & 0o777 == 0o644
-    assert json.loads((tmp_path / "r.json").read_text()) == {"a": 1}
-    assert [p.name for p in tmp_path.iterdir()] == ["r.json"]
-
-
-def test_output_problems_are_named(tmp_path):
-    assert output_problem(None, None) is None
-    assert output_problem(tmp_path / "r.json", None) is None
-    assert "is a directory" in output_problem(tmp_path, None)
-    assert "does not exist" in output_problem(tmp_path / "no" / "r.json", None)
-    assert "must end in .rrd" in output_problem(tmp_path / "r.txt", ".rrd")
 
 
 def test_summary_shows_rate_interval_and_every_failure_kind():
@@ -33,3 +11,11 @@ def test_summary_shows_rate_interval_and_every_failure_kind():
     assert "97.5 % (39/40), 95 % CI 87.1-99.6 %" in text
     assert "failures: no_pot           1" in text
     assert "21.0x" in text.splitlines()[8]
+
+
+def test_control_characters_are_shown_escaped():
+    assert printable("paper\x1b[2J\u2028x") == "paper\\x1b[2J\\u2028x"
+    assert printable("plain text (ok)") == "plain text (ok)"
+    records = [SeedlingRecord(0, 0, outcome=Outcome.SUCCESS)]
+    text = format_summary(TrialResult("evil\x1b]0;x\x07", 1, records, 1.0, 1.0))
+    assert "\x1b" not in text and "evil\\x1b]0;x\\x07" in text

@@ -34,7 +34,7 @@ def test_paper_scenario_converts_to_si():
 
 def _variant(tmp_path, body: str) -> Path:
     path = tmp_path / "variant.toml"
-    path.write_text(f'[scenario]\nbase = "{PAPER.as_posix()}"\n{body}', encoding="utf-8")
+    path.write_text(f'[scenario]\nbase = "paper.toml"\n{body}', encoding="utf-8")
     return path
 
 
@@ -61,7 +61,10 @@ def test_base_file_and_override(tmp_path):
         ("[gripper]\nclose_deg = 170.0\n", "gripper.close_deg must be below gripper.open_deg"),
         ("[physics]\nsleep = 1\n", "physics.sleep: expected true or false"),
         ('[arm]\nworking_mode = "-+"\n', "arm.working_mode = '-+': the MJCF model is assembled"),
-        ("[drives]\nswitch1_theta1_deg = 250.0\n", "drives.switch1_theta1_deg (a limit switch) must"),
+        (
+            "[drives]\nswitch1_theta1_deg = 250.0\n",
+            "drives.switch1_theta1_deg (a limit switch) must",
+        ),
         ("[drives]\nswitch3_z_mm = 200.0\n", "drives.switch3_z_mm (limit switch 3) must lie"),
         ("[pots]\nmass_min_g = 50.0\n", "pots.mass_g must lie within"),
         ("[motion]\ncompute_time_per_point_us = 0.0\n", "outside the allowed range"),
@@ -101,7 +104,7 @@ def test_not_toml_and_missing_file(tmp_path):
 
 def test_section_that_is_not_a_table(tmp_path):
     path = tmp_path / "flat.toml"
-    path.write_text(f'arm = 3\n[scenario]\nbase = "{PAPER.as_posix()}"\n', encoding="utf-8")
+    path.write_text('arm = 3\n[scenario]\nbase = "paper.toml"\n', encoding="utf-8")
     with pytest.raises(ScenarioError, match=r"\[arm\] must be a table of keys"):
         load_scenario(path)
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,8 @@ import numpy as np
 DEFAULT_SCENARIO = "paper"  # the packaged paper scenario
 
 EXIT_OK, EXIT_REFUSED, EXIT_INVALID_PHYSICS, EXIT_FIRMWARE_FAULT = 0, 2, 3, 4
+EXIT_OUTPUT_FAILED = 5  # a result file or the recording could not be written
+EXIT_INTERRUPTED = 130  # Ctrl-C, as shells report SIGINT
 
 
 def _scenario_arg(parser: argparse.ArgumentParser) -> None:
@@ -97,19 +100,23 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_trial(args: argparse.Namespace) -> int:
+    from transplanter import fileio
     from transplanter.config import assemble
-    from transplanter.report import format_summary, output_problem, progress_bar, write_json_atomic
+    from transplanter.report import format_summary, progress_bar
     from transplanter.scenario import ScenarioError, load_scenario
-    from transplanter.trial import run_trial
+    from transplanter.trial import TrialInterrupted, run_trial
 
-    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
-        problem = output_problem(path, suffix)
-        if problem is not None:
-            print(f"{option}: {problem}", file=sys.stderr)
-            return EXIT_REFUSED
-    if not args.record_rate > 0:
-        print(f"--record-rate must be > 0 Hz, got {args.record_rate}", file=sys.stderr)
+    if not (math.isfinite(args.record_rate) and args.record_rate > 0):
+        _err(f"--record-rate must be a finite number of Hz > 0, got {args.record_rate}")
         return EXIT_REFUSED
+    targets: dict[str, Path | None] = {"--json": None, "--record": None}
+    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
+        if path is not None:
+            try:
+                targets[option] = fileio.check_output(path, suffix)
+            except fileio.FileRefused as exc:
+                _err(f"{option}: {exc}")
+                return EXIT_REFUSED
     overrides: dict[str, Any] = {}
     if args.seedlings is not None:
         overrides["scenario.seedlings"] = args.seedlings
@@ -118,27 +125,58 @@ def cmd_trial(args: argparse.Namespace) -> int:
     try:
         config = assemble(load_scenario(args.scenario, overrides), preflight=not args.no_preflight)
     except ScenarioError as exc:
-        print(f"scenario refused: {exc}", file=sys.stderr)
+        _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
     bar, update = progress_bar(config.seedlings, not args.quiet and sys.stderr.isatty())
+    interrupted = False
     try:
         result = run_trial(
-            config, record_path=args.record, record_rate_hz=args.record_rate, progress=update
-        )
+            config, record_path=targets["--record"], record_rate_hz=args.record_rate,
+            progress=update,
+        )  # fmt: skip
+    except TrialInterrupted as stop:
+        result, interrupted = stop.result, True
     finally:
         if bar is not None:
             bar.close()
     print(format_summary(result))
-    if args.json is not None:
-        write_json_atomic(args.json, result.to_dict())
-        print(f"results written to {args.json}")
-    if args.record is not None:
-        print(
-            f"recording written to {args.record} (view it with: transplanter replay {args.record})"
-        )
+    status = EXIT_OK
+    if targets["--json"] is not None:
+        try:
+            fileio.write_json_atomic(targets["--json"], result.to_dict())
+            print(f"results written to {_show(args.json)}")
+        except OSError as exc:
+            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
+            status = EXIT_OUTPUT_FAILED
+    if result.recording_error is not None:
+        _err(f"--record: {result.recording_error}")
+        status = EXIT_OUTPUT_FAILED
+    elif args.record is not None:
+        where = Path(args.record)
+        if interrupted:
+            where = where.with_name(where.stem + ".partial.rrd")
+        shown = _show(where)
+        print(f"recording written to {shown} (view it with: transplanter replay {shown})")
+    if interrupted:
+        _err(f"interrupted after {result.judged} seedlings")
+        return EXIT_INTERRUPTED
+    if status != EXIT_OK:
+        return status
     if not result.valid:
         return EXIT_INVALID_PHYSICS
     return EXIT_FIRMWARE_FAULT if result.fault else EXIT_OK
+
+
+def _show(path) -> str:
+    from transplanter.report import printable
+
+    return printable(str(path))
+
+
+def _err(message: str) -> None:
+    from transplanter.report import printable
+
+    print(printable(message), file=sys.stderr)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -168,8 +206,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "trial",
         help="run a headless pick-and-drop trial",
-        epilog="exit status: 0 done, 2 scenario refused, 3 invalid physics (a MuJoCo warning "
-        "or divergence), 4 the firmware faulted (a line was refused)",
+        epilog="exit status: 0 done, 2 scenario or output path refused, 3 invalid physics (a "
+        "MuJoCo warning or divergence), 4 the firmware faulted (a line was refused), 5 a "
+        "result file or the recording could not be written, 130 interrupted (Ctrl-C)",
     )
     p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
     p.add_argument("--seedlings", type=int, default=None, help="override scenario.seedlings")
@@ -193,8 +232,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # rerun's own log lines would repeat a failed recording's one-line report on stderr
+    os.environ.setdefault("RUST_LOG", "off")
     args = build_parser().parse_args(argv)
-    return int(args.func(args) or 0)
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        _err("interrupted")
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -35,6 +35,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from transplanter import fileio
+
 TIMELINE = "sim_time"
 BODIES_ROOT = "world/bodies"
 SCALARS_ROOT = "scalars"
@@ -168,6 +170,10 @@ def _validate_scalar_names(scalar_names: Sequence[str]) -> list[str]:
     return names
 
 
+class RecordingError(RuntimeError):
+    """The recording could not be written (the trial's results are not affected)."""
+
+
 class TrialRecorder:
     """Buffers a trial's body poses, scalar channels and events and writes them to an .rrd.
 
@@ -200,7 +206,10 @@ class TrialRecorder:
             )
         self.scalar_names = _validate_scalar_names(scalar_names)
         self._blueprint = blueprint
-        self._tmp_path = self.path.with_name(self.path.name + ".tmp")
+        # The recording grows in an exclusively created temporary file beside its target (a
+        # symlink's target) and replaces it only once complete.
+        self._target = Path(os.path.realpath(self.path)) if self.path.is_symlink() else self.path
+        self._tmp_path = fileio.temp_beside(self._target)
 
         body_names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b, "body") for b in range(model.nbody)]
         self.body_entities = [f"{BODIES_ROOT}/{name}" for name in body_names]
@@ -228,6 +237,7 @@ class TrialRecorder:
 
         self._stream = rr.RecordingStream(application_id, recording_id=uuid.uuid4())
         if not self._stream.is_enabled():
+            fileio.discard(self._tmp_path)
             raise RuntimeError(
                 "rerun logging is disabled (environment variable RERUN="
                 f"{os.environ.get('RERUN')!r}): unset RERUN to record {str(self.path)!r}"
@@ -237,7 +247,7 @@ class TrialRecorder:
             self._log_static_scene(model)
         except BaseException:
             self._stream.disconnect()
-            self._tmp_path.unlink(missing_ok=True)
+            fileio.discard(self._tmp_path)
             raise
 
     # -- static scene -------------------------------------------------------------------
@@ -406,20 +416,42 @@ class TrialRecorder:
             collapse_panels=True,
         )
 
-    def close(self) -> None:
-        """Write everything buffered, finish the file and move it to ``path``. Idempotent."""
+    def close(self, path: str | os.PathLike | None = None) -> None:
+        """Write everything buffered, finish the file and move it to ``path`` (by default the
+        path given at creation). Idempotent. On failure (disk full, say) the temporary file
+        is removed, an older file at the path is left as it was, and RecordingError says why.
+        """
         if self.closed:
             return
         self.closed = True
         try:
-            self._send_buffered_frames()
-            self._send_events()
-            if self._blueprint:
-                self._stream.send_blueprint(self._default_blueprint())
-            self._stream.flush()
-        finally:
+            try:
+                self._send_buffered_frames()
+                self._send_events()
+                if self._blueprint:
+                    self._stream.send_blueprint(self._default_blueprint())
+                self._stream.flush()
+            finally:
+                self._stream.disconnect()
+            target = self._target if path is None else Path(path)
+            fileio.commit(self._tmp_path, target)
+        except BaseException as exc:
+            fileio.discard(self._tmp_path)
+            if isinstance(exc, Exception):
+                raise RecordingError(
+                    f"the recording {str(self.path)!r} could not be written: {exc}"
+                ) from exc
+            raise
+
+    def abort(self) -> None:
+        """Stop recording and remove the unfinished file; an older file at the path stays."""
+        if self.closed:
+            return
+        self.closed = True
+        try:
             self._stream.disconnect()
-        os.replace(self._tmp_path, self.path)
+        finally:
+            fileio.discard(self._tmp_path)
 
     def __enter__(self) -> TrialRecorder:
         return self

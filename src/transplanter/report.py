@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
-from pathlib import Path
-from typing import Any
-
 from transplanter.results import TrialResult
 
-__all__ = ["format_summary", "output_problem", "progress_bar", "write_json_atomic"]
+__all__ = ["format_summary", "printable", "progress_bar"]
+
+
+def printable(text: str) -> str:
+    """Text safe to print on a terminal: control characters shown escaped (`\\x1b`)."""
+    return "".join(
+        c if c.isprintable() or c == " " else c.encode("unicode_escape").decode("ascii")
+        for c in text
+    )
 
 
 def format_summary(result: TrialResult) -> str:
@@ -18,8 +20,8 @@ def format_summary(result: TrialResult) -> str:
     d = result.to_dict()
     lo, hi = d["success_rate_ci95"]
     rows = [
-        ("scenario", f"{d['scenario']} (seed {d['seed']})"),
-        ("valid", "yes" if d["valid"] else f"NO: {d['invalid_reason']}"),
+        ("scenario", f"{printable(d['scenario'])} (seed {d['seed']})"),
+        ("valid", "yes" if d["valid"] else f"NO: {printable(d['invalid_reason'])}"),
         ("seedlings", f"{d['seedlings']}"),
         (
             "success rate",
@@ -39,7 +41,11 @@ def format_summary(result: TrialResult) -> str:
     ]
     rows += [(f"failures: {k}", str(v)) for k, v in d["failures"].items()]
     if d["fault"]:
-        rows.append(("firmware fault", d["fault"]))
+        rows.append(("firmware fault", printable(d["fault"])))
+    if d["interrupted"]:
+        rows.append(("interrupted", f"yes, after {result.judged} seedlings"))
+    if result.recording_error:
+        rows.append(("recording", f"FAILED: {printable(result.recording_error)}"))
     width = max(len(k) for k, _ in rows)
     return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
 
@@ -58,38 +64,3 @@ def progress_bar(total: int, enabled: bool):
         bar.update(done - bar.n)
 
     return bar, update
-
-
-def output_problem(path: Path | None, suffix: str | None) -> str | None:
-    """Why an output file cannot be written there (checked before simulating), or None."""
-    if path is None:
-        return None
-    path = Path(path)
-    if path.is_dir():
-        return f"{path} is a directory; give a file name"
-    if not path.parent.is_dir():
-        return f"{path.parent} does not exist; create it first"
-    if not os.access(path.parent, os.W_OK):
-        return f"{path.parent} is not writable"
-    if suffix is not None and path.suffix != suffix:
-        return f"{path} must end in {suffix}"
-    return None
-
-
-def write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
-    """Write JSON so that the file is either the old one or the complete new one."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(payload, f, indent=2, sort_keys=True)
-            f.write("\n")
-            f.flush()
-            os.fsync(f.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; results are for sharing
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

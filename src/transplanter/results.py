@@ -94,6 +94,13 @@ class TrialResult:
     valid: bool = True
     invalid_reason: str | None = None
     fault: str | None = None
+    interrupted: bool = False  # stopped by the user: seedlings not yet judged are not_run
+    recording_error: str | None = None  # the recording failed; the results stand
+
+    @property
+    def judged(self) -> int:
+        """Seedlings with a verdict (success or a failure other than not_run)."""
+        return sum(r.outcome not in (Outcome.NOT_RUN, Outcome.PENDING) for r in self.per_seedling)
 
     @property
     def seedlings(self) -> int:
@@ -135,6 +142,7 @@ class TrialResult:
             "valid": self.valid,
             "invalid_reason": self.invalid_reason,
             "fault": self.fault,
+            "interrupted": self.interrupted,
             "seedlings": self.seedlings,
             "successes": self.successes,
             "success_rate": self.success_rate,

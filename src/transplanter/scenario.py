@@ -21,6 +21,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+from transplanter import fileio
 from transplanter.firmware.eeprom import MAX_PICKUPS
 
 __all__ = [
@@ -447,7 +448,13 @@ def _number(name: str, spec: Key, raw: Any) -> float:
 
 def _check_range(name: str, spec: Key, value: float) -> None:
     if spec.lo is not None and value < spec.lo or spec.hi is not None and value > spec.hi:
-        raise ScenarioError(f"{name}: {value} is outside the allowed range [{spec.lo}, {spec.hi}].")
+        if spec.hi is None:
+            allowed = f"must be at least {spec.lo:g}"
+        elif spec.lo is None:
+            allowed = f"must be at most {spec.hi:g}"
+        else:
+            allowed = f"is outside the allowed range [{spec.lo:g}, {spec.hi:g}]"
+        raise ScenarioError(f"{name}: {value!r} {allowed}.")
 
 
 def _merge(base: dict, over: Mapping) -> dict:
@@ -460,20 +467,19 @@ def _merge(base: dict, over: Mapping) -> dict:
     return out
 
 
+# A scenario is a short text file; anything bigger is not one (and is never read whole).
+MAX_SCENARIO_BYTES = 1 << 20
+
+
 def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     path = path.resolve()
     if path in seen:
         raise ScenarioError(f"{path}: 'base' files form a cycle: {' -> '.join(map(str, seen))}.")
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ScenarioError(f"{path}: no such scenario file.") from None
-    except IsADirectoryError:
-        raise ScenarioError(f"{path}: is a directory; give a scenario .toml file.") from None
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read: {exc.strerror}.") from None
-    except UnicodeDecodeError:
-        raise ScenarioError(f"{path}: not a text file (UTF-8 TOML expected).") from None
+        text = fileio.read_text_input(path, MAX_SCENARIO_BYTES, "scenario")
+        raw = tomllib.loads(text)
+    except fileio.FileRefused as exc:
+        raise ScenarioError(str(exc)) from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}.") from None
     for section, table in raw.items():
@@ -482,12 +488,23 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     base = raw.get("scenario", {}).pop("base", None)
     if base is None:
         return raw
-    if not isinstance(base, str):
+    return _merge(_read_raw(_base_path(path, base), (*seen, path)), raw)
+
+
+def _base_path(path: Path, base: Any) -> Path:
+    """The file a `base = ...` names: a file in the scenario's own directory (or below it),
+    else a packaged scenario by name; never a path elsewhere."""
+    if not isinstance(base, str) or not base:
         raise ScenarioError(f"{path}: scenario.base must be a file name, got {base!r}.")
-    base_path = path.parent / base
-    if not base_path.exists() and len(Path(base).parts) == 1:
-        base_path = resolve_scenario_path(base)  # a packaged scenario by name
-    return _merge(_read_raw(base_path, (*seen, path)), raw)
+    candidate = (path.parent / base).resolve()
+    if Path(base).is_absolute() or not candidate.is_relative_to(path.parent):
+        raise ScenarioError(
+            f"{path}: scenario.base = {base!r} points outside the scenario's directory; "
+            "name a file beside it or a packaged scenario (e.g. 'paper.toml')."
+        )
+    if candidate.exists() or len(Path(base).parts) != 1:
+        return candidate
+    return resolve_scenario_path(base)  # a packaged scenario by name
 
 
 def _apply_overrides(raw: dict, overrides: Mapping[str, Any]) -> dict:
@@ -597,7 +614,9 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
                 f"drives.{key} (a limit switch) must lie inside {window}.{lo}..{hi}."
             )
     if not z_min < drv["switch3_z_m"] <= z_max:
-        raise ScenarioError("drives.switch3_z_mm (limit switch 3) must lie in (z_min_mm, z_max_mm].")
+        raise ScenarioError(
+            "drives.switch3_z_mm (limit switch 3) must lie in (limits.z_min_mm, limits.z_max_mm]."
+        )
     pots = v["pots"]
     if pots["mass_min_kg"] > pots["mass_kg"] or pots["mass_kg"] > pots["mass_max_kg"]:
         raise ScenarioError("pots.mass_g must lie within [pots.mass_min_g, pots.mass_max_g].")

@@ -20,7 +20,7 @@ from transplanter.judge import Judge
 from transplanter.results import Outcome, SeedlingRecord, TrialResult
 from transplanter.sim import SimulationInvalid, Twin
 
-__all__ = ["run_trial", "MONITOR_EVERY_STEPS", "FIRMWARE_HORIZON_S"]
+__all__ = ["run_trial", "TrialInterrupted", "MONITOR_EVERY_STEPS", "FIRMWARE_HORIZON_S"]
 
 # Grip force, leaf contacts and motor lag are sampled every this many physics steps (10 ms
 # at the paper's 1 ms step: the gripper moves at most 1.5 mm between samples).
@@ -31,6 +31,15 @@ FIRMWARE_HORIZON_S = (60.0, 30.0)
 
 # Progress callback: (seedlings finished, simulated time s).
 Progress = Callable[[int, float], None]
+
+
+class TrialInterrupted(KeyboardInterrupt):
+    """The user stopped the trial (Ctrl-C); `result` holds what was judged until then (the
+    seedling in progress and later ones are not_run, `result.interrupted` is True)."""
+
+    def __init__(self, result: TrialResult) -> None:
+        super().__init__(f"interrupted after {result.judged} seedlings")
+        self.result = result
 
 
 def run_trial(
@@ -60,7 +69,7 @@ def run_trial(
     every = MONITOR_EVERY_STEPS if recorder is None else 1
     if recorder is not None:
         monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state at t = 0
-    valid, reason = True, None
+    valid, reason, interrupted = True, None, False
     try:
         horizon = FIRMWARE_HORIZON_S[0] + FIRMWARE_HORIZON_S[1] * len(records)
         while not (twin.pgf.done or twin.pgf.fault) and twin.time < horizon:
@@ -80,13 +89,17 @@ def run_trial(
             valid, reason = False, f"the PGF did not finish within {horizon:.0f} s simulated"
     except SimulationInvalid as exc:
         valid, reason = False, str(exc)
-    finally:
-        judge.finish(twin.time, valid)
-        if recorder is not None:
-            if twin.block is not None:
-                monitor.record(twin, twin.block.pulses[-1], force=True)
-            recorder.close()
-    return TrialResult(
+    except KeyboardInterrupt:
+        interrupted = True
+    except BaseException:
+        if recorder is not None:  # an unexpected error leaves no temporary file behind
+            recorder.abort()
+        raise
+    judge.finish(twin.time, valid and not interrupted)
+    recording_error = None
+    if recorder is not None:
+        recording_error = _finish_recording(recorder, monitor, twin, interrupted)
+    result = TrialResult(
         scenario=config.name,
         seed=config.seed,
         per_seedling=records,
@@ -95,7 +108,33 @@ def run_trial(
         valid=valid,
         invalid_reason=reason,
         fault=twin.pgf.fault,
+        interrupted=interrupted,
+        recording_error=recording_error,
     )
+    if interrupted:
+        raise TrialInterrupted(result)
+    return result
+
+
+def _finish_recording(recorder: Any, monitor: Any, twin: Twin, interrupted: bool) -> str | None:
+    """Close the recording (an interrupted one goes to its own `.partial.rrd` name, never
+    over a complete file); the reason if it could not be written."""
+    from transplanter.recording import RecordingError
+
+    try:
+        if twin.block is not None:
+            monitor.record(twin, twin.block.pulses[-1], force=True)
+        if interrupted:
+            path = Path(recorder.path)
+            recorder.close(path.with_name(path.stem + ".partial.rrd"))
+        else:
+            recorder.close()
+    except RecordingError as exc:
+        return str(exc)
+    except Exception as exc:  # a frame that could not be buffered: the file is incomplete
+        recorder.abort()
+        return f"the recording {str(recorder.path)!r} could not be written: {exc}"
+    return None
 
 
 class _RecordingMonitor:
