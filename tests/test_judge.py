@@ -80,3 +80,25 @@ def test_each_cycle_picks_the_pot_the_conveyor_brought():
     assert [r.outcome for r in result.per_seedling] == [Outcome.SUCCESS] * 10
     assert [r.pot for r in result.per_seedling] == list(range(10))
     assert np.all([r.peak_grip_force_n > 5.0 for r in result.per_seedling])
+
+
+@pytest.mark.slow
+def test_lost_steps_name_their_cause_and_the_seedlings_they_cost():
+    """At Z_low = 28 mm the palm and jaws strike pots and ribs and motors slip. Every
+    lost-step event names what the machine touched; a seedling failed in the cycle of a strike
+    is lost_steps, a later one whose arm was still off position is position_lost, pointing at
+    the first strike since homing."""
+    result = run_trial(paper_config(20, **{"taught.z_low_mm": 28.0}))
+    events = result.lost_step_events
+    assert events, "a 28 mm approach strikes the pots and slips a motor"
+    for e in events:
+        assert e["microsteps"] != 0 and e["motor"] in (0, 1, 2)
+        assert e["contacts"], "a slip at a strike has contacts on the machine"
+    for r in result.per_seedling:
+        if r.outcome == Outcome.POSITION_LOST:
+            assert r.position_error_microsteps > 0
+            assert events[r.lost_step_event]["t_s"] < r.t_start_s
+        if r.outcome == Outcome.LOST_STEPS:
+            assert r.t_start_s <= events[r.lost_step_event]["t_s"] <= r.t_release_s
+    if result.failures()["position_lost"]:
+        assert result.failures_clustered and result.to_dict()["success_rate_ci95"] is None

@@ -28,24 +28,58 @@ def _scenario_arg(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_SCENARIO,
         help="scenario file, or the name of a packaged scenario (default: paper)",
     )
+    _set_arg(parser)
 
 
-def _machine(path: str):
+def _set_arg(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="override a scenario key in its file unit, e.g. --set taught.z_low_mm=30 "
+        '(a TOML value: 30, true, [0, 140], "scurve"); repeatable',
+    )
+
+
+def _overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """The --set options as {'section.key': value}; ScenarioError for a malformed one."""
+    import tomllib
+
+    from transplanter.scenario import ScenarioError
+
+    out: dict[str, Any] = {}
+    for item in args.set:
+        key, eq, text = item.partition("=")
+        key = key.strip()
+        if not eq or "." not in key:
+            raise ScenarioError(f"--set {item!r}: write SECTION.KEY=VALUE")
+        try:
+            value = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()  # a bare word is a string: --set motion.profile=scurve
+        if key in out:
+            raise ScenarioError(f"--set {key} is given twice")
+        out[key] = value
+    return out
+
+
+def _machine(args: argparse.Namespace):
     """The machine of a scenario, or None after saying why it was refused."""
     from transplanter.config import machine_config
     from transplanter.scenario import ScenarioError, load_scenario
 
     try:
-        return machine_config(load_scenario(path))
+        return machine_config(load_scenario(args.scenario, _overrides(args)))
     except ScenarioError as exc:
-        print(f"scenario refused: {exc}", file=sys.stderr)
+        _err(f"scenario refused: {exc}")
         return None
 
 
 def cmd_ik(args: argparse.Namespace) -> int:
     from transplanter import kinematics
 
-    machine = _machine(args.scenario)
+    machine = _machine(args)
     if machine is None:
         return 2
     x, y = args.x * 1e-3, args.y * 1e-3
@@ -66,7 +100,7 @@ def cmd_ik(args: argparse.Namespace) -> int:
 def cmd_plan(args: argparse.Namespace) -> int:
     from transplanter.planner import PlanError, plan_program
 
-    machine = _machine(args.scenario)
+    machine = _machine(args)
     if machine is None:
         return 2
     try:
@@ -104,6 +138,7 @@ def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter.config import assemble
     from transplanter.report import format_summary, progress_bar
     from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.stats import parse_seeds
     from transplanter.trial import TrialInterrupted, run_trial
 
     if not (math.isfinite(args.record_rate) and args.record_rate > 0):
@@ -117,11 +152,25 @@ def cmd_trial(args: argparse.Namespace) -> int:
             except fileio.FileRefused as exc:
                 _err(f"{option}: {exc}")
                 return EXIT_REFUSED
-    overrides: dict[str, Any] = {}
+    try:
+        overrides = _overrides(args)
+    except ScenarioError as exc:
+        _err(f"scenario refused: {exc}")
+        return EXIT_REFUSED
     if args.seedlings is not None:
         overrides["scenario.seedlings"] = args.seedlings
     if args.seed is not None:
         overrides["scenario.seed"] = args.seed
+    if args.seeds is not None:
+        if args.seed is not None or args.record is not None:
+            _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
+            return EXIT_REFUSED
+        try:
+            seeds = parse_seeds(args.seeds)
+        except ValueError as exc:
+            _err(f"--seeds: {exc}")
+            return EXIT_REFUSED
+        return _pooled_trials(args, overrides, seeds, targets["--json"])
     try:
         config = assemble(load_scenario(args.scenario, overrides), preflight=not args.no_preflight)
     except ScenarioError as exc:
@@ -165,6 +214,65 @@ def cmd_trial(args: argparse.Namespace) -> int:
     if not result.valid:
         return EXIT_INVALID_PHYSICS
     return EXIT_FIRMWARE_FAULT if result.fault else EXIT_OK
+
+
+def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path) -> int:
+    """One trial per seed, each line printed as it finishes, then the pooled rate."""
+    from transplanter import fileio
+    from transplanter.config import assemble
+    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.stats import pooled_rate
+    from transplanter.trial import TrialInterrupted, run_trial
+
+    try:
+        configs = [
+            assemble(
+                load_scenario(args.scenario, {**overrides, "scenario.seed": seed}),
+                preflight=not args.no_preflight,
+            )
+            for seed in seeds
+        ]
+    except ScenarioError as exc:
+        _err(f"scenario refused: {exc}")
+        return EXIT_REFUSED
+    results, interrupted = [], False
+    for config in configs:
+        try:
+            result = run_trial(config)
+        except TrialInterrupted:
+            interrupted = True
+            break
+        results.append(result)
+        d = result.to_dict()
+        cluster = ", failures cluster" if d["failures_clustered"] else ""
+        failed = {k: v for k, v in d["failures"].items() if v}
+        print(
+            f"seed {config.seed:>6}: {d['successes']}/{d['seedlings']} "
+            f"({100 * d['success_rate']:.1f} %){cluster}  {failed or ''}"
+        )
+    payload: dict[str, Any] = {"trials": [r.to_dict() for r in results], "interrupted": interrupted}
+    if results:
+        pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
+        payload["pooled"] = pooled.to_dict()
+        lo, hi = pooled.ci95
+        print(
+            f"pooled over {pooled.trials} trials: {100 * pooled.success_rate:.1f} % "
+            f"({pooled.successes}/{pooled.seedlings}), 95 % CI {100 * lo:.1f}-{100 * hi:.1f} % "
+            f"({pooled.method})"
+        )
+    if json_path is not None:
+        try:
+            fileio.write_json_atomic(json_path, payload)
+            print(f"results written to {_show(args.json)}")
+        except OSError as exc:
+            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
+            return EXIT_OUTPUT_FAILED
+    if interrupted:
+        _err(f"interrupted after {len(results)} trials")
+        return EXIT_INTERRUPTED
+    if not all(r.valid for r in results):
+        return EXIT_INVALID_PHYSICS
+    return EXIT_FIRMWARE_FAULT if any(r.fault for r in results) else EXIT_OK
 
 
 def _show(path) -> str:
@@ -211,8 +319,15 @@ def build_parser() -> argparse.ArgumentParser:
         "result file or the recording could not be written, 130 interrupted (Ctrl-C)",
     )
     p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    _set_arg(p)
     p.add_argument("--seedlings", type=int, default=None, help="override scenario.seedlings")
     p.add_argument("--seed", type=int, default=None, help="override scenario.seed")
+    p.add_argument(
+        "--seeds",
+        default=None,
+        help="one trial per seed ('41-44', '1,3,5-7') and the pooled success rate with an "
+        "interval from the spread between trials",
+    )
     p.add_argument("--json", type=Path, default=None, help="write results to this JSON file")
     p.add_argument("--record", type=Path, default=None, help="write a rerun .rrd recording")
     p.add_argument("--record-rate", type=float, default=60.0, help="recording rate in Hz (> 0)")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from transplanter.firmware.eeprom import EepromImage, Pickup
 from transplanter.firmware.pgf import PGFConfig
@@ -66,6 +67,7 @@ class TwinConfig:
     name: str
     seed: int
     seedlings: int
+    overrides: tuple[tuple[str, Any], ...]  # the scenario keys set on top of the file
     machine: Machine
     scene: SceneConfig
     gripper_servo: ServoConfig
@@ -86,6 +88,7 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
         name=s.meta.name,
         seed=s.meta.seed,
         seedlings=s.meta.seedlings,
+        overrides=s.overrides,
         machine=machine,
         scene=scene_config(s, machine),
         gripper_servo=ServoConfig(

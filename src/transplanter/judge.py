@@ -26,7 +26,7 @@ EventSink = Callable[[float, EventKind, str, "int | None"], None]
 
 # Phases of the PGF's lines the judge acts on.
 _APPROACH, _CLOSE, _LIFT, _TO_DROP = "approach", "close", "lift", "to_drop"
-_RELEASE, _RELEASE_WAIT, _INDEX = "release", "release_wait", "index"
+_RELEASE, _RELEASE_WAIT, _INDEX, _HOME = "release", "release_wait", "index", "home"
 
 
 class Judge:
@@ -58,6 +58,10 @@ class Judge:
         self.half_cell = 0.5 * config.cell_pitch_m
         self.gripping = False  # between the close and release lines
         self.microsteps_lost0 = np.zeros(3, dtype=np.int64)
+        # what the motors had lost when the machine last homed, and the events until then
+        self.lost_at_homing = np.zeros(3, dtype=np.int64)
+        self.events_at_homing = 0
+        self.events_reported = 0
         self.z0 = 0.0
 
     def _emit(self, t: float, kind: EventKind, text: str, seedling: int | None) -> None:
@@ -82,6 +86,9 @@ class Judge:
             self._emit(t, EventKind.FAILURE, f"rejected {line.text}: {line.reply}", line.seedling)
             return
         self._emit(t, EventKind.ACK, f"{line.phase}: {line.reply}", line.seedling)
+        if line.phase == _HOME:  # homing re-references the motors: the position is known again
+            self.lost_at_homing = self.twin.microsteps_lost.copy()
+            self.events_at_homing = len(self.twin.lost_step_events)
         if rec is None:
             return
         d = self.twin.data
@@ -111,6 +118,10 @@ class Judge:
         rec.t_start_s = t
         self.current = rec
         self.microsteps_lost0 = self.twin.microsteps_lost.copy()
+        off = int(np.abs(self.microsteps_lost0 - self.lost_at_homing).sum())
+        rec.position_error_microsteps = off
+        if off:
+            rec.lost_step_event = self.events_at_homing  # the first strike since homing
         grip_xy = np.asarray(self.taught.pickups[rec.pickup].grip_xy_m)
         if not self._cell_had_a_pot(grip_xy):
             rec.outcome = Outcome.NO_POT
@@ -131,6 +142,11 @@ class Judge:
 
     def _update_microsteps_lost(self, rec: SeedlingRecord) -> None:
         rec.microsteps_lost = int(np.abs(self.twin.microsteps_lost - self.microsteps_lost0).sum())
+        if rec.microsteps_lost and rec.lost_step_event is None:
+            events = self.twin.lost_step_events
+            rec.lost_step_event = next(
+                i for i, e in enumerate(events) if e.t_s >= (rec.t_start_s or 0.0)
+            )
 
     def _target_pot(self, grip_xy: np.ndarray) -> tuple[int | None, float, float]:
         """The pot standing nearest the grip point, its offset from it, and its tilt; None
@@ -182,6 +198,8 @@ class Judge:
             return Outcome.KNOCKED_OVER
         if rec.microsteps_lost:
             return Outcome.LOST_STEPS
+        if rec.position_error_microsteps:
+            return Outcome.POSITION_LOST
         if not rec.lifted:
             return Outcome.NOT_GRIPPED
         if not rec.in_gripper_at_drop:
@@ -206,6 +224,14 @@ class Judge:
     # -- physics samples -----------------------------------------------------------------
     def monitor(self, twin: Twin, i: int) -> None:
         """Sample grip force, leaf hits and motor lag of the seedling in progress."""
+        events = twin.lost_step_events
+        while self.events_reported < len(events):
+            e = events[self.events_reported]
+            touching = ", ".join(e.contacts) or "nothing"
+            text = f"motor {e.motor + 1} lost {e.microsteps} microsteps touching {touching}"
+            seedling = self.current.index if self.current is not None else None
+            self._emit(e.t_s, EventKind.LOST_STEPS, text, seedling)
+            self.events_reported += 1
         rec = self.current
         if rec is None:
             return
@@ -225,6 +251,7 @@ class Judge:
         """Judge the last pots; on invalid physics nothing more is judged: not_run."""
         if self.current is not None:
             self._update_microsteps_lost(self.current)
+        self.monitor(self.twin, 0)  # report the last lost-step events
         if valid:
             self._resolve_pending(t)
         for rec in self.records:

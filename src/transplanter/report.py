@@ -18,15 +18,18 @@ def printable(text: str) -> str:
 def format_summary(result: TrialResult) -> str:
     """The trial's numbers as an aligned two-column table."""
     d = result.to_dict()
-    lo, hi = d["success_rate_ci95"]
+    if d["success_rate_ci95"] is None:
+        interval = "no single-trial interval: failures cluster (pool seeds: --seeds)"
+    else:
+        lo, hi = d["success_rate_ci95"]
+        interval = f"95 % CI {100 * lo:.1f}-{100 * hi:.1f} %"
     rows = [
         ("scenario", f"{printable(d['scenario'])} (seed {d['seed']})"),
         ("valid", "yes" if d["valid"] else f"NO: {printable(d['invalid_reason'])}"),
         ("seedlings", f"{d['seedlings']}"),
         (
             "success rate",
-            f"{100 * d['success_rate']:.1f} % ({d['successes']}/{d['seedlings']}), "
-            f"95 % CI {100 * lo:.1f}-{100 * hi:.1f} %",
+            f"{100 * d['success_rate']:.1f} % ({d['successes']}/{d['seedlings']}), {interval}",
         ),
         (
             "cycle time",
@@ -40,6 +43,16 @@ def format_summary(result: TrialResult) -> str:
         ("real-time factor", f"{d['real_time_factor']:.1f}x" if d["real_time_factor"] else "n/a"),
     ]
     rows += [(f"failures: {k}", str(v)) for k, v in d["failures"].items()]
+    for i, e in enumerate(d["lost_step_events"]):
+        cost = sum(r.lost_step_event == i for r in result.per_seedling if r.outcome != "success")
+        touching = ", ".join(e["contacts"]) or "nothing"
+        rows.append(
+            (
+                f"lost steps #{i}",
+                f"t {e['t_s']:.3f} s, motor {e['motor'] + 1}, {e['microsteps']} microsteps, "
+                f"touching {printable(touching)}; cost {cost} seedlings",
+            )
+        )
     if d["fault"]:
         rows.append(("firmware fault", printable(d["fault"])))
     if d["interrupted"]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 from typing import Any
 
@@ -29,7 +29,8 @@ class Outcome(StrEnum):
     DROPPED_OUTSIDE = "dropped_outside"  # released over the tube, but it did not land inside
     KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
     NO_POT = "no_pot"  # the cell the pickup points at holds no pot
-    LOST_STEPS = "lost_steps"  # a motor slipped during the cycle (the arm is off its path)
+    LOST_STEPS = "lost_steps"  # a motor slipped during this cycle (the strike itself)
+    POSITION_LOST = "position_lost"  # an earlier lost-step event left the arm off position
     MOVE_REJECTED = "move_rejected"  # the SGF refused one of its lines
     NOT_RUN = "not_run"  # never attempted: the firmware faulted or the physics went invalid
 
@@ -37,6 +38,7 @@ class Outcome(StrEnum):
 class EventKind(StrEnum):
     """Kinds of the trial's event log (recordings show them on the timeline)."""
 
+    LOST_STEPS = "lost_steps"  # a motor slipped (with what the machine was touching)
     SENT = "sent"  # a G-code line went on the bus
     ACK = "ack"  # its reply came back
     GRASP = "grasp"  # the gripper starts closing on a pot
@@ -64,6 +66,8 @@ class SeedlingRecord:
     peak_grip_force_n: float = 0.0  # largest clamping force per jaw while holding
     leaves_hit: bool = False  # the gripper touched a neighbour's leaves
     microsteps_lost: int = 0  # microsteps the motors slipped during this cycle (all motors)
+    position_error_microsteps: int = 0  # lost since the last homing, at the cycle's start
+    lost_step_event: int | None = None  # index in lost_step_events of the strike behind it
     max_lag_full_steps: float = 0.0
     knocked_before: bool = False
     lifted: bool | None = None
@@ -96,6 +100,14 @@ class TrialResult:
     fault: str | None = None
     interrupted: bool = False  # stopped by the user: seedlings not yet judged are not_run
     recording_error: str | None = None  # the recording failed; the results stand
+    lost_step_events: list[dict[str, Any]] = field(default_factory=list)
+    overrides: dict[str, Any] = field(default_factory=dict)  # scenario keys set on the file
+
+    @property
+    def failures_clustered(self) -> bool:
+        """Whether one event failed several seedlings (a lost-step cascade): the picks are not
+        independent, so an interval over this trial's picks would be too narrow."""
+        return any(r.outcome == Outcome.POSITION_LOST for r in self.per_seedling)
 
     @property
     def judged(self) -> int:
@@ -130,7 +142,11 @@ class TrialResult:
         """The results as plain JSON types (the same trial gives the same dict, bar the
         wall time and the real-time factor)."""
         cycles = self.cycle_times
-        lo, hi = wilson_interval(self.successes, self.seedlings)
+        ci95 = (
+            None
+            if self.failures_clustered
+            else list(wilson_interval(self.successes, self.seedlings))
+        )
         per_seedling = []
         for r in self.per_seedling:
             row = asdict(r)
@@ -139,6 +155,7 @@ class TrialResult:
         return {
             "scenario": self.scenario,
             "seed": self.seed,
+            "overrides": self.overrides,
             "valid": self.valid,
             "invalid_reason": self.invalid_reason,
             "fault": self.fault,
@@ -146,7 +163,9 @@ class TrialResult:
             "seedlings": self.seedlings,
             "successes": self.successes,
             "success_rate": self.success_rate,
-            "success_rate_ci95": [lo, hi],
+            "success_rate_ci95": ci95,  # None when the failures cluster (see pooled trials)
+            "failures_clustered": self.failures_clustered,
+            "lost_step_events": self.lost_step_events,
             "failures": self.failures(),
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,
             "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,

@@ -27,7 +27,7 @@ from transplanter.firmware.sgf import SGF
 from transplanter.machine import GRIPPER_SERVO, Machine
 from transplanter.scene import Scene, build_scene
 
-__all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind"]
+__all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepEvent"]
 
 # Longest block of physics steps whose commands are computed at once (bounds memory and how
 # late a MuJoCo warning is noticed).
@@ -40,8 +40,24 @@ SERVO_RANGE_DEG = 180.0
 WRIST_SERVO_ZERO_DEG = 90.0
 
 
+@dataclass(frozen=True)
+class LostStepEvent:
+    """A motor slipped: when, which, by how many microsteps (signed), and what the machine
+    (arm, gripper, jaws) was touching at that moment ('machine geom/other geom')."""
+
+    t_s: float
+    motor: int  # 0 arm 1, 1 arm 2, 2 Z
+    microsteps: int
+    contacts: tuple[str, ...]
+
+
 class SimulationInvalid(RuntimeError):
     """The physics produced a MuJoCo warning or diverged: the trial is invalid."""
+
+
+def _geom_name(model: mujoco.MjModel, geom: int) -> str:
+    name = model.geom(geom).name
+    return name or f"{model.body(model.geom_bodyid[geom]).name}:geom{geom}"
 
 
 @dataclass
@@ -137,6 +153,9 @@ class Twin:
         self.microsteps_per_full_step = np.array([d.microsteps for d in self.machine.drives])
         self.slip_offset = np.zeros(3)  # joint units the motors have lost so far
         self.microsteps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
+        self.lost_step_events: list[LostStepEvent] = []
+        platform = self.model.body("platform").id
+        self._machine_body = self.model.body_rootid == self.model.body_rootid[platform]
         self.k = 0  # physics steps taken; time = k * dt exactly
         self._done_index = 0
         self._warnings0 = self._warning_counts()
@@ -235,7 +254,13 @@ class Twin:
             return
         shift = cycles * self.electrical_cycle
         self.slip_offset -= shift
-        self.microsteps_lost += (cycles * 4 * self.microsteps_per_full_step).astype(np.int64)
+        lost = (cycles * 4 * self.microsteps_per_full_step).astype(np.int64)
+        self.microsteps_lost += lost
+        contacts = self.machine_contacts()
+        for motor in np.flatnonzero(lost):
+            self.lost_step_events.append(
+                LostStepEvent(self.time, int(motor), int(lost[motor]), contacts)
+            )
         acts = self.scene.motor_actuators
         rows[i + 1 :, acts] -= shift * self.scene.motor_gears
         self.data.ctrl[acts] -= shift * self.scene.motor_gears
@@ -256,6 +281,18 @@ class Twin:
         angle maps linearly onto the opening, 0 deg closed, SERVO_RANGE_DEG fully open."""
         opening = self.gripper.at(np.asarray(times, dtype=float)) * self._open_m_per_deg
         return np.clip(opening, 0.0, self._max_opening)
+
+    def machine_contacts(self) -> tuple[str, ...]:
+        """The contacts of the machine's geoms now, as 'machine geom/other geom' names."""
+        m, d = self.model, self.data
+        out = []
+        for c in d.contact[: d.ncon]:
+            g1, g2 = int(c.geom1), int(c.geom2)
+            on1, on2 = self._machine_body[m.geom_bodyid[g1]], self._machine_body[m.geom_bodyid[g2]]
+            if on1 or on2:
+                mine, other = (g1, g2) if on1 else (g2, g1)
+                out.append(f"{_geom_name(m, mine)}/{_geom_name(m, other)}")
+        return tuple(sorted(set(out)))
 
     def commanded_joints(self) -> np.ndarray:
         return self.data.ctrl[self.scene.motor_actuators] / self.scene.motor_gears

@@ -7,6 +7,7 @@ table, JSON files) lives in `transplanter.report`, the command line in `transpla
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -110,6 +111,8 @@ def run_trial(
         fault=twin.pgf.fault,
         interrupted=interrupted,
         recording_error=recording_error,
+        lost_step_events=[dataclasses.asdict(e) for e in twin.lost_step_events],
+        overrides=dict(config.overrides),
     )
     if interrupted:
         raise TrialInterrupted(result)
