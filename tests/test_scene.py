@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from transplanter import kinematics
-from transplanter.scene import SceneConfig, build_scene, five_bar_forward
+from transplanter.scene import ConveyorDrive, SceneConfig, build_scene, five_bar_forward
 
 
 def ik(cfg, x, y):
@@ -21,11 +21,12 @@ class Runner:
     def __init__(self, scene):
         self.scene, self.model = scene, scene.model
         self.data = scene.make_data()
+        self.conveyor = ConveyorDrive(scene)
         self.p = self.data.site_xpos[scene.grip_site].copy()
 
     def step(self, n=1):
         for _ in range(n):
-            self.scene.apply_conveyor(self.data, self.data.time)
+            self.conveyor.apply(self.data, self.data.time)
             mujoco.mj_step(self.model, self.data)
 
     def move(self, target, speed):
@@ -145,20 +146,20 @@ def test_conveyor_index_moves_pots_one_row_and_they_rest(pot_diameter):
     assert run.data.ntree_awake == 1  # only the arm: pots and conveyor asleep
     back_rows = slice(cfg.cols, None)
     before = scene.pot_positions(run.data)[back_rows]
-    scene.start_conveyor_index(run.data, run.data.time, 1.0)
-    assert scene.conveyor_indexing(run.data.time)
-    while scene.conveyor_indexing(run.data.time):
+    run.conveyor.start(run.data, run.data.time, 1.0)
+    assert run.conveyor.indexing(run.data, run.data.time)
+    while run.conveyor.indexing(run.data, run.data.time):
         run.step()
     run.step(300)
     after = scene.pot_positions(run.data)[back_rows]
     moved = before - after
     # the ribs re-centre each pot in its cell (whatever the pot size): displacement = pitch +
     # its placement offset; a fixed 4 mm overshoot left 30 mm pots 2.8 mm off centre
-    offset_y = scene.pot_params["offset"][back_rows, 1]
+    offset_y = scene.pots.offset[back_rows, 1]
     assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.001
     # sideways the smaller pots have more play in their cells (5 mm each side for 33 mm)
     assert np.abs(moved[:, 0]).max() < 0.003
-    cells = scene.pot_params["cell_xy"][back_rows] - [0, cfg.row_pitch]
+    cells = scene.pots.cell_xy[back_rows] - [0, cfg.row_pitch]
     assert np.abs(after[:, 1] - cells[:, 1]).max() < 0.001
     assert np.abs(after[:, 0] - cells[:, 0]).max() < cfg.pot_offset_max + 0.003
     assert np.abs(run.data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]).max() < 1e-3
@@ -177,21 +178,22 @@ def rollout_qpos(seed, steps=200):
     """qpos after `steps` physics steps of a fresh 2x2 scene with the arm moving."""
     scene = build_scene(SceneConfig(rows=2, cols=2), seed=seed)
     data = scene.make_data()
+    conveyor = ConveyorDrive(scene)
     home = scene.joint_positions(data)
     for i in range(steps):
         scene.set_motor_targets(data, home + [-0.002 * i, 0.001 * i, -0.0002 * i])
-        scene.apply_conveyor(data, data.time)
+        conveyor.apply(data, data.time)
         mujoco.mj_step(scene.model, data)
     pot_xyz = data.qpos[scene.pot_qpos_adr[:, None] + np.arange(3)].copy()
-    return scene.pot_params, data.qpos.copy(), pot_xyz
+    return scene.pots, data.qpos.copy(), pot_xyz
 
 
 def test_build_and_rollout_are_deterministic_and_seed_dependent():
     a, qpos_a, pots_a = rollout_qpos(7)
     b, qpos_b, _ = rollout_qpos(7)
     c, qpos_c, pots_c = rollout_qpos(8)
-    assert all(np.array_equal(a[k], b[k]) for k in a)
-    assert not np.array_equal(a["mass"], c["mass"])
+    assert a == b
+    assert not np.array_equal(a.mass, c.mass)
     assert np.array_equal(qpos_a, qpos_b)  # bit-identical
     assert not np.array_equal(qpos_a, qpos_c)
     assert not np.array_equal(pots_a, pots_c)
@@ -282,9 +284,10 @@ def test_conveyor_index_is_done_within_the_index_time():
     force released, and the next index may start."""
     cfg = SceneConfig(rows=3, cols=3)
     scene = build_scene(cfg, seed=5)
-    assert scene.conveyor_index_phases(0.6) == pytest.approx((0.5, 0.1))
-    assert scene.conveyor_index_phases(0.2) == pytest.approx((0.15, 0.05))
     run = Runner(scene)
+    conveyor = run.conveyor
+    assert conveyor.index_phases(0.6) == pytest.approx((0.5, 0.1))
+    assert conveyor.index_phases(0.2) == pytest.approx((0.15, 0.05))
     run.step(300)
     data, dof = run.data, scene.conveyor_dof_adr
     for index in (1, 2):  # the second index starts the moment the first is acknowledged
@@ -292,21 +295,21 @@ def test_conveyor_index_is_done_within_the_index_time():
             adr = scene.pot_qpos_adr[(index - 1) * cfg.cols + c]
             data.qpos[adr : adr + 3] = [0.4 + 0.05 * c, 0.1 * index, -0.13]
         t0 = data.time
-        scene.start_conveyor_index(data, t0, 0.6)
+        conveyor.start(data, t0, 0.6)
         while data.time < t0 + 0.59:
             run.step()
-        assert scene.conveyor_indexing(data.time)
+        assert conveyor.indexing(data, data.time)
         with pytest.raises(RuntimeError, match="already indexing"):
-            scene.start_conveyor_index(data, data.time, 0.6)
+            conveyor.start(data, data.time, 0.6)
         while data.time < t0 + 0.6 - 1e-9:
             run.step()
-        assert not scene.conveyor_indexing(data.time)
+        assert not conveyor.indexing(data, data.time)
         assert abs(data.qvel[dof]) < 1e-3
         back_rows = slice(index * cfg.cols, None)
         pot_vel = data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]
         assert np.abs(pot_vel).max() < 5e-3  # a few mm/s of rocking, asleep soon after
         assert scene.conveyor_position(data) == pytest.approx(-index * cfg.row_pitch, abs=2e-4)
-        scene.apply_conveyor(data, data.time)
+        conveyor.apply(data, data.time)
         assert data.qfrc_applied[dof] == 0.0
     run.step(300)
     assert data.ntree_awake == 1  # carriage and pots asleep again
@@ -315,4 +318,4 @@ def test_conveyor_index_is_done_within_the_index_time():
 def test_conveyor_index_time_must_be_positive():
     scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
     with pytest.raises(ValueError, match="index time"):
-        scene.start_conveyor_index(scene.make_data(), 0.0, 0.0)
+        ConveyorDrive(scene).start(scene.make_data(), 0.0, 0.0)

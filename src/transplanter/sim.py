@@ -24,7 +24,7 @@ from transplanter.firmware.rig import FirmwareLink
 from transplanter.firmware.sgf import SGF
 from transplanter.machine import GRIPPER_SERVO, Machine, machine_from_scenario, power_on_joints
 from transplanter.scenario import Scenario
-from transplanter.scene import Scene, SceneConfig, build_scene
+from transplanter.scene import ConveyorDrive, Scene, SceneConfig, build_scene
 
 __all__ = ["Twin", "SimulationInvalid", "scene_config_from_scenario", "SCALAR_NAMES"]
 
@@ -186,6 +186,7 @@ class Twin:
         wrist_deg = math.degrees(self.data.qpos[self.scene.wrist_qpos_adr]) + 90.0
         self.gripper = _ServoRamp(60.0 / grip["servo_s_per_60deg"], gripper_deg)
         self.wrist = _ServoRamp(60.0 / grip["wrist_servo_s_per_60deg"], wrist_deg)
+        self.conveyor = ConveyorDrive(self.scene)  # its state lives in self.data.userdata
         # Stepper positions are relative to where each motor was at power-on: the SGF's raw
         # pulse counters start at zero there, and homing only changes its logical counters.
         self.q_power_on = self.scene.joint_positions(self.data).copy()
@@ -228,9 +229,7 @@ class Twin:
             servo.command(ts, deg)
         for t_event, name in self.sgf.drain_machine_events():
             if name == "conveyor_index":
-                self.scene.start_conveyor_index(
-                    self.data, t_event, self.machine.sgf.conveyor_index_s
-                )
+                self.conveyor.start(self.data, t_event, self.machine.sgf.conveyor_index_s)
         sent = self.pgf.sent
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
             self._notify(LineEvent(sent[self._done_index], t, "done"))
@@ -257,7 +256,7 @@ class Twin:
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
         ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - 90.0)
-        return _Block(ctrl, pulses, self.scene.conveyor_armed(self.data))
+        return _Block(ctrl, pulses, self.conveyor.armed(self.data))
 
     # -- stepping ------------------------------------------------------------------------
     def step_until(
@@ -279,7 +278,7 @@ class Twin:
             for i in range(rows.shape[0]):
                 ctrl[:] = rows[i]
                 if block.conveyor:
-                    self.scene.apply_conveyor(d, self.time)
+                    self.conveyor.apply(d, self.time)
                 mujoco.mj_step(m, d)
                 self.k += 1
                 if self.k % SLIP_CHECK_STEPS == 0:
