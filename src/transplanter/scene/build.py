@@ -3,9 +3,9 @@
 models/*.xml hold the machine, the belt table, the conveyor carriage and the drop tube with
 the numbers of SceneConfig() (scripts/make_models.py writes them with the functions below),
 so for the default config the `apply_*` steps change nothing; any other config is applied
-here: link lengths and masses, stepper drives, gripper, solver, drop tube, conveyor layout.
-Then the conveyor ribs and the rows x cols paper pots with seedlings (a PotBatch drawn from
-the seed) are added, the arm's inertials are derived from its geoms, the `home` keyframe is
+here: link lengths and masses, stepper drives, gripper, solver, drop tube, conveyor layout,
+and the arm's inertials derived from its geoms. Then the conveyor ribs and the rows x cols
+paper pots with seedlings (a PotBatch drawn from the seed) are added, the `home` keyframe is
 set and the spec is compiled into a Scene.
 
 Frames and joint conventions: models/README.md and docs/architecture.md.
@@ -75,28 +75,36 @@ def build_scene(config: SceneConfig | None = None, seed: int = 0) -> Scene:
     return Scene(compile_with_home(spec, cfg), cfg, pots)
 
 
-def scene_spec(cfg: SceneConfig) -> mujoco.MjSpec:
-    """models/scene.xml with the config applied: everything but the ribs and pots."""
-    spec = mujoco.MjSpec.from_file(str(models_dir() / "scene.xml"))
+def scene_spec(cfg: SceneConfig, xml_path: str | Path | None = None) -> mujoco.MjSpec:
+    """models/scene.xml (or xml_path) with the config applied: all but the ribs and pots."""
+    path = xml_path if xml_path is not None else models_dir() / "scene.xml"
+    spec = mujoco.MjSpec.from_file(str(path))
     apply_options(spec, cfg)
     apply_arm(spec, cfg)
     apply_drop_tube(spec, cfg)
     apply_conveyor(spec, cfg)
+    apply_arm_inertials(spec)
     return spec
 
 
-def compile_with_home(spec: mujoco.MjSpec, cfg: SceneConfig) -> mujoco.MjModel:
-    """Derive the arm's inertials from its geoms, set the `home` keyframe, compile."""
+def apply_arm_inertials(spec: mujoco.MjSpec) -> None:
+    """Explicit inertials of the arm's bodies, computed by MuJoCo from their geoms (masses
+    and shapes follow the config), exactly as the compiler would without an <inertial>."""
+    probe = spec.copy()
+    probe.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
+    model = probe.compile()
     for body in ARM_BODIES:
-        spec.body(body).explicitinertial = False
-    model0 = spec.compile()
-    for body in ARM_BODIES:
-        b, i = spec.body(body), model0.body(body).id
-        b.mass = model0.body_mass[i]
-        b.ipos = model0.body_ipos[i]
-        b.iquat = model0.body_iquat[i]
-        b.inertia = model0.body_inertia[i]
+        b, i = spec.body(body), model.body(body).id
+        b.mass = model.body_mass[i]
+        b.ipos = model.body_ipos[i]
+        b.iquat = model.body_iquat[i]
+        b.inertia = model.body_inertia[i]
         b.explicitinertial = True
+
+
+def compile_with_home(spec: mujoco.MjSpec, cfg: SceneConfig) -> mujoco.MjModel:
+    """Set the `home` keyframe (qpos0 for the joints it does not name) and compile."""
+    model0 = spec.compile()
     qpos = model0.qpos0.copy()
     for joint_name, value in home_joint_positions(cfg).items():
         qpos[model0.joint(joint_name).qposadr[0]] = value
