@@ -82,7 +82,7 @@ def scene_spec(cfg: SceneConfig, xml_path: str | Path | None = None) -> mujoco.M
     apply_options(spec, cfg)
     apply_arm(spec, cfg)
     apply_drop_tube(spec, cfg)
-    apply_conveyor(spec, cfg)
+    apply_conveyor_layout(spec, cfg)
     apply_arm_inertials(spec)
     return spec
 
@@ -259,7 +259,7 @@ def _add_static_box(body, name, half, pos, quat) -> None:
     geom.rgba = list(STATIC_COLLISION_RGBA)
 
 
-def apply_conveyor(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+def apply_conveyor_layout(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     """Carriage mass and slide friction, and the belt table sized for rows x cols."""
     spec.joint("conveyor").frictionloss = cfg.conveyor_frictionloss
     spec.body("conveyor").mass = cfg.conveyor_mass

@@ -141,7 +141,7 @@ class SceneConfig:
     table_side_margin: float = 0.02
     # Conveyor carriage: mass (kg), dry friction of its slide (N), PD gains of the index drive
     # (N/m, N*s/m), settle time held after the profile before the force is released (s; at
-    # most a quarter of the index time, see Scene.conveyor_index_phases), the share of the
+    # most a quarter of the index time, see ConveyorDrive.index_phases), the share of the
     # profile spent pushing (the rest returns by the overshoot: 4 mm, no pot contact). With
     # the paper's 0.6 s index that is a 0.425 s push; a 0.34 s push (settle 0.15 s, share
     # 0.75) tipped 1-8 back-row pots per 40-pot trial onto the ribs. Last, the
