@@ -1,7 +1,7 @@
 """Steps per second of the full 40-pot scene: all resting, while the arm works on row 0
 (joint targets from transplanter.kinematics), and during a 0.6 s conveyor index.
 
-Run: /tmp/venv/bin/python benchmarks/bench_scene.py
+Run: .venv/bin/python benchmarks/bench_scene.py
 """
 
 import math
@@ -14,7 +14,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
 from transplanter import kinematics  # noqa: E402
-from transplanter.scene import SceneConfig, build_scene, five_bar_forward  # noqa: E402
+from transplanter.scene import (  # noqa: E402
+    ConveyorDrive,
+    SceneConfig,
+    build_scene,
+    five_bar_forward,
+)
 
 
 def ik(cfg, x, y):
@@ -26,6 +31,7 @@ def main() -> None:
     cfg = SceneConfig()
     scene = build_scene(cfg, seed=0)
     model, data = scene.model, scene.make_data()
+    conveyor = ConveyorDrive(scene)
     print(f"nq={model.nq} nv={model.nv} ngeom={model.ngeom} nbody={model.nbody}")
     for _ in range(300):
         mujoco.mj_step(model, data)
@@ -33,7 +39,7 @@ def main() -> None:
     n = 5000
     start = time.perf_counter()
     for _ in range(n):
-        scene.apply_conveyor(data, data.time)
+        conveyor.apply(data, data.time)
         mujoco.mj_step(model, data)
     print(
         f"resting: {n / (time.perf_counter() - start):,.0f} steps/s, "
@@ -77,7 +83,7 @@ def main() -> None:
         if i in gripper_events:
             scene.set_gripper_opening(data, gripper_events[i])
         ctrl[motors] = target
-        scene.apply_conveyor(data, data.time)
+        conveyor.apply(data, data.time)
         mujoco.mj_step(model, data)
         awake[i] = data.ntree_awake
     elapsed = time.perf_counter() - start
@@ -93,18 +99,18 @@ def main() -> None:
         data.qpos[adr : adr + 3] = [0.4 + 0.05 * c, 0.0, -0.13]
     index_s = 0.6
     n = int(round(index_s / model.opt.timestep))
-    scene.start_conveyor_index(data, data.time, index_s)
+    conveyor.start(data, data.time, index_s)
     awake = np.zeros(n)
     start = time.perf_counter()
     for i in range(n):
-        scene.apply_conveyor(data, data.time)
+        conveyor.apply(data, data.time)
         mujoco.mj_step(model, data)
         awake[i] = data.ntree_awake
     elapsed = time.perf_counter() - start
     print(
         f"conveyor index: {n / elapsed:,.0f} steps/s over {n} steps, "
-        f"mean awake trees {awake.mean():.1f}; done: {not scene.conveyor_indexing(data.time)}, "
-        f"conveyor at {scene.conveyor_position(data) * 1000:.2f} mm; "
+        f"mean awake trees {awake.mean():.1f}; done: {not conveyor.indexing(data, data.time)}, "
+        f"conveyor at {conveyor.position(data) * 1000:.2f} mm; "
         f"warnings {data.warning.number.sum()}"
     )
 

@@ -1,15 +1,17 @@
 """Write the visual meshes of the twin to models/assets/ (re-runnable, deterministic).
 
-Run: /tmp/venv/bin/python scripts/make_meshes.py
+Run: .venv/bin/python scripts/make_meshes.py
 
-Meshes are visual only; every collision shape is a MuJoCo primitive (see models/*.xml and
-transplanter.scene). Sizes are the DESIGN.md defaults in metres; build_scene scales the pot
-and seedling meshes per pot with the mesh `scale` attribute, so the meshes are unit-ish shapes:
-- paper_pot.stl: tapered paper pot, 35 mm dia x 52 mm, base at z=0.
-- seedling_stem.stl, seedling_leaf.stl: stem (base at z=0, 40 mm) and one leaf blade that
-  starts at the origin and extends along +x (45 mm), curving up.
+Meshes are visual only; every collision shape is a MuJoCo primitive (models/*.xml and
+transplanter.scene.build). Sizes are the DESIGN.md defaults in metres, and the meshes are
+drawn at that size: build_scene does not scale them (a pot's collision cylinder follows its
+drawn size, its mesh stays the nominal pot; the stem is a capsule, not a mesh).
+- paper_pot.stl: tapered paper pot, 35 mm rim, 32 mm base, 52 mm tall, base at z=0.
+- seedling_leaf.stl: one leaf blade that starts at the origin and extends along +x (45 mm),
+  curving up.
 - jaw.stl: one jaw plate, 3 x 20 x 45 mm, centred, with a ribbed inner face.
-- funnel.stl: funnel (60 mm top dia at z=0, 40 mm throat 20 mm lower) and 140 mm tube below.
+- funnel.stl: funnel (60 mm top dia at z=0, 42 mm throat 20 mm lower) and the tube below it,
+  down to 160 mm below the funnel top (the collision walls are boxes: drop_tube_boxes).
 """
 
 from pathlib import Path
@@ -33,12 +35,6 @@ def paper_pot() -> trimesh.Trimesh:
         faces += [[i, j, sections + j], [i, sections + j, sections + i]]
         faces += [[2 * sections, j, i], [2 * sections + 1, sections + i, sections + j]]
     return trimesh.Trimesh(vertices, np.array(faces), process=True)
-
-
-def seedling_stem() -> trimesh.Trimesh:
-    stem = trimesh.creation.cylinder(radius=0.0015, height=0.040, sections=12)
-    stem.apply_translation([0, 0, 0.020])
-    return stem
 
 
 def seedling_leaf() -> trimesh.Trimesh:
@@ -82,7 +78,6 @@ def main() -> None:
     ASSETS.mkdir(parents=True, exist_ok=True)
     meshes = {
         "paper_pot.stl": paper_pot(),
-        "seedling_stem.stl": seedling_stem(),
         "seedling_leaf.stl": seedling_leaf(),
         "jaw.stl": jaw(),
         "funnel.stl": funnel(),

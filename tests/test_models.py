@@ -1,6 +1,9 @@
-"""Model files: compile, run warning-free, five-bar accuracy, stepper lag and stiffness."""
+"""Model files: generated numbers up to date, compile, run warning-free, five-bar accuracy,
+stepper lag and stiffness."""
 
+import importlib.util
 import math
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -8,6 +11,9 @@ import pytest
 
 from transplanter import kinematics
 from transplanter.scene import SceneConfig, build_scene, five_bar_forward, models_dir
+from transplanter.scene.build import compile_with_home, scene_spec
+
+REPO = Path(__file__).resolve().parent.parent
 
 CFG = SceneConfig()
 FULL_STEP = CFG.full_step_rad
@@ -31,6 +37,54 @@ def run_noisy(model, seconds=2.0, seed=0):
         data.ctrl[limited] = np.clip(data.ctrl[limited], lo[limited], hi[limited])
         mujoco.mj_step(model, data)
     return data
+
+
+def load_make_models():
+    spec = importlib.util.spec_from_file_location("make_models", REPO / "scripts/make_models.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_model_files_are_what_make_models_writes():
+    """models/*.xml carry SceneConfig()'s numbers: run scripts/make_models.py if this fails."""
+    make_models = load_make_models()
+    for name, text in make_models.generate(REPO / "models").items():
+        assert (REPO / "models" / name).read_text() == text, f"models/{name} is stale"
+
+
+def model_arrays(model):
+    out = {}
+    for name in dir(model):
+        value = getattr(model, name) if not name.startswith("_") else None
+        if isinstance(value, np.ndarray):
+            out[name] = value
+    return out
+
+
+def test_default_config_changes_nothing_in_the_model_files():
+    """build_scene's config steps, applied with SceneConfig(), give exactly the model files."""
+    files = mujoco.MjModel.from_xml_path(str(models_dir() / "scene.xml"))
+    cfg = SceneConfig()
+    applied = compile_with_home(scene_spec(cfg), cfg)
+    a, b = model_arrays(files), model_arrays(applied)
+    assert a.keys() == b.keys()
+    differ = [name for name in a if not np.array_equal(a[name], b[name])]
+    assert differ == []
+
+
+def test_another_config_is_applied_over_the_files():
+    """Longer links move the elbow and get heavier inertia; the keyframe closes the chain."""
+    cfg = SceneConfig(l1=0.14, active_link_mass=0.08, rows=1, cols=1)
+    model = build_scene(cfg, seed=0).model
+    files = mujoco.MjModel.from_xml_path(str(models_dir() / "transplanter.xml"))
+    assert model.body("passive1").pos.tolist() == [0.14, 0, -0.015]
+    assert model.body("link1").mass[0] == pytest.approx(0.08)
+    assert model.body("link1").inertia[0] > 1.5 * files.body("link1").inertia[0]
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    mujoco.mj_forward(model, data)
+    assert np.linalg.norm(data.site("c1").xpos - data.site("c2").xpos) < 1e-9
 
 
 @pytest.mark.parametrize("name", ["transplanter.xml", "scene.xml"])
@@ -65,7 +119,7 @@ def workspace_points(n, seed=0):
     IK lies inside the joint ranges (theta1 in [75, 240] deg, theta2 in [-60, 105] deg)."""
     rng = np.random.default_rng(seed)
     points = []
-    while len(points) < n:
+    for _ in range(n):
         x, y = rng.uniform(-0.1, 0.1), rng.uniform(0.12, 0.24)
         t1, t2 = ik(CFG, x, y)
         assert CFG.theta1_range[0] < t1 < CFG.theta1_range[1]

@@ -1,6 +1,7 @@
 """The package installs from a wheel and runs without a checkout: models and scenarios inside."""
 
 import os
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -12,10 +13,16 @@ from conftest import ROOT
 
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory):
+    """The wheel built from a clean copy of the sources (a checkout's build/ may be stale)."""
+    src = tmp_path_factory.mktemp("src")
+    for name in ("src", "models", "scenarios"):
+        shutil.copytree(ROOT / name, src / name, ignore=shutil.ignore_patterns("__pycache__"))
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / name, src / name)
     out = tmp_path_factory.mktemp("wheel")
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-         "-w", str(out), str(ROOT)],
+         "-w", str(out), str(src)],
         check=True,
         capture_output=True,
     )  # fmt: skip

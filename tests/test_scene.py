@@ -1,5 +1,6 @@
-"""Scene builder: grasp by friction, drop tube, sleeping, conveyor indexing."""
+"""Scene builder: grasp by friction, drop tube, sleeping, conveyor indexing, pot batches."""
 
+import copy
 import math
 
 import mujoco
@@ -7,7 +8,13 @@ import numpy as np
 import pytest
 
 from transplanter import kinematics
-from transplanter.scene import SceneConfig, build_scene, five_bar_forward
+from transplanter.scene import (
+    ConveyorDrive,
+    PotBatch,
+    SceneConfig,
+    build_scene,
+    five_bar_forward,
+)
 
 
 def ik(cfg, x, y):
@@ -21,12 +28,21 @@ class Runner:
     def __init__(self, scene):
         self.scene, self.model = scene, scene.model
         self.data = scene.make_data()
+        self.conveyor = ConveyorDrive(scene)
         self.p = self.data.site_xpos[scene.grip_site].copy()
 
     def step(self, n=1):
         for _ in range(n):
-            self.scene.apply_conveyor(self.data, self.data.time)
+            self.conveyor.apply(self.data, self.data.time)
             mujoco.mj_step(self.model, self.data)
+
+    def step_until(self, t):
+        """Step until data.time >= t (bounded: the steps t needs, plus one)."""
+        dt = self.model.opt.timestep
+        for _ in range(max(math.ceil((t - self.data.time) / dt), 0) + 1):
+            if self.data.time >= t:
+                return
+            self.step()
 
     def move(self, target, speed):
         target = np.asarray(target, float)
@@ -145,20 +161,20 @@ def test_conveyor_index_moves_pots_one_row_and_they_rest(pot_diameter):
     assert run.data.ntree_awake == 1  # only the arm: pots and conveyor asleep
     back_rows = slice(cfg.cols, None)
     before = scene.pot_positions(run.data)[back_rows]
-    scene.start_conveyor_index(run.data, run.data.time, 1.0)
-    assert scene.conveyor_indexing(run.data.time)
-    while scene.conveyor_indexing(run.data.time):
-        run.step()
+    run.conveyor.start(run.data, run.data.time, 1.0)
+    assert run.conveyor.indexing(run.data, run.data.time)
+    run.step_until(run.data.time + 1.0)
+    assert not run.conveyor.indexing(run.data, run.data.time)
     run.step(300)
     after = scene.pot_positions(run.data)[back_rows]
     moved = before - after
     # the ribs re-centre each pot in its cell (whatever the pot size): displacement = pitch +
     # its placement offset; a fixed 4 mm overshoot left 30 mm pots 2.8 mm off centre
-    offset_y = scene.pot_params["offset"][back_rows, 1]
+    offset_y = scene.pots.offset[back_rows, 1]
     assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.001
     # sideways the smaller pots have more play in their cells (5 mm each side for 33 mm)
     assert np.abs(moved[:, 0]).max() < 0.003
-    cells = scene.pot_params["cell_xy"][back_rows] - [0, cfg.row_pitch]
+    cells = scene.pots.cell_xy[back_rows] - [0, cfg.row_pitch]
     assert np.abs(after[:, 1] - cells[:, 1]).max() < 0.001
     assert np.abs(after[:, 0] - cells[:, 0]).max() < cfg.pot_offset_max + 0.003
     assert np.abs(run.data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]).max() < 1e-3
@@ -168,7 +184,11 @@ def test_conveyor_index_moves_pots_one_row_and_they_rest(pot_diameter):
 
 def test_conveyor_overshoot_can_be_set():
     assert SceneConfig(conveyor_overshoot=0.002).index_overshoot == 0.002
-    assert SceneConfig().index_overshoot == pytest.approx(0.004)
+    # by default it is the cell clearance, whatever the pot size
+    for diameter in (0.030, 0.035):
+        cfg = SceneConfig(pot_diameter=diameter)
+        assert cfg.index_overshoot == cfg.cell_clearance
+        assert diameter + 2 * cfg.index_overshoot + cfg.rib_thickness == pytest.approx(0.045)
     with pytest.raises(ValueError, match="conveyor_overshoot"):
         SceneConfig(conveyor_overshoot=-0.001)
 
@@ -177,21 +197,22 @@ def rollout_qpos(seed, steps=200):
     """qpos after `steps` physics steps of a fresh 2x2 scene with the arm moving."""
     scene = build_scene(SceneConfig(rows=2, cols=2), seed=seed)
     data = scene.make_data()
+    conveyor = ConveyorDrive(scene)
     home = scene.joint_positions(data)
     for i in range(steps):
         scene.set_motor_targets(data, home + [-0.002 * i, 0.001 * i, -0.0002 * i])
-        scene.apply_conveyor(data, data.time)
+        conveyor.apply(data, data.time)
         mujoco.mj_step(scene.model, data)
     pot_xyz = data.qpos[scene.pot_qpos_adr[:, None] + np.arange(3)].copy()
-    return scene.pot_params, data.qpos.copy(), pot_xyz
+    return scene.pots, data.qpos.copy(), pot_xyz
 
 
 def test_build_and_rollout_are_deterministic_and_seed_dependent():
     a, qpos_a, pots_a = rollout_qpos(7)
     b, qpos_b, _ = rollout_qpos(7)
     c, qpos_c, pots_c = rollout_qpos(8)
-    assert all(np.array_equal(a[k], b[k]) for k in a)
-    assert not np.array_equal(a["mass"], c["mass"])
+    assert a == b
+    assert not np.array_equal(a.mass, c.mass)
     assert np.array_equal(qpos_a, qpos_b)  # bit-identical
     assert not np.array_equal(qpos_a, qpos_c)
     assert not np.array_equal(pots_a, pots_c)
@@ -282,9 +303,10 @@ def test_conveyor_index_is_done_within_the_index_time():
     force released, and the next index may start."""
     cfg = SceneConfig(rows=3, cols=3)
     scene = build_scene(cfg, seed=5)
-    assert scene.conveyor_index_phases(0.6) == pytest.approx((0.5, 0.1))
-    assert scene.conveyor_index_phases(0.2) == pytest.approx((0.15, 0.05))
     run = Runner(scene)
+    conveyor = run.conveyor
+    assert conveyor.index_phases(0.6) == pytest.approx((0.5, 0.1))
+    assert conveyor.index_phases(0.2) == pytest.approx((0.15, 0.05))
     run.step(300)
     data, dof = run.data, scene.conveyor_dof_adr
     for index in (1, 2):  # the second index starts the moment the first is acknowledged
@@ -292,21 +314,19 @@ def test_conveyor_index_is_done_within_the_index_time():
             adr = scene.pot_qpos_adr[(index - 1) * cfg.cols + c]
             data.qpos[adr : adr + 3] = [0.4 + 0.05 * c, 0.1 * index, -0.13]
         t0 = data.time
-        scene.start_conveyor_index(data, t0, 0.6)
-        while data.time < t0 + 0.59:
-            run.step()
-        assert scene.conveyor_indexing(data.time)
+        conveyor.start(data, t0, 0.6)
+        run.step_until(t0 + 0.59)
+        assert conveyor.indexing(data, data.time)
         with pytest.raises(RuntimeError, match="already indexing"):
-            scene.start_conveyor_index(data, data.time, 0.6)
-        while data.time < t0 + 0.6 - 1e-9:
-            run.step()
-        assert not scene.conveyor_indexing(data.time)
+            conveyor.start(data, data.time, 0.6)
+        run.step_until(t0 + 0.6 - 1e-9)
+        assert not conveyor.indexing(data, data.time)
         assert abs(data.qvel[dof]) < 1e-3
         back_rows = slice(index * cfg.cols, None)
         pot_vel = data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]
         assert np.abs(pot_vel).max() < 5e-3  # a few mm/s of rocking, asleep soon after
         assert scene.conveyor_position(data) == pytest.approx(-index * cfg.row_pitch, abs=2e-4)
-        scene.apply_conveyor(data, data.time)
+        conveyor.apply(data, data.time)
         assert data.qfrc_applied[dof] == 0.0
     run.step(300)
     assert data.ntree_awake == 1  # carriage and pots asleep again
@@ -315,4 +335,77 @@ def test_conveyor_index_is_done_within_the_index_time():
 def test_conveyor_index_time_must_be_positive():
     scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
     with pytest.raises(ValueError, match="index time"):
-        scene.start_conveyor_index(scene.make_data(), 0.0, 0.0)
+        ConveyorDrive(scene).start(scene.make_data(), 0.0, 0.0)
+
+
+def test_pot_batch_of_a_seed_is_the_one_drawn_before_the_refactor():
+    """Seed 0, default config: numbers drawn by the former scene.py (pot_params dict)."""
+    pots = PotBatch.draw(SceneConfig(), seed=0)
+    assert len(pots) == 40
+    pick = [0, 1, -1]
+    assert pots.diameter[pick].tolist() == [
+        0.03503771906632802, 0.034960368541012615, 0.03544802934356623,
+    ]  # fmt: skip
+    assert pots.height[pick].tolist() == [
+        0.0509927475743167, 0.05321113901979125, 0.0536019140669162,
+    ]  # fmt: skip
+    assert pots.mass[pick].tolist() == [
+        0.048131115155074795, 0.04320083545884664, 0.05398918388666617,
+    ]  # fmt: skip
+    assert pots.friction[pick].tolist() == [
+        0.6393794110852935, 0.6422039340289296, 0.4800883567301114,
+    ]  # fmt: skip
+    assert pots.offset.ravel()[pick].tolist() == [
+        0.000513052133880305, -0.0002975840389433304, -0.0011422789566319196,
+    ]  # fmt: skip
+    assert pots.stem_length[[0, -1]].tolist() == [0.04102848905241116, 0.04363786241097085]
+    assert pots.n_leaves[:8].tolist() == [2, 3, 3, 2, 2, 3, 3, 3]
+    assert pots.leaf_yaw0[[0, -1]].tolist() == [5.189642282699918, 3.841154238748444]
+    cells = pots.cell_xy[[0, 4, 5]].ravel().tolist()
+    assert cells == pytest.approx([-0.09, 0.215, 0.09, 0.215, -0.09, 0.26])
+
+
+def test_pot_batch_is_what_the_scene_is_built_from_and_is_read_only():
+    cfg = SceneConfig(rows=2, cols=3)
+    scene = build_scene(cfg, seed=11)
+    pots = scene.pots
+    assert pots == PotBatch.draw(cfg, seed=11)
+    assert pots != PotBatch.draw(cfg, seed=12)
+    m = scene.model
+    for i in range(len(pots)):
+        body = m.body(f"pot_{i // cfg.cols}_{i % cfg.cols}")
+        geom = m.geom(f"pot_{i // cfg.cols}_{i % cfg.cols}")
+        assert body.mass[0] == pots.mass[i] + cfg.seedling_mass
+        assert geom.size[:2].tolist() == [pots.diameter[i] / 2, pots.height[i] / 2]
+        assert geom.friction[0] == pots.friction[i]
+        leaves = [g for g in range(m.ngeom) if m.geom(g).name.startswith(f"leaf_{i // 3}_{i % 3}_")]
+        assert len(leaves) == pots.n_leaves[i]
+    with pytest.raises(ValueError, match="read-only"):
+        pots.mass[0] = 1.0
+    with pytest.raises(AttributeError):
+        pots.mass = pots.height
+
+
+def rib_rows_colliding(scene):
+    m = scene.model
+    return [bool(m.geom(f"rib_{r}_0").conaffinity[0] != 0) for r in range(scene.config.rows)]
+
+
+def test_rows_past_the_edge_follow_the_carriage_position_of_each_index():
+    """Ribs of rows carried past the front edge stop colliding; which rows are off depends on
+    the state being indexed, so a rewound (copied) MjData gets its rows back."""
+    scene = build_scene(SceneConfig(rows=3, cols=1), seed=0)
+    drive, pitch = ConveyorDrive(scene), scene.config.row_pitch
+    data = scene.make_data()
+    snapshot = copy.copy(data)  # MjData copies with its userdata: the drive's whole state
+    assert rib_rows_colliding(scene) == [True, True, True]
+    data.qpos[scene.conveyor_qpos_adr] = -pitch  # as after one index
+    drive.start(data, 0.0, 0.6)
+    assert rib_rows_colliding(scene) == [False, False, True]
+    assert drive.armed(data) and not drive.armed(snapshot)
+    drive.start(snapshot, 0.0, 0.6)  # back to the state before the first index
+    assert rib_rows_colliding(scene) == [False, True, True]
+    resumed = copy.copy(snapshot)
+    assert drive.indexing(resumed, 0.3) and drive.reference(resumed, 0.3) == drive.reference(
+        snapshot, 0.3
+    )

@@ -49,7 +49,7 @@ class Judge:
         self.taught = twin.machine.eeprom
         self.pot_bodies = np.asarray(scene.pot_bodies).ravel()
         self.active = np.ones(self.pot_bodies.size, dtype=bool)
-        self.pot_cells = np.asarray(scene.pot_params["cell_xy"], dtype=float)
+        self.pot_cells = np.asarray(scene.pots.cell_xy, dtype=float)
         self.pot_qadr = scene.pot_qpos_adr
         self.pot_dadr = scene.pot_dof_adr
         planes = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)

@@ -25,7 +25,7 @@ from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.rig import FirmwareLink
 from transplanter.firmware.sgf import SGF
 from transplanter.machine import GRIPPER_SERVO, Machine
-from transplanter.scene import Scene, build_scene
+from transplanter.scene import ConveyorDrive, Scene, build_scene
 
 __all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepEvent"]
 
@@ -134,6 +134,7 @@ class Twin:
         wrist_deg = math.degrees(self.data.qpos[self.scene.wrist_qpos_adr]) + WRIST_SERVO_ZERO_DEG
         self.gripper = _ServoRamp(cfg.gripper_servo.speed_deg_s, gripper_deg)
         self.wrist = _ServoRamp(cfg.wrist_servo.speed_deg_s, wrist_deg)
+        self.conveyor = ConveyorDrive(self.scene)  # its state lives in self.data.userdata
         # Stepper positions are relative to where each motor was at power-on: the SGF's raw
         # pulse counters start at zero there, and homing only changes its logical counters.
         self.q_power_on = self.scene.joint_positions(self.data).copy()
@@ -182,9 +183,7 @@ class Twin:
             servo.command(ts, deg)
         for t_event, name in self.sgf.drain_machine_events():
             if name == "conveyor_index":
-                self.scene.start_conveyor_index(
-                    self.data, t_event, self.machine.sgf.conveyor_index_s
-                )
+                self.conveyor.start(self.data, t_event, self.machine.sgf.conveyor_index_s)
         sent = self.pgf.sent
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
             self._notify(LineEvent(sent[self._done_index], t, LineEventKind.DONE))
@@ -213,7 +212,7 @@ class Twin:
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
         ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - WRIST_SERVO_ZERO_DEG)
-        return _Block(ctrl, pulses, self.scene.conveyor_armed(self.data))
+        return _Block(ctrl, pulses, self.conveyor.armed(self.data))
 
     # -- stepping ------------------------------------------------------------------------
     def step_until(
@@ -235,7 +234,7 @@ class Twin:
             for i in range(rows.shape[0]):
                 ctrl[:] = rows[i]
                 if block.conveyor:
-                    self.scene.apply_conveyor(d, self.time)
+                    self.conveyor.apply(d, self.time)
                 mujoco.mj_step(m, d)
                 self.k += 1
                 if self.k % SLIP_CHECK_STEPS == 0:

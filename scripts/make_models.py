@@ -1,0 +1,197 @@
+"""Write SceneConfig()'s numbers into models/transplanter.xml and models/scene.xml.
+
+Run: .venv/bin/python scripts/make_models.py          (rewrites the files in place)
+     .venv/bin/python scripts/make_models.py --check  (exit status 1 if they are stale)
+
+The XML files are edited by hand for their structure (bodies, shapes, classes, materials);
+this script only rewrites the attributes that follow from transplanter.scene.SceneConfig,
+with the very functions build_scene uses: it loads models/scene.xml with MjSpec, applies
+SceneConfig() (scene_spec: options, arm, drives, drop tube, conveyor), derives the arm's
+inertials and the home keyframe (compile_with_home), and writes the resulting values back
+into the attributes listed in TRANSPLANTER and SCENE (and the block of tube walls), with
+repr() precision so that the files compile to exactly the model build_scene makes from the
+default config. tests/test_models.py checks that the files are up to date.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+import mujoco
+
+from transplanter.scene.build import ARM_BODIES, compile_with_home, scene_spec
+from transplanter.scene.config import SceneConfig
+
+MODELS = Path(__file__).resolve().parent.parent / "models"
+JACOBIAN = {
+    mujoco.mjtJacobian.mjJAC_AUTO: "auto",
+    mujoco.mjtJacobian.mjJAC_DENSE: "dense",
+    mujoco.mjtJacobian.mjJAC_SPARSE: "sparse",
+}
+
+
+def fmt(*values) -> str:
+    """Numbers as MJCF text: shortest repr that parses back to the same double."""
+    out = []
+    for v in values:
+        text = repr(float(v))
+        out.append(text[:-2] if text.endswith(".0") else text)
+    return " ".join(out)
+
+
+def transplanter_values(
+    spec: mujoco.MjSpec, machine_nq: int
+) -> list[tuple[str, str | None, dict[str, str]]]:
+    """(tag, name, {attribute: text}) for models/transplanter.xml. Unnamed tags (option, flag,
+    inertial) are found as the first such tag after the previous entry's tag."""
+    opt = spec.option
+    sleep = opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    out = [
+        ("option", None, {
+            "timestep": fmt(opt.timestep), "impratio": fmt(opt.impratio),
+            "iterations": str(opt.iterations), "tolerance": fmt(opt.tolerance),
+            "jacobian": JACOBIAN[opt.jacobian], "sleep_tolerance": fmt(opt.sleep_tolerance),
+        }),
+        ("flag", None, {"sleep": "enable" if sleep else "disable"}),
+    ]  # fmt: skip
+    for body in ARM_BODIES:
+        b = spec.body(body)
+        out.append(("body", body, {"pos": fmt(*b.pos)}))
+        out.append(("inertial", None, {
+            "pos": fmt(*b.ipos), "quat": fmt(*b.iquat), "mass": fmt(b.mass),
+            "diaginertia": fmt(*b.inertia),
+        }))  # fmt: skip
+    for joint in ("z", "theta1", "theta2"):
+        j = spec.joint(joint)
+        out.append(("joint", joint, {
+            "range": fmt(*j.range), "damping": fmt(j.damping[0]), "armature": fmt(j.armature),
+        }))  # fmt: skip
+    for jaw in ("jaw_left", "jaw_right"):
+        j = spec.joint(jaw)
+        out.append(("joint", jaw, {"range": fmt(*j.range), "damping": fmt(j.damping[0])}))
+        out.append(("geom", jaw, {"friction": fmt(*spec.geom(jaw).friction)}))
+    out.append(("geom", "platform", {"mass": fmt(spec.geom("platform").mass)}))
+    for geom in ("motor1", "motor2", "palm", "palm_visual"):
+        out.append(("geom", geom, {"pos": fmt(*spec.geom(geom).pos)}))
+    for geom in ("link1", "link2", "passive1", "passive2"):
+        g = spec.geom(geom)
+        out.append(("geom", geom, {"fromto": fmt(*g.fromto), "mass": fmt(g.mass)}))
+    column = spec.geom("column")
+    out.append(("geom", "column", {"size": fmt(*column.size[:2]), "pos": fmt(*column.pos)}))
+    for site in ("c1", "c2", "grip_center"):
+        out.append(("site", site, {"pos": fmt(*spec.site(site).pos)}))
+    for act in ("theta1", "theta2", "z"):
+        a = spec.actuator(act)
+        out.append(("position", act, {
+            "gear": fmt(a.gear[0]), "kp": fmt(a.gainprm[0]), "dampratio": fmt(a.biasprm[2]),
+            "forcerange": fmt(*a.forcerange),
+        }))  # fmt: skip
+    grip = spec.actuator("gripper")
+    out.append(("position", "gripper", {
+        "kp": fmt(grip.gainprm[0]), "forcerange": fmt(*grip.forcerange),
+        "ctrlrange": fmt(*grip.ctrlrange),
+    }))  # fmt: skip
+    wrist = spec.actuator("wrist")
+    out.append(("position", "wrist", {
+        "kp": fmt(wrist.gainprm[0]), "forcerange": fmt(*wrist.forcerange),
+    }))  # fmt: skip
+    trip = spec.numeric("limit_switch_trip")
+    out.append(("numeric", "limit_switch_trip", {"data": fmt(*trip.data)}))
+    # the machine's own joints come first in the scene's qpos; the conveyor's (0) is padded
+    key = spec.key("home")
+    out.append(("key", "home", {"qpos": fmt(*list(key.qpos)[:machine_nq]), "ctrl": fmt(*key.ctrl)}))
+    return out
+
+
+def scene_values(spec: mujoco.MjSpec) -> list[tuple[str, str | None, dict[str, str]]]:
+    """(tag, name, {attribute: text}) for models/scene.xml."""
+    table = spec.geom("belt_table")
+    return [
+        ("geom", "belt_table", {"size": fmt(*table.size), "pos": fmt(*table.pos)}),
+        ("body", "conveyor", {}),
+        ("joint", "conveyor", {"frictionloss": fmt(spec.joint("conveyor").frictionloss)}),
+        ("inertial", None, {"mass": fmt(spec.body("conveyor").mass)}),
+        ("body", "drop_tube", {"pos": fmt(*spec.body("drop_tube").pos)}),
+        ("geom", "planting_plate", {"pos": fmt(*spec.geom("planting_plate").pos)}),
+    ]
+
+
+def tube_walls(spec: mujoco.MjSpec) -> str:
+    """The drop tube's wall geoms, one line each (class static carries their collision bits)."""
+    lines = []
+    for geom in spec.body("drop_tube").geoms:
+        if geom.name.startswith("tube_wall_"):
+            lines.append(
+                f'      <geom name="{geom.name}" class="static" type="box" '
+                f'size="{fmt(*geom.size)}" pos="{fmt(*geom.pos)}" quat="{fmt(*geom.quat)}"/>\n'
+            )
+    return "".join(lines)
+
+
+def _tag_at(text: str, tag: str, name: str | None, start: int) -> re.Match:
+    name_part = rf'[^>]*?\bname="{re.escape(name)}"' if name is not None else ""
+    match = re.compile(rf"<{tag}\b{name_part}[^>]*?/?>", re.S).search(text, start)
+    if match is None:
+        raise ValueError(f"no <{tag} name={name!r}> in the model file")
+    return match
+
+
+def set_attributes(text: str, entries) -> str:
+    """Replace (or add) the attributes of each entry's tag, in the order of the entries."""
+    position = 0
+    for tag, name, attributes in entries:
+        match = _tag_at(text, tag, name, position if name is None else 0)
+        element = match.group(0)
+        for attr, value in attributes.items():
+            pattern = re.compile(rf'(\s){attr}="[^"]*"')
+            if pattern.search(element):
+                element = pattern.sub(lambda m, a=attr, v=value: f'{m.group(1)}{a}="{v}"', element)
+            else:
+                end = -2 if element.endswith("/>") else -1
+                element = f'{element[:end].rstrip()} {attr}="{value}"{element[end:]}'
+        text = text[: match.start()] + element + text[match.end() :]
+        position = match.start() + len(element)
+    return text
+
+
+def set_tube_walls(text: str, walls: str) -> str:
+    begin = re.search(r"[ \t]*<!-- BEGIN tube walls[^\n]*\n", text)
+    end = re.search(r"[ \t]*<!-- END tube walls -->", text)
+    if begin is None or end is None:
+        raise ValueError("models/scene.xml lacks the BEGIN/END tube walls comments")
+    return text[: begin.end()] + walls + text[end.start() :]
+
+
+def generate(models: Path = MODELS) -> dict[str, str]:
+    """The up-to-date text of each model file (name -> text), from the files in `models`."""
+    cfg = SceneConfig()
+    spec = scene_spec(cfg, models / "scene.xml")
+    compile_with_home(spec, cfg)
+    machine_nq = mujoco.MjModel.from_xml_path(str(models / "transplanter.xml")).nq
+    robot = (models / "transplanter.xml").read_text()
+    scene = (models / "scene.xml").read_text()
+    return {
+        "transplanter.xml": set_attributes(robot, transplanter_values(spec, machine_nq)),
+        "scene.xml": set_tube_walls(set_attributes(scene, scene_values(spec)), tube_walls(spec)),
+    }
+
+
+def main(argv: list[str]) -> int:
+    stale = []
+    for name, text in generate().items():
+        path = MODELS / name
+        if path.read_text() != text:
+            stale.append(name)
+            if "--check" not in argv:
+                path.write_text(text)
+                print(f"wrote {path}")
+    if "--check" in argv and stale:
+        print(f"stale: {', '.join(stale)} (run scripts/make_models.py)")
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

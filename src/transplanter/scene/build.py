@@ -1,0 +1,369 @@
+"""build_scene: load models/scene.xml with MjSpec, apply a SceneConfig, add ribs and pots, compile.
+
+models/*.xml hold the machine, the belt table, the conveyor carriage and the drop tube with
+the numbers of SceneConfig() (scripts/make_models.py writes them with the functions below),
+so for the default config the `apply_*` steps change nothing; any other config is applied
+here: link lengths and masses, stepper drives, gripper, solver, drop tube, conveyor layout,
+and the arm's inertials derived from its geoms. Then the conveyor ribs and the rows x cols
+paper pots with seedlings (a PotBatch drawn from the seed) are added, the `home` keyframe is
+set and the spec is compiled into a Scene.
+
+Frames and joint conventions: models/README.md and docs/architecture.md.
+"""
+
+from __future__ import annotations
+
+import importlib.resources
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from transplanter.scene.config import (
+    BIT_GRIPPER,
+    BIT_POT,
+    BIT_WORLD,
+    JAW_HALF_THICKNESS,
+    LEAF_BASE_LOW,
+    LEAF_BASE_STEP,
+    LEAF_PITCH_RAD,
+    LEAF_PROXY_CENTRE,
+    LEAF_PROXY_RGBA,
+    PASSIVE_DROP,
+    POT_COLLISION_RGBA,
+    RIB_RGBA,
+    ROLLING_FRICTION,
+    STATIC_COLLISION_RGBA,
+    TORSIONAL_FRICTION,
+    SceneConfig,
+    row_bit,
+)
+from transplanter.scene.geometry import (
+    belt_table,
+    cell_columns_x,
+    column_box,
+    drop_tube_boxes,
+    five_bar_forward,
+    pot_inertia,
+    rib_boxes,
+    row_y,
+)
+from transplanter.scene.handles import Scene
+from transplanter.scene.pots import PotBatch
+
+# Bodies whose inertial is derived from their geoms (masses and shapes follow the config);
+# models/transplanter.xml carries the result for the default config as explicit <inertial>.
+ARM_BODIES = (
+    "platform", "link1", "passive1", "gripper", "jaw_left", "jaw_right", "link2", "passive2",
+)  # fmt: skip
+# Quaternion turning a capsule's axis (local z) onto local x.
+_CAPSULE_Z_TO_X = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
+
+
+def models_dir() -> Path:
+    """The MJCF models shipped with the package (models/ of the repository)."""
+    return Path(str(importlib.resources.files("transplanter.models")))
+
+
+def build_scene(config: SceneConfig | None = None, seed: int = 0) -> Scene:
+    """Build and compile the full scene: machine, conveyor with ribs, pots, drop tube."""
+    cfg = config if config is not None else SceneConfig()
+    spec = scene_spec(cfg)
+    pots = PotBatch.draw(cfg, seed)
+    add_ribs(spec, cfg)
+    add_pots(spec, cfg, pots)
+    return Scene(compile_with_home(spec, cfg), cfg, pots)
+
+
+def scene_spec(cfg: SceneConfig, xml_path: str | Path | None = None) -> mujoco.MjSpec:
+    """models/scene.xml (or xml_path) with the config applied: all but the ribs and pots."""
+    path = xml_path if xml_path is not None else models_dir() / "scene.xml"
+    spec = mujoco.MjSpec.from_file(str(path))
+    apply_options(spec, cfg)
+    apply_arm(spec, cfg)
+    apply_drop_tube(spec, cfg)
+    apply_conveyor_layout(spec, cfg)
+    apply_arm_inertials(spec)
+    return spec
+
+
+def apply_arm_inertials(spec: mujoco.MjSpec) -> None:
+    """Explicit inertials of the arm's bodies, computed by MuJoCo from their geoms (masses
+    and shapes follow the config), exactly as the compiler would without an <inertial>."""
+    probe = spec.copy()
+    probe.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
+    model = probe.compile()
+    for body in ARM_BODIES:
+        b, i = spec.body(body), model.body(body).id
+        b.mass = model.body_mass[i]
+        b.ipos = model.body_ipos[i]
+        b.iquat = model.body_iquat[i]
+        b.inertia = model.body_inertia[i]
+        b.explicitinertial = True
+
+
+def compile_with_home(spec: mujoco.MjSpec, cfg: SceneConfig) -> mujoco.MjModel:
+    """Set the `home` keyframe (qpos0 for the joints it does not name) and compile."""
+    model0 = spec.compile()
+    qpos = model0.qpos0.copy()
+    for joint_name, value in home_joint_positions(cfg).items():
+        qpos[model0.joint(joint_name).qposadr[0]] = value
+    key = spec.key("home")
+    key.qpos = qpos
+    key.ctrl = home_ctrl(cfg)
+    return spec.compile()
+
+
+def home_joint_positions(cfg: SceneConfig) -> dict[str, float]:
+    """The `home` keyframe (power-on pose) by joint: the passive angles close the chain,
+    the gripper is fully open, the conveyor at 0."""
+    phi1, phi2 = five_bar_forward(cfg, cfg.home_theta1, cfg.home_theta2)
+    return {
+        "z": cfg.home_z,
+        "theta1": cfg.home_theta1,
+        "theta2": cfg.home_theta2,
+        "phi1": phi1,
+        "phi2": phi2,
+        "wrist": 0.0,
+        "jaw_left": cfg.gripper_max_opening / 2,
+        "jaw_right": cfg.gripper_max_opening / 2,
+        "conveyor": 0.0,
+    }
+
+
+def home_ctrl(cfg: SceneConfig) -> list[float]:
+    """Actuator commands of the `home` keyframe: motor angles = gear * joint position."""
+    return [
+        cfg.arm_belt_ratio * cfg.home_theta1,
+        cfg.arm_belt_ratio * cfg.home_theta2,
+        cfg.screw_gear * cfg.home_z,
+        cfg.gripper_max_opening,
+        0.0,
+    ]
+
+
+def apply_options(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    opt = spec.option
+    opt.timestep = cfg.timestep
+    opt.impratio = cfg.impratio
+    opt.iterations = cfg.solver_iterations
+    opt.tolerance = cfg.solver_tolerance
+    opt.jacobian = {
+        "auto": mujoco.mjtJacobian.mjJAC_AUTO,
+        "dense": mujoco.mjtJacobian.mjJAC_DENSE,
+        "sparse": mujoco.mjtJacobian.mjJAC_SPARSE,
+    }[cfg.jacobian]
+    opt.sleep_tolerance = cfg.sleep_tolerance
+    bit = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    opt.enableflags = (opt.enableflags | bit) if cfg.sleep else (opt.enableflags & ~bit)
+
+
+def apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    """Five-bar links, column, gripper, stepper drives, servos and limit switches."""
+    spec.body("link1").pos = [-cfg.l0, 0, 0]
+    spec.body("link2").pos = [cfg.l0, 0, 0]
+    spec.geom("motor1").pos = [-cfg.l0, 0, spec.geom("motor1").pos[2]]
+    spec.geom("motor2").pos = [cfg.l0, 0, spec.geom("motor2").pos[2]]
+    for i in (1, 2):
+        spec.geom(f"link{i}").fromto = [0, 0, 0, cfg.l1, 0, 0]
+        spec.geom(f"link{i}").mass = cfg.active_link_mass
+        spec.body(f"passive{i}").pos = [cfg.l1, 0, -PASSIVE_DROP]
+        spec.geom(f"passive{i}").fromto = [0, 0, 0, cfg.l2, 0, 0]
+        spec.geom(f"passive{i}").mass = cfg.passive_link_mass
+        spec.site(f"c{i}").pos = [cfg.l2, 0, 0]
+    spec.body("gripper").pos = [cfg.l2, 0, PASSIVE_DROP]
+    spec.geom("platform").mass = cfg.platform_mass
+    # Column: arm plane at column_height above the grip centre. The palm is laid out for the
+    # column height the file is drawn for (the platform's height there) and moves with it.
+    platform = spec.body("platform")
+    shift = cfg.column_height - platform.pos[2]
+    platform.pos = [0, 0, cfg.column_height]
+    for geom_name in ("palm", "palm_visual"):
+        g = spec.geom(geom_name)
+        g.pos = [g.pos[0], g.pos[1], g.pos[2] - shift]
+    column = spec.geom("column")
+    half_length, centre_z = column_box(cfg)
+    column.size = [column.size[0], half_length, 0]
+    column.pos = [0, 0, centre_z]
+    spec.site("grip_center").pos = [0, 0, -cfg.column_height]
+    spec.body("jaw_left").pos = [-JAW_HALF_THICKNESS, 0, -cfg.column_height]
+    spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height]
+
+    # Stepper drives: position servos on the motor shaft through the gear, torque-limited,
+    # with the pull-out curve as joint damping (models/README.md).
+    arm_gear, screw_gear = cfg.arm_belt_ratio, cfg.screw_gear
+    screw_torque = cfg.holding_torque * cfg.screw_efficiency
+    for joint_name, gear, torque, scale in (
+        ("theta1", arm_gear, cfg.holding_torque, cfg.arm_stiffness_scale),
+        ("theta2", arm_gear, cfg.holding_torque, cfg.arm_stiffness_scale),
+        ("z", screw_gear, screw_torque, cfg.z_stiffness_scale),
+    ):
+        act = spec.actuator(joint_name)
+        kp = scale * torque / cfg.full_step_rad
+        act.gear = [gear, 0, 0, 0, 0, 0]
+        act.gainprm = [kp] + [0] * 9
+        act.biasprm = [0, -kp, cfg.stepper_dampratio] + [0] * 7
+        act.forcerange = [-torque, torque]
+        joint = spec.joint(joint_name)
+        joint.range = list(getattr(cfg, f"{joint_name}_range"))
+        joint.damping = [torque / cfg.pullout_zero_speed * gear**2, 0, 0]
+        joint.armature = cfg.rotor_inertia * gear**2
+
+    grip = spec.actuator("gripper")
+    grip.gainprm = [cfg.gripper_kp] + [0] * 9
+    grip.biasprm = [0, -cfg.gripper_kp, 0] + [0] * 7
+    grip.forcerange = [-cfg.grip_force, cfg.grip_force]
+    grip.ctrlrange = [0, cfg.gripper_max_opening]
+    for jaw in ("jaw_left", "jaw_right"):
+        spec.joint(jaw).range = [0, cfg.gripper_max_opening / 2]
+        spec.joint(jaw).damping = [cfg.jaw_damping, 0, 0]
+        spec.geom(jaw).friction = [cfg.jaw_friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
+    wrist = spec.actuator("wrist")
+    wrist.gainprm = [cfg.wrist_kp] + [0] * 9
+    wrist.biasprm = [0, -cfg.wrist_kp, 0] + [0] * 7
+    wrist.forcerange = [-cfg.wrist_torque, cfg.wrist_torque]
+
+    spec.numeric("limit_switch_trip").data = [
+        cfg.switch1_theta1_min,
+        cfg.switch2_theta2_max,
+        cfg.switch3_z_min,
+        cfg.switch4_z_max,
+    ]
+
+
+def apply_drop_tube(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    """Funnel position, its tube walls (regenerated: drop_tube_boxes) and the plate."""
+    body = spec.body("drop_tube")
+    x, y = cfg.drop_tube_xy
+    body.pos = [x, y, cfg.funnel_top_z]
+    for geom in list(body.geoms):
+        if geom.name.startswith("tube_wall_"):
+            spec.delete(geom)
+    for k, (half, pos, quat) in enumerate(drop_tube_boxes(cfg)):
+        _add_static_box(body, f"tube_wall_{k}", half, pos, quat)
+    bottom_z = -cfg.funnel_height - cfg.tube_length
+    plate = spec.geom("planting_plate")
+    plate.pos = [0, 0, bottom_z - plate.size[2]]
+
+
+def _add_static_box(body, name, half, pos, quat) -> None:
+    geom = body.add_geom()
+    geom.name = name
+    geom.type = mujoco.mjtGeom.mjGEOM_BOX
+    geom.size = half
+    geom.pos = pos
+    geom.quat = quat
+    geom.contype = BIT_WORLD
+    geom.conaffinity = BIT_POT | BIT_GRIPPER
+    geom.group = 3
+    geom.rgba = list(STATIC_COLLISION_RGBA)
+
+
+def apply_conveyor_layout(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    """Carriage mass and slide friction, and the belt table sized for rows x cols."""
+    spec.joint("conveyor").frictionloss = cfg.conveyor_frictionloss
+    spec.body("conveyor").mass = cfg.conveyor_mass
+    table = spec.geom("belt_table")
+    table.size, table.pos = belt_table(cfg, table.size[2])
+
+
+def add_ribs(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    """The ribs of every row on the conveyor carriage (they push only their row's pots)."""
+    conveyor = spec.body("conveyor")
+    for r in range(cfg.rows):
+        bit = row_bit(r)
+        for k, (size, pos) in enumerate(rib_boxes(cfg, r)):
+            g = conveyor.add_geom()
+            g.name = f"rib_{r}_{k}"
+            g.type = mujoco.mjtGeom.mjGEOM_BOX
+            g.size = size
+            g.pos = pos
+            g.contype = 0
+            g.conaffinity = bit
+            g.priority = 2
+            g.friction = [cfg.rib_friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
+            g.mass = 0
+            g.rgba = list(RIB_RGBA)
+
+
+def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch) -> None:
+    """A free body per pot: collision cylinder, visual mesh, stem, leaves and leaf proxies."""
+    xs, ys = cell_columns_x(cfg), row_y(cfg)
+    for i in range(len(pots)):
+        r, c = divmod(i, cfg.cols)
+        radius, h = pots.diameter[i] / 2, pots.height[i]
+        body = spec.worldbody.add_body()
+        body.name = f"pot_{r}_{c}"
+        body.pos = [xs[c] + pots.offset[i, 0], ys[r] + pots.offset[i, 1], h / 2]
+        body.add_freejoint()
+        total_mass = pots.mass[i] + cfg.seedling_mass
+        body.mass = total_mass
+        body.ipos = [0, 0, 0]
+        body.inertia = pot_inertia(total_mass, radius, h)
+        body.explicitinertial = True
+        g = body.add_geom()
+        g.name = f"pot_{r}_{c}"
+        g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+        g.size = [radius, h / 2, 0]
+        g.contype = BIT_POT | row_bit(r)
+        g.conaffinity = BIT_WORLD | BIT_POT | BIT_GRIPPER
+        g.condim = 4
+        g.priority = 1
+        g.friction = [pots.friction[i], TORSIONAL_FRICTION, ROLLING_FRICTION]
+        g.solref = list(cfg.contact_solref)
+        g.solimp = list(cfg.contact_solimp)
+        g.group = 3
+        g.rgba = list(POT_COLLISION_RGBA)
+        vis = body.add_geom()
+        vis.type = mujoco.mjtGeom.mjGEOM_MESH
+        vis.meshname = "paper_pot"
+        vis.pos = [0, 0, -h / 2]
+        vis.contype = vis.conaffinity = 0
+        vis.group = 2
+        vis.mass = 0
+        vis.material = "paper"
+        _add_seedling(body, cfg, r, c, h / 2, pots.stem_length[i], pots.n_leaves[i],
+                      pots.leaf_yaw0[i])  # fmt: skip
+
+
+def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0) -> None:
+    """Stem and leaves (visual) and a capsule proxy per leaf (leaf_hit_pots) on a pot."""
+    stem_geom = body.add_geom()
+    stem_geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+    stem_geom.fromto = [0, 0, top, 0, 0, top + stem]
+    stem_geom.size = [cfg.stem_radius, 0, 0]
+    stem_geom.contype = stem_geom.conaffinity = 0
+    stem_geom.group = 2
+    stem_geom.mass = 0
+    stem_geom.material = "leaf"
+    for k in range(n_leaves):
+        yaw = leaf_yaw0 + 2 * np.pi * k / n_leaves
+        base = np.array([0, 0, top + stem * (LEAF_BASE_LOW + LEAF_BASE_STEP * (k % 2))])
+        quat = np.zeros(4)
+        mujoco.mju_euler2Quat(quat, np.array([0.0, LEAF_PITCH_RAD, yaw]), "xyz")
+        leaf_vis = body.add_geom()
+        leaf_vis.type = mujoco.mjtGeom.mjGEOM_MESH
+        leaf_vis.meshname = "seedling_leaf"
+        leaf_vis.pos = base
+        leaf_vis.quat = quat
+        leaf_vis.contype = leaf_vis.conaffinity = 0
+        leaf_vis.group = 2
+        leaf_vis.mass = 0
+        leaf_vis.material = "leaf"
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, quat)
+        centre = base + rot.reshape(3, 3) @ np.array(LEAF_PROXY_CENTRE)
+        proxy = body.add_geom()
+        proxy.name = f"leaf_{r}_{c}_{k}"
+        # A capsule along the leaf's length: capsule-box contacts with the gripper are
+        # analytic, ellipsoids would take the general convex solver (3x the narrowphase).
+        proxy.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+        proxy.size = [cfg.leaf_radius, cfg.leaf_half_length, 0]
+        proxy.pos = centre
+        along_x = np.zeros(4)
+        mujoco.mju_mulQuat(along_x, quat, _CAPSULE_Z_TO_X)
+        proxy.quat = along_x
+        proxy.contype = proxy.conaffinity = 0  # tested geometrically: leaf_hit_pots
+        proxy.group = 4
+        proxy.mass = 0
+        proxy.rgba = list(LEAF_PROXY_RGBA)

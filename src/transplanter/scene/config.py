@@ -1,0 +1,321 @@
+"""SceneConfig: every physical number of the scene, and the scene's named constants.
+
+SceneConfig() holds the DESIGN.md defaults; models/*.xml carry exactly these defaults
+(scripts/make_models.py writes them there), and build_scene applies any other config.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from transplanter.kinematics import FiveBarGeometry
+
+# Collision bits (contype/conaffinity): 1 world/static, 2 pots, 4 gripper; each conveyor row
+# r has its own bit ROW_BIT_FIRST + r % ROW_BITS (bits 8..31), shared by its ribs and pots.
+BIT_WORLD = 1
+BIT_POT = 2
+BIT_GRIPPER = 4
+ROW_BIT_FIRST = 8
+ROW_BITS = 24
+
+
+def row_bit(row: int) -> int:
+    """The collision bit of conveyor row `row` (its ribs' conaffinity, in its pots' contype)."""
+    return 1 << (ROW_BIT_FIRST + row % ROW_BITS)
+
+
+# Torsional and rolling friction of every contact pair the scene adds (ribs, pots, jaws).
+TORSIONAL_FRICTION = 0.005
+ROLLING_FRICTION = 0.0001
+
+# Colours (rgba) of the geoms the scene adds: ribs, pot collision cylinders (shown in group
+# 3 with the other collision geoms), leaf proxies (group 4) and drop tube walls.
+RIB_RGBA = (0.2, 0.2, 0.2, 1.0)
+POT_COLLISION_RGBA = (0.55, 0.4, 0.25, 0.5)
+LEAF_PROXY_RGBA = (0.2, 0.8, 0.2, 0.3)
+STATIC_COLLISION_RGBA = (0.5, 0.5, 0.55, 0.3)
+
+# Gripper layout of models/transplanter.xml (m): the column runs from just under the wrist
+# servo (WRIST_SERVO_BOTTOM below C) down to the top of the palm, which sits PALM_HEIGHT
+# above the jaws' top edge (JAW_HALF_HEIGHT above the grip centre). The jaws start
+# JAW_HALF_THICKNESS off the centre. Passive links run PASSIVE_DROP below the active ones
+# (visual only: the arm links never collide).
+WRIST_SERVO_BOTTOM = 0.042
+JAW_HALF_HEIGHT = 0.0225
+PALM_HEIGHT = 0.025
+JAW_HALF_THICKNESS = 0.0015
+PASSIVE_DROP = 0.015
+
+# Seedling drawing and leaf proxies, in the pot body frame. Leaf k of a seedling sits at
+# the stem height times LEAF_BASE_LOW (even k) or LEAF_BASE_LOW + LEAF_BASE_STEP (odd k),
+# pitched LEAF_PITCH_RAD about its y axis (tipped up: the mesh runs along +x), yawed evenly
+# around the stem. Its capsule proxy is centred LEAF_PROXY_CENTRE (leaf frame) from the leaf
+# base, along the leaf (the middle of the 45 mm blade of seedling_leaf.stl, 4 mm up).
+LEAF_BASE_LOW = 0.7
+LEAF_BASE_STEP = 0.3
+LEAF_PITCH_RAD = -0.35
+LEAF_PROXY_CENTRE = (0.0225, 0.0, 0.004)
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """Every physical number of the scene, SI units, DESIGN.md defaults."""
+
+    # --- five-bar geometry (m): motors at (-l0, 0) and (+l0, 0); active l1, passive l2.
+    l0: float = 0.050
+    l1: float = 0.120
+    l2: float = 0.200
+    # Vertical distance from the arm plane (C) down to the grip centre (m).
+    column_height: float = 0.120
+
+    # --- stepper drives. Torque of a NEMA17 held at standstill (N*m), rotor inertia
+    # (kg*m^2), motor speed (rev/s) at which the pull-out torque reaches zero.
+    holding_torque: float = 0.45
+    rotor_inertia: float = 5.4e-6
+    # Full steps per motor revolution (200 for a 1.8 deg stepper): the torque of a stepper
+    # peaks about one full step of error, so it sets the position stiffness.
+    steps_per_rev: int = 200
+    pullout_zero_speed_rev_s: float = 15.0
+    arm_belt_ratio: float = 3.0
+    screw_lead: float = 0.008
+    # Fraction of the motor torque that reaches the Z slide through the T8 lead screw.
+    screw_efficiency: float = 0.35
+    # kp = holding torque / full_step_rad, times this factor (1 for the arms; the Z drive is
+    # stable at 1 too with the 1 ms step and its large reflected rotor inertia).
+    arm_stiffness_scale: float = 1.0
+    z_stiffness_scale: float = 1.0
+    # Damping ratio of the position loop (MuJoCo dampratio: kv from the reflected inertia);
+    # it damps the ringing about the commanded step without touching the torque limit.
+    stepper_dampratio: float = 0.5
+    # Mass of the Z carriage with motors and belts (kg), masses of active/passive links (kg).
+    platform_mass: float = 1.0
+    active_link_mass: float = 0.06
+    passive_link_mass: float = 0.06
+
+    # --- gripper: jaw opening range (m), servo force limit = grip force per jaw (N),
+    # servo stiffness on the opening (N/m), jaw slide damping (N*s/m).
+    gripper_max_opening: float = 0.050
+    grip_force: float = 6.0
+    gripper_kp: float = 3000.0
+    jaw_damping: float = 2.0
+    jaw_friction: float = 0.8
+    # Wrist (elbow) servo: stiffness (N*m/rad), torque limit (N*m).
+    wrist_kp: float = 3.0
+    wrist_torque: float = 0.25
+
+    # --- active joint travel (rad): the elbows-out workspace needs theta1 in [95, 219] deg
+    # and theta2 in [-39, 85] deg; the hard stops sit beyond the limit switches.
+    theta1_range: tuple[float, float] = (math.radians(75.0), math.radians(240.0))
+    theta2_range: tuple[float, float] = (math.radians(-60.0), math.radians(105.0))
+    # Z slide travel (m) of the grip centre above the belt; its ends are the hard stops.
+    z_range: tuple[float, float] = (0.0, 0.165)
+
+    # --- limit switches (firmware homing positions; rad, rad, m, m): the arms fold back.
+    switch1_theta1_min: float = math.radians(200.0)
+    switch2_theta2_max: float = math.radians(-20.0)
+    switch3_z_min: float = 0.160
+    switch4_z_max: float = 0.005
+
+    # --- home keyframe (power-on pose): active angles (rad), Z (m), a little short of the
+    # limit switches; the gripper is fully open.
+    home_theta1: float = math.radians(195.0)
+    home_theta2: float = math.radians(-15.0)
+    home_z: float = 0.150
+
+    # --- conveyor layout: rows x cols cells, cell pitch in x, row pitch in y (m); the pickup
+    # row (row 0) is centred at pickup_row_y; rows further back at + row_pitch each.
+    rows: int = 8
+    cols: int = 5
+    cell_pitch: float = 0.045
+    row_pitch: float = 0.045
+    pickup_row_y: float = 0.215
+    rib_height: float = 0.005
+    rib_thickness: float = 0.002
+    # Sliding friction of the ribs' smooth plastic on a paper pot; the ribs' contact priority
+    # wins over the pots', so this, not the pot's friction with the jaws, acts at the ribs.
+    rib_friction: float = 0.2
+    # The static belt table reaches this far (m) beyond the outer ribs on either side.
+    table_side_margin: float = 0.02
+    # Conveyor carriage: mass (kg), dry friction of its slide (N), PD gains of the index drive
+    # (N/m, N*s/m), settle time held after the profile before the force is released (s; at
+    # most a quarter of the index time, see ConveyorDrive.index_phases), the share of the
+    # profile spent pushing (the rest returns by the overshoot: 4 mm, no pot contact). With
+    # the paper's 0.6 s index that is a 0.425 s push; a 0.34 s push (settle 0.15 s, share
+    # 0.75) tipped 1-8 back-row pots per 40-pot trial onto the ribs. Last, the
+    # overshoot (m) past one row pitch before coming back; None: the cell clearance
+    # (SceneConfig.cell_clearance), which leaves every nominal pot centred in its new cell.
+    conveyor_mass: float = 1.0
+    conveyor_frictionloss: float = 5.0
+    conveyor_kp: float = 20000.0
+    conveyor_kd: float = 400.0
+    conveyor_settle_s: float = 0.10
+    conveyor_push_share: float = 0.85
+    conveyor_overshoot: float | None = None
+
+    # --- paper pots: nominal size (m), mass (kg) and their spreads (normal sd, clipped),
+    # placement offset sd in the cell (m, clipped to +-pot_offset_max), friction of the
+    # paper against jaws and belt (mean, sd, clipped to >= pot_friction_min).
+    pot_diameter: float = 0.035
+    pot_diameter_sd: float = 0.0003
+    pot_height: float = 0.052
+    pot_height_sd: float = 0.0008
+    pot_mass: float = 0.047
+    pot_mass_sd: float = 0.006
+    pot_mass_range: tuple[float, float] = (0.040, 0.080)
+    pot_offset_sd: float = 0.001
+    pot_offset_max: float = 0.003
+    pot_friction: float = 0.6
+    pot_friction_sd: float = 0.05
+    pot_friction_min: float = 0.05
+    # Seedling: stem length above the pot (m, uniform range), leaves per seedling (range),
+    # seedling mass (kg) added to the pot.
+    stem_length_range: tuple[float, float] = (0.035, 0.045)
+    leaves_range: tuple[int, int] = (2, 3)
+    seedling_mass: float = 0.003
+    # Stem radius (m; visual), and the capsule proxy of each leaf (radius, half length of
+    # its axis, m) that leaf_hit_pots tests against the gripper.
+    stem_radius: float = 0.0015
+    leaf_radius: float = 0.006
+    leaf_half_length: float = 0.0165
+
+    # --- drop tube: funnel centre (x, y), funnel top height, top and throat diameters,
+    # funnel height, tube length below the throat, wall thickness (m), segments per ring.
+    drop_tube_xy: tuple[float, float] = (0.0, 0.140)
+    funnel_top_z: float = 0.010
+    funnel_top_diameter: float = 0.060
+    funnel_throat_diameter: float = 0.042
+    funnel_height: float = 0.020
+    tube_length: float = 0.140
+    tube_wall: float = 0.003
+    tube_segments: int = 12
+
+    # --- simulation: timestep (s), solver settings, sleeping.
+    timestep: float = 0.001
+    impratio: float = 10.0
+    solver_iterations: int = 50
+    solver_tolerance: float = 1e-8
+    jacobian: str = "auto"  # "auto", "dense" or "sparse"
+    sleep: bool = True
+    sleep_tolerance: float = 1e-3  # m/s
+    contact_solref: tuple[float, float] = (0.004, 1.0)
+    contact_solimp: tuple[float, float, float, float, float] = (0.95, 0.99, 0.0005, 0.5, 2.0)
+
+    def __post_init__(self) -> None:
+        positive = (
+            "l0 l1 l2 column_height holding_torque rotor_inertia pullout_zero_speed_rev_s "
+            "arm_belt_ratio screw_lead screw_efficiency gripper_max_opening grip_force "
+            "cell_pitch row_pitch pot_diameter pot_height pot_mass timestep"
+        ).split()
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise ValueError(f"SceneConfig.{name} must be > 0, got {getattr(self, name)}")
+        if not (isinstance(self.steps_per_rev, (int, np.integer)) and self.steps_per_rev >= 1):
+            raise ValueError(
+                f"SceneConfig.steps_per_rev must be a positive integer, got {self.steps_per_rev!r}"
+            )
+        if self.rows < 1 or self.cols < 1:
+            raise ValueError(
+                f"SceneConfig needs rows >= 1 and cols >= 1, got {self.rows}x{self.cols}"
+            )
+        if self.pot_diameter + 2 * self.pot_offset_max + self.rib_thickness >= min(
+            self.cell_pitch, self.row_pitch
+        ):
+            raise ValueError(
+                "pots do not fit their cells: pot_diameter + 2*pot_offset_max + rib_thickness "
+                "must be below cell_pitch and row_pitch"
+            )
+        if not 0 < self.conveyor_push_share < 1:
+            raise ValueError(
+                f"SceneConfig.conveyor_push_share must be in (0, 1), got {self.conveyor_push_share}"
+            )
+        if not self.conveyor_settle_s >= 0:
+            raise ValueError(
+                f"SceneConfig.conveyor_settle_s must be >= 0 s, got {self.conveyor_settle_s}"
+            )
+        if self.conveyor_overshoot is not None and not self.conveyor_overshoot >= 0:
+            raise ValueError(
+                "SceneConfig.conveyor_overshoot must be >= 0 m (or None for the cell "
+                f"clearance), got {self.conveyor_overshoot}"
+            )
+        if self.jacobian not in ("auto", "dense", "sparse"):
+            raise ValueError(
+                f"SceneConfig.jacobian must be auto, dense or sparse, got {self.jacobian!r}"
+            )
+        if self.l1 + self.l2 <= self.l0:
+            raise ValueError("five-bar links too short: need l1 + l2 > l0")
+        self._check_joint_positions()
+
+    def _check_joint_positions(self) -> None:
+        """Limit switches and the home keyframe must lie inside the joint travel."""
+        for range_name in ("theta1_range", "theta2_range", "z_range"):
+            lo, hi = getattr(self, range_name)
+            if not lo < hi:
+                raise ValueError(f"SceneConfig.{range_name} must be (low, high), got {(lo, hi)}")
+        for name, range_name in (
+            ("switch1_theta1_min", "theta1_range"),
+            ("switch2_theta2_max", "theta2_range"),
+            ("switch3_z_min", "z_range"),
+            ("switch4_z_max", "z_range"),
+            ("home_theta1", "theta1_range"),
+            ("home_theta2", "theta2_range"),
+            ("home_z", "z_range"),
+        ):
+            lo, hi = getattr(self, range_name)
+            value = getattr(self, name)
+            if not lo <= value <= hi:
+                raise ValueError(
+                    f"SceneConfig.{name} = {value:.6g} lies outside {range_name} = "
+                    f"[{lo:.6g}, {hi:.6g}]: the joint could never reach it; move it inside "
+                    f"or widen {range_name}"
+                )
+
+    def geometry(self) -> FiveBarGeometry:
+        """The five-bar's link lengths for the pure-numpy kinematics."""
+        return FiveBarGeometry(l0_m=self.l0, l1_m=self.l1, l2_m=self.l2)
+
+    # Derived drive numbers (documented in models/README.md).
+    @property
+    def screw_gear(self) -> float:
+        """Motor radians per metre of Z travel."""
+        return 2.0 * math.pi / self.screw_lead
+
+    @property
+    def cell_clearance(self) -> float:
+        """Gap (m) along y between a centred nominal pot and each cross rib of its cell.
+
+        The cross ribs of a row sit at +-row_pitch/2 from the cell centre, rib_thickness thick.
+        """
+        return (self.row_pitch - self.rib_thickness - self.pot_diameter) / 2
+
+    @property
+    def index_overshoot(self) -> float:
+        """Overshoot (m) of the conveyor index: conveyor_overshoot, or the cell clearance.
+
+        The back rib pushes each pot row_pitch + overshoot - clearance - its offset, so with
+        overshoot = clearance a pot ends exactly one row pitch forward, centred in its cell;
+        the carriage then comes back by the overshoot, leaving the pot clear of both ribs.
+        """
+        if not 0 < self.conveyor_push_share < 1:
+            raise ValueError(
+                f"SceneConfig.conveyor_push_share must be in (0, 1), got {self.conveyor_push_share}"
+            )
+        if not self.conveyor_settle_s >= 0:
+            raise ValueError(
+                f"SceneConfig.conveyor_settle_s must be >= 0 s, got {self.conveyor_settle_s}"
+            )
+        if self.conveyor_overshoot is not None:
+            return self.conveyor_overshoot
+        return self.cell_clearance
+
+    @property
+    def full_step_rad(self) -> float:
+        """One full step of the motor shaft (rad)."""
+        return 2.0 * math.pi / self.steps_per_rev
+
+    @property
+    def pullout_zero_speed(self) -> float:
+        """Motor speed (rad/s) where the pull-out torque reaches zero."""
+        return 2.0 * math.pi * self.pullout_zero_speed_rev_s

@@ -1,0 +1,192 @@
+"""The conveyor's index drive: a controller of the scene's unactuated conveyor carriage.
+
+The belt table is static (it ends at the front edge of the pickup row); the pots stand on it
+and are pushed by the 5 mm ribs of the `conveyor` carriage, an UNACTUATED slide (so it sleeps
+with its resting pots). `ConveyorDrive.start(data, now, total_s)` arms a smooth profile
+followed by a short hold, all within total_s (the carriage is at rest and released by
+now + total_s, when the firmware acknowledges M710); `apply(data, now)`, called before every
+physics step while `armed(data)`, writes a PD force following it into `qfrc_applied` of the
+conveyor dof. A non-zero applied force is MuJoCo's documented way to wake a sleeping tree,
+and writing back an exact 0.0 at the end lets it fall asleep again. The profile overshoots by
+the cell clearance and comes back, so the ribs push every pot to its new cell centre and then
+leave it free (no rib contact at rest, so the pots and the carriage do not form one island).
+
+Where the state lives: the index state (active flag, start time, profile duration, end time,
+start position) is in data.userdata[0:USERDATA_CONVEYOR], nowhere else, so it is part of
+the MjData and copies with it (mujoco.mj_copyData, copy.copy). The drive object itself holds
+only constants of the model (addresses, gains), so one drive serves any MjData of its scene.
+
+Rows past the edge: each row's ribs collide only with that row's pots (collision bits
+8..31). When an index carries a row's cells off the belt's top run, its ribs go round the
+front drum: `start` turns their collisions off and hides them, which edits the MODEL (a
+Scene's model is shared by its MjData: one simulation at a time). Which rows are off is a
+function of the carriage position alone, and `start` sets every row (off or back on) from it,
+so a copied or rewound MjData gets the right ribs at its next index.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from transplanter.scene.config import RIB_RGBA, row_bit
+
+if TYPE_CHECKING:
+    from transplanter.scene.handles import Scene
+
+USERDATA_CONVEYOR = 5
+_U_ACTIVE, _U_T0, _U_PROFILE, _U_END, _U_Q0 = range(USERDATA_CONVEYOR)
+
+
+def conveyor_armed(data: mujoco.MjData) -> bool:
+    """True from an index's start until the drive has released it (see ConveyorDrive)."""
+    return data.userdata[_U_ACTIVE] != 0.0
+
+
+class ConveyorDrive:
+    """Indexes the conveyor carriage of a Scene one row at a time (see the module docstring)."""
+
+    def __init__(self, scene: Scene):
+        self.model = scene.model
+        self.config = scene.config
+        self.qpos_adr = scene.conveyor_qpos_adr
+        self.dof_adr = scene.conveyor_dof_adr
+        if self.model.nuserdata < USERDATA_CONVEYOR:
+            raise ValueError(
+                f"the model has nuserdata={self.model.nuserdata}; the conveyor needs "
+                f"{USERDATA_CONVEYOR} (<size nuserdata=...> in models/transplanter.xml)"
+            )
+        m, rows = self.model, self.config.rows
+        self._rib_geoms_by_row = [
+            np.array([g for g in range(m.ngeom) if (m.geom(g).name or "").startswith(f"rib_{r}_")])
+            for r in range(rows)
+        ]
+        # as built: each row's own collision bit, opaque
+        self._rib_conaffinity = [row_bit(r) for r in range(rows)]
+        self._rib_alpha = [RIB_RGBA[3]] * rows
+        self._row_y = self.config.pickup_row_y + np.arange(rows) * self.config.row_pitch
+
+    def index_phases(self, total_s: float) -> tuple[float, float]:
+        """Split an index's total time (s) into (profile, settle) durations (s).
+
+        settle = min(conveyor_settle_s, 0.25 * total_s): the PD hold at the end of the profile
+        that lets the carriage and the pots come to rest before the force is released.
+        """
+        settle = min(self.config.conveyor_settle_s, 0.25 * total_s)
+        return total_s - settle, settle
+
+    def start(self, data: mujoco.MjData, now: float, total_s: float) -> None:
+        """Index the conveyor by one row (towards -y), done by `now + total_s`.
+
+        total_s is the whole index time (the scenario's index time, after which the SGF
+        acknowledges M710): the carriage follows the push-and-return profile, is held while
+        it settles (index_phases), and by now + total_s it is at rest, the drive force is
+        released and a new index may start.
+        """
+        if not (math.isfinite(total_s) and total_s > 0):
+            raise ValueError(f"conveyor index time must be > 0 s, got {total_s}")
+        u = data.userdata
+        if u[_U_ACTIVE] != 0.0:
+            if not self._done(data, now):
+                raise RuntimeError(
+                    f"conveyor is already indexing until t = {u[_U_END]:.4f} s (now {now:.4f} "
+                    "s); wait until ConveyorDrive.indexing() is False"
+                )
+            self._release(data)
+        profile_s, _ = self.index_phases(total_s)
+        pitch = self.config.row_pitch
+        q0 = round(data.qpos[self.qpos_adr] / pitch) * pitch
+        self._set_rows_past_the_edge(q0 - pitch)
+        u[_U_ACTIVE], u[_U_T0], u[_U_PROFILE], u[_U_END], u[_U_Q0] = (
+            1.0,
+            now,
+            profile_s,
+            now + total_s,
+            q0,
+        )
+
+    def armed(self, data: mujoco.MjData) -> bool:
+        """True from start until apply has released the drive: as long as this holds,
+        apply must be called before every physics step."""
+        return conveyor_armed(data)
+
+    def indexing(self, data: mujoco.MjData, now: float) -> bool:
+        """True while an index (profile and settle) is under way, until start + total_s.
+
+        It ends half a timestep early, so that rounding in data.time cannot add a step.
+        """
+        return conveyor_armed(data) and not self._done(data, now)
+
+    def reference(self, data: mujoco.MjData, now: float) -> tuple[float, float]:
+        """Reference position (m) and velocity (m/s) of the carriage at `now`.
+
+        Min-jerk push by row_pitch + overshoot over conveyor_push_share of the profile, then
+        min-jerk return by the overshoot; after the profile it holds the end position.
+        """
+        u = data.userdata
+        t0, duration, q0 = u[_U_T0], u[_U_PROFILE], u[_U_Q0]
+        cfg = self.config
+        push_share = cfg.conveyor_push_share
+        t = min(max(now - t0, 0.0), duration)
+        overshoot = cfg.index_overshoot
+        travel = cfg.row_pitch + overshoot
+        if t < push_share * duration:
+            T = push_share * duration
+            s, ds = _min_jerk(t / T)
+            return q0 - travel * s, -travel * ds / T
+        T = (1 - push_share) * duration
+        s, ds = _min_jerk((t - push_share * duration) / T)
+        return q0 - travel + overshoot * s, overshoot * ds / T
+
+    def apply(self, data: mujoco.MjData, now: float) -> None:
+        """Call before every physics step: PD force along the index profile, else nothing."""
+        if data.userdata[_U_ACTIVE] == 0.0:
+            return
+        if self._done(data, now):
+            self._release(data)
+            return
+        cfg = self.config
+        q_ref, v_ref = self.reference(data, now)
+        q = data.qpos[self.qpos_adr]
+        v = data.qvel[self.dof_adr]
+        force = cfg.conveyor_kp * (q_ref - q) + cfg.conveyor_kd * (v_ref - v)
+        # -0.0 would also wake the tree; an exact zero would let it sleep mid-index.
+        data.qfrc_applied[self.dof_adr] = force if force != 0.0 else 1e-12
+
+    def position(self, data: mujoco.MjData) -> float:
+        """Carriage position (m; 0 at build, -row_pitch after one index)."""
+        return float(data.qpos[self.qpos_adr])
+
+    def _done(self, data: mujoco.MjData, now: float) -> bool:
+        # Half a timestep of slack: data.time, a sum of timesteps, drifts by rounding.
+        return now >= data.userdata[_U_END] - 0.5 * self.model.opt.timestep
+
+    def _release(self, data: mujoco.MjData) -> None:
+        # An exact 0.0 lets the carriage's tree fall asleep again.
+        data.qfrc_applied[self.dof_adr] = 0.0
+        data.userdata[_U_ACTIVE] = 0.0
+
+    def _set_rows_past_the_edge(self, q_after: float) -> None:
+        """Rows whose cells leave the belt's top run at this index go round the front drum:
+        their ribs stop touching anything and are no longer drawn; the other rows' ribs are
+        as built. Without this the ribs of emptied rows would sweep on through the drop tube
+        and jam on the pot dropped last."""
+        edge = self.config.pickup_row_y - self.config.row_pitch / 2
+        rows = zip(
+            self._row_y, self._rib_geoms_by_row, self._rib_conaffinity, self._rib_alpha,
+            strict=True,
+        )  # fmt: skip
+        for y, geoms, conaffinity, alpha in rows:
+            past = y + q_after < edge - 1e-9
+            self.model.geom_conaffinity[geoms] = 0 if past else conaffinity
+            self.model.geom_rgba[geoms, 3] = 0.0 if past else alpha
+
+
+def _min_jerk(tau: float) -> tuple[float, float]:
+    tau = min(max(tau, 0.0), 1.0)
+    s = tau**3 * (10 - 15 * tau + 6 * tau**2)
+    ds = 30 * tau**2 * (1 - tau) ** 2
+    return s, ds

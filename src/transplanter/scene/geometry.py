@@ -1,0 +1,161 @@
+"""Procedural geometry of the scene: the five-bar's passive angles, the drop tube's walls,
+the conveyor's cells, ribs and belt table, the gripper column and the pots' inertia.
+
+Pure functions of a SceneConfig (numpy/math only, no MjSpec): build_scene and
+scripts/make_models.py both call them, so models/*.xml and a built scene agree bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from transplanter import kinematics
+from transplanter.scene.config import (
+    JAW_HALF_HEIGHT,
+    PALM_HEIGHT,
+    WRIST_SERVO_BOTTOM,
+    SceneConfig,
+)
+
+Box = tuple[np.ndarray, np.ndarray, np.ndarray]  # half sizes, pos, quat
+
+
+def five_bar_forward(config: SceneConfig, theta1: float, theta2: float) -> tuple[float, float]:
+    """Passive joint angles (phi1, phi2) of the elbows-out closed chain at (theta1, theta2).
+
+    phi_i = direction of passive link i (elbow -> C, with C from kinematics.fk's 'up'
+    assembly) minus theta_i, wrapped to (-pi, pi].
+    """
+    geom = config.geometry()
+    x, y = kinematics.fk(geom, theta1, theta2, "up")
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ValueError(
+            f"five-bar cannot close at theta=({theta1}, {theta2}) rad: the elbows are more "
+            f"than 2*l2 = {2 * config.l2} m apart (or coincide)"
+        )
+    b, d = kinematics.elbow_points(geom, theta1, theta2)
+    psi1 = math.atan2(y - b[1], x - b[0])
+    psi2 = math.atan2(y - d[1], x - d[0])
+    return _wrap_angle(psi1 - theta1), _wrap_angle(psi2 - theta2)
+
+
+def _wrap_angle(angle: float) -> float:
+    """Angle wrapped to (-pi, pi]."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
+
+
+def ring_boxes(
+    radius_top: float,
+    z_top: float,
+    radius_bottom: float,
+    z_bottom: float,
+    wall: float,
+    segments: int,
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Convex boxes (half sizes, pos, quat) forming a conical/cylindrical wall of revolution.
+
+    The inner faces lie on the surface from (radius_top, z_top) to (radius_bottom,
+    z_bottom); boxes overlap slightly so nothing slips through the seams.
+    """
+    dr, dz = radius_bottom - radius_top, z_bottom - z_top
+    slant = math.hypot(dr, dz)
+    boxes = []
+    half_width = (max(radius_top, radius_bottom) + wall) * math.tan(math.pi / segments) * 1.05
+    for k in range(segments):
+        a = 2 * math.pi * k / segments
+        e_r = np.array([math.cos(a), math.sin(a), 0.0])
+        e_t = np.array([-math.sin(a), math.cos(a), 0.0])
+        e_z = np.array([0.0, 0.0, 1.0])
+        up_slant = -(dr * e_r + dz * e_z) / slant
+        normal = (-dz * e_r + dr * e_z) / slant
+        mid = ((radius_top + radius_bottom) / 2) * e_r + ((z_top + z_bottom) / 2) * e_z
+        pos = mid + normal * wall / 2
+        rot = np.column_stack([normal, e_t, up_slant])
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, rot.flatten())
+        boxes.append((np.array([wall / 2, half_width, slant / 2]), pos, quat))
+    return boxes
+
+
+def drop_tube_boxes(config: SceneConfig) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Funnel and tube collision boxes in the drop_tube body frame (origin at the funnel top)."""
+    r_top = config.funnel_top_diameter / 2
+    r_throat = config.funnel_throat_diameter / 2
+    funnel = ring_boxes(
+        r_top, 0.0, r_throat, -config.funnel_height, config.tube_wall, config.tube_segments
+    )
+    z_throat = -config.funnel_height
+    tube = ring_boxes(
+        r_throat,
+        z_throat,
+        r_throat,
+        z_throat - config.tube_length,
+        config.tube_wall,
+        config.tube_segments,
+    )
+    return funnel + tube
+
+
+def pot_inertia(mass: float, radius: float, height: float) -> np.ndarray:
+    """Principal inertia (kg*m^2) of a solid cylinder about its centre, axis along z."""
+    ixx = mass * (3 * radius**2 + height**2) / 12
+    return np.array([ixx, ixx, mass * radius**2 / 2])
+
+
+def cell_columns_x(config: SceneConfig) -> np.ndarray:
+    """x (m) of the centres of the cols cells of a row, symmetric about x = 0."""
+    return (np.arange(config.cols) - (config.cols - 1) / 2) * config.cell_pitch
+
+
+def row_y(config: SceneConfig) -> np.ndarray:
+    """y (m) of the centres of the rows at conveyor position 0 (row 0 is the pickup row)."""
+    return config.pickup_row_y + np.arange(config.rows) * config.row_pitch
+
+
+def cell_centres(config: SceneConfig) -> np.ndarray:
+    """(rows*cols, 2) xy (m) of every cell centre at conveyor position 0, row-major."""
+    xs, ys = cell_columns_x(config), row_y(config)
+    return np.array([[xs[c], ys[r]] for r in range(config.rows) for c in range(config.cols)])
+
+
+def belt_table(config: SceneConfig, half_thickness: float) -> tuple[list, list]:
+    """Size (half sizes) and pos of the static belt table box: from the front edge of the
+    pickup row to one row pitch behind the last row, table_side_margin wider than the ribs;
+    its top face is the belt top (z = 0)."""
+    half_width = config.cols * config.cell_pitch / 2
+    front = config.pickup_row_y - config.row_pitch / 2
+    back = row_y(config)[-1] + config.row_pitch
+    size = [half_width + config.table_side_margin, (back - front) / 2, half_thickness]
+    pos = [0, (front + back) / 2, -half_thickness]
+    return size, pos
+
+
+def rib_boxes(config: SceneConfig, row: int) -> list[tuple[list, list]]:
+    """(half sizes, pos) of the ribs of one conveyor row in the carriage frame: the two cross
+    ribs at +-row_pitch/2 from the row's centre line, then the cols + 1 ribs between cells."""
+    half_width = config.cols * config.cell_pitch / 2
+    y = row_y(config)[row]
+    rib_half_h = config.rib_height / 2
+    rib_half_t = config.rib_thickness / 2
+    ribs = [
+        ([half_width, rib_half_t, rib_half_h], [0, y + side * config.row_pitch / 2, rib_half_h])
+        for side in (-1, 1)
+    ]
+    ribs += [
+        ([rib_half_t, config.row_pitch / 2, rib_half_h], [x, y, rib_half_h])
+        for x in (np.arange(config.cols + 1) - config.cols / 2) * config.cell_pitch
+    ]
+    return ribs
+
+
+def column_box(config: SceneConfig) -> tuple[float, float]:
+    """Half length and centre z (m, gripper frame, C at 0) of the gripper's column: from
+    just under the wrist servo down to the top of the palm."""
+    column_top = -WRIST_SERVO_BOTTOM
+    column_bottom = -(config.column_height - JAW_HALF_HEIGHT - PALM_HEIGHT)
+    if column_bottom >= column_top:
+        raise ValueError("SceneConfig.column_height too small for the wrist servo and palm")
+    return (column_top - column_bottom) / 2, (column_top + column_bottom) / 2

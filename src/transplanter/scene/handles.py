@@ -1,0 +1,219 @@
+"""The compiled scene's handles: index arrays, per-step accessors, contact sensing, leaves.
+
+A `Scene` (returned by build_scene) looks every name up once and offers cheap per-step
+accessors on an MjData: motor targets and positions, gripper and wrist, limit switches,
+pot positions, jaw contacts and grip force, seedling leaf hits. The conveyor's drive is a
+separate controller (transplanter.scene.conveyor.ConveyorDrive).
+
+Leaves: a capsule proxy per leaf on each pot body, outside collision detection (leaves are
+a few grams of soft tissue: they must not push the gripper, and colliding them every step
+tripled the narrowphase). `leaf_hit_pots` tests them against the gripper's boxes
+geometrically, only for the pots near the gripper, when the trial asks.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from transplanter.scene.config import SceneConfig
+from transplanter.scene.conveyor import conveyor_armed
+from transplanter.scene.pots import PotBatch
+
+LEAF_SAMPLES = 5  # points along each leaf capsule's axis tested against the gripper boxes
+LEAF_NEAR_M = 0.09  # only pots this close (xy) to the grip centre can touch the gripper
+
+
+class Scene:
+    """A compiled scene with precomputed index arrays and per-step helpers."""
+
+    def __init__(self, model: mujoco.MjModel, config: SceneConfig, pots: PotBatch):
+        self.model = model
+        self.config = config
+        self.pots = pots  # the PotBatch the scene was built with
+        m = model
+        name = lambda kind, n: mujoco.mj_name2id(m, kind, n)  # noqa: E731
+        self.motor_actuators = np.array(
+            [name(mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in ("theta1", "theta2", "z")]
+        )
+        self.motor_gears = m.actuator_gear[self.motor_actuators, 0].copy()
+        motor_joints = [name(mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("theta1", "theta2", "z")]
+        self.motor_qpos_adr = m.jnt_qposadr[motor_joints].copy()
+        self.gripper_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "gripper")
+        self.wrist_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "wrist")
+        self.wrist_qpos_adr = m.jnt_qposadr[name(mujoco.mjtObj.mjOBJ_JOINT, "wrist")]
+        self.jaw_tendon = name(mujoco.mjtObj.mjOBJ_TENDON, "jaw_opening")
+        self.grip_site = name(mujoco.mjtObj.mjOBJ_SITE, "grip_center")
+        self.c1_site = name(mujoco.mjtObj.mjOBJ_SITE, "c1")
+        self.c2_site = name(mujoco.mjtObj.mjOBJ_SITE, "c2")
+        conveyor_joint = name(mujoco.mjtObj.mjOBJ_JOINT, "conveyor")
+        self.conveyor_qpos_adr = int(m.jnt_qposadr[conveyor_joint])
+        self.conveyor_dof_adr = int(m.jnt_dofadr[conveyor_joint])
+        self.home_key = name(mujoco.mjtObj.mjOBJ_KEY, "home")
+
+        trip_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_trip")]
+        sense_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_sense")]
+        self.switch_trip = m.numeric_data[trip_adr : trip_adr + 4].copy()
+        self.switch_sense = m.numeric_data[sense_adr : sense_adr + 4].copy()
+        self.switch_qpos_adr = self.motor_qpos_adr[[0, 1, 2, 2]]
+
+        rows, cols = config.rows, config.cols
+        self.pot_bodies = np.array(
+            [
+                [name(mujoco.mjtObj.mjOBJ_BODY, f"pot_{r}_{c}") for c in range(cols)]
+                for r in range(rows)
+            ]
+        )
+        flat = self.pot_bodies.ravel()
+        self.pot_geoms = np.array(
+            [
+                name(mujoco.mjtObj.mjOBJ_GEOM, f"pot_{r}_{c}")
+                for r in range(rows)
+                for c in range(cols)
+            ]
+        )
+        self.pot_qpos_adr = m.jnt_qposadr[m.body_jntadr[flat]].copy()
+        self.pot_dof_adr = m.jnt_dofadr[m.body_jntadr[flat]].copy()
+
+        ngeom = m.ngeom
+        self.jaw_geoms = np.array(
+            [name(mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("jaw_left", "jaw_right")]
+        )
+        self._is_jaw = np.zeros(ngeom, bool)
+        self._is_jaw[self.jaw_geoms] = True
+        self._pot_of_geom = np.full(ngeom, -1)
+        self._pot_of_geom[self.pot_geoms] = np.arange(flat.size)
+        gripper_body = name(mujoco.mjtObj.mjOBJ_BODY, "gripper")
+        gripper_bodies = {gripper_body} | {
+            b for b in range(m.nbody) if m.body_parentid[b] == gripper_body
+        }
+        self._is_gripper = np.isin(m.geom_bodyid, list(gripper_bodies)) & (m.geom_contype > 0)
+        self._gripper_boxes = np.flatnonzero(
+            self._is_gripper & (m.geom_type == mujoco.mjtGeom.mjGEOM_BOX)
+        )
+        self._gripper_half = m.geom_size[self._gripper_boxes].copy()
+        self._leaf_geoms = np.array(
+            [g for g in range(ngeom) if (m.geom(g).name or "").startswith("leaf_")], dtype=int
+        )
+        body_to_pot = np.full(m.nbody, -1)
+        body_to_pot[flat] = np.arange(flat.size)
+        self._leaf_pot = body_to_pot[m.geom_bodyid[self._leaf_geoms]]
+        self._leaf_radius = m.geom_size[self._leaf_geoms, 0].copy()
+        self._leaf_axis_t = (
+            np.linspace(-1.0, 1.0, LEAF_SAMPLES)[None, :, None]
+            * (m.geom_size[self._leaf_geoms, 1][:, None, None])
+        )
+
+        tube_x, tube_y = config.drop_tube_xy
+        self._tube_xy = np.array([tube_x, tube_y])
+        self._tube_inner_radius = config.funnel_throat_diameter / 2
+        self._throat_z = config.funnel_top_z - config.funnel_height
+
+    # ----- state -----
+    def make_data(self) -> mujoco.MjData:
+        """New MjData at the home keyframe, forward-ed."""
+        data = mujoco.MjData(self.model)
+        mujoco.mj_resetDataKeyframe(self.model, data, self.home_key)
+        mujoco.mj_forward(self.model, data)
+        return data
+
+    # ----- drives -----
+    def set_motor_targets(self, data: mujoco.MjData, joint_positions) -> None:
+        """Command theta1, theta2 (rad) and Z (m): ctrl = gear * position (motor radians)."""
+        data.ctrl[self.motor_actuators] = self.motor_gears * np.asarray(joint_positions, float)
+
+    def joint_positions(self, data: mujoco.MjData) -> np.ndarray:
+        """Actual theta1, theta2 (rad), Z (m)."""
+        return data.qpos[self.motor_qpos_adr].copy()
+
+    def set_gripper_opening(self, data: mujoco.MjData, opening_m: float) -> None:
+        """Servo target for the jaw opening (m), clipped to [0, gripper_max_opening]."""
+        data.ctrl[self.gripper_actuator] = min(max(opening_m, 0.0), self.config.gripper_max_opening)
+
+    def gripper_opening(self, data: mujoco.MjData) -> float:
+        return float(data.ten_length[self.jaw_tendon])
+
+    def set_wrist_angle(self, data: mujoco.MjData, angle_rad: float) -> None:
+        """Wrist servo target (rad); gripper approach axis in the world = psi1 + wrist."""
+        data.ctrl[self.wrist_actuator] = angle_rad
+
+    def limit_switches(self, data: mujoco.MjData) -> np.ndarray:
+        """Switches 1-4 (bool): theta1 >= trip1, theta2 <= trip2, z >= trip3, z <= trip4."""
+        q = data.qpos[self.switch_qpos_adr]
+        return self.switch_sense * (q - self.switch_trip) >= 0
+
+    # ----- pots -----
+    def pot_positions(self, data: mujoco.MjData) -> np.ndarray:
+        """(rows*cols, 3) pot centres (geometric centre of the cylinder), row-major."""
+        return data.xpos[self.pot_bodies.ravel()].copy()
+
+    def pot_in_tube(self, data: mujoco.MjData) -> np.ndarray:
+        """Pots whose centre is inside the tube radius and below the funnel throat."""
+        p = data.xpos[self.pot_bodies.ravel()]
+        radial = np.hypot(p[:, 0] - self._tube_xy[0], p[:, 1] - self._tube_xy[1])
+        return (radial < self._tube_inner_radius) & (p[:, 2] < self._throat_z)
+
+    def _contact_pairs(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        n = data.ncon
+        if n == 0:
+            empty = np.zeros(0, int)
+            return empty, empty
+        return data.contact.geom1[:n], data.contact.geom2[:n]
+
+    def _jaw_pot_contacts(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        g1, g2 = self._contact_pairs(data)
+        p1, p2 = self._pot_of_geom[g1], self._pot_of_geom[g2]
+        mask = (self._is_jaw[g1] & (p2 >= 0)) | (self._is_jaw[g2] & (p1 >= 0))
+        idx = np.flatnonzero(mask)
+        return idx, np.maximum(p1, p2)[idx]
+
+    def grip_force(self, data: mujoco.MjData) -> float:
+        """Sum of the normal forces between the jaws and any pot (N)."""
+        idx, _ = self._jaw_pot_contacts(data)
+        total = 0.0
+        wrench = np.zeros(6)
+        for i in idx:
+            mujoco.mj_contactForce(self.model, data, int(i), wrench)
+            total += wrench[0]
+        return total
+
+    def pots_touching_jaws(self, data: mujoco.MjData) -> np.ndarray:
+        """Flat indices (row-major) of the pots in contact with a jaw, sorted."""
+        _, pots = self._jaw_pot_contacts(data)
+        return np.unique(pots)
+
+    def leaf_hit_pots(self, data: mujoco.MjData) -> np.ndarray:
+        """Flat indices of the pots whose seedling leaves touch the gripper, sorted.
+
+        A leaf touches when a point of its capsule axis lies within the capsule radius of
+        the palm or a jaw (LEAF_SAMPLES points per leaf, so accurate to a few mm).
+        """
+        grip = data.site_xpos[self.grip_site, :2]
+        pot_xy = data.xpos[self.pot_bodies.ravel(), :2]
+        near = np.hypot(*(pot_xy - grip).T) < LEAF_NEAR_M
+        leaves = np.flatnonzero(near[self._leaf_pot])
+        if leaves.size == 0:
+            return np.zeros(0, dtype=int)
+        geoms = self._leaf_geoms[leaves]
+        axis = data.geom_xmat[geoms].reshape(-1, 3, 3)[:, :, 2]
+        points = data.geom_xpos[geoms][:, None, :] + self._leaf_axis_t[leaves] * axis[:, None, :]
+        hit = np.zeros(leaves.size, dtype=bool)
+        for box, half in zip(self._gripper_boxes, self._gripper_half, strict=True):
+            local = (points - data.geom_xpos[box]) @ data.geom_xmat[box].reshape(3, 3)
+            outside = np.maximum(np.abs(local) - half, 0.0)
+            dist = np.sqrt((outside * outside).sum(axis=2)).min(axis=1)
+            hit |= dist < self._leaf_radius[leaves]
+        return np.unique(self._leaf_pot[leaves[hit]])
+
+    def leaf_hits(self, data: mujoco.MjData) -> bool:
+        """True when the gripper touches any seedling's leaves (its own pot's included)."""
+        return self.leaf_hit_pots(data).size > 0
+
+    # ----- conveyor (read only; ConveyorDrive drives it) -----
+    def conveyor_position(self, data: mujoco.MjData) -> float:
+        """Carriage position (m; 0 at build, -row_pitch after one index)."""
+        return float(data.qpos[self.conveyor_qpos_adr])
+
+    def conveyor_armed(self, data: mujoco.MjData) -> bool:
+        """True while a ConveyorDrive index is armed in this MjData (until it is released)."""
+        return conveyor_armed(data)

@@ -1,0 +1,87 @@
+"""Pot randomisation: the paper pots and seedlings of one scene as a typed batch.
+
+`PotBatch.draw(config, seed)` draws every random number of a scene from
+`np.random.default_rng(seed)`, always in the same order (diameter, height, mass, friction,
+offset, stem length, leaf count, leaf yaw), so a seed gives the same pots on every run and
+every machine. Pots are indexed row-major: pot i sits in row i // cols, column i % cols.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from transplanter.scene.config import SceneConfig
+from transplanter.scene.geometry import cell_centres
+
+
+@dataclass(frozen=True)
+class PotBatch:
+    """The rows*cols pots of a scene (arrays are read-only, indexed row-major).
+
+    diameter, height (m), mass (kg, without the seedling), friction (sliding, paper on jaws
+    and belt), offset (n, 2: placement offset from the cell centre, m), cell_xy (n, 2: cell
+    centre at conveyor position 0, m), stem_length (m above the pot's top), n_leaves (int),
+    leaf_yaw0 (rad, yaw of leaf 0; the others follow evenly around the stem).
+    """
+
+    diameter: np.ndarray
+    height: np.ndarray
+    mass: np.ndarray
+    friction: np.ndarray
+    offset: np.ndarray
+    cell_xy: np.ndarray
+    stem_length: np.ndarray
+    n_leaves: np.ndarray
+    leaf_yaw0: np.ndarray
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            getattr(self, f.name).setflags(write=False)
+
+    @classmethod
+    def draw(cls, config: SceneConfig, seed: int) -> PotBatch:
+        """The pots of a scene with this config and seed (np.random.default_rng(seed))."""
+        return cls.draw_from(config, np.random.default_rng(seed))
+
+    @classmethod
+    def draw_from(cls, config: SceneConfig, rng: np.random.Generator) -> PotBatch:
+        """The pots drawn from rng, in the fixed order of the module docstring."""
+        cfg = config
+        n = cfg.rows * cfg.cols
+        diameter = cfg.pot_diameter + cfg.pot_diameter_sd * rng.standard_normal(n)
+        height = cfg.pot_height + cfg.pot_height_sd * rng.standard_normal(n)
+        mass = np.clip(cfg.pot_mass + cfg.pot_mass_sd * rng.standard_normal(n), *cfg.pot_mass_range)
+        friction = np.maximum(
+            cfg.pot_friction + cfg.pot_friction_sd * rng.standard_normal(n), cfg.pot_friction_min
+        )
+        offset = np.clip(
+            cfg.pot_offset_sd * rng.standard_normal((n, 2)),
+            -cfg.pot_offset_max,
+            cfg.pot_offset_max,
+        )
+        stem_length = rng.uniform(*cfg.stem_length_range, n)
+        n_leaves = rng.integers(cfg.leaves_range[0], cfg.leaves_range[1] + 1, n)
+        leaf_yaw0 = rng.uniform(0, 2 * np.pi, n)
+        return cls(
+            diameter=diameter,
+            height=height,
+            mass=mass,
+            friction=friction,
+            offset=offset,
+            cell_xy=cell_centres(cfg),
+            stem_length=stem_length,
+            n_leaves=n_leaves,
+            leaf_yaw0=leaf_yaw0,
+        )
+
+    def __len__(self) -> int:
+        return int(self.diameter.size)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, PotBatch):
+            return NotImplemented
+        return all(
+            np.array_equal(getattr(self, f.name), getattr(other, f.name)) for f in fields(self)
+        )
