@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from transplanter.units import M_PER_MM
+
 TWO_PI = 2.0 * math.pi
 MODES = ("+-", "-+", "++", "--")
 ASSEMBLIES = ("up", "down")
@@ -419,7 +421,7 @@ def require_reachable(geom: FiveBarGeometry, limits: KinematicLimits, x, y, mode
         reason = _reason(geom, limits, bad, arrays, i)
         message = (
             f"target position not reachable: point {i} at (x, y) = "
-            f"({arrays['x'][i] * 1e3:.3f}, {arrays['y'][i] * 1e3:.3f}) mm: {reason}"
+            f"({arrays['x'][i] / M_PER_MM:.3f}, {arrays['y'][i] / M_PER_MM:.3f}) mm: {reason}"
         )
         raise UnreachableError(i, reason, message)
     return arrays["theta1"], arrays["theta2"]

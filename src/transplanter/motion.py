@@ -18,6 +18,7 @@ import numpy as np
 
 from transplanter import kinematics as kin
 from transplanter.steppers import StepperDrive
+from transplanter.units import M_PER_MM
 
 PROFILES = ("trapezoid", "scurve")
 
@@ -309,8 +310,8 @@ def plan_line(
     try:
         theta1, theta2 = kin.require_reachable(geom, limits, points[:, 0], points[:, 1], mode)
     except kin.UnreachableError as err:
-        p = points[err.index] * 1e3
-        a, b = start * 1e3, end * 1e3
+        p = points[err.index] / M_PER_MM
+        a, b = start / M_PER_MM, end / M_PER_MM
         message = (
             f"move from ({a[0]:.3f}, {a[1]:.3f}, {a[2]:.3f}) mm to ({b[0]:.3f}, {b[1]:.3f}, "
             f"{b[2]:.3f}) mm rejected before any step: point {err.index} of {points.shape[0]} "

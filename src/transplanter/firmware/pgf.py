@@ -35,9 +35,7 @@ from dataclasses import dataclass
 
 from transplanter.firmware.eeprom import EepromImage
 from transplanter.gcode import SERVO_INDICES, SERVO_MAX_DEG, format_line
-
-M_PER_MM = 1e-3
-S_PER_MS = 1e-3
+from transplanter.units import M_PER_MM, S_PER_MS
 
 
 @dataclass(frozen=True)
@@ -65,7 +63,9 @@ class PGFConfig:
         for name in ("gripper_open_deg", "gripper_close_deg"):
             value = getattr(self, name)
             if not (math.isfinite(value) and 0.0 <= value <= SERVO_MAX_DEG):
-                raise ValueError(f"{name} = {value} is outside the servo range 0-180 deg")
+                raise ValueError(
+                    f"{name} = {value} is outside the servo range 0-{SERVO_MAX_DEG:g} deg"
+                )
         for name in ("open_dwell_s", "close_dwell_s", "release_dwell_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):

@@ -34,17 +34,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from transplanter.errors import ErrorCode
 from transplanter.gcode import GcodeError, GcodeLine, parse_line
 from transplanter.kinematics import FiveBarGeometry, KinematicLimits, UnreachableError, fk, ik
 from transplanter.motion import MotionConfig, PlannedMove, plan_line
 from transplanter.steppers import StepperDrive, default_drives
+from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS
 
-M_PER_MM = 1e-3
-S_PER_MS = 1e-3
-MM_PER_MIN_TO_M_S = 1e-3 / 60.0
 _FLOOR_EPS = 1e-9  # keeps floor(k / rate * rate) at k despite rounding
-ERROR_LOCKED = 9
-ERROR_TARGET = 33
 
 
 @dataclass(frozen=True)
@@ -453,7 +450,7 @@ class SGF:
 
     def _start_move(self, job: _Job, words: dict[str, float]) -> None:
         if not self.homed:
-            raise GcodeError(ERROR_LOCKED, "position unknown: home first with G28")
+            raise GcodeError(ErrorCode.SYSTEM_LOCKED, "position unknown: home first with G28")
         target = self._position.copy()
         for axis, letter in enumerate("XYZ"):
             if letter in words:
@@ -467,7 +464,7 @@ class SGF:
         z = target[2]
         if not self.config.z_min_m <= z <= self.config.z_max_m:
             raise GcodeError(
-                ERROR_TARGET,
+                ErrorCode.INVALID_TARGET,
                 f"Z {z / M_PER_MM:.3f} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
                 f"{self.config.z_max_m / M_PER_MM:.3f}] mm",
             )
@@ -480,12 +477,12 @@ class SGF:
         except UnreachableError as error:
             shown = ", ".join(f"{v / M_PER_MM:.3f}" for v in target)
             raise GcodeError(
-                ERROR_TARGET,
+                ErrorCode.INVALID_TARGET,
                 f"target position not reachable: {error.reason} "
                 f"(move to ({shown}) mm, interpolated point {error.index})",
             ) from None
         except ValueError as error:
-            raise GcodeError(ERROR_TARGET, f"move refused: {error}") from None
+            raise GcodeError(ErrorCode.INVALID_TARGET, f"move refused: {error}") from None
         self._speed_m_s = speed_m_s
         job.move = move
         job.target_xyz = target
@@ -507,7 +504,7 @@ class SGF:
             return
         failure = homing.update(now, endstops)
         if failure is not None:
-            job.replies = [f"error:{ERROR_LOCKED} homing failed: {failure}"]
+            job.replies = [ErrorCode.SYSTEM_LOCKED.reply(f"homing failed: {failure}")]
             self.homed = False
             self._position[:] = np.nan
             self._machine_events.append((now, "homing_failed"))
