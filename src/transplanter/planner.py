@@ -14,12 +14,13 @@ import numpy as np
 
 from transplanter.firmware.rig import SimulatedEndstops
 from transplanter.firmware.sgf import SGF
-from transplanter.gcode import GcodeError, parse_line
+from transplanter.gcode import GcodeError, parse_line, split_program_lines
 from transplanter.machine import Machine, power_on_joints
 
 __all__ = ["PlanError", "PlannedLine", "plan_program"]
 
 _DT_HOMING_S = 1e-3
+_ASCII_BLANKS = " \t\r\n"
 
 
 class PlanError(ValueError):
@@ -39,15 +40,21 @@ class PlannedLine:
     replies: tuple[str, ...]
 
 
-def plan_program(machine: Machine, lines: Iterable[str]) -> list[PlannedLine]:
-    """Run every line through a fresh SGF; PlanError at the first refused line."""
+def plan_program(machine: Machine, lines: str | Iterable[str]) -> list[PlannedLine]:
+    """Run every line through a fresh SGF; PlanError at the first refused line.
+
+    ``lines``: the program's text (split with ``gcode.split_program_lines``: at newlines only)
+    or its lines.
+    """
+    if isinstance(lines, str):
+        lines = split_program_lines(lines)
     config = machine.sgf
     sgf = SGF(config)
     endstops = SimulatedEndstops(config, power_on_joints(config))
     t = 0.0
     rows: list[PlannedLine] = []
     for line_no, raw in enumerate(lines, start=1):
-        text = raw.strip()
+        text = raw.strip(_ASCII_BLANKS)  # a Unicode space is not a blank: the SGF refuses it
         try:
             if parse_line(text) is None:
                 continue
