@@ -3,12 +3,10 @@ import math
 import numpy as np
 import pytest
 
-pytest.importorskip("transplanter.motion", reason="SGF plans with transplanter.motion")
-
-from transplanter.firmware.rig import SimulatedEndstops  # noqa: E402
-from transplanter.firmware.sgf import SGF, SGFConfig  # noqa: E402
-from transplanter.gcode import format_line  # noqa: E402
-from transplanter.kinematics import fk, ik  # noqa: E402
+from transplanter.firmware.rig import SimulatedEndstops
+from transplanter.firmware.sgf import SGF, SGFConfig
+from transplanter.gcode import format_line
+from transplanter.kinematics import fk, ik
 
 START = (math.radians(150.0), math.radians(30.0), 0.120)
 

@@ -36,7 +36,12 @@ import numpy as np
 
 from transplanter.errors import ErrorCode
 from transplanter.gcode import GcodeError, GcodeLine, parse_line
-from transplanter.kinematics import FiveBarGeometry, KinematicLimits, UnreachableError, fk, ik
+from transplanter.kinematics import (
+    FiveBarGeometry,
+    FiveBarKinematics,
+    KinematicLimits,
+    UnreachableError,
+)
 from transplanter.motion import MotionConfig, PlannedMove, plan_line
 from transplanter.steppers import StepperDrive, default_drives
 from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS
@@ -130,6 +135,18 @@ class SGFConfig:
     def home_joint_positions(self) -> tuple[float, float, float]:
         """Joint positions (rad, rad, m) at which switches 1, 2, 3 trip."""
         return (self.home_theta1_rad, self.home_theta2_rad, self.home_z_m)
+
+    @property
+    def kinematics(self) -> FiveBarKinematics:
+        """The arm's kinematics in this config's working mode."""
+        return FiveBarKinematics(self.geometry, self.limits, self.mode)
+
+    @property
+    def homed_steps(self) -> np.ndarray:
+        """Logical step counters after G28: the switch positions less the final pull-off."""
+        return self.home_steps - np.asarray(self.homing_dirs) * np.asarray(
+            self.homing_pulloff_steps
+        )
 
     @property
     def home_steps(self) -> np.ndarray:
@@ -518,8 +535,10 @@ class SGF:
             self._raw = homing.pulses(np.array([t]))[0]
             if not homing.failed:
                 self.homing_trip_raw = homing.trip_raw.copy()
-                self._logical = self.config.home_steps - homing.dirs * homing.pulloff
-                self._position = self._xyz_of_steps(self._logical)
+                self._logical = self.config.homed_steps
+                self._position = self.config.kinematics.point_of_steps(
+                    self._logical, self.config.drives
+                )
                 self.homed = True
                 self._machine_events.append((t, "homed"))
         elif job.move is not None:
@@ -529,23 +548,6 @@ class SGF:
         self._replies.extend(job.replies)
         self._t_free = t
         self._current = None
-
-    def _xyz_of_steps(self, steps: np.ndarray) -> np.ndarray:
-        """(x, y, z) of logical step counters: the FK assembly that the IK in ``mode`` maps
-        back to these joint angles ('-+' lands in 'down', the others mostly in 'up')."""
-        config = self.config
-        theta1, theta2, z = (
-            float(d.to_position(s)) for d, s in zip(config.drives, steps, strict=True)
-        )
-        preferred = ("down", "up") if config.mode == "-+" else ("up", "down")
-        for assembly in preferred:
-            x, y = fk(config.geometry, theta1, theta2, assembly)
-            back = np.asarray(ik(config.geometry, x, y, config.mode), dtype=np.float64)
-            wrapped = np.angle(np.exp(1j * (back - [theta1, theta2])))
-            if np.all(np.abs(wrapped) < 1e-6):
-                return np.array([float(x), float(y), z])
-        x, y = fk(config.geometry, theta1, theta2, preferred[0])  # a pose of no single mode
-        return np.array([float(x), float(y), z])
 
     def _position_report(self) -> str:
         x, y, z = (f"{v / M_PER_MM:.3f}".replace("-0.000", "0.000") for v in self._position)
