@@ -361,3 +361,30 @@ def test_homing_locate_fails_when_the_switch_is_lost():
     ]
     assert k * 1e-3 == pytest.approx(0.05 + 400 / 8000 + 2000 / 800, abs=2e-3)
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
+
+
+def test_homing_alone_seeks_pulls_off_locates_and_pulls_off_again():
+    """firmware.homing.Homing without the SGF: the raw pulses of each leg, in closed form."""
+    from transplanter.firmware.homing import Homing
+
+    config = SGFConfig()
+    endstops = SimulatedEndstops(config, START)
+    homing = Homing(config, 0.0, np.zeros(3, dtype=np.int64))
+    t, dt = 0.0, 1e-3
+    for _ in range(20_000):  # 20 s of polls at most
+        assert homing.update(t, endstops.read(homing.pulses(np.array([t]))[0])) is None
+        if homing.done_seeking:
+            break
+        t += dt
+    assert homing.done_seeking and not homing.failed
+    trip = endstops.trip_pulses()
+    dirs = np.array(config.homing_dirs)
+    assert np.all((homing.trip_raw - trip) * dirs >= 0)
+    assert np.all((homing.trip_raw - trip) * dirs <= [1, 1, 1])
+    # after the final pull-off every motor stands homing_pulloff_steps back from its trip
+    end = homing.pulses(np.array([homing.t_done, homing.t_done + 1.0]))
+    expected = homing.trip_raw - dirs * np.array(config.homing_pulloff_steps)
+    np.testing.assert_array_equal(end, [expected, expected])
+    # raw pulses never jump: at most one step per motor between polls 0.1 ms apart
+    times = np.arange(0.0, homing.t_done, 1e-4)
+    assert np.abs(np.diff(homing.pulses(times), axis=0)).max() <= 1
