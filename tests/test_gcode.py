@@ -350,3 +350,26 @@ def test_fuzz_mutated_valid_lines():
         except GcodeError:
             continue
         assert result is None or isinstance(result, GcodeLine)
+
+
+@pytest.mark.parametrize("angle", [0.0, 90.0, 180.0, 180.0001, -0.5, float("nan")])
+def test_servo_range_is_the_same_for_m280_the_pgf_and_the_eeprom(angle):
+    from transplanter.firmware.eeprom import EepromError, Pickup
+    from transplanter.firmware.pgf import PGFConfig
+    from transplanter.gcode import valid_servo_angle
+
+    ok = valid_servo_angle(angle)
+    assert ok == (0.0 <= angle <= 180.0)
+    outcomes = []
+    for make in (
+        lambda: parse_line(f"M280 P0 S{angle!r}"),
+        lambda: PGFConfig(gripper_open_deg=angle),
+        lambda: Pickup((0.0, 0.2), (0.0, 0.21), angle),
+    ):
+        try:
+            make()
+        except (GcodeError, EepromError, ValueError):
+            outcomes.append(False)
+        else:
+            outcomes.append(True)
+    assert outcomes == [ok, ok, ok]

@@ -16,14 +16,13 @@ from pathlib import Path
 
 import pytest
 
-from transplanter.firmware.rig import SimulatedEndstops
+from transplanter.firmware.rig import DT_HOMING_S, SimulatedEndstops
 from transplanter.firmware.sgf import SGF, SGFConfig
 from transplanter.machine import power_on_joints
 
 CORPUS = sorted((Path(__file__).parent / "gcode").glob("*.gcode"))
 MARK = "; expect:"
 _TAKES = re.compile(r"^(?P<replies>.*?) in (?P<s>[0-9.]+) s$")
-_DT_HOMING_S = 1e-3
 _MAX_POLLS = 100_000
 
 
@@ -60,7 +59,7 @@ def run_line(sgf: SGF, endstops: SimulatedEndstops, text: str, t: float):
         t_next = sgf.next_event_time()
         if t_next is None and not sgf.homing:
             return replies, t  # nothing queued: the line gave no reply
-        t = t + _DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
+        t = t + DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
     raise AssertionError(f"{text!r} had no final reply after {t - t0:.3f} s")
 
 

@@ -102,6 +102,20 @@ def _is_ascii_letter(char: str) -> bool:
     return ("A" <= char <= "Z") or ("a" <= char <= "z")
 
 
+def _word_end(text: str, index: int) -> int:
+    """End of the word whose letter (or number character) is at ``index``: the next white
+    space or letter."""
+    end = index + 1
+    while end < len(text) and not (text[end].isspace() or _is_ascii_letter(text[end])):
+        end += 1
+    return end
+
+
+def valid_servo_angle(angle_deg: float) -> bool:
+    """True for a finite servo angle within 0..SERVO_MAX_DEG (what M280 S accepts)."""
+    return math.isfinite(angle_deg) and 0.0 <= angle_deg <= SERVO_MAX_DEG
+
+
 def _describe(char: str) -> str:
     return repr(char) if char.isprintable() else f"U+{ord(char):04X}"
 
@@ -139,10 +153,7 @@ def _refuse_non_ascii(line: str) -> None:
                 ErrorCode.EXPECTED_COMMAND_LETTER,
                 f"non-ASCII character {shown}; G-code is ASCII, remove the character",
             )
-        end = index + 1
-        while end < len(line) and not (line[end].isspace() or _is_ascii_letter(line[end])):
-            end += 1
-        word = line[word_start:end]
+        word = line[word_start : _word_end(line, index)]
         word = f"'{word}'" if word.isprintable() else ascii(word)
         raise GcodeError(
             ErrorCode.BAD_NUMBER_FORMAT,
@@ -288,9 +299,7 @@ def _tokenise(body: str) -> list[tuple[str, str]]:
                 ErrorCode.EXPECTED_COMMAND_LETTER,
                 f"expected a command letter, found {_describe(char)}; remove the character",
             )
-        end = index + 1
-        while end < len(body) and not (body[end].isspace() or _is_ascii_letter(body[end])):
-            end += 1
+        end = _word_end(body, index)
         words.append((char.upper(), body[index + 1 : end]))
         index = end
     return words
@@ -369,7 +378,7 @@ def _check_words(command: str, words: dict[str, float]) -> None:
                 f"M280 P{index:g}: servo index must be 0 (gripper) or 1 (wrist)",
             )
         angle = words["S"]
-        if not 0.0 <= angle <= SERVO_MAX_DEG:
+        if not valid_servo_angle(angle):
             raise GcodeError(
                 ErrorCode.VALUE_OUT_OF_RANGE,
                 f"M280 S{angle:g}: servo angle must be within 0-{SERVO_MAX_DEG:g} degrees",

@@ -12,14 +12,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from transplanter.firmware.rig import SimulatedEndstops
+from transplanter.firmware.rig import DT_HOMING_S, SimulatedEndstops
 from transplanter.firmware.sgf import SGF
 from transplanter.gcode import GcodeError, parse_line, split_program_lines
 from transplanter.machine import Machine, power_on_joints
 
 __all__ = ["PlanError", "PlannedLine", "plan_program"]
 
-_DT_HOMING_S = 1e-3
 _ASCII_BLANKS = " \t\r\n"
 
 
@@ -69,7 +68,7 @@ def plan_program(machine: Machine, lines: str | Iterable[str]) -> list[PlannedLi
             if replies and (replies[-1] == "ok" or replies[-1].startswith("error")):
                 break
             t_next = sgf.next_event_time()
-            t = t + _DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
+            t = t + DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
             if t - t0 > 3600.0:
                 raise PlanError(line_no, f"{text!r} did not finish within an hour of machine time")
         if replies[-1].startswith("error"):

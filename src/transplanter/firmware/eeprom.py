@@ -37,7 +37,7 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
-from transplanter.gcode import SERVO_MAX_DEG
+from transplanter.gcode import SERVO_MAX_DEG, valid_servo_angle
 
 EEPROM_SIZE = 4096
 MAGIC = b"TPEE"
@@ -94,7 +94,7 @@ def _as_float(name: str, value) -> float:
 
 def _check_angle(name: str, value) -> float:
     angle = _as_float(name, value)
-    if not (math.isfinite(angle) and 0.0 <= angle <= SERVO_MAX_DEG):
+    if not valid_servo_angle(angle):
         raise EepromError(
             f"{name} = {value!r} deg is out of range: servo angles are 0-{SERVO_MAX_DEG:g} deg"
         )

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from transplanter.firmware.eeprom import EepromImage
-from transplanter.gcode import SERVO_INDICES, SERVO_MAX_DEG, format_line
+from transplanter.gcode import SERVO_INDICES, SERVO_MAX_DEG, format_line, valid_servo_angle
 from transplanter.units import M_PER_MM, S_PER_MS
 
 
@@ -63,7 +63,7 @@ class PGFConfig:
             raise ValueError("gripper_servo and wrist_servo must be different servos")
         for name in ("gripper_open_deg", "gripper_close_deg"):
             value = getattr(self, name)
-            if not (math.isfinite(value) and 0.0 <= value <= SERVO_MAX_DEG):
+            if not valid_servo_angle(value):
                 raise ValueError(
                     f"{name} = {value} is outside the servo range 0-{SERVO_MAX_DEG:g} deg"
                 )
