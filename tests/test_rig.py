@@ -221,7 +221,9 @@ def test_firmware_link_exchanges_and_schedules():
     # while homing: every dt_homing_s, to read the switches
     assert link.next_event_time(t_arrive, 2e-3) == t_arrive + 2e-3
     t = t_arrive
-    while pgf.current is not None and pgf.current.text.endswith("G28*18"):
+    for _ in range(20_000):  # 20 s of switch reads at most
+        if not (pgf.current is not None and pgf.current.text.endswith("G28*18")):
+            break
         t = link.next_event_time(t, 1e-3)
         sent = link.exchange(t, endstops.read(sgf.pulses_at(t)[0]))
     assert [s.phase for s in sent] == [LinePhase.ABSOLUTE] and pgf.sent[0].reply == "ok"
