@@ -1,14 +1,19 @@
 """Unit conversions: the G-code words' units (mm, mm/s, mm/min, ms) against the SI firmware."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from transplanter import units
-from transplanter.firmware.eeprom import EepromImage, Pickup
-from transplanter.firmware.pgf import PGFConfig, build_program
+from transplanter.firmware.pgf import LinePhase, build_program
 from transplanter.firmware.rig import SimulatedEndstops
 from transplanter.firmware.sgf import SGF, SGFConfig
-from transplanter.machine import power_on_joints
+from transplanter.gcode import parse_line
+from transplanter.machine import machine_from_scenario, power_on_joints
+from transplanter.scenario import load_scenario
+
+PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
 
 
 def _homed_sgf():
@@ -57,20 +62,22 @@ def test_dwell_p_is_milliseconds():
 
 
 def test_pgf_writes_mm_mm_per_s_and_ms():
-    image = EepromImage(
-        pickups=(Pickup((0.0, 0.175), (0.0, 0.215), 90.0),),
-        drop_xy_m=(0.0, 0.140),
-        drop_elbow_deg=12.5,
-        z_up_m=0.100,
-        z_low_m=0.032,
-        s_low_m_s=0.040,
-        s_high_m_s=0.150,
-    )
-    program = build_program(image, PGFConfig(seedlings=1, line_numbers=False, open_dwell_s=0.2))
-    texts = [line.text for line in program]
-    assert "G1 X0 Y140 Z100 S150" in texts
-    assert "G1 X0 Y215 Z32 S40" in texts
-    assert "G4 P200" in texts
+    machine = machine_from_scenario(load_scenario(PAPER))
+    eeprom = machine.eeprom
+    program = build_program(eeprom, machine.pgf)
+    words = {line.phase: parse_line(line.text).words for line in program[:40]}
+    to_drop = words[LinePhase.TO_DROP]
+    mm = units.M_PER_MM
+    assert to_drop["X"] == pytest.approx(eeprom.drop_xy_m[0] / mm, abs=5e-4)
+    assert to_drop["Y"] == pytest.approx(eeprom.drop_xy_m[1] / mm, abs=5e-4)
+    assert to_drop["Z"] == pytest.approx(eeprom.z_up_m / mm, abs=5e-4)
+    assert to_drop["S"] == pytest.approx(eeprom.s_high_m_s / mm, abs=5e-4)  # mm/s
+    assert words[LinePhase.LIFT]["S"] == pytest.approx(eeprom.s_low_m_s / mm, abs=5e-4)
+    assert words[LinePhase.CLOSE_WAIT]["P"] == pytest.approx(
+        machine.pgf.close_dwell_s / units.S_PER_MS, abs=5e-4
+    )  # ms
+    # paper.toml: drop_mm = [0.0, 140.0], s_high_mm_s = 150.0
+    assert (to_drop["X"], to_drop["Y"], to_drop["S"]) == (0.0, 140.0, 150.0)
 
 
 def test_conversion_factors_agree_with_each_other():
