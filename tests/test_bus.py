@@ -3,8 +3,13 @@ import pytest
 from transplanter.firmware.bus import TO_DEVICE, TO_HOST, ComBus, LineTransport
 
 
-def test_is_a_line_transport():
+def test_is_a_line_transport_and_a_half_transport_is_not():
     assert isinstance(ComBus(), LineTransport)
+
+    class SendOnly:
+        def host_send(self, line: str, now: float) -> None: ...
+
+    assert not isinstance(SendOnly(), LineTransport)
 
 
 def test_line_arrives_after_its_transmission_time():

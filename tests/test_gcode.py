@@ -1,7 +1,15 @@
 import numpy as np
 import pytest
 
-from transplanter.gcode import GcodeError, GcodeLine, checksum, format_line, parse_line
+from transplanter.errors import ErrorCode
+from transplanter.gcode import (
+    GcodeError,
+    GcodeLine,
+    checksum,
+    format_line,
+    parse_line,
+    split_program_lines,
+)
 
 ROUND_TRIP = [
     ("G0", {"X": 10.0, "Y": 200.5, "Z": 32.0}),
@@ -188,6 +196,12 @@ MALFORMED = [
     (_framed("G28"), 65),
     # embedded line break
     ("G1 X1\nG1 X2", 1),
+    # non-ASCII: 2 inside a number, 1 elsewhere
+    ("G1 X\u0661\u0660 Y180", 2),
+    ("G1 X10 Y\uff11\uff14\uff10", 2),
+    ("G1\u00a0X10", 1),
+    ("G1 X10\u3000Y5", 1),
+    ("G1 X1\u2028", 1),
 ]
 
 
@@ -202,13 +216,101 @@ def test_malformed_line_gives_its_error_code(text, code):
 
 
 def test_malformed_corpus_is_large_and_covers_codes():
-    assert len(MALFORMED) >= 40
-    assert {code for _, code in MALFORMED} >= {1, 2, 11, 20, 22, 60, 62}
+    seen = []
+    for text, code in MALFORMED:
+        with pytest.raises(GcodeError) as info:
+            parse_line(text)
+        assert info.value.code == code, text
+        seen.append(info.value.code)
+    assert len(seen) >= 40
+    # every code the parser can give (9 and 33 come from the SGF, 61 needs an expected N)
+    parser_codes = set(ErrorCode) - {
+        ErrorCode.SYSTEM_LOCKED,
+        ErrorCode.INVALID_TARGET,
+        ErrorCode.LINE_OUT_OF_SEQUENCE,
+    }
+    assert set(seen) == parser_codes
 
 
-def test_error_is_a_value_error():
-    with pytest.raises(ValueError, match="error 20"):
-        parse_line("G2")
+@pytest.mark.parametrize(
+    ("text", "code", "named"),
+    [
+        (
+            "G1 X\u0661\u0660 Y180",
+            ErrorCode.BAD_NUMBER_FORMAT,
+            "U+0661 (ARABIC-INDIC DIGIT ONE) in 'X\u0661\u0660'",
+        ),
+        (
+            "G1 X10 Y\uff11\uff14\uff10",
+            ErrorCode.BAD_NUMBER_FORMAT,
+            "U+FF11 (FULLWIDTH DIGIT ONE) in 'Y",
+        ),
+        ("G1 X-\u0661", ErrorCode.BAD_NUMBER_FORMAT, "in 'X-\u0661'"),
+        ("N\u0661 G28*0", ErrorCode.BAD_NUMBER_FORMAT, "U+0661"),
+        ("N1 G28*\u0661", ErrorCode.BAD_NUMBER_FORMAT, "in '*\u0661'"),
+        ("G1 X\ud800", ErrorCode.BAD_NUMBER_FORMAT, "U+D800 in 'X\\ud800'"),
+        ("G1\u00a0X10", ErrorCode.EXPECTED_COMMAND_LETTER, "U+00A0 (NO-BREAK SPACE)"),
+        ("G1 X10\u3000Y5", ErrorCode.EXPECTED_COMMAND_LETTER, "U+3000 (IDEOGRAPHIC SPACE)"),
+        ("G1 X1\u2028", ErrorCode.EXPECTED_COMMAND_LETTER, "U+2028 (LINE SEPARATOR)"),
+        ("G1 X1 \u00e9", ErrorCode.EXPECTED_COMMAND_LETTER, "U+00E9"),
+        ("M400 (caf\u00e9)", ErrorCode.EXPECTED_COMMAND_LETTER, "U+00E9"),
+        (
+            "G28 ; caf\u00e9",
+            ErrorCode.EXPECTED_COMMAND_LETTER,
+            "U+00E9 (LATIN SMALL LETTER E WITH ACUTE) in a comment",
+        ),
+    ],
+)
+def test_non_ascii_characters_are_refused_by_name(text, code, named):
+    # float() alone would take these digits: float("\u0661\u0660") == 10.0
+    with pytest.raises(GcodeError) as info:
+        parse_line(text)
+    assert info.value.code is code
+    assert named in info.value.message
+    assert "G-code is ASCII" in info.value.message
+    assert info.value.reply == f"error:{int(code)} {info.value.message}"
+
+
+def test_number_words_take_ascii_digits_only():
+    assert float("\u0661\u0660") == 10.0  # the hole this closes
+    assert parse_line("G1 X10 Y180").words == {"X": 10.0, "Y": 180.0}
+    for digit in ("\u0661", "\uff11", "\u0967", "\U0001d7d9"):  # Arabic-Indic 1, fullwidth 1, ...
+        with pytest.raises(GcodeError) as info:
+            parse_line(f"G1 X1{digit}")
+        assert info.value.code == 2
+
+
+def test_error_code_is_an_int_and_names_the_reply():
+    with pytest.raises(GcodeError) as info:
+        parse_line("G2 X1")
+    error = info.value
+    assert error.code is ErrorCode.UNSUPPORTED_COMMAND and error.code == 20
+    assert isinstance(error.code, int) and isinstance(error, ValueError)
+    assert error.reply == "error:20 unsupported command G2; supported: " + (
+        "G0 G1 G4 G28 G90 G91 M280 M400 M114 M119 M105 M710"
+    )
+    assert str(error).startswith("error 20: ")
+    assert GcodeError(33, "x").code is ErrorCode.INVALID_TARGET
+    with pytest.raises(ValueError):
+        GcodeError(99, "no such code")
+
+
+def test_split_program_lines_splits_at_newlines_only():
+    text = "G28\r\nG1 X1\fY2\nG4 P1\u2028M400\x85\n\nM114"
+    assert text.splitlines() != split_program_lines(text)
+    assert split_program_lines(text) == ["G28", "G1 X1\fY2", "G4 P1\u2028M400\x85", "", "M114"]
+    assert split_program_lines("") == []
+    assert split_program_lines("G28\n") == ["G28"]
+    assert split_program_lines("G28\rG90") == ["G28\rG90"]
+    lines = split_program_lines(text)
+    assert parse_line(lines[1]).words == {"X": 1.0, "Y": 2.0}  # form feed: white space
+    with pytest.raises(GcodeError) as info:
+        parse_line(lines[2])
+    assert info.value.code == 1 and "U+2028" in info.value.message
+    with pytest.raises(GcodeError):
+        parse_line(lines[0] + "\rG90")
+    with pytest.raises(TypeError):
+        split_program_lines(b"G28\n")
 
 
 def test_non_string_input_is_a_type_error():
@@ -227,7 +329,7 @@ def test_fuzz_random_strings_only_give_lines_or_gcode_errors():
             try:
                 result = parse_line(candidate, expected_line_number=1, require_checksum=False)
             except GcodeError as error:
-                assert isinstance(error.code, int) and error.reply.startswith("error:")
+                assert isinstance(error.code, ErrorCode) and error.reply.startswith("error:")
                 outcomes["error"] += 1
             else:
                 assert result is None or isinstance(result, GcodeLine)
@@ -248,3 +350,26 @@ def test_fuzz_mutated_valid_lines():
         except GcodeError:
             continue
         assert result is None or isinstance(result, GcodeLine)
+
+
+@pytest.mark.parametrize("angle", [0.0, 90.0, 180.0, 180.0001, -0.5, float("nan")])
+def test_servo_range_is_the_same_for_m280_the_pgf_and_the_eeprom(angle):
+    from transplanter.firmware.eeprom import EepromError, Pickup
+    from transplanter.firmware.pgf import PGFConfig
+    from transplanter.gcode import valid_servo_angle
+
+    ok = valid_servo_angle(angle)
+    assert ok == (0.0 <= angle <= 180.0)
+    outcomes = []
+    for make in (
+        lambda: parse_line(f"M280 P0 S{angle!r}"),
+        lambda: PGFConfig(gripper_open_deg=angle),
+        lambda: Pickup((0.0, 0.2), (0.0, 0.21), angle),
+    ):
+        try:
+            make()
+        except (GcodeError, EepromError, ValueError):
+            outcomes.append(False)
+        else:
+            outcomes.append(True)
+    assert outcomes == [ok, ok, ok]

@@ -220,3 +220,116 @@ def test_require_reachable_raises_for_first_bad_point():
     t1, t2 = kin.require_reachable(GEOM, LIMITS, x[:2], y[:2])
     np.testing.assert_array_equal(t1, kin.ik(GEOM, x[:2], y[:2])[0])
     assert t2.shape == (2,)
+
+
+# FiveBarKinematics: the firmware's kinematics object ------------------------------------
+
+KIN = kin.FiveBarKinematics(GEOM, LIMITS, "+-")
+
+
+@pytest.mark.parametrize(
+    "theta1, theta2, phi1, phi2",
+    [  # scene.five_bar_forward(SceneConfig(), theta1, theta2) when this method was written
+        (3.4033920413889427, -0.2617993877991494, -2.8109069303869374, 2.8109069303869374),
+        (2.0, 1.0, -1.034338396667195, 1.1001743575806642),
+        (2.6179938779914944, 0.5235987755982988, -1.9254358950316757, 1.9254358950316761),
+        (1.9198621771937625, -0.5235987755982988, -1.8104598062679091, 2.3273008656294945),
+        (3.6651914291880923, 1.3962634015954636, -2.2236494718946593, 1.644384277558536),
+        (math.radians(200.0), math.radians(-20.0), -2.8705502843325768, 2.8705502843325763),
+        (math.radians(120.0), math.radians(60.0), -1.1059630134670417, 1.1059630134670426),
+        (math.radians(150.0), math.radians(-30.0), -2.3908924514470415, 2.694716095204438),
+        (math.pi / 2, math.pi / 2, -0.2526802551420788, 0.2526802551420788),
+    ],
+)
+def test_passive_angles_match_the_scene_values(theta1, theta2, phi1, phi2):
+    assert KIN.passive_angles(theta1, theta2) == pytest.approx((phi1, phi2), abs=1e-12)
+
+
+def test_passive_angles_close_the_chain_vectorised_and_refuse_an_open_one():
+    small = kin.FiveBarKinematics(kin.FiveBarGeometry(0.04, 0.1, 0.18))
+    assert small.passive_angles(2.2, 0.8) == pytest.approx(
+        (-1.2913393613934394, 1.3455715703266804), abs=1e-12
+    )
+    theta1 = np.radians([200.0, 120.0, 150.0])
+    theta2 = np.radians([-20.0, 60.0, -30.0])
+    phi1, phi2 = KIN.passive_angles(theta1, theta2)
+    assert phi1.shape == (3,)
+    b, d = kin.elbow_points(GEOM, theta1, theta2)
+    l2 = GEOM.l2_m
+    c1 = b + l2 * np.stack([np.cos(theta1 + phi1), np.sin(theta1 + phi1)], axis=-1)
+    c2 = d + l2 * np.stack([np.cos(theta2 + phi2), np.sin(theta2 + phi2)], axis=-1)
+    np.testing.assert_allclose(c1, c2, atol=1e-12)
+    np.testing.assert_allclose(c1, np.stack(KIN.point(theta1, theta2), axis=-1), atol=1e-12)
+    short = kin.FiveBarKinematics(kin.FiveBarGeometry(l2_m=0.1))
+    with pytest.raises(ValueError, match=r"cannot close at theta=\(3.14159\d*, 0.0\)"):
+        short.passive_angles([math.pi / 2, math.pi], [math.pi / 2, 0.0])
+
+
+@pytest.mark.parametrize("mode", kin.MODES)
+def test_point_is_the_assembly_the_mode_maps_back(mode):
+    k = kin.FiveBarKinematics(GEOM, LIMITS, mode)
+    x, y = workspace_points(400, seed=5)
+    t1, t2 = k.joints(x, y)
+    ok = np.isfinite(t1) & np.isfinite(t2)
+    assert ok.sum() > 300
+    px, py = k.point(t1[ok], t2[ok])
+    np.testing.assert_allclose(px, x[ok], atol=1e-9)
+    np.testing.assert_allclose(py, y[ok], atol=1e-9)
+    # '-+' (elbows in) lands in the 'down' assembly: plain fk('up') would be wrong there
+    x0, y0 = kin.fk(GEOM, t1[ok], t2[ok], "up")
+    if mode == "-+":
+        assert np.max(np.hypot(x0 - x[ok], y0 - y[ok])) > 0.01
+    # scalars in, numpy scalars out
+    assert np.ndim(k.point(float(t1[0]), float(t2[0]))[0]) == 0
+
+
+def test_point_of_steps_and_steps_of_point_invert_each_other():
+    from transplanter.steppers import default_drives
+
+    drives = default_drives()
+    xyz = np.array([[0.0, 0.2, 0.05], [-0.06, 0.17, 0.12], [0.08, 0.23, 0.03]])
+    steps = KIN.steps_of_point(xyz, drives)
+    assert steps.dtype == np.int64 and steps.shape == (3, 3)
+    # 9600 microsteps per arm revolution, 400 per mm of Z
+    assert steps[0].tolist() == [
+        int(round(a * 9600 / (2 * math.pi))) for a in KIN.joints(0.0, 0.2)
+    ] + [20000]
+    back = KIN.point_of_steps(steps, drives)
+    assert back.shape == (3, 3)
+    np.testing.assert_allclose(back, xyz, atol=1e-4)  # a microstep moves C by < 0.1 mm
+    np.testing.assert_array_equal(KIN.point_of_steps(steps[1], drives), back[1])
+    with pytest.raises(ValueError, match="finite"):
+        KIN.steps_of_point([0.0, 0.5, 0.05], drives)  # out of reach: no steps
+
+
+def test_homed_position_comes_from_the_kinematics_object():
+    from transplanter.firmware.sgf import SGFConfig
+
+    config = SGFConfig()
+    assert config.homed_steps.tolist() == [5237, -437, 63600]
+    x, y, z = config.kinematics.point_of_steps(config.homed_steps, config.drives)
+    assert (round(x * 1e3, 3), round(y * 1e3, 3), round(z * 1e3, 3)) == (0.0, 78.988, 159.0)
+
+
+def test_check_and_require_use_the_limits_and_mode():
+    x = np.array([0.0, 0.0, 0.3])
+    y = np.array([0.2, 0.01, 0.2])
+    report = KIN.check(x, y)
+    expected = kin.check_points(GEOM, LIMITS, x, y, "+-")
+    assert report.ok.tolist() == expected.ok.tolist() == [True, False, False]
+    assert report.reasons == expected.reasons
+    assert report.reasons[2].startswith("outside workspace: |C-O1|=")
+    theta1, theta2 = KIN.require(x[:1], y[:1])
+    assert (theta1[0], theta2[0]) == pytest.approx(KIN.joints(0.0, 0.2))
+    with pytest.raises(kin.UnreachableError) as info:
+        KIN.require(x, y)
+    assert info.value.index == 1
+
+
+def test_kinematics_object_validates():
+    with pytest.raises(ValueError, match="mode"):
+        kin.FiveBarKinematics(GEOM, LIMITS, "+")
+    with pytest.raises(ValueError, match="geometry"):
+        kin.FiveBarKinematics((0.05, 0.12, 0.2))
+    assert kin.FiveBarKinematics().assemblies == ("up", "down")
+    assert kin.FiveBarKinematics(mode="-+").assemblies == ("down", "up")

@@ -1,7 +1,7 @@
 import pytest
 
 from transplanter.firmware.eeprom import EepromImage, Pickup
-from transplanter.firmware.pgf import PGF, PGFConfig, build_program
+from transplanter.firmware.pgf import PGF, LinePhase, PGFConfig, build_program
 from transplanter.gcode import checksum, parse_line
 
 CELL_X_MM = [-90, -45, 0, 45, 90]
@@ -73,7 +73,7 @@ def test_exact_sequence_five_pickups_seven_seedlings_unframed():
     got = [(s.seedling, s.phase, s.text) for s in pgf.sent]
     assert got == expected_lines(7)
     # the conveyor indexes exactly once: after the 5th seedling (pickup 5 of the row)
-    assert [(s.seedling, s.text) for s in pgf.sent if s.phase == "index"] == [(4, "M710")]
+    assert [(s.seedling, s.text) for s in pgf.sent if s.phase is LinePhase.INDEX] == [(4, "M710")]
     assert all(s.reply == "ok" and s.t_reply > s.t_sent for s in pgf.sent)
     assert pgf.done and pgf.fault is None and pgf.current is None
 
@@ -91,11 +91,11 @@ def test_framed_lines_are_numbered_and_checksummed():
 
 def test_no_index_when_disabled_or_last_seedling():
     lines = build_program(five_pickup_image(), PGFConfig(seedlings=5, line_numbers=False))
-    assert not any(line.phase == "index" for line in lines)
+    assert not any(line.phase is LinePhase.INDEX for line in lines)
     lines = build_program(five_pickup_image(), PGFConfig(seedlings=12, index_conveyor=False))
-    assert not any(line.phase == "index" for line in lines)
+    assert not any(line.phase is LinePhase.INDEX for line in lines)
     lines = build_program(five_pickup_image(), PGFConfig(seedlings=11, line_numbers=False))
-    assert [line.seedling for line in lines if line.phase == "index"] == [4, 9]
+    assert [line.seedling for line in lines if line.phase is LinePhase.INDEX] == [4, 9]
 
 
 def test_nothing_sent_while_a_line_is_outstanding():
@@ -153,3 +153,23 @@ def test_two_oks_for_one_line_fault():
 def test_config_validation(kwargs):
     with pytest.raises(ValueError):
         PGFConfig(**kwargs)
+
+
+def test_line_phases_are_members_that_still_compare_as_strings():
+    program = build_program(five_pickup_image(), PGFConfig(seedlings=1, line_numbers=False))
+    assert all(isinstance(line.phase, LinePhase) for line in program)
+    phases = [line.phase for line in program]
+    assert phases[:4] == [
+        LinePhase.HOME,
+        LinePhase.ABSOLUTE,
+        LinePhase.START_ELBOW,
+        LinePhase.TO_START,
+    ]
+    assert phases[-1] is LinePhase.FINISH
+    # StrEnum: code comparing with the former bare strings keeps working
+    assert phases[4] == "approach" and f"{phases[4]}: x" == "approach: x"
+    assert [p for p in phases if p in ("close", "lift", "to_drop")] == [
+        LinePhase.CLOSE,
+        LinePhase.LIFT,
+        LinePhase.TO_DROP,
+    ]

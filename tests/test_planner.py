@@ -60,3 +60,21 @@ def test_homing_ends_at_the_switches(machine):
     # (96 microsteps = 3.6 deg at the arm, 400 = 1 mm on Z) as grbl does
     assert report == "X:0.000 Y:78.988 Z:159.000 A:5237 B:-437 C:63600"
     assert np.array_equal(rows[1].steps, [0, 0, 0])
+
+
+def test_program_text_splits_at_newlines_only(machine):
+    # U+2028 and form feed do not end a line (str.splitlines would split at both)
+    text = "G28\r\nG90\nG1 X0 Y200 Z50\fS100\nG1 X0 Y210 Z50\u2028G1 X0 Y220\n"
+    with pytest.raises(PlanError) as err:
+        plan_program(machine, text)
+    assert err.value.line_no == 4
+    assert str(err.value).startswith("error:1 non-ASCII character U+2028 (LINE SEPARATOR)")
+    rows = plan_program(machine, "G28\nG90\n\nG1 X0 Y200 Z50\fS100\n")
+    assert [r.line_no for r in rows] == [1, 2, 4]
+
+
+@pytest.mark.parametrize("blank", ["\u00a0", "\u3000", "\u2028"])
+def test_unicode_spaces_around_a_line_are_refused_not_stripped(machine, blank):
+    with pytest.raises(PlanError) as err:
+        plan_program(machine, ["G28", f"G90{blank}"])
+    assert err.value.line_no == 2 and str(err.value).startswith("error:1 non-ASCII")

@@ -5,7 +5,7 @@ import pytest
 
 from transplanter.firmware.bus import TO_DEVICE, TO_HOST, ComBus
 from transplanter.firmware.eeprom import EepromImage, Pickup
-from transplanter.firmware.pgf import PGF, PGFConfig
+from transplanter.firmware.pgf import PGF, LinePhase, PGFConfig
 from transplanter.firmware.rig import FirmwareLink, SimulatedEndstops, run_firmware
 from transplanter.firmware.sgf import SGF, SGFConfig
 from transplanter.gcode import checksum
@@ -99,7 +99,7 @@ def test_five_pickup_cycle_through_bus(capsys):
     # the exact line sequence, each acknowledged with ok
     assert [s.text for s in pgf.sent] == expected_lines(5)
     assert all(s.reply == "ok" for s in pgf.sent)
-    assert not any(s.phase == "index" for s in pgf.sent)  # 5 seedlings: no row follows
+    assert not any(s.phase is LinePhase.INDEX for s in pgf.sent)  # 5 seedlings: no row follows
 
     # no line sent before the previous line's ok arrived, on the PGF's log and on the wire
     for previous, line in zip(pgf.sent, pgf.sent[1:], strict=False):
@@ -136,7 +136,7 @@ def test_five_pickup_cycle_through_bus(capsys):
     assert [(i, d) for _, i, d in servo] == [(1, 30.0)] + [
         (1, 90.0), (0, 155.0), (0, 60.0), (1, 30.0), (0, 155.0)] * 5  # fmt: skip
 
-    homed_at = next(s.t_reply for s in pgf.sent if s.phase == "home")
+    homed_at = next(s.t_reply for s in pgf.sent if s.phase is LinePhase.HOME)
     first = next(s.t_sent for s in pgf.sent if s.seedling == 0)
     last = max(s.t_reply for s in pgf.sent if s.seedling == 4)
     with capsys.disabled():
@@ -158,11 +158,11 @@ def test_unreachable_taught_point_gives_error_and_moves_nothing():
     assert not result.done
     assert "target position not reachable" in result.fault
     assert [s.phase for s in pgf.sent] == [
-        "home",
-        "absolute",
-        "start_elbow",
-        "to_start",
-        "approach",
+        LinePhase.HOME,
+        LinePhase.ABSOLUTE,
+        LinePhase.START_ELBOW,
+        LinePhase.TO_START,
+        LinePhase.APPROACH,
     ]
     assert pgf.sent[-1].reply.startswith("error:33 target position not reachable")
     before = sgf.pulses_at(pgf.sent[-1].t_sent)[0]  # at the drop point, after to_start
@@ -221,10 +221,12 @@ def test_firmware_link_exchanges_and_schedules():
     # while homing: every dt_homing_s, to read the switches
     assert link.next_event_time(t_arrive, 2e-3) == t_arrive + 2e-3
     t = t_arrive
-    while pgf.current is not None and pgf.current.text.endswith("G28*18"):
+    for _ in range(20_000):  # 20 s of switch reads at most
+        if not (pgf.current is not None and pgf.current.text.endswith("G28*18")):
+            break
         t = link.next_event_time(t, 1e-3)
         sent = link.exchange(t, endstops.read(sgf.pulses_at(t)[0]))
-    assert [s.phase for s in sent] == ["absolute"] and pgf.sent[0].reply == "ok"
+    assert [s.phase for s in sent] == [LinePhase.ABSOLUTE] and pgf.sent[0].reply == "ok"
     assert [text for _, text in log[-3:]] == ["sgf> ok", "pgf< ok", f"pgf> {sent[0].text}"]
     # nothing in flight once the PGF has faulted and the bus is empty
     idle = FirmwareLink(PGF(taught_image(), PGFConfig(seedlings=1)), ComBus(), SGF(config))

@@ -3,12 +3,10 @@ import math
 import numpy as np
 import pytest
 
-pytest.importorskip("transplanter.motion", reason="SGF plans with transplanter.motion")
-
-from transplanter.firmware.rig import SimulatedEndstops  # noqa: E402
-from transplanter.firmware.sgf import SGF, SGFConfig  # noqa: E402
-from transplanter.gcode import format_line  # noqa: E402
-from transplanter.kinematics import fk, ik  # noqa: E402
+from transplanter.firmware.rig import SimulatedEndstops
+from transplanter.firmware.sgf import SGF, SGFConfig
+from transplanter.gcode import format_line
+from transplanter.kinematics import fk, ik
 
 START = (math.radians(150.0), math.radians(30.0), 0.120)
 
@@ -30,11 +28,13 @@ def run_line(sgf: SGF, line: str, t: float) -> tuple[list[str], float]:
     """Send a line at t, jump to its completion, return (replies, completion time)."""
     sgf.receive(line, t)
     replies = sgf.poll(t)
-    while not replies:
+    for _ in range(1000):  # a line completes at its next event; a few events at most
+        if replies:
+            return replies, t
         t = sgf.next_event_time()
         assert t is not None
         replies = sgf.poll(t)
-    return replies, t
+    raise AssertionError(f"{line!r} never answered")
 
 
 @pytest.fixture()
@@ -363,3 +363,30 @@ def test_homing_locate_fails_when_the_switch_is_lost():
     ]
     assert k * 1e-3 == pytest.approx(0.05 + 400 / 8000 + 2000 / 800, abs=2e-3)
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
+
+
+def test_homing_alone_seeks_pulls_off_locates_and_pulls_off_again():
+    """firmware.homing.Homing without the SGF: the raw pulses of each leg, in closed form."""
+    from transplanter.firmware.homing import Homing
+
+    config = SGFConfig()
+    endstops = SimulatedEndstops(config, START)
+    homing = Homing(config, 0.0, np.zeros(3, dtype=np.int64))
+    t, dt = 0.0, 1e-3
+    for _ in range(20_000):  # 20 s of polls at most
+        assert homing.update(t, endstops.read(homing.pulses(np.array([t]))[0])) is None
+        if homing.done_seeking:
+            break
+        t += dt
+    assert homing.done_seeking and not homing.failed
+    trip = endstops.trip_pulses()
+    dirs = np.array(config.homing_dirs)
+    assert np.all((homing.trip_raw - trip) * dirs >= 0)
+    assert np.all((homing.trip_raw - trip) * dirs <= [1, 1, 1])
+    # after the final pull-off every motor stands homing_pulloff_steps back from its trip
+    end = homing.pulses(np.array([homing.t_done, homing.t_done + 1.0]))
+    expected = homing.trip_raw - dirs * np.array(config.homing_pulloff_steps)
+    np.testing.assert_array_equal(end, [expected, expected])
+    # raw pulses never jump: at most one step per motor between polls 0.1 ms apart
+    times = np.arange(0.0, homing.t_done, 1e-4)
+    assert np.abs(np.diff(homing.pulses(times), axis=0)).max() <= 1

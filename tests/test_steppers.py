@@ -98,3 +98,15 @@ def test_steps_at_rejects_bad_events():
         steppers.steps_at([0.0], [0.1, 0.2], [1, 2], 0)
     with pytest.raises(ValueError, match="equal length"):
         steppers.steps_at([0.0], [0.1, 0.2], [1], 0)
+
+
+def test_step_count_table_is_what_both_step_counters_look_up():
+    counts = steppers.step_counts(np.array([1, 1, -1], dtype=np.int8), 10)
+    assert counts.dtype == np.int64 and counts.tolist() == [10, 11, 12, 11]
+    times = [-1.0, 0.1, 0.15, 0.2, 0.3, 5.0]
+    got = steppers.count_at(times, [0.1, 0.2, 0.3], counts)
+    assert got.tolist() == [10, 11, 11, 12, 11, 11]
+    assert steppers.step_counts([], -7).tolist() == [-7]
+    # int8 directions do not wrap: 300 steps up from a large start
+    counts = steppers.step_counts(np.ones(300, dtype=np.int8), 2**40)
+    assert counts[-1] == 2**40 + 300

@@ -7,30 +7,13 @@ Comments (``; ...`` to the end of the line, ``( ... )`` inline) are dropped. Mar
 ``*`` as sent, ``( ... )`` comments included (after a ``;`` comment has been cut off). A
 ``*`` or ``;`` inside ``( ... )`` is comment text, not framing.
 
-Errors carry grbl's numbers where grbl has one, and numbers from 60 up for the rest:
+The dialect is ASCII: a non-ASCII character anywhere in a line is refused (error 2 inside a
+number word, error 1 elsewhere), so ``X\u0661\u0660`` (Arabic-Indic digits) or a no-break
+space never pass for ``X10`` or a blank. A program splits into lines at ``\n`` (and
+``\r\n``) only: :func:`split_program_lines`.
 
-| code | meaning |
-| --- | --- |
-| 1 | expected a command letter: a character that cannot start a word, or no G/M command |
-| 2 | bad number format: a letter with no number, ``1.2.3``, a non-finite value |
-| 4 | negative value where only a positive one makes sense (F, S, G4 P) |
-| 11 | line overflow: more than 80 characters of payload |
-| 20 | unsupported command |
-| 21 | more than one command on the line |
-| 22 | undefined feed rate: F or S is zero |
-| 23 | an integer was required (line number, servo index) |
-| 25 | a word is repeated |
-| 26 | G0/G1 without any axis word |
-| 27 | line number out of range (negative) |
-| 28 | a required word is missing (G4 P, M280 P and S) |
-| 33 | invalid motion target (given by the SGF: unreachable, Z out of range) |
-| 36 | a word the command does not use (or both F and S on one move) |
-| 60 | bad checksum (mismatch, or not an integer 0-255) |
-| 61 | line number out of sequence |
-| 62 | checksum missing (line number given, or framing required) |
-| 63 | value out of range (servo index not 0/1, servo angle not 0-180 deg) |
-| 64 | unterminated ``(`` comment |
-| 65 | checksum without a line number |
+Errors carry grbl's numbers where grbl has one, and numbers from 60 up for the rest; every
+code is named once in :class:`transplanter.errors.ErrorCode` (table there).
 
 The payload that error 11 counts is what remains after comments, whitespace and the
 Marlin framing are removed (grbl counts its line buffer the same way).
@@ -41,7 +24,10 @@ from __future__ import annotations
 import math
 import numbers
 import re
+import unicodedata
 from dataclasses import dataclass, field
+
+from transplanter.errors import ErrorCode
 
 MAX_PAYLOAD_CHARS = 80
 """grbl's LINE_BUFFER_SIZE: the longest payload a line may carry."""
@@ -71,23 +57,27 @@ _REQUIRED_WORDS: dict[str, str] = {"G4": "P", "M280": "PS"}
 
 SERVO_INDICES = (0, 1)
 SERVO_MAX_DEG = 180.0
+"""Largest hobby-servo angle M280 S accepts (and the EEPROM stores), in degrees."""
 
-_NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
-_DIGITS_RE = re.compile(r"\d+")
+# ASCII only: Python's \d and float() also take other scripts' digits.
+_NUMBER_RE = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)")
+_DIGITS_RE = re.compile(r"[0-9]+")
 
 
 class GcodeError(ValueError):
     """A line the firmware refuses; ``code`` is the grbl-style error number."""
 
-    def __init__(self, code: int, message: str):
-        super().__init__(f"error {code}: {message}")
+    def __init__(self, code: ErrorCode | int, message: str):
+        code = ErrorCode(code)
+        super().__init__(f"error {int(code)}: {message}")
         self.code = code
+        """An :class:`ErrorCode` (an int)."""
         self.message = message
 
     @property
     def reply(self) -> str:
         """The line the firmware answers: ``error:<code> <message>``."""
-        return f"error:{self.code} {self.message}"
+        return self.code.reply(self.message)
 
 
 @dataclass(frozen=True)
@@ -112,8 +102,82 @@ def _is_ascii_letter(char: str) -> bool:
     return ("A" <= char <= "Z") or ("a" <= char <= "z")
 
 
+def _word_end(text: str, index: int) -> int:
+    """End of the word whose letter (or number character) is at ``index``: the next white
+    space or letter."""
+    end = index + 1
+    while end < len(text) and not (text[end].isspace() or _is_ascii_letter(text[end])):
+        end += 1
+    return end
+
+
+def valid_servo_angle(angle_deg: float) -> bool:
+    """True for a finite servo angle within 0..SERVO_MAX_DEG (what M280 S accepts)."""
+    return math.isfinite(angle_deg) and 0.0 <= angle_deg <= SERVO_MAX_DEG
+
+
 def _describe(char: str) -> str:
     return repr(char) if char.isprintable() else f"U+{ord(char):04X}"
+
+
+def _unicode(char: str) -> str:
+    """``U+0661 (ARABIC-INDIC DIGIT ONE)``: a character's code point and name."""
+    name = unicodedata.name(char, "")
+    return f"U+{ord(char):04X}" + (f" ({name})" if name else "")
+
+
+def _refuse_non_ascii(line: str) -> None:
+    """GcodeError for the first non-ASCII character: BAD_NUMBER_FORMAT inside a number
+    (after a word letter or the checksum's ``*``), EXPECTED_COMMAND_LETTER anywhere else
+    (between words, in a comment, a Unicode space such as U+00A0 or U+3000)."""
+    if line.isascii():
+        return
+    word_start = None  # index of the letter (or '*') whose number is being read
+    in_paren = False
+    for index, char in enumerate(line):
+        if char.isascii():
+            if in_paren:
+                in_paren = char != ")"
+            elif char == ";":
+                break
+            elif char == "(":
+                in_paren, word_start = True, None
+            elif _is_ascii_letter(char) or char == "*":
+                word_start = index
+            elif char.isspace():
+                word_start = None
+            continue
+        shown = _unicode(char)
+        if word_start is None or in_paren or char.isspace():
+            raise GcodeError(
+                ErrorCode.EXPECTED_COMMAND_LETTER,
+                f"non-ASCII character {shown}; G-code is ASCII, remove the character",
+            )
+        word = line[word_start : _word_end(line, index)]
+        word = f"'{word}'" if word.isprintable() else ascii(word)
+        raise GcodeError(
+            ErrorCode.BAD_NUMBER_FORMAT,
+            f"non-ASCII character {shown} in {word}; G-code is ASCII, write digits 0-9",
+        )
+    char = next(char for char in line if not char.isascii())  # in a ';' comment
+    raise GcodeError(
+        ErrorCode.EXPECTED_COMMAND_LETTER,
+        f"non-ASCII character {_unicode(char)} in a comment; G-code is ASCII",
+    )
+
+
+def split_program_lines(text: str) -> list[str]:
+    """The lines of a G-code program: split at ``\\n`` (and ``\\r\\n``) only.
+
+    Unlike ``str.splitlines`` a form feed, U+2028 or U+0085 does not end a line: it stays in
+    it, for ``parse_line`` to refuse. A final newline ends the last line (no empty line after).
+    """
+    if not isinstance(text, str):
+        raise TypeError(f"split_program_lines needs a str, got {type(text).__name__}")
+    lines = text.split("\n")
+    if lines[-1] == "":
+        lines.pop()
+    return [line[:-1] if line.endswith("\r") else line for line in lines]
 
 
 def _cut_comment_find_star(line: str) -> tuple[str, int]:
@@ -148,7 +212,8 @@ def _split_framing(text: str, star: int) -> tuple[str, int | None, int | None, s
         digits = text[star + 1 :].strip()
         if not _DIGITS_RE.fullmatch(digits) or len(digits) > 3 or int(digits) > 255:
             raise GcodeError(
-                60, f"checksum {digits!r} after '*' is not an integer 0-255; resend the line"
+                ErrorCode.BAD_CHECKSUM,
+                f"checksum {digits!r} after '*' is not an integer 0-255; resend the line",
             )
         found_checksum = int(digits)
     body = checksummed.lstrip()
@@ -161,22 +226,39 @@ def _split_framing(text: str, star: int) -> tuple[str, int | None, int | None, s
             end += 1
         token = body[1:end]
         if not _NUMBER_RE.fullmatch(token):
-            raise GcodeError(2, f"line number 'N{token}' is not a number; send N<integer>")
+            raise GcodeError(
+                ErrorCode.BAD_NUMBER_FORMAT,
+                f"line number 'N{token}' is not a number; send N<integer>",
+            )
         if not _DIGITS_RE.fullmatch(token.lstrip("+")):
             if token.startswith("-") and _DIGITS_RE.fullmatch(token[1:]):
-                raise GcodeError(27, f"line number N{token} is negative; number lines from N1")
-            raise GcodeError(23, f"line number N{token} is not an integer; send N<integer>")
+                raise GcodeError(
+                    ErrorCode.INVALID_LINE_NUMBER,
+                    f"line number N{token} is negative; number lines from N1",
+                )
+            raise GcodeError(
+                ErrorCode.VALUE_NOT_INTEGER,
+                f"line number N{token} is not an integer; send N<integer>",
+            )
         if (
             len(token.lstrip("+").lstrip("0")) > len(str(MAX_LINE_NUMBER))
             or int(token) > MAX_LINE_NUMBER
         ):
-            raise GcodeError(27, f"line number N{token} is above {MAX_LINE_NUMBER}")
+            raise GcodeError(
+                ErrorCode.INVALID_LINE_NUMBER, f"line number N{token} is above {MAX_LINE_NUMBER}"
+            )
         line_number = int(token)
         body = body[end:]
     if line_number is not None and found_checksum is None:
-        raise GcodeError(62, f"line N{line_number} has no '*<checksum>'; append the checksum")
+        raise GcodeError(
+            ErrorCode.CHECKSUM_MISSING,
+            f"line N{line_number} has no '*<checksum>'; append the checksum",
+        )
     if line_number is None and found_checksum is not None:
-        raise GcodeError(65, "checksum given without a line number; start the line with N<n>")
+        raise GcodeError(
+            ErrorCode.CHECKSUM_WITHOUT_LINE_NUMBER,
+            "checksum given without a line number; start the line with N<n>",
+        )
     return body, line_number, found_checksum, checksummed
 
 
@@ -189,11 +271,17 @@ def _strip_paren_comments(body: str) -> str:
         elif char == "(":
             in_comment = True
         elif char == ")":
-            raise GcodeError(1, "unexpected ')' without an opening '('; remove it")
+            raise GcodeError(
+                ErrorCode.EXPECTED_COMMAND_LETTER,
+                "unexpected ')' without an opening '('; remove it",
+            )
         else:
             out.append(char)
     if in_comment:
-        raise GcodeError(64, "comment '(' is never closed; add ')' or remove the comment")
+        raise GcodeError(
+            ErrorCode.UNTERMINATED_COMMENT,
+            "comment '(' is never closed; add ')' or remove the comment",
+        )
     return "".join(out)
 
 
@@ -208,11 +296,10 @@ def _tokenise(body: str) -> list[tuple[str, str]]:
             continue
         if not _is_ascii_letter(char):
             raise GcodeError(
-                1, f"expected a command letter, found {_describe(char)}; remove the character"
+                ErrorCode.EXPECTED_COMMAND_LETTER,
+                f"expected a command letter, found {_describe(char)}; remove the character",
             )
-        end = index + 1
-        while end < len(body) and not (body[end].isspace() or _is_ascii_letter(body[end])):
-            end += 1
+        end = _word_end(body, index)
         words.append((char.upper(), body[index + 1 : end]))
         index = end
     return words
@@ -222,52 +309,80 @@ def _number(letter: str, token: str) -> float:
     if not _NUMBER_RE.fullmatch(token):
         shown = token if token else "nothing"
         raise GcodeError(
-            2, f"word {letter} is followed by {shown!s}, not a number; write e.g. {letter}10.5"
+            ErrorCode.BAD_NUMBER_FORMAT,
+            f"word {letter} is followed by {shown!s}, not a number; write e.g. {letter}10.5",
         )
     value = float(token)
     if not math.isfinite(value):
-        raise GcodeError(2, f"word {letter}{token} is not a finite number")
+        raise GcodeError(
+            ErrorCode.BAD_NUMBER_FORMAT, f"word {letter}{token} is not a finite number"
+        )
     return value
 
 
 def _command_name(letter: str, token: str) -> str:
     value = _number(letter, token)
     if value != int(value) or value < 0:
-        raise GcodeError(20, f"unsupported command {letter}{token}; see the G-code dialect table")
+        raise GcodeError(
+            ErrorCode.UNSUPPORTED_COMMAND,
+            f"unsupported command {letter}{token}; see the G-code dialect table",
+        )
     name = f"{letter}{int(value)}"
     if name not in _ALLOWED_WORDS:
         supported = " ".join(_ALLOWED_WORDS)
-        raise GcodeError(20, f"unsupported command {name}; supported: {supported}")
+        raise GcodeError(
+            ErrorCode.UNSUPPORTED_COMMAND, f"unsupported command {name}; supported: {supported}"
+        )
     return name
 
 
 def _check_words(command: str, words: dict[str, float]) -> None:
     for letter in _REQUIRED_WORDS.get(command, ""):
         if letter not in words:
-            raise GcodeError(28, f"{command} needs a {letter} word")
+            raise GcodeError(ErrorCode.VALUE_WORD_MISSING, f"{command} needs a {letter} word")
     if command in ("G0", "G1"):
         if not any(letter in words for letter in AXIS_LETTERS):
-            raise GcodeError(26, f"{command} needs at least one of X, Y, Z")
+            raise GcodeError(ErrorCode.NO_AXIS_WORDS, f"{command} needs at least one of X, Y, Z")
         if "F" in words and "S" in words:
-            raise GcodeError(36, f"{command} takes F (mm/min) or S (mm/s), not both; drop one")
+            raise GcodeError(
+                ErrorCode.UNUSED_WORDS,
+                f"{command} takes F (mm/min) or S (mm/s), not both; drop one",
+            )
         for letter in "FS":
             if letter in words:
                 if words[letter] < 0:
-                    raise GcodeError(4, f"{letter}{words[letter]:g} is negative; speeds are > 0")
+                    raise GcodeError(
+                        ErrorCode.NEGATIVE_VALUE,
+                        f"{letter}{words[letter]:g} is negative; speeds are > 0",
+                    )
                 if words[letter] == 0:
-                    raise GcodeError(22, f"{letter}0 is an undefined feed rate; give a speed > 0")
+                    raise GcodeError(
+                        ErrorCode.UNDEFINED_FEED_RATE,
+                        f"{letter}0 is an undefined feed rate; give a speed > 0",
+                    )
     elif command == "G4":
         if words["P"] < 0:
-            raise GcodeError(4, f"G4 P{words['P']:g} is negative; dwell milliseconds are >= 0")
+            raise GcodeError(
+                ErrorCode.NEGATIVE_VALUE,
+                f"G4 P{words['P']:g} is negative; dwell milliseconds are >= 0",
+            )
     elif command == "M280":
         index = words["P"]
         if index != int(index):
-            raise GcodeError(23, f"M280 P{index:g}: the servo index must be an integer")
+            raise GcodeError(
+                ErrorCode.VALUE_NOT_INTEGER, f"M280 P{index:g}: the servo index must be an integer"
+            )
         if int(index) not in SERVO_INDICES:
-            raise GcodeError(63, f"M280 P{index:g}: servo index must be 0 (gripper) or 1 (wrist)")
+            raise GcodeError(
+                ErrorCode.VALUE_OUT_OF_RANGE,
+                f"M280 P{index:g}: servo index must be 0 (gripper) or 1 (wrist)",
+            )
         angle = words["S"]
-        if not 0.0 <= angle <= SERVO_MAX_DEG:
-            raise GcodeError(63, f"M280 S{angle:g}: servo angle must be within 0-180 degrees")
+        if not valid_servo_angle(angle):
+            raise GcodeError(
+                ErrorCode.VALUE_OUT_OF_RANGE,
+                f"M280 S{angle:g}: servo angle must be within 0-{SERVO_MAX_DEG:g} degrees",
+            )
 
 
 def parse_line(
@@ -283,37 +398,48 @@ def parse_line(
     line = text.rstrip("\r\n")
     for char in line:
         if char in "\r\n\x00":
-            raise GcodeError(1, f"unexpected {_describe(char)} inside the line; send one line")
+            raise GcodeError(
+                ErrorCode.EXPECTED_COMMAND_LETTER,
+                f"unexpected {_describe(char)} inside the line; send one line",
+            )
+    _refuse_non_ascii(line)
     line, star = _cut_comment_find_star(line)
     body, line_number, found_checksum, checksummed = _split_framing(line, star)
     body = _strip_paren_comments(body)
     payload_chars = sum(1 for char in body if not char.isspace())
     if payload_chars > MAX_PAYLOAD_CHARS:
         raise GcodeError(
-            11, f"line has {payload_chars} characters, more than {MAX_PAYLOAD_CHARS}; shorten it"
+            ErrorCode.LINE_OVERFLOW,
+            f"line has {payload_chars} characters, more than {MAX_PAYLOAD_CHARS}; shorten it",
         )
     if found_checksum is not None:
         computed = checksum(checksummed)
         if computed != found_checksum:
             raise GcodeError(
-                60, f"checksum mismatch: line says {found_checksum}, computed {computed}; resend"
+                ErrorCode.BAD_CHECKSUM,
+                f"checksum mismatch: line says {found_checksum}, computed {computed}; resend",
             )
     elif require_checksum and payload_chars > 0:
-        raise GcodeError(62, "line has no N<n> ... *<checksum> framing, which is required")
+        raise GcodeError(
+            ErrorCode.CHECKSUM_MISSING,
+            "line has no N<n> ... *<checksum> framing, which is required",
+        )
     if (
         line_number is not None
         and expected_line_number is not None
         and line_number != expected_line_number
     ):
         raise GcodeError(
-            61,
+            ErrorCode.LINE_OUT_OF_SEQUENCE,
             f"line number N{line_number} out of sequence, expected N{expected_line_number}; "
             f"resend from N{expected_line_number}",
         )
     tokens = _tokenise(body)
     if not tokens:
         if line_number is not None:
-            raise GcodeError(1, f"line N{line_number} carries no command")
+            raise GcodeError(
+                ErrorCode.EXPECTED_COMMAND_LETTER, f"line N{line_number} carries no command"
+            )
         return None
     command = None
     words: dict[str, float] = {}
@@ -321,22 +447,33 @@ def parse_line(
         if letter in "GM":
             name = _command_name(letter, token)
             if command is not None:
-                raise GcodeError(21, f"{command} and {name} on one line; send one command a line")
+                raise GcodeError(
+                    ErrorCode.MODAL_GROUP_VIOLATION,
+                    f"{command} and {name} on one line; send one command a line",
+                )
             command = name
             continue
         if letter not in WORD_LETTERS:
             where = f"{command} " if command else ""
-            raise GcodeError(36, f"word {letter} is not used by {where}this firmware; remove it")
+            raise GcodeError(
+                ErrorCode.UNUSED_WORDS,
+                f"word {letter} is not used by {where}this firmware; remove it",
+            )
         value = _number(letter, token)
         if letter in words:
-            raise GcodeError(25, f"word {letter} appears twice; give it once")
+            raise GcodeError(ErrorCode.WORD_REPEATED, f"word {letter} appears twice; give it once")
         words[letter] = value
     if command is None:
-        raise GcodeError(1, "the line has no G or M command; start it with e.g. G1")
+        raise GcodeError(
+            ErrorCode.EXPECTED_COMMAND_LETTER,
+            "the line has no G or M command; start it with e.g. G1",
+        )
     for letter in words:
         if letter not in _ALLOWED_WORDS[command]:
             allowed = " ".join(_ALLOWED_WORDS[command]) or "no words"
-            raise GcodeError(36, f"{command} does not use word {letter} (allowed: {allowed})")
+            raise GcodeError(
+                ErrorCode.UNUSED_WORDS, f"{command} does not use word {letter} (allowed: {allowed})"
+            )
     _check_words(command, words)
     return GcodeLine(command=command, words=words, line_number=line_number, raw=text)
 

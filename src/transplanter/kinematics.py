@@ -7,14 +7,22 @@ C = (x, y). Motor angles theta1, theta2 are measured at the motors from +x, coun
 Everything is vectorised over numpy arrays and in SI units (m, rad). Unreachable points give
 NaN; :func:`check_points` and :func:`require_reachable` turn that (and the joint, elbow,
 transmission and conditioning limits) into per-point verdicts with reasons.
+
+:class:`FiveBarKinematics` is the firmware's kinematics seam (like RepRapFirmware's
+``Kinematics`` class or Klipper's kinematics modules): one arm in one working mode, with IK,
+the FK assembly that IK maps back, step counters <-> points and the reachability check. The
+functions below are its numeric core.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
+
+from transplanter.units import M_PER_MM
 
 TWO_PI = 2.0 * math.pi
 MODES = ("+-", "-+", "++", "--")
@@ -419,7 +427,110 @@ def require_reachable(geom: FiveBarGeometry, limits: KinematicLimits, x, y, mode
         reason = _reason(geom, limits, bad, arrays, i)
         message = (
             f"target position not reachable: point {i} at (x, y) = "
-            f"({arrays['x'][i] * 1e3:.3f}, {arrays['y'][i] * 1e3:.3f}) mm: {reason}"
+            f"({arrays['x'][i] / M_PER_MM:.3f}, {arrays['y'][i] / M_PER_MM:.3f}) mm: {reason}"
         )
         raise UnreachableError(i, reason, message)
     return arrays["theta1"], arrays["theta2"]
+
+
+_SAME_ANGLE_RAD = 1e-6
+"""IK of an FK point must give the joints back within this (wrapped) to be that assembly."""
+
+
+def _wrap_pi(angle):
+    """Angles wrapped to (-pi, pi]."""
+    return np.pi - np.mod(np.pi - angle, TWO_PI)
+
+
+@dataclass(frozen=True)
+class FiveBarKinematics:
+    """The five-bar arm in one working mode: IK, FK, step counters and limits, vectorised.
+
+    ``point`` is the FK assembly that ``joints`` maps back to the same motor angles, so
+    ``point(*joints(x, y)) == (x, y)`` for a reachable point and the firmware's position
+    after homing is the one its next move's IK starts from.
+    """
+
+    geometry: FiveBarGeometry = field(default_factory=FiveBarGeometry)
+    limits: KinematicLimits = field(default_factory=KinematicLimits)
+    mode: str = "+-"
+    """Working mode of the IK (see :func:`ik`); the paper's is '+-', elbows out."""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.geometry, FiveBarGeometry):
+            raise ValueError(f"geometry must be a FiveBarGeometry, got {self.geometry!r}")
+        if not isinstance(self.limits, KinematicLimits):
+            raise ValueError(f"limits must be KinematicLimits, got {self.limits!r}")
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
+
+    @property
+    def assemblies(self) -> tuple[str, str]:
+        """FK assemblies, the one this mode's IK usually maps back first ('-+' lands in
+        'down', the other modes mostly in 'up')."""
+        return ("down", "up") if self.mode == "-+" else ("up", "down")
+
+    def joints(self, x, y):
+        """(theta1, theta2) in rad of points (x, y) in m: IK in this mode; NaN if unreachable."""
+        return ik(self.geometry, x, y, self.mode)
+
+    def _maps_back(self, theta1, theta2, x, y) -> np.ndarray:
+        back1, back2 = (np.asarray(a) for a in self.joints(x, y))
+        with np.errstate(invalid="ignore"):
+            return (np.abs(_wrap_pi(back1 - theta1)) < _SAME_ANGLE_RAD) & (
+                np.abs(_wrap_pi(back2 - theta2)) < _SAME_ANGLE_RAD
+            )
+
+    def point(self, theta1, theta2):
+        """(x, y) in m at motor angles (rad): the FK assembly that :meth:`joints` maps back
+        to these angles; the first of :attr:`assemblies` where neither does (a pose of no
+        single mode) or where both do. NaN where the links cannot close."""
+        t1, t2 = _xy(theta1, theta2)
+        first, second = self.assemblies
+        x, y = (np.asarray(a) for a in fk(self.geometry, t1, t2, first))
+        x2, y2 = (np.asarray(a) for a in fk(self.geometry, t1, t2, second))
+        use_second = ~self._maps_back(t1, t2, x, y) & self._maps_back(t1, t2, x2, y2)
+        return _out(np.where(use_second, x2, x)), _out(np.where(use_second, y2, y))
+
+    def point_of_steps(self, steps, drives: Sequence) -> np.ndarray:
+        """(..., 3) xyz in m of (..., 3) step counters of the drives (arm 1, arm 2, Z)."""
+        steps = np.asarray(steps)
+        joints = [drives[m].to_position(steps[..., m]) for m in range(3)]
+        x, y = self.point(joints[0], joints[1])
+        return np.stack(np.broadcast_arrays(x, y, joints[2]), axis=-1).astype(np.float64)
+
+    def steps_of_point(self, xyz, drives: Sequence) -> np.ndarray:
+        """(..., 3) int64 step counters of the drives at (..., 3) points xyz in m (IK in this
+        mode, Z straight to its drive); ValueError where a point is unreachable."""
+        xyz = np.asarray(xyz, dtype=np.float64)
+        theta1, theta2 = self.joints(xyz[..., 0], xyz[..., 1])
+        joints = (theta1, theta2, xyz[..., 2])
+        return np.stack([drives[m].to_steps(joints[m]) for m in range(3)], axis=-1)
+
+    def check(self, x, y) -> ReachReport:
+        """Per-point verdicts, with reasons, against the workspace and :attr:`limits`."""
+        return check_points(self.geometry, self.limits, x, y, self.mode)
+
+    def require(self, x, y):
+        """(theta1, theta2) arrays if every point passes, else UnreachableError (first one)."""
+        return require_reachable(self.geometry, self.limits, x, y, self.mode)
+
+    def passive_angles(self, theta1, theta2):
+        """Passive joint angles (phi1, phi2) in rad at motor angles (theta1, theta2).
+
+        phi_i = direction of passive link i (elbow -> C, C from :meth:`point`) minus
+        theta_i, wrapped to (-pi, pi]. ValueError where the chain cannot close.
+        """
+        x, y = (np.asarray(a) for a in self.point(theta1, theta2))
+        if not (np.isfinite(x).all() and np.isfinite(y).all()):
+            i = int(np.flatnonzero(~(np.isfinite(x) & np.isfinite(y)).ravel())[0])
+            t1, t2 = (np.broadcast_to(a, x.shape).ravel()[i] for a in _xy(theta1, theta2))
+            raise ValueError(
+                f"five-bar cannot close at theta=({t1}, {t2}) rad: the elbows are more "
+                f"than 2*l2 = {2 * self.geometry.l2_m} m apart (or coincide)"
+            )
+        t1, t2 = _xy(theta1, theta2)
+        b, d = elbow_points(self.geometry, t1, t2)
+        psi1 = np.arctan2(y - b[..., 1], x - b[..., 0])
+        psi2 = np.arctan2(y - d[..., 1], x - d[..., 0])
+        return _out(_wrap_pi(psi1 - t1)), _out(_wrap_pi(psi2 - t2))

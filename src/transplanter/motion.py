@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from transplanter import kinematics as kin
-from transplanter.steppers import StepperDrive
+from transplanter.steppers import StepperDrive, count_at, step_counts
+from transplanter.units import M_PER_MM
 
 PROFILES = ("trapezoid", "scurve")
 
@@ -127,21 +128,12 @@ class PlannedMove:
         so calling this at every physics step costs one binary search per motor.
         """
         if self._counts is None:
-            counts = []
-            for m in range(3):
-                cumulative = np.empty(self.step_dirs[m].size + 1, dtype=np.int64)
-                cumulative[0] = self.start_steps[m]
-                np.cumsum(self.step_dirs[m], dtype=np.int64, out=cumulative[1:])
-                cumulative[1:] += self.start_steps[m]
-                counts.append(cumulative)
-            self._counts = tuple(counts)
+            self._counts = tuple(
+                step_counts(self.step_dirs[m], self.start_steps[m]) for m in range(3)
+            )
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
         return np.stack(
-            [
-                self._counts[m][np.searchsorted(self.step_times[m], t, side="right")]
-                for m in range(3)
-            ],
-            axis=-1,
+            [count_at(t, self.step_times[m], self._counts[m]) for m in range(3)], axis=-1
         )
 
     @property
@@ -309,8 +301,8 @@ def plan_line(
     try:
         theta1, theta2 = kin.require_reachable(geom, limits, points[:, 0], points[:, 1], mode)
     except kin.UnreachableError as err:
-        p = points[err.index] * 1e3
-        a, b = start * 1e3, end * 1e3
+        p = points[err.index] / M_PER_MM
+        a, b = start / M_PER_MM, end / M_PER_MM
         message = (
             f"move from ({a[0]:.3f}, {a[1]:.3f}, {a[2]:.3f}) mm to ({b[0]:.3f}, {b[1]:.3f}, "
             f"{b[2]:.3f}) mm rejected before any step: point {err.index} of {points.shape[0]} "

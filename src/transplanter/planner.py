@@ -12,14 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from transplanter.firmware.rig import SimulatedEndstops
+from transplanter.firmware.rig import DT_HOMING_S, SimulatedEndstops
 from transplanter.firmware.sgf import SGF
-from transplanter.gcode import GcodeError, parse_line
+from transplanter.gcode import GcodeError, parse_line, split_program_lines
 from transplanter.machine import Machine, power_on_joints
 
 __all__ = ["PlanError", "PlannedLine", "plan_program"]
 
-_DT_HOMING_S = 1e-3
+_ASCII_BLANKS = " \t\r\n"
 
 
 class PlanError(ValueError):
@@ -39,15 +39,21 @@ class PlannedLine:
     replies: tuple[str, ...]
 
 
-def plan_program(machine: Machine, lines: Iterable[str]) -> list[PlannedLine]:
-    """Run every line through a fresh SGF; PlanError at the first refused line."""
+def plan_program(machine: Machine, lines: str | Iterable[str]) -> list[PlannedLine]:
+    """Run every line through a fresh SGF; PlanError at the first refused line.
+
+    ``lines``: the program's text (split with ``gcode.split_program_lines``: at newlines only)
+    or its lines.
+    """
+    if isinstance(lines, str):
+        lines = split_program_lines(lines)
     config = machine.sgf
     sgf = SGF(config)
     endstops = SimulatedEndstops(config, power_on_joints(config))
     t = 0.0
     rows: list[PlannedLine] = []
     for line_no, raw in enumerate(lines, start=1):
-        text = raw.strip()
+        text = raw.strip(_ASCII_BLANKS)  # a Unicode space is not a blank: the SGF refuses it
         try:
             if parse_line(text) is None:
                 continue
@@ -62,7 +68,7 @@ def plan_program(machine: Machine, lines: Iterable[str]) -> list[PlannedLine]:
             if replies and (replies[-1] == "ok" or replies[-1].startswith("error")):
                 break
             t_next = sgf.next_event_time()
-            t = t + _DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
+            t = t + DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
             if t - t0 > 3600.0:
                 raise PlanError(line_no, f"{text!r} did not finish within an hour of machine time")
         if replies[-1].startswith("error"):

@@ -71,22 +71,15 @@ def _require_line(machine, a, b, what: str, hint: str) -> None:
 
 
 def _homed_xyz(machine) -> tuple[float, float, float]:
-    """Where G28 leaves the machine: at the limit switches, less the pull-off."""
+    """Where G28 leaves the machine: the SGF's homed step counters, through its kinematics."""
     sgf = machine.sgf
-    joints = np.asarray(sgf.home_joint_positions, dtype=float) - np.asarray(
-        sgf.homing_dirs, dtype=float
-    ) * np.asarray(sgf.homing_pulloff_steps) * np.array([d.unit_per_step for d in machine.drives])
-    x, y = kinematics.fk(machine.geometry, joints[0], joints[1])
-    return (float(x), float(y), float(joints[2]))
+    x, y, z = sgf.kinematics.point_of_steps(sgf.homed_steps, sgf.drives)
+    return (float(x), float(y), float(z))
 
 
 def _check_line(machine, a, b) -> None:
     start = np.asarray(a, dtype=float)
-    t1, t2 = kinematics.ik(machine.geometry, start[0], start[1], mode=machine.mode)
-    joints = np.array([float(t1), float(t2), start[2]])
-    steps = np.array(
-        [d.to_steps(q) for d, q in zip(machine.drives, joints, strict=True)], dtype=np.int64
-    ).reshape(3)
+    steps = machine.sgf.kinematics.steps_of_point(start, machine.drives)
     speed = machine.eeprom.s_high_m_s
     plan_line(
         steps,

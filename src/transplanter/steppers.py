@@ -145,8 +145,22 @@ def steps_at(times, step_times, step_dirs, start_steps: int) -> np.ndarray:
         raise ValueError("step_times must be sorted in time")
     if step_dirs.size and not np.all(np.abs(step_dirs) == 1):
         raise ValueError("step_dirs must hold only +1 and -1")
-    cumulative = np.empty(step_dirs.size + 1, dtype=np.int64)
-    cumulative[0] = 0
-    np.cumsum(step_dirs, dtype=np.int64, out=cumulative[1:])
+    return count_at(times, step_times, step_counts(step_dirs, start_steps))
+
+
+def step_counts(step_dirs, start_steps: int) -> np.ndarray:
+    """Counter before and after each event: ``counts[k] = start_steps + sum(step_dirs[:k])``,
+    int64 of length ``len(step_dirs) + 1`` (the table ``count_at`` looks up)."""
+    step_dirs = np.asarray(step_dirs)
+    counts = np.empty(step_dirs.size + 1, dtype=np.int64)
+    counts[0] = 0
+    np.cumsum(step_dirs, dtype=np.int64, out=counts[1:])
+    counts += np.int64(start_steps)
+    return counts
+
+
+def count_at(times, step_times, counts: np.ndarray) -> np.ndarray:
+    """Step count at each time from ``step_counts``' table: one binary search per query, a
+    step counting once t >= its time (unchecked: ``steps_at`` validates the events)."""
     index = np.searchsorted(step_times, np.asarray(times, dtype=np.float64), side="right")
-    return np.int64(start_steps) + cumulative[index]
+    return counts[index]

@@ -37,17 +37,25 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
+from transplanter.gcode import SERVO_MAX_DEG, valid_servo_angle
+
 EEPROM_SIZE = 4096
 MAGIC = b"TPEE"
 LAYOUT_VERSION = 1
 MAX_PICKUPS = 10
+"""Pickup slots in the image: M_pp is 1..MAX_PICKUPS (the scenario's limit too)."""
 MAX_ABS_POSITION_M = 1.0
 """Taught points farther than this from the arm origin are refused (a tabletop robot)."""
-SERVO_MAX_DEG = 180.0
-MIN_SPEED_M_S = 1e-4
+POSITION_COUNTS_PER_M = 1e6
+"""Position fields count micrometres."""
+ANGLE_COUNTS_PER_DEG = 100.0
+"""Angle fields count centidegrees."""
+SPEED_COUNTS_PER_M_S = 1e4
+"""Speed fields count 0.1 mm/s."""
+MIN_SPEED_M_S = 1.0 / SPEED_COUNTS_PER_M_S
 """Smallest speed the 0.1 mm/s field holds above zero."""
-MAX_SPEED_M_S = 6.5535
-"""Largest speed the uint16 0.1 mm/s field holds."""
+MAX_SPEED_M_S = 0xFFFF / SPEED_COUNTS_PER_M_S
+"""Largest speed the uint16 0.1 mm/s field holds (6.5535 m/s)."""
 
 _HEADER = struct.Struct("<4sHBBiiHHiihH")
 _PICKUP = struct.Struct("<iiiihH")
@@ -86,8 +94,10 @@ def _as_float(name: str, value) -> float:
 
 def _check_angle(name: str, value) -> float:
     angle = _as_float(name, value)
-    if not (math.isfinite(angle) and 0.0 <= angle <= SERVO_MAX_DEG):
-        raise EepromError(f"{name} = {value!r} deg is out of range: servo angles are 0-180 deg")
+    if not valid_servo_angle(angle):
+        raise EepromError(
+            f"{name} = {value!r} deg is out of range: servo angles are 0-{SERVO_MAX_DEG:g} deg"
+        )
     return angle
 
 
@@ -228,19 +238,19 @@ class EepromImage:
             )
             pickups.append(
                 Pickup(
-                    approach_xy_m=(ax / 1e6, ay / 1e6),
-                    grip_xy_m=(gx / 1e6, gy / 1e6),
-                    elbow_deg=elbow / 100.0,
+                    approach_xy_m=(ax / POSITION_COUNTS_PER_M, ay / POSITION_COUNTS_PER_M),
+                    grip_xy_m=(gx / POSITION_COUNTS_PER_M, gy / POSITION_COUNTS_PER_M),
+                    elbow_deg=elbow / ANGLE_COUNTS_PER_DEG,
                 )
             )
         return cls(
             pickups=tuple(pickups),
-            drop_xy_m=(drop_x / 1e6, drop_y / 1e6),
-            drop_elbow_deg=drop_elbow / 100.0,
-            z_up_m=z_up / 1e6,
-            z_low_m=z_low / 1e6,
-            s_low_m_s=s_low / 1e4,
-            s_high_m_s=s_high / 1e4,
+            drop_xy_m=(drop_x / POSITION_COUNTS_PER_M, drop_y / POSITION_COUNTS_PER_M),
+            drop_elbow_deg=drop_elbow / ANGLE_COUNTS_PER_DEG,
+            z_up_m=z_up / POSITION_COUNTS_PER_M,
+            z_low_m=z_low / POSITION_COUNTS_PER_M,
+            s_low_m_s=s_low / SPEED_COUNTS_PER_M_S,
+            s_high_m_s=s_high / SPEED_COUNTS_PER_M_S,
         )
 
     @classmethod
@@ -266,12 +276,12 @@ class EepromImage:
 
 
 def _um(value_m: float) -> int:
-    return int(round(value_m * 1e6))
+    return int(round(value_m * POSITION_COUNTS_PER_M))
 
 
 def _centideg(value_deg: float) -> int:
-    return int(round(value_deg * 100.0))
+    return int(round(value_deg * ANGLE_COUNTS_PER_DEG))
 
 
 def _decimm_s(value_m_s: float) -> int:
-    return int(round(value_m_s * 1e4))
+    return int(round(value_m_s * SPEED_COUNTS_PER_M_S))

@@ -32,12 +32,11 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from enum import StrEnum
 
 from transplanter.firmware.eeprom import EepromImage
-from transplanter.gcode import SERVO_INDICES, SERVO_MAX_DEG, format_line
-
-M_PER_MM = 1e-3
-S_PER_MS = 1e-3
+from transplanter.gcode import SERVO_INDICES, SERVO_MAX_DEG, format_line, valid_servo_angle
+from transplanter.units import M_PER_MM, S_PER_MS
 
 
 @dataclass(frozen=True)
@@ -64,8 +63,10 @@ class PGFConfig:
             raise ValueError("gripper_servo and wrist_servo must be different servos")
         for name in ("gripper_open_deg", "gripper_close_deg"):
             value = getattr(self, name)
-            if not (math.isfinite(value) and 0.0 <= value <= SERVO_MAX_DEG):
-                raise ValueError(f"{name} = {value} is outside the servo range 0-180 deg")
+            if not valid_servo_angle(value):
+                raise ValueError(
+                    f"{name} = {value} is outside the servo range 0-{SERVO_MAX_DEG:g} deg"
+                )
         for name in ("open_dwell_s", "close_dwell_s", "release_dwell_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
@@ -76,12 +77,40 @@ class PGFConfig:
             raise ValueError(f"seedlings = {self.seedlings}: plant at least one")
 
 
+class LinePhase(StrEnum):
+    """What a program line does in the cycle (the phases of the module docstring).
+
+    A StrEnum: each member equals its lower-case name as a str (``LinePhase.CLOSE ==
+    "close"``) and formats as it.
+    """
+
+    HOME = "home"
+    ABSOLUTE = "absolute"
+    START_ELBOW = "start_elbow"
+    TO_START = "to_start"
+    APPROACH = "approach"
+    ELBOW = "elbow"
+    OPEN = "open"
+    OPEN_WAIT = "open_wait"
+    GRIP = "grip"
+    CLOSE = "close"
+    CLOSE_WAIT = "close_wait"
+    LIFT = "lift"
+    RETRACT = "retract"
+    DROP_ELBOW = "drop_elbow"
+    TO_DROP = "to_drop"
+    RELEASE = "release"
+    RELEASE_WAIT = "release_wait"
+    INDEX = "index"
+    FINISH = "finish"
+
+
 @dataclass(frozen=True)
 class ProgramLine:
     """One line of the PGF's program, before it is sent."""
 
     seedling: int | None
-    phase: str
+    phase: LinePhase
     text: str
 
 
@@ -90,7 +119,7 @@ class SentLine:
     """A line the PGF sent, with the SGF's reply once it came."""
 
     seedling: int | None
-    phase: str
+    phase: LinePhase
     text: str
     t_sent: float
     t_reply: float | None = None
@@ -113,11 +142,11 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
     s_low, s_high = _mm(eeprom.s_low_m_s), _mm(eeprom.s_high_m_s)
     drop_x, drop_y = (_mm(v) for v in eeprom.drop_xy_m)
     # The drop point is the cycle's initial position (paper 1.2): go there once after homing.
-    lines: list[tuple[int | None, str, str, dict]] = [
-        (None, "home", "G28", {}),
-        (None, "absolute", "G90", {}),
-        (None, "start_elbow", "M280", {"P": wrist, "S": eeprom.drop_elbow_deg}),
-        (None, "to_start", "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
+    lines: list[tuple[int | None, LinePhase, str, dict]] = [
+        (None, LinePhase.HOME, "G28", {}),
+        (None, LinePhase.ABSOLUTE, "G90", {}),
+        (None, LinePhase.START_ELBOW, "M280", {"P": wrist, "S": eeprom.drop_elbow_deg}),
+        (None, LinePhase.TO_START, "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
     ]
 
     for seedling in range(config.seedlings):
@@ -126,25 +155,25 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
         ax, ay = (_mm(v) for v in pickup.approach_xy_m)
         gx, gy = (_mm(v) for v in pickup.grip_xy_m)
         cycle = [
-            ("approach", "G1", {"X": ax, "Y": ay, "Z": z_low, "S": s_high}),
-            ("elbow", "M280", {"P": wrist, "S": pickup.elbow_deg}),
-            ("open", "M280", {"P": gripper, "S": open_deg}),
-            ("open_wait", "G4", {"P": _ms(config.open_dwell_s)}),
-            ("grip", "G1", {"X": gx, "Y": gy, "Z": z_low, "S": s_low}),
-            ("close", "M280", {"P": gripper, "S": close_deg}),
-            ("close_wait", "G4", {"P": _ms(config.close_dwell_s)}),
-            ("lift", "G1", {"X": gx, "Y": gy, "Z": z_up, "S": s_low}),
-            ("retract", "G1", {"X": ax, "Y": ay, "Z": z_up, "S": s_high}),
-            ("drop_elbow", "M280", {"P": wrist, "S": eeprom.drop_elbow_deg}),
-            ("to_drop", "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
-            ("release", "M280", {"P": gripper, "S": open_deg}),
-            ("release_wait", "G4", {"P": _ms(config.release_dwell_s)}),
+            (LinePhase.APPROACH, "G1", {"X": ax, "Y": ay, "Z": z_low, "S": s_high}),
+            (LinePhase.ELBOW, "M280", {"P": wrist, "S": pickup.elbow_deg}),
+            (LinePhase.OPEN, "M280", {"P": gripper, "S": open_deg}),
+            (LinePhase.OPEN_WAIT, "G4", {"P": _ms(config.open_dwell_s)}),
+            (LinePhase.GRIP, "G1", {"X": gx, "Y": gy, "Z": z_low, "S": s_low}),
+            (LinePhase.CLOSE, "M280", {"P": gripper, "S": close_deg}),
+            (LinePhase.CLOSE_WAIT, "G4", {"P": _ms(config.close_dwell_s)}),
+            (LinePhase.LIFT, "G1", {"X": gx, "Y": gy, "Z": z_up, "S": s_low}),
+            (LinePhase.RETRACT, "G1", {"X": ax, "Y": ay, "Z": z_up, "S": s_high}),
+            (LinePhase.DROP_ELBOW, "M280", {"P": wrist, "S": eeprom.drop_elbow_deg}),
+            (LinePhase.TO_DROP, "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
+            (LinePhase.RELEASE, "M280", {"P": gripper, "S": open_deg}),
+            (LinePhase.RELEASE_WAIT, "G4", {"P": _ms(config.release_dwell_s)}),
         ]
         more_follow = seedling < config.seedlings - 1
         if config.index_conveyor and pickup_index == eeprom.m_pp - 1 and more_follow:
-            cycle.append(("index", "M710", {}))
+            cycle.append((LinePhase.INDEX, "M710", {}))
         lines.extend((seedling, phase, command, words) for phase, command, words in cycle)
-    lines.append((None, "finish", "M400", {}))
+    lines.append((None, LinePhase.FINISH, "M400", {}))
 
     program = []
     for number, (seedling, phase, command, words) in enumerate(lines, start=1):

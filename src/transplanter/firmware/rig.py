@@ -20,6 +20,9 @@ from transplanter.firmware.bus import LineTransport
 from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.sgf import SGF, SGFConfig
 
+DT_HOMING_S = 1e-3
+"""How often the limit switches are read while the SGF homes, without physics (s)."""
+
 
 class SimulatedEndstops:
     """Limit switches 1-4 computed from raw pulses: a switch is closed at or past its trip point.
@@ -131,7 +134,7 @@ def run_firmware(
     bus: LineTransport,
     sgf: SGF,
     endstops: SimulatedEndstops | None = None,
-    dt_homing_s: float = 1e-3,
+    dt_homing_s: float = DT_HOMING_S,
     until_s: float = 1e4,
 ) -> RigResult:
     """Run the firmwares until the PGF is done or faults; RuntimeError on a stall or timeout."""

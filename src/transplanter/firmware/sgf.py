@@ -11,15 +11,9 @@ its reply when it is done, so replies come back in line order:
   ``M710``: conveyor index recorded, ``ok`` after ``conveyor_index_s``. ``M400``: ``ok``
   (the FIFO has already finished everything before it). ``M114``/``M119``: a report line,
   then ``ok``. ``M105``: ``ok``.
-- ``G28``: two-pass homing like grbl's, every motor at once: seek the limit switch at
-  ``homing_rate_hz`` until ``poll`` reads it closed, pull off ``homing_pulloff_steps``,
-  then locate it again slowly at ``homing_locate_rate_hz`` (the switch must read open
-  first). The fast seek trips late (the motor lags its command, the switch is read once per
-  poll); the slow locate cuts that error about tenfold. At the locate trip the logical
-  counter is set to the switch position; then the final pull-off. ``ok`` once all three
-  are done; ``error:9`` if a switch is not found (seek beyond ``homing_max_steps``, locate
-  beyond ``homing_locate_scalar`` pull-offs) or stays closed after the pull-off. Moves
-  before homing are refused (error 9, like grbl's alarm lock).
+- ``G28``: two-pass homing like grbl's (:class:`transplanter.firmware.homing.Homing`): seek,
+  pull off, slow locate, pull off; ``ok`` once done, ``error:9`` if a switch is not found.
+  Moves before homing are refused (error 9, like grbl's alarm lock).
 
 Two counters per motor: raw pulses since power-on (never reset; they drive the simulated
 motors through ``pulses_at``) and logical steps, which homing sets.
@@ -34,17 +28,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from transplanter.errors import ErrorCode
+from transplanter.firmware.homing import Homing, check_homing_settings
 from transplanter.gcode import GcodeError, GcodeLine, parse_line
-from transplanter.kinematics import FiveBarGeometry, KinematicLimits, UnreachableError, fk, ik
+from transplanter.kinematics import (
+    FiveBarGeometry,
+    FiveBarKinematics,
+    KinematicLimits,
+    UnreachableError,
+)
 from transplanter.motion import MotionConfig, PlannedMove, plan_line
 from transplanter.steppers import StepperDrive, default_drives
-
-M_PER_MM = 1e-3
-S_PER_MS = 1e-3
-MM_PER_MIN_TO_M_S = 1e-3 / 60.0
-_FLOOR_EPS = 1e-9  # keeps floor(k / rate * rate) at k despite rounding
-ERROR_LOCKED = 9
-ERROR_TARGET = 33
+from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS
 
 
 @dataclass(frozen=True)
@@ -94,32 +89,7 @@ class SGFConfig:
         if self.homing_locate_rate_hz is None:
             locate = tuple(float(r) / 10.0 for r in self.homing_rate_hz)
             object.__setattr__(self, "homing_locate_rate_hz", locate)
-        for name in (
-            "homing_rate_hz",
-            "homing_locate_rate_hz",
-            "homing_dirs",
-            "homing_pulloff_steps",
-            "homing_max_steps",
-        ):
-            if len(getattr(self, name)) != 3:
-                raise ValueError(f"SGFConfig.{name} needs one value per motor (3)")
-        for name in ("homing_rate_hz", "homing_locate_rate_hz"):
-            rates = getattr(self, name)
-            if not all(math.isfinite(r) and r > 0 for r in rates):
-                raise ValueError(f"SGFConfig.{name} must be > 0, got {rates}")
-        if any(d not in (-1, 1) for d in self.homing_dirs):
-            raise ValueError(f"SGFConfig.homing_dirs must be +1 or -1, got {self.homing_dirs}")
-        if any(int(p) != p or p < 1 for p in self.homing_pulloff_steps):
-            raise ValueError(
-                "SGFConfig.homing_pulloff_steps must be integers >= 1 (the locate starts "
-                "from a switch that the pull-off has opened)"
-            )
-        if not (math.isfinite(self.homing_locate_scalar) and self.homing_locate_scalar > 1):
-            raise ValueError(
-                f"SGFConfig.homing_locate_scalar must be > 1, got {self.homing_locate_scalar}"
-            )
-        if any(int(p) != p or p < 1 for p in self.homing_max_steps):
-            raise ValueError("SGFConfig.homing_max_steps must be integers >= 1")
+        check_homing_settings(self)
         if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
             raise ValueError(
                 f"SGFConfig.default_speed_m_s must be > 0, got {self.default_speed_m_s}"
@@ -135,6 +105,18 @@ class SGFConfig:
         return (self.home_theta1_rad, self.home_theta2_rad, self.home_z_m)
 
     @property
+    def kinematics(self) -> FiveBarKinematics:
+        """The arm's kinematics in this config's working mode."""
+        return FiveBarKinematics(self.geometry, self.limits, self.mode)
+
+    @property
+    def homed_steps(self) -> np.ndarray:
+        """Logical step counters after G28: the switch positions less the final pull-off."""
+        return self.home_steps - np.asarray(self.homing_dirs) * np.asarray(
+            self.homing_pulloff_steps
+        )
+
+    @property
     def home_steps(self) -> np.ndarray:
         """Logical step counters homing sets when each switch trips (nearest step)."""
         return np.array(
@@ -146,127 +128,6 @@ class SGFConfig:
         )
 
 
-class _Homing:
-    """Raw pulses of the three motors during G28, in closed form.
-
-    Each motor runs a list of legs ``(t_start, raw_start, direction, rate_hz, max_steps)``;
-    a leg lasts until the next one starts. Phases per motor: 0 seek, 1 pull-off then locate,
-    2 final pull-off (or stopped after a failure).
-    """
-
-    def __init__(self, config: SGFConfig, t0: float, raw0: np.ndarray):
-        self.seek_rate = np.asarray(config.homing_rate_hz, dtype=np.float64)
-        self.locate_rate = np.asarray(config.homing_locate_rate_hz, dtype=np.float64)
-        self.dirs = np.asarray(config.homing_dirs, dtype=np.int64)
-        self.max_steps = np.asarray(config.homing_max_steps, dtype=np.int64)
-        self.pulloff = np.asarray(config.homing_pulloff_steps, dtype=np.int64)
-        self.locate_max_steps = np.ceil(config.homing_locate_scalar * self.pulloff).astype(np.int64)
-        self.legs = [
-            [
-                (
-                    t0,
-                    int(raw0[m]),
-                    int(self.dirs[m]),
-                    float(self.seek_rate[m]),
-                    int(self.max_steps[m]),
-                )
-            ]
-            for m in range(3)
-        ]
-        self.phase = np.zeros(3, dtype=np.int64)
-        self.t_locate = np.full(3, np.inf)
-        self.cleared = np.zeros(3, dtype=bool)  # switch read open since the locate began
-        self.t_end = np.full(3, np.inf)
-        self.trip_raw = np.zeros(3, dtype=np.int64)
-        self.failed = False
-
-    def _motor(self, motor: int, t: np.ndarray) -> np.ndarray:
-        t_start, raw_start, direction, rate, count = (
-            np.array(column) for column in zip(*self.legs[motor], strict=True)
-        )
-        leg = np.maximum(np.searchsorted(t_start, t, side="right") - 1, 0)
-        n = np.floor((t - t_start[leg]) * rate[leg] + _FLOOR_EPS)
-        n = np.clip(n, 0, count[leg]).astype(np.int64)
-        return raw_start[leg] + direction[leg] * n
-
-    def pulses(self, t: np.ndarray) -> np.ndarray:
-        return np.stack([self._motor(m, t) for m in range(3)], axis=1)
-
-    def _raw(self, motor: int, t: float) -> int:
-        return int(self._motor(motor, np.array([t]))[0])
-
-    def _exhausted(self, motor: int, t: float) -> bool:
-        t_start, raw_start, direction, _, count = self.legs[motor][-1]
-        return t >= t_start and self._raw(motor, t) == raw_start + direction * count
-
-    def _pull_off(self, motor: int, t: float) -> int:
-        raw = self._raw(motor, t)
-        steps = int(self.pulloff[motor])
-        self.legs[motor].append(
-            (t, raw, -int(self.dirs[motor]), float(self.seek_rate[motor]), steps)
-        )
-        return raw
-
-    def update(self, now: float, endstops: Sequence[bool] | None) -> str | None:
-        """Act on the switches read at ``now``; a failure message if homing failed."""
-        for motor in range(3):
-            closed = endstops is not None and bool(endstops[motor])
-            direction = int(self.dirs[motor])
-            if self.phase[motor] == 0:
-                if closed:
-                    raw = self._pull_off(motor, now)
-                    self.t_locate[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
-                    self.legs[motor].append(
-                        (
-                            float(self.t_locate[motor]),
-                            raw - direction * int(self.pulloff[motor]),
-                            direction,
-                            float(self.locate_rate[motor]),
-                            int(self.locate_max_steps[motor]),
-                        )
-                    )
-                    self.phase[motor] = 1
-                elif self._exhausted(motor, now):
-                    return self._fail(
-                        now,
-                        f"limit switch {motor + 1} not found within "
-                        f"{int(self.max_steps[motor])} steps; check the switch and homing_dirs",
-                    )
-            elif self.phase[motor] == 1 and now >= self.t_locate[motor]:
-                if endstops is not None and not closed:
-                    self.cleared[motor] = True
-                elif closed and self.cleared[motor]:
-                    self.trip_raw[motor] = self._pull_off(motor, now)
-                    self.t_end[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
-                    self.phase[motor] = 2
-                    continue
-                if self._exhausted(motor, now):
-                    steps = int(self.locate_max_steps[motor])
-                    if self.cleared[motor]:
-                        why = f"not found again within {steps} steps of the slow locate"
-                    else:
-                        why = "still closed after the pull-off; raise homing_pulloff_steps"
-                    return self._fail(now, f"limit switch {motor + 1} {why}")
-        return None
-
-    def _fail(self, now: float, message: str) -> str:
-        """Stop the motors still seeking or locating where they are."""
-        self.failed = True
-        for motor in np.flatnonzero(self.phase < 2):
-            self.legs[motor].append((now, self._raw(int(motor), now), 1, 0.0, 0))
-            self.t_end[motor] = now
-            self.phase[motor] = 2
-        return message
-
-    @property
-    def done_seeking(self) -> bool:
-        return bool(np.all(self.phase == 2))
-
-    @property
-    def t_done(self) -> float:
-        return float(np.max(self.t_end))
-
-
 @dataclass
 class _Job:
     line: GcodeLine | GcodeError
@@ -274,7 +135,7 @@ class _Job:
     t_start: float = math.nan
     t_done: float = math.nan
     replies: list[str] = field(default_factory=list)
-    homing: _Homing | None = None
+    homing: Homing | None = None
     move: PlannedMove | None = None
     target_xyz: np.ndarray | None = None
 
@@ -426,7 +287,7 @@ class SGF:
             elif command == "G4":
                 job.t_done = t0 + words["P"] * S_PER_MS
             elif command == "G28":
-                job.homing = _Homing(self.config, t0, self._raw)
+                job.homing = Homing(self.config, t0, self._raw)
                 self._add_segment(t0, job.homing.pulses)
                 job.t_done = math.nan
                 job.replies = ["ok"]
@@ -453,7 +314,7 @@ class SGF:
 
     def _start_move(self, job: _Job, words: dict[str, float]) -> None:
         if not self.homed:
-            raise GcodeError(ERROR_LOCKED, "position unknown: home first with G28")
+            raise GcodeError(ErrorCode.SYSTEM_LOCKED, "position unknown: home first with G28")
         target = self._position.copy()
         for axis, letter in enumerate("XYZ"):
             if letter in words:
@@ -467,7 +328,7 @@ class SGF:
         z = target[2]
         if not self.config.z_min_m <= z <= self.config.z_max_m:
             raise GcodeError(
-                ERROR_TARGET,
+                ErrorCode.INVALID_TARGET,
                 f"Z {z / M_PER_MM:.3f} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
                 f"{self.config.z_max_m / M_PER_MM:.3f}] mm",
             )
@@ -480,12 +341,12 @@ class SGF:
         except UnreachableError as error:
             shown = ", ".join(f"{v / M_PER_MM:.3f}" for v in target)
             raise GcodeError(
-                ERROR_TARGET,
+                ErrorCode.INVALID_TARGET,
                 f"target position not reachable: {error.reason} "
                 f"(move to ({shown}) mm, interpolated point {error.index})",
             ) from None
         except ValueError as error:
-            raise GcodeError(ERROR_TARGET, f"move refused: {error}") from None
+            raise GcodeError(ErrorCode.INVALID_TARGET, f"move refused: {error}") from None
         self._speed_m_s = speed_m_s
         job.move = move
         job.target_xyz = target
@@ -507,7 +368,7 @@ class SGF:
             return
         failure = homing.update(now, endstops)
         if failure is not None:
-            job.replies = [f"error:{ERROR_LOCKED} homing failed: {failure}"]
+            job.replies = [ErrorCode.SYSTEM_LOCKED.reply(f"homing failed: {failure}")]
             self.homed = False
             self._position[:] = np.nan
             self._machine_events.append((now, "homing_failed"))
@@ -521,8 +382,10 @@ class SGF:
             self._raw = homing.pulses(np.array([t]))[0]
             if not homing.failed:
                 self.homing_trip_raw = homing.trip_raw.copy()
-                self._logical = self.config.home_steps - homing.dirs * homing.pulloff
-                self._position = self._xyz_of_steps(self._logical)
+                self._logical = self.config.homed_steps
+                self._position = self.config.kinematics.point_of_steps(
+                    self._logical, self.config.drives
+                )
                 self.homed = True
                 self._machine_events.append((t, "homed"))
         elif job.move is not None:
@@ -532,23 +395,6 @@ class SGF:
         self._replies.extend(job.replies)
         self._t_free = t
         self._current = None
-
-    def _xyz_of_steps(self, steps: np.ndarray) -> np.ndarray:
-        """(x, y, z) of logical step counters: the FK assembly that the IK in ``mode`` maps
-        back to these joint angles ('-+' lands in 'down', the others mostly in 'up')."""
-        config = self.config
-        theta1, theta2, z = (
-            float(d.to_position(s)) for d, s in zip(config.drives, steps, strict=True)
-        )
-        preferred = ("down", "up") if config.mode == "-+" else ("up", "down")
-        for assembly in preferred:
-            x, y = fk(config.geometry, theta1, theta2, assembly)
-            back = np.asarray(ik(config.geometry, x, y, config.mode), dtype=np.float64)
-            wrapped = np.angle(np.exp(1j * (back - [theta1, theta2])))
-            if np.all(np.abs(wrapped) < 1e-6):
-                return np.array([float(x), float(y), z])
-        x, y = fk(config.geometry, theta1, theta2, preferred[0])  # a pose of no single mode
-        return np.array([float(x), float(y), z])
 
     def _position_report(self) -> str:
         x, y, z = (f"{v / M_PER_MM:.3f}".replace("-0.000", "0.000") for v in self._position)

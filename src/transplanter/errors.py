@@ -1,0 +1,66 @@
+"""Every error code the firmware replies with, named once (like grbl's report.h).
+
+A refused line is answered ``error:<code> <message>``. Codes 1-38 are grbl's numbers with
+grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line framing
+(``N<n> ... *<checksum>``) and value ranges grbl has no code for.
+
+| code | name | meaning |
+| --- | --- | --- |
+| 1 | EXPECTED_COMMAND_LETTER | a character that cannot start a word, or no G/M command |
+| 2 | BAD_NUMBER_FORMAT | a letter with no number, ``1.2.3``, a non-finite value |
+| 4 | NEGATIVE_VALUE | negative value where only a positive one makes sense (F, S, G4 P) |
+| 9 | SYSTEM_LOCKED | motion refused while the position is unknown (grbl's alarm lock) |
+| 11 | LINE_OVERFLOW | more than 80 characters of payload |
+| 20 | UNSUPPORTED_COMMAND | a G or M command this firmware does not know |
+| 21 | MODAL_GROUP_VIOLATION | more than one command on the line |
+| 22 | UNDEFINED_FEED_RATE | F or S is zero |
+| 23 | VALUE_NOT_INTEGER | an integer was required (line number, servo index) |
+| 25 | WORD_REPEATED | a word is repeated |
+| 26 | NO_AXIS_WORDS | G0/G1 without any axis word |
+| 27 | INVALID_LINE_NUMBER | line number out of range |
+| 28 | VALUE_WORD_MISSING | a required word is missing (G4 P, M280 P and S) |
+| 33 | INVALID_TARGET | invalid motion target (unreachable, Z out of range) |
+| 36 | UNUSED_WORDS | a word the command does not use (or both F and S on one move) |
+| 60 | BAD_CHECKSUM | checksum mismatch, or not an integer 0-255 |
+| 61 | LINE_OUT_OF_SEQUENCE | line number is not the one expected |
+| 62 | CHECKSUM_MISSING | line number given (or framing required) without a checksum |
+| 63 | VALUE_OUT_OF_RANGE | servo index not 0/1, servo angle not 0-180 deg |
+| 64 | UNTERMINATED_COMMENT | a ``(`` comment is never closed |
+| 65 | CHECKSUM_WITHOUT_LINE_NUMBER | ``*<checksum>`` on a line with no ``N<n>`` |
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+__all__ = ["ErrorCode"]
+
+
+class ErrorCode(IntEnum):
+    """The number after ``error:`` in a reply; an int, so ``f"error:{code}"`` shows it."""
+
+    EXPECTED_COMMAND_LETTER = 1
+    BAD_NUMBER_FORMAT = 2
+    NEGATIVE_VALUE = 4
+    SYSTEM_LOCKED = 9
+    LINE_OVERFLOW = 11
+    UNSUPPORTED_COMMAND = 20
+    MODAL_GROUP_VIOLATION = 21
+    UNDEFINED_FEED_RATE = 22
+    VALUE_NOT_INTEGER = 23
+    WORD_REPEATED = 25
+    NO_AXIS_WORDS = 26
+    INVALID_LINE_NUMBER = 27
+    VALUE_WORD_MISSING = 28
+    INVALID_TARGET = 33
+    UNUSED_WORDS = 36
+    BAD_CHECKSUM = 60
+    LINE_OUT_OF_SEQUENCE = 61
+    CHECKSUM_MISSING = 62
+    VALUE_OUT_OF_RANGE = 63
+    UNTERMINATED_COMMENT = 64
+    CHECKSUM_WITHOUT_LINE_NUMBER = 65
+
+    def reply(self, message: str) -> str:
+        """The firmware's answer for this code: ``error:<code> <message>``."""
+        return f"error:{int(self)} {message}"

@@ -1,0 +1,185 @@
+"""Homing (G28) of the three motors, like grbl's limits.c: seek, pull off, locate, pull off.
+
+Every motor at once: seek the limit switch at ``homing_rate_hz`` until the switch reads
+closed, pull off ``homing_pulloff_steps``, then locate it again slowly at
+``homing_locate_rate_hz`` (the switch must read open first). The fast seek trips late (the
+motor lags its command, the switch is read once per poll); the slow locate cuts that error
+about tenfold. At the locate trip the SGF sets the logical counter to the switch position;
+then the final pull-off. Homing fails if a switch is not found (seek beyond
+``homing_max_steps``, locate beyond ``homing_locate_scalar`` pull-offs) or stays closed after
+the pull-off.
+
+The SGF reads the switches at each poll and hands them to :meth:`Homing.update`; the raw
+pulses of every motor at any time come from :meth:`Homing.pulses`, in closed form.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from transplanter.firmware.sgf import SGFConfig
+
+__all__ = ["Homing", "check_homing_settings"]
+
+_FLOOR_EPS = 1e-9  # keeps floor(k / rate * rate) at k despite rounding
+
+
+def check_homing_settings(config: SGFConfig) -> None:
+    """ValueError naming the first bad ``homing_*`` setting of an SGF config."""
+    for name in (
+        "homing_rate_hz",
+        "homing_locate_rate_hz",
+        "homing_dirs",
+        "homing_pulloff_steps",
+        "homing_max_steps",
+    ):
+        if len(getattr(config, name)) != 3:
+            raise ValueError(f"SGFConfig.{name} needs one value per motor (3)")
+    for name in ("homing_rate_hz", "homing_locate_rate_hz"):
+        rates = getattr(config, name)
+        if not all(math.isfinite(r) and r > 0 for r in rates):
+            raise ValueError(f"SGFConfig.{name} must be > 0, got {rates}")
+    if any(d not in (-1, 1) for d in config.homing_dirs):
+        raise ValueError(f"SGFConfig.homing_dirs must be +1 or -1, got {config.homing_dirs}")
+    if any(int(p) != p or p < 1 for p in config.homing_pulloff_steps):
+        raise ValueError(
+            "SGFConfig.homing_pulloff_steps must be integers >= 1 (the locate starts "
+            "from a switch that the pull-off has opened)"
+        )
+    if not (math.isfinite(config.homing_locate_scalar) and config.homing_locate_scalar > 1):
+        raise ValueError(
+            f"SGFConfig.homing_locate_scalar must be > 1, got {config.homing_locate_scalar}"
+        )
+    if any(int(p) != p or p < 1 for p in config.homing_max_steps):
+        raise ValueError("SGFConfig.homing_max_steps must be integers >= 1")
+
+
+class Homing:
+    """Raw pulses of the three motors during G28, in closed form (grbl's limits.c).
+
+    Each motor runs a list of legs ``(t_start, raw_start, direction, rate_hz, max_steps)``;
+    a leg lasts until the next one starts. Phases per motor: 0 seek, 1 pull-off then locate,
+    2 final pull-off (or stopped after a failure).
+    """
+
+    def __init__(self, config: SGFConfig, t0: float, raw0: np.ndarray):
+        """Start homing at ``t0`` from raw pulse counts ``raw0`` with the ``homing_*``
+        settings of ``config``."""
+        self.seek_rate = np.asarray(config.homing_rate_hz, dtype=np.float64)
+        self.locate_rate = np.asarray(config.homing_locate_rate_hz, dtype=np.float64)
+        self.dirs = np.asarray(config.homing_dirs, dtype=np.int64)
+        self.max_steps = np.asarray(config.homing_max_steps, dtype=np.int64)
+        self.pulloff = np.asarray(config.homing_pulloff_steps, dtype=np.int64)
+        self.locate_max_steps = np.ceil(config.homing_locate_scalar * self.pulloff).astype(np.int64)
+        self.legs = [
+            [
+                (
+                    t0,
+                    int(raw0[m]),
+                    int(self.dirs[m]),
+                    float(self.seek_rate[m]),
+                    int(self.max_steps[m]),
+                )
+            ]
+            for m in range(3)
+        ]
+        self.phase = np.zeros(3, dtype=np.int64)
+        self.t_locate = np.full(3, np.inf)
+        self.cleared = np.zeros(3, dtype=bool)  # switch read open since the locate began
+        self.t_end = np.full(3, np.inf)
+        self.trip_raw = np.zeros(3, dtype=np.int64)
+        self.failed = False
+
+    def _motor(self, motor: int, t: np.ndarray) -> np.ndarray:
+        t_start, raw_start, direction, rate, count = (
+            np.array(column) for column in zip(*self.legs[motor], strict=True)
+        )
+        leg = np.maximum(np.searchsorted(t_start, t, side="right") - 1, 0)
+        n = np.floor((t - t_start[leg]) * rate[leg] + _FLOOR_EPS)
+        n = np.clip(n, 0, count[leg]).astype(np.int64)
+        return raw_start[leg] + direction[leg] * n
+
+    def pulses(self, t: np.ndarray) -> np.ndarray:
+        """Raw pulse counts of the 3 motors at times t, shape (len(t), 3)."""
+        return np.stack([self._motor(m, t) for m in range(3)], axis=1)
+
+    def _raw(self, motor: int, t: float) -> int:
+        return int(self._motor(motor, np.array([t]))[0])
+
+    def _exhausted(self, motor: int, t: float) -> bool:
+        t_start, raw_start, direction, _, count = self.legs[motor][-1]
+        return t >= t_start and self._raw(motor, t) == raw_start + direction * count
+
+    def _pull_off(self, motor: int, t: float) -> int:
+        raw = self._raw(motor, t)
+        steps = int(self.pulloff[motor])
+        self.legs[motor].append(
+            (t, raw, -int(self.dirs[motor]), float(self.seek_rate[motor]), steps)
+        )
+        return raw
+
+    def update(self, now: float, endstops: Sequence[bool] | None) -> str | None:
+        """Act on the switches read at ``now``; a failure message if homing failed."""
+        for motor in range(3):
+            closed = endstops is not None and bool(endstops[motor])
+            direction = int(self.dirs[motor])
+            if self.phase[motor] == 0:
+                if closed:
+                    raw = self._pull_off(motor, now)
+                    self.t_locate[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
+                    self.legs[motor].append(
+                        (
+                            float(self.t_locate[motor]),
+                            raw - direction * int(self.pulloff[motor]),
+                            direction,
+                            float(self.locate_rate[motor]),
+                            int(self.locate_max_steps[motor]),
+                        )
+                    )
+                    self.phase[motor] = 1
+                elif self._exhausted(motor, now):
+                    return self._fail(
+                        now,
+                        f"limit switch {motor + 1} not found within "
+                        f"{int(self.max_steps[motor])} steps; check the switch and homing_dirs",
+                    )
+            elif self.phase[motor] == 1 and now >= self.t_locate[motor]:
+                if endstops is not None and not closed:
+                    self.cleared[motor] = True
+                elif closed and self.cleared[motor]:
+                    self.trip_raw[motor] = self._pull_off(motor, now)
+                    self.t_end[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
+                    self.phase[motor] = 2
+                    continue
+                if self._exhausted(motor, now):
+                    steps = int(self.locate_max_steps[motor])
+                    if self.cleared[motor]:
+                        why = f"not found again within {steps} steps of the slow locate"
+                    else:
+                        why = "still closed after the pull-off; raise homing_pulloff_steps"
+                    return self._fail(now, f"limit switch {motor + 1} {why}")
+        return None
+
+    def _fail(self, now: float, message: str) -> str:
+        """Stop the motors still seeking or locating where they are."""
+        self.failed = True
+        for motor in np.flatnonzero(self.phase < 2):
+            self.legs[motor].append((now, self._raw(int(motor), now), 1, 0.0, 0))
+            self.t_end[motor] = now
+            self.phase[motor] = 2
+        return message
+
+    @property
+    def done_seeking(self) -> bool:
+        """Every motor has found its switch (or homing failed): only pull-offs remain."""
+        return bool(np.all(self.phase == 2))
+
+    @property
+    def t_done(self) -> float:
+        """When the last motor ends its final pull-off (inf while still seeking)."""
+        return float(np.max(self.t_end))
