@@ -20,7 +20,8 @@ from transplanter.firmware.pgf import PGF, LinePhase
 from transplanter.firmware.rig import SimulatedEndstops, run_firmware
 from transplanter.firmware.sgf import SGF
 from transplanter.gcode import parse_line
-from transplanter.machine import machine_from_scenario, power_on_joints
+from transplanter.config import machine_config
+from transplanter.machine import power_on_joints
 from transplanter.motion import plan_line
 from transplanter.scenario import load_scenario
 
@@ -37,7 +38,7 @@ def best_of(fn, repeat=3) -> float:
 
 
 def main() -> None:
-    machine = machine_from_scenario(load_scenario(PAPER, {"scenario.seedlings": 5}))
+    machine = machine_config(load_scenario(PAPER, {"scenario.seedlings": 5}))
     geom, limits = machine.geometry, machine.limits
     kin = machine.sgf.kinematics
     rng = np.random.default_rng(0)

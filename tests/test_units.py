@@ -10,7 +10,8 @@ from transplanter.firmware.pgf import LinePhase, build_program
 from transplanter.firmware.rig import SimulatedEndstops
 from transplanter.firmware.sgf import SGF, SGFConfig
 from transplanter.gcode import parse_line
-from transplanter.machine import machine_from_scenario, power_on_joints
+from transplanter.config import machine_config
+from transplanter.machine import power_on_joints
 from transplanter.scenario import load_scenario
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
@@ -62,7 +63,7 @@ def test_dwell_p_is_milliseconds():
 
 
 def test_pgf_writes_mm_mm_per_s_and_ms():
-    machine = machine_from_scenario(load_scenario(PAPER))
+    machine = machine_config(load_scenario(PAPER))
     eeprom = machine.eeprom
     program = build_program(eeprom, machine.pgf)
     words = {line.phase: parse_line(line.text).words for line in program[:40]}
