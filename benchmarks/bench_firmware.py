@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
+from transplanter.config import machine_config
 from transplanter.firmware.bus import ComBus
 from transplanter.firmware.pgf import PGF, LinePhase
 from transplanter.firmware.rig import SimulatedEndstops, run_firmware
 from transplanter.firmware.sgf import SGF
 from transplanter.gcode import parse_line
-from transplanter.config import machine_config
 from transplanter.machine import power_on_joints
 from transplanter.motion import plan_line
 from transplanter.scenario import load_scenario

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from transplanter import kinematics
-from transplanter.scene import SceneConfig, build_scene, five_bar_forward, models_dir
+from transplanter.scene import SceneConfig, build_scene, models_dir
 from transplanter.scene.build import compile_with_home, scene_spec
 
 REPO = Path(__file__).resolve().parent.parent
@@ -108,7 +108,7 @@ def test_home_keyframe_closes_the_loop_and_matches_fk():
     mujoco.mj_forward(model, data)
     gap = np.linalg.norm(data.site("c1").xpos - data.site("c2").xpos)
     assert gap < 1e-5
-    phi1, phi2 = five_bar_forward(CFG, CFG.home_theta1, CFG.home_theta2)
+    phi1, phi2 = CFG.kinematics().passive_angles(CFG.home_theta1, CFG.home_theta2)
     assert data.joint("phi1").qpos[0] == pytest.approx(phi1, abs=1e-5)
     assert data.joint("phi2").qpos[0] == pytest.approx(phi2, abs=1e-5)
     assert data.site("grip_center").xpos[2] == pytest.approx(0.150, abs=1e-9)

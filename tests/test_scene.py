@@ -13,7 +13,6 @@ from transplanter.scene import (
     PotBatch,
     SceneConfig,
     build_scene,
-    five_bar_forward,
 )
 
 
@@ -65,7 +64,7 @@ def grasp_and_carry(scene, cell_x=0.0, z_low=0.032, lift=0.04):
     run.step(300)  # let the pots settle (and fall asleep)
     cfg, y0 = scene.config, scene.config.pickup_row_y
     t1, t2 = ik(cfg, cell_x, y0 - 0.03)
-    psi1 = t1 + five_bar_forward(cfg, t1, t2)[0]
+    psi1 = t1 + cfg.kinematics().passive_angles(t1, t2)[0]
     scene.set_wrist_angle(run.data, math.pi / 2 - psi1)
     scene.set_gripper_opening(run.data, 0.041)
     run.move([cell_x, y0 - 0.03, 0.10], 0.05)
@@ -281,21 +280,23 @@ def test_steps_per_rev_must_be_a_positive_integer(steps):
         (3.6651914291880923, 1.3962634015954636, -2.2236494718946593, 1.6443842775585358),
     ],
 )
-def test_five_bar_forward_passive_angles(theta1, theta2, phi1, phi2):
-    assert five_bar_forward(SceneConfig(), theta1, theta2) == pytest.approx((phi1, phi2), abs=1e-12)
+def test_passive_angles_of_the_model_assembly(theta1, theta2, phi1, phi2):
+    assert SceneConfig().kinematics().passive_angles(theta1, theta2) == pytest.approx(
+        (phi1, phi2), abs=1e-12
+    )
 
 
-def test_five_bar_forward_closes_the_chain_and_rejects_an_open_one():
+def test_passive_angles_close_the_chain_and_reject_an_open_one():
     cfg = SceneConfig(l0=0.04, l1=0.1, l2=0.18)
     theta1, theta2 = 2.2, 0.8
-    phi1, phi2 = five_bar_forward(cfg, theta1, theta2)
+    phi1, phi2 = cfg.kinematics().passive_angles(theta1, theta2)
     assert (phi1, phi2) == pytest.approx((-1.2913393613934392, 1.3455715703266806), abs=1e-12)
     b, d = kinematics.elbow_points(cfg.geometry(), theta1, theta2)
     c1 = b + cfg.l2 * np.array([math.cos(theta1 + phi1), math.sin(theta1 + phi1)])
     c2 = d + cfg.l2 * np.array([math.cos(theta2 + phi2), math.sin(theta2 + phi2)])
     assert np.linalg.norm(c1 - c2) < 1e-12
     with pytest.raises(ValueError, match="cannot close"):
-        five_bar_forward(SceneConfig(l2=0.1), math.pi, 0.0)
+        SceneConfig(l2=0.1).kinematics().passive_angles(math.pi, 0.0)
 
 
 def test_conveyor_index_is_done_within_the_index_time():

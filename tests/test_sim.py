@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from conftest import paper_config
+from transplanter.firmware.pgf import LinePhase
 from transplanter.sim import LineEventKind, SimulationInvalid, Twin
 
 
@@ -35,7 +36,7 @@ def test_motor_commands_are_the_step_positions(scenario):
 def test_homing_uses_the_model_limit_switches(scenario):
     twin = Twin(scenario)
     twin.step_until(2.0)
-    home = next(s for s in twin.pgf.sent if s.phase == "home")
+    home = next(s for s in twin.pgf.sent if s.phase == LinePhase.HOME)
     assert home.reply == "ok"
     assert twin.sgf.homed
     # at the trip, each joint (as simulated) had reached its switch: the SGF's logical
@@ -110,11 +111,11 @@ def test_conveyor_index_ends_at_one_pitch_and_at_rest():
     five = paper_config(6)
     twin = Twin(five)
     for _ in range(1000):  # the index is acknowledged near 21 s
-        if any(s.phase == "index" and s.reply for s in twin.pgf.sent):
+        if any(s.phase == LinePhase.INDEX and s.reply for s in twin.pgf.sent):
             break
         twin.step_until(twin.time + 0.05)
     twin.step_until(twin.time + 0.1)  # the next approach is under way, far from the pots
-    index = next(s for s in twin.pgf.sent if s.phase == "index")
+    index = next(s for s in twin.pgf.sent if s.phase == LinePhase.INDEX)
     assert index.reply == "ok"
     assert index.t_reply - index.t_sent == pytest.approx(0.6, abs=0.01)
     scene, d = twin.scene, twin.data

@@ -20,6 +20,8 @@ DEFAULT_SCENARIO = "paper"  # the packaged paper scenario
 EXIT_OK, EXIT_REFUSED, EXIT_INVALID_PHYSICS, EXIT_FIRMWARE_FAULT = 0, 2, 3, 4
 EXIT_OUTPUT_FAILED = 5  # a result file or the recording could not be written
 EXIT_INTERRUPTED = 130  # Ctrl-C, as shells report SIGINT
+# A G-code program for `plan`: a 100k-move file is about 3 MB; anything far bigger is not one.
+MAX_GCODE_FILE_BYTES = 64 << 20
 
 
 def _scenario_arg(parser: argparse.ArgumentParser) -> None:
@@ -98,23 +100,21 @@ def cmd_ik(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    from transplanter import fileio
     from transplanter.planner import PlanError, plan_program
 
     machine = _machine(args)
     if machine is None:
         return 2
     try:
-        text = Path(args.file).read_text(encoding="utf-8")
-    except OSError as exc:
-        print(f"{args.file}: cannot read: {exc.strerror}", file=sys.stderr)
-        return 1
-    except UnicodeDecodeError:
-        print(f"{args.file}: not a text file (G-code is ASCII text)", file=sys.stderr)
+        text = fileio.read_text_input(args.file, MAX_GCODE_FILE_BYTES, "G-code")
+    except fileio.FileRefused as exc:
+        _err(str(exc))
         return 1
     try:
-        rows = plan_program(machine, text.splitlines())  # TODO split on newline only
+        rows = plan_program(machine, text)  # split at newlines only
     except PlanError as exc:
-        print(f"{args.file}:{exc.line_no}: {exc}", file=sys.stderr)
+        _err(f"{args.file}:{exc.line_no}: {exc}")
         return 1
     print(
         f"{'line':>5}  {'duration_s':>10}  {'steps_a':>8}  {'steps_b':>8}  {'steps_z':>8}  g-code"
@@ -125,7 +125,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
         total += row.duration_s
         totals += np.abs(row.steps)
         a, b, z = row.steps
-        print(f"{row.line_no:>5}  {row.duration_s:>10.4f}  {a:>8d}  {b:>8d}  {z:>8d}  {row.text}")
+        print(
+            f"{row.line_no:>5}  {row.duration_s:>10.4f}  {a:>8d}  {b:>8d}  {z:>8d}  "
+            f"{_show(row.text)}"
+        )
     print(
         f"total  {total:>10.4f}  {totals[0]:>8d}  {totals[1]:>8d}  {totals[2]:>8d}  "
         f"({len(rows)} lines; step columns are net steps per line, total is |steps|)"

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from transplanter.config import JudgeConfig
+from transplanter.firmware.pgf import LinePhase
 from transplanter.results import EventKind, Outcome, SeedlingRecord
 from transplanter.sim import LineEvent, LineEventKind, Twin
 
@@ -23,10 +24,6 @@ __all__ = ["Judge", "EventSink"]
 
 # (time s, kind, text, seedling index or None): what the judge reports as it goes.
 EventSink = Callable[[float, EventKind, str, "int | None"], None]
-
-# Phases of the PGF's lines the judge acts on.
-_APPROACH, _CLOSE, _LIFT, _TO_DROP = "approach", "close", "lift", "to_drop"
-_RELEASE, _RELEASE_WAIT, _INDEX, _HOME = "release", "release_wait", "index", "home"
 
 
 class Judge:
@@ -75,7 +72,7 @@ class Judge:
         rec = self.records[line.seedling] if line.seedling is not None else None
         if event.kind == LineEventKind.SENT:
             self._emit(t, EventKind.SENT, f"{line.phase}: {line.text}", line.seedling)
-            if rec is not None and line.phase == _APPROACH:
+            if rec is not None and line.phase == LinePhase.APPROACH:
                 self._start(rec, t)
             return
         if line.reply is not None and line.reply.startswith("error"):
@@ -86,32 +83,32 @@ class Judge:
             self._emit(t, EventKind.FAILURE, f"rejected {line.text}: {line.reply}", line.seedling)
             return
         self._emit(t, EventKind.ACK, f"{line.phase}: {line.reply}", line.seedling)
-        if line.phase == _HOME:  # homing re-references the motors: the position is known again
+        if line.phase == LinePhase.HOME:  # homing re-references the motors
             self.lost_at_homing = self.twin.microsteps_lost.copy()
             self.events_at_homing = len(self.twin.lost_step_events)
         if rec is None:
             return
         d = self.twin.data
-        if line.phase == _APPROACH:
+        if line.phase == LinePhase.APPROACH:
             self._resolve_pending(t)  # the previous pot has had a whole move to land
-        elif line.phase == _CLOSE:
+        elif line.phase == LinePhase.CLOSE:
             self._emit(t, EventKind.GRASP, f"seedling {rec.index} gripper closing", rec.index)
             self.gripping = True
-        elif line.phase == _LIFT and rec.pot is not None:
+        elif line.phase == LinePhase.LIFT and rec.pot is not None:
             z = float(d.xpos[self.pot_bodies[rec.pot], 2])
             rec.lifted = z - self.z0 > self.config.lifted_fraction * self.lift_m
-        elif line.phase == _TO_DROP and rec.pot is not None:
+        elif line.phase == LinePhase.TO_DROP and rec.pot is not None:
             rec.in_gripper_at_drop = self._between_jaws(rec.pot)
-        elif line.phase == _RELEASE:
+        elif line.phase == LinePhase.RELEASE:
             self.gripping = False
             self._emit(t, EventKind.RELEASE, f"seedling {rec.index} released", rec.index)
-        elif line.phase == _RELEASE_WAIT:
+        elif line.phase == LinePhase.RELEASE_WAIT:
             rec.t_release_s = t
             rec.cycle_time_s = t - rec.t_start_s
             self._update_microsteps_lost(rec)
             self.pending_outcome.append(rec)
             self.current = None
-        elif line.phase == _INDEX:
+        elif line.phase == LinePhase.INDEX:
             self.indexes_done += 1
 
     def _start(self, rec: SeedlingRecord, t: float) -> None:

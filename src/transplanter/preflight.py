@@ -13,6 +13,7 @@ from transplanter import kinematics
 from transplanter.machine import Machine
 from transplanter.motion import plan_line
 from transplanter.scenario import ScenarioError
+from transplanter.units import M_PER_MM
 
 __all__ = ["check_machine"]
 
@@ -32,7 +33,8 @@ def check_machine(machine: Machine) -> None:
     for (key, p), ok, reason in zip(points, report.ok, report.reasons, strict=True):
         if not ok:
             raise ScenarioError(
-                f"{key} = [{p[0] * 1e3:g}, {p[1] * 1e3:g}] mm cannot be reached: {reason}. "
+                f"{key} = [{p[0] / M_PER_MM:g}, {p[1] / M_PER_MM:g}] mm cannot be reached: "
+                f"{reason}. "
                 "Teach a point inside the workspace."
             )
     z_low, z_up = taught.z_low_m, taught.z_up_m
@@ -95,4 +97,4 @@ def _check_line(machine, a, b) -> None:
 
 
 def _mm(p) -> str:
-    return "(" + ", ".join(f"{v * 1e3:g}" for v in p) + ")"
+    return "(" + ", ".join(f"{v / M_PER_MM:g}" for v in p) + ")"

@@ -24,6 +24,7 @@ from transplanter.firmware.bus import ComBus
 from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.rig import FirmwareLink
 from transplanter.firmware.sgf import SGF
+from transplanter.gcode import SERVO_MAX_DEG
 from transplanter.machine import GRIPPER_SERVO, Machine
 from transplanter.scene import ConveyorDrive, Scene, build_scene
 
@@ -34,8 +35,6 @@ __all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepE
 _MAX_BLOCK_STEPS = 500
 # The motors are checked for slipping every this many physics steps.
 SLIP_CHECK_STEPS = 5
-# A hobby servo turns through 180 deg; the gripper's opening maps linearly onto it.
-SERVO_RANGE_DEG = 180.0
 # Wrist servo angle at which the jaws point along passive link 1 (the wrist joint's zero).
 WRIST_SERVO_ZERO_DEG = 90.0
 
@@ -128,7 +127,7 @@ class Twin:
         self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
         self.link = FirmwareLink(self.pgf, self.bus, self.sgf)
         self._max_opening = cfg.gripper_servo.max_opening_m
-        self._open_m_per_deg = self._max_opening / SERVO_RANGE_DEG
+        self._open_m_per_deg = self._max_opening / SERVO_MAX_DEG
         # Servos hold their power-on pose (the keyframe's) until an M280 moves them.
         gripper_deg = self.scene.gripper_opening(self.data) / self._open_m_per_deg
         wrist_deg = math.degrees(self.data.qpos[self.scene.wrist_qpos_adr]) + WRIST_SERVO_ZERO_DEG
@@ -277,7 +276,8 @@ class Twin:
     # -- observations used by trials and recordings -------------------------------------
     def gripper_opening_cmd(self, times: np.ndarray) -> np.ndarray:
         """Jaw opening (m) the gripper servo is commanded to at the given times: the servo's
-        angle maps linearly onto the opening, 0 deg closed, SERVO_RANGE_DEG fully open."""
+        angle maps linearly onto the opening, 0 deg closed, SERVO_MAX_DEG (a hobby servo's
+        whole turn) fully open."""
         opening = self.gripper.at(np.asarray(times, dtype=float)) * self._open_m_per_deg
         return np.clip(opening, 0.0, self._max_opening)
 

@@ -14,7 +14,7 @@ describes the robot, its frames, joints and actuators.
 from transplanter.scene.build import build_scene, models_dir
 from transplanter.scene.config import SceneConfig
 from transplanter.scene.conveyor import ConveyorDrive
-from transplanter.scene.geometry import drop_tube_boxes, five_bar_forward, ring_boxes
+from transplanter.scene.geometry import drop_tube_boxes, ring_boxes
 from transplanter.scene.handles import Scene
 from transplanter.scene.pots import PotBatch
 
@@ -25,7 +25,6 @@ __all__ = [
     "SceneConfig",
     "build_scene",
     "drop_tube_boxes",
-    "five_bar_forward",
     "models_dir",
     "ring_boxes",
 ]

@@ -43,7 +43,6 @@ from transplanter.scene.geometry import (
     cell_columns_x,
     column_box,
     drop_tube_boxes,
-    five_bar_forward,
     pot_inertia,
     rib_boxes,
     row_y,
@@ -117,7 +116,9 @@ def compile_with_home(spec: mujoco.MjSpec, cfg: SceneConfig) -> mujoco.MjModel:
 def home_joint_positions(cfg: SceneConfig) -> dict[str, float]:
     """The `home` keyframe (power-on pose) by joint: the passive angles close the chain,
     the gripper is fully open, the conveyor at 0."""
-    phi1, phi2 = five_bar_forward(cfg, cfg.home_theta1, cfg.home_theta2)
+    phi1, phi2 = (
+        float(a) for a in cfg.kinematics().passive_angles(cfg.home_theta1, cfg.home_theta2)
+    )
     return {
         "z": cfg.home_z,
         "theta1": cfg.home_theta1,

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from transplanter.kinematics import FiveBarGeometry
+from transplanter.kinematics import FiveBarGeometry, FiveBarKinematics
 
 # Collision bits (contype/conaffinity): 1 world/static, 2 pots, 4 gripper; each conveyor row
 # r has its own bit ROW_BIT_FIRST + r % ROW_BITS (bits 8..31), shared by its ribs and pots.
@@ -271,6 +271,10 @@ class SceneConfig:
                     f"[{lo:.6g}, {hi:.6g}]: the joint could never reach it; move it inside "
                     f"or widen {range_name}"
                 )
+
+    def kinematics(self) -> FiveBarKinematics:
+        """The five-bar's kinematics (the paper's working mode, the model's assembly)."""
+        return FiveBarKinematics(self.geometry())
 
     def geometry(self) -> FiveBarGeometry:
         """The five-bar's link lengths for the pure-numpy kinematics."""

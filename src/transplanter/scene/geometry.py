@@ -12,7 +12,6 @@ import math
 import mujoco
 import numpy as np
 
-from transplanter import kinematics
 from transplanter.scene.config import (
     JAW_HALF_HEIGHT,
     PALM_HEIGHT,
@@ -21,30 +20,6 @@ from transplanter.scene.config import (
 )
 
 Box = tuple[np.ndarray, np.ndarray, np.ndarray]  # half sizes, pos, quat
-
-
-def five_bar_forward(config: SceneConfig, theta1: float, theta2: float) -> tuple[float, float]:
-    """Passive joint angles (phi1, phi2) of the elbows-out closed chain at (theta1, theta2).
-
-    phi_i = direction of passive link i (elbow -> C, with C from kinematics.fk's 'up'
-    assembly) minus theta_i, wrapped to (-pi, pi].
-    """
-    geom = config.geometry()
-    x, y = kinematics.fk(geom, theta1, theta2, "up")
-    if not (math.isfinite(x) and math.isfinite(y)):
-        raise ValueError(
-            f"five-bar cannot close at theta=({theta1}, {theta2}) rad: the elbows are more "
-            f"than 2*l2 = {2 * config.l2} m apart (or coincide)"
-        )
-    b, d = kinematics.elbow_points(geom, theta1, theta2)
-    psi1 = math.atan2(y - b[1], x - b[0])
-    psi2 = math.atan2(y - d[1], x - d[0])
-    return _wrap_angle(psi1 - theta1), _wrap_angle(psi2 - theta2)
-
-
-def _wrap_angle(angle: float) -> float:
-    """Angle wrapped to (-pi, pi]."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 def ring_boxes(
