@@ -144,7 +144,7 @@ def test_design_workspace_is_reachable_with_default_limits():
     x_mm, y_mm = np.meshgrid(np.linspace(-100, 100, 201), np.linspace(120, 240, 121))
     report = kin.check_points(GEOM, LIMITS, x_mm * 1e-3, y_mm * 1e-3)
     assert report.ok.all(), report.reasons[report.failing[0]]
-    # DESIGN's numbers: passive-link angle 70-116 deg, condition <= 1.7
+    # the design numbers (docs/sources.md): passive-link angle 70-116 deg, condition <= 1.7
     assert 70.0 < np.degrees(report.transmission.min()) < 71.0
     assert 115.0 < np.degrees(report.transmission.max()) < 116.0
     assert report.condition.max() < 1.7

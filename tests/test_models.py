@@ -115,7 +115,7 @@ def test_home_keyframe_closes_the_loop_and_matches_fk():
 
 
 def workspace_points(n, seed=0):
-    """Random points of x in [-100, 100] mm, y in [120, 240] mm (the DESIGN workspace); their
+    """Random points of x in [-100, 100] mm, y in [120, 240] mm (the design workspace); their
     IK lies inside the joint ranges (theta1 in [75, 240] deg, theta2 in [-60, 105] deg)."""
     rng = np.random.default_rng(seed)
     points = []

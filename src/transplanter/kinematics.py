@@ -31,7 +31,7 @@ ASSEMBLIES = ("up", "down")
 
 @dataclass(frozen=True)
 class FiveBarGeometry:
-    """Link lengths of the symmetric five-bar arm (DESIGN defaults 50/120/200 mm)."""
+    """Link lengths of the symmetric five-bar arm (design defaults 50/120/200 mm)."""
 
     l0_m: float = 0.050
     """Half the motor spacing: motors at (-l0, 0) and (+l0, 0)."""
@@ -55,7 +55,7 @@ class KinematicLimits:
 
     Motor windows: RepRapFirmware's default of 10-170 deg for both motors does not fit the
     paper's elbows-out mode, in which arm 1 points left and arm 2 points right: over the
-    DESIGN workspace (x in [-100, 100] mm, y in [120, 240] mm) theta1 spans 94.6-218.8 deg and
+    design workspace (x in [-100, 100] mm, y in [120, 240] mm) theta1 spans 94.6-218.8 deg and
     theta2 spans -38.8-85.4 deg. The defaults give motor 1 [80, 235] deg and motor 2 the
     mirror image [-55, 100] deg (about 15 deg of margin on each side).
     """

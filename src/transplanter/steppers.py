@@ -14,7 +14,7 @@ import numpy as np
 
 @dataclass(frozen=True)
 class StepperDrive:
-    """One stepper motor and its transmission to the joint (DESIGN defaults: NEMA17, 1/16)."""
+    """One stepper motor and its transmission to the joint (design defaults: NEMA17, 1/16)."""
 
     name: str
     steps_per_rev: int = 200
@@ -124,7 +124,7 @@ def z_drive(name: str = "z", **overrides) -> StepperDrive:
 
 
 def default_drives() -> tuple[StepperDrive, StepperDrive, StepperDrive]:
-    """(arm 1, arm 2, Z) drives with the DESIGN defaults."""
+    """(arm 1, arm 2, Z) drives with the design defaults."""
     return arm_drive("arm1"), arm_drive("arm2"), z_drive("z")
 
 

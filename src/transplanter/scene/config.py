@@ -1,6 +1,6 @@
 """SceneConfig: every physical number of the scene, and the scene's named constants.
 
-SceneConfig() holds the DESIGN.md defaults; models/*.xml carry exactly these defaults
+SceneConfig() holds the design defaults (docs/sources.md); models/*.xml carry exactly these defaults
 (scripts/make_models.py writes them there), and build_scene applies any other config.
 """
 
@@ -62,7 +62,7 @@ LEAF_PROXY_CENTRE = (0.0225, 0.0, 0.004)
 
 @dataclass(frozen=True)
 class SceneConfig:
-    """Every physical number of the scene, SI units, DESIGN.md defaults."""
+    """Every physical number of the scene, SI units, design defaults (docs/sources.md)."""
 
     # --- five-bar geometry (m): motors at (-l0, 0) and (+l0, 0); active l1, passive l2.
     l0: float = 0.050
