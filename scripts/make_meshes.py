@@ -4,8 +4,8 @@ Run: .venv/bin/python scripts/make_meshes.py
 
 Meshes are visual only; every collision shape is a MuJoCo primitive (models/*.xml and
 transplanter.scene.build). Sizes are the design defaults (docs/sources.md) in metres, and
-the meshes are drawn at that size: build_scene does not scale them (a pot's collision cylinder follows its
-drawn size, its mesh stays the nominal pot; the stem is a capsule, not a mesh).
+the meshes are drawn at that size: build_scene does not scale them (a pot's collision
+cylinder follows its drawn size, its mesh stays the nominal pot; the stem is a capsule).
 - paper_pot.stl: tapered paper pot, 35 mm rim, 32 mm base, 52 mm tall, base at z=0.
 - seedling_leaf.stl: one leaf blade that starts at the origin and extends along +x (45 mm),
   curving up.
