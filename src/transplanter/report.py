@@ -1,4 +1,4 @@
-"""Presenting trial results: the summary table, a progress bar and result files."""
+"""Presenting trial results: the summary table, a progress bar, text safe for a terminal."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Procedural geometry of the scene: the five-bar's passive angles, the drop tube's walls,
+"""Procedural geometry of the scene: the drop tube's walls,
 the conveyor's cells, ribs and belt table, the gripper column and the pots' inertia.
 
 Pure functions of a SceneConfig (numpy/math only, no MjSpec): build_scene and
