@@ -20,7 +20,7 @@ def test_paper_assembly_maps_each_section(paper, paper_twin_config):
     assert m.eeprom.m_pp == 5 and m.eeprom.s_high_m_s == pytest.approx(0.150)
     assert cfg.scene.pot_mass == pytest.approx(0.047) and cfg.scene.grip_force == 6.0
     # the scene's power-on pose is short of the switches, its hard stops beyond the windows
-    assert cfg.scene.home_theta1 == pytest.approx(math.radians(195))
+    assert cfg.scene.power_on_theta1 == pytest.approx(math.radians(195))
     assert cfg.scene.theta1_range[1] == pytest.approx(math.radians(240))
     assert cfg.gripper_servo.speed_deg_s == pytest.approx(400.0)
     assert cfg.gripper_servo.max_opening_m == pytest.approx(0.050)

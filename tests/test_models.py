@@ -108,7 +108,7 @@ def test_home_keyframe_closes_the_loop_and_matches_fk():
     mujoco.mj_forward(model, data)
     gap = np.linalg.norm(data.site("c1").xpos - data.site("c2").xpos)
     assert gap < 1e-5
-    phi1, phi2 = CFG.kinematics().passive_angles(CFG.home_theta1, CFG.home_theta2)
+    phi1, phi2 = CFG.kinematics().passive_angles(CFG.power_on_theta1, CFG.power_on_theta2)
     assert data.joint("phi1").qpos[0] == pytest.approx(phi1, abs=1e-5)
     assert data.joint("phi2").qpos[0] == pytest.approx(phi2, abs=1e-5)
     assert data.site("grip_center").xpos[2] == pytest.approx(0.150, abs=1e-9)
@@ -168,7 +168,7 @@ def max_motor_lag(speed_rad_s):
     return the max lag of motor 1 behind its command (motor rad)."""
     scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
     model, data = scene.model, scene.make_data()
-    t0, t1 = CFG.home_theta1, math.radians(100)
+    t0, t1 = CFG.power_on_theta1, math.radians(100)
     q = scene.joint_positions(data)  # theta2 and Z stay here; the chain closes all the way
     lag = 0.0
     n = int(abs(t1 - t0) / speed_rad_s / model.opt.timestep)

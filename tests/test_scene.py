@@ -254,8 +254,8 @@ def test_joint_ranges_come_from_the_config():
         ({"switch2_theta2_max": math.radians(-65.0)}, "switch2_theta2_max.*theta2_range"),
         ({"switch3_z_min": 0.170}, "switch3_z_min.*z_range"),
         ({"z_range": (0.010, 0.165)}, "switch4_z_max.*z_range"),
-        ({"home_z": -0.001}, "home_z.*z_range"),
-        ({"home_theta1": math.radians(241.0)}, "home_theta1.*theta1_range"),
+        ({"power_on_z": -0.001}, "power_on_z.*z_range"),
+        ({"power_on_theta1": math.radians(241.0)}, "power_on_theta1.*theta1_range"),
         ({"theta2_range": (0.5, -0.5)}, "theta2_range"),
     ],
 )

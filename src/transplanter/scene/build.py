@@ -117,12 +117,12 @@ def home_joint_positions(cfg: SceneConfig) -> dict[str, float]:
     """The `home` keyframe (power-on pose) by joint: the passive angles close the chain,
     the gripper is fully open, the conveyor at 0."""
     phi1, phi2 = (
-        float(a) for a in cfg.kinematics().passive_angles(cfg.home_theta1, cfg.home_theta2)
+        float(a) for a in cfg.kinematics().passive_angles(cfg.power_on_theta1, cfg.power_on_theta2)
     )
     return {
-        "z": cfg.home_z,
-        "theta1": cfg.home_theta1,
-        "theta2": cfg.home_theta2,
+        "z": cfg.power_on_z,
+        "theta1": cfg.power_on_theta1,
+        "theta2": cfg.power_on_theta2,
         "phi1": phi1,
         "phi2": phi2,
         "wrist": 0.0,
@@ -135,9 +135,9 @@ def home_joint_positions(cfg: SceneConfig) -> dict[str, float]:
 def home_ctrl(cfg: SceneConfig) -> list[float]:
     """Actuator commands of the `home` keyframe: motor angles = gear * joint position."""
     return [
-        cfg.arm_belt_ratio * cfg.home_theta1,
-        cfg.arm_belt_ratio * cfg.home_theta2,
-        cfg.screw_gear * cfg.home_z,
+        cfg.arm_belt_ratio * cfg.power_on_theta1,
+        cfg.arm_belt_ratio * cfg.power_on_theta2,
+        cfg.screw_gear * cfg.power_on_z,
         cfg.gripper_max_opening,
         0.0,
     ]

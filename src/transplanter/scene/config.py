@@ -121,9 +121,9 @@ class SceneConfig:
 
     # --- home keyframe (power-on pose): active angles (rad), Z (m), a little short of the
     # limit switches; the gripper is fully open.
-    home_theta1: float = math.radians(195.0)
-    home_theta2: float = math.radians(-15.0)
-    home_z: float = 0.150
+    power_on_theta1: float = math.radians(195.0)
+    power_on_theta2: float = math.radians(-15.0)
+    power_on_z: float = 0.150
 
     # --- conveyor layout: rows x cols cells, cell pitch in x, row pitch in y (m); the pickup
     # row (row 0) is centred at pickup_row_y; rows further back at + row_pitch each.
@@ -259,9 +259,9 @@ class SceneConfig:
             ("switch2_theta2_max", "theta2_range"),
             ("switch3_z_min", "z_range"),
             ("switch4_z_max", "z_range"),
-            ("home_theta1", "theta1_range"),
-            ("home_theta2", "theta2_range"),
-            ("home_z", "z_range"),
+            ("power_on_theta1", "theta1_range"),
+            ("power_on_theta2", "theta2_range"),
+            ("power_on_z", "z_range"),
         ):
             lo, hi = getattr(self, range_name)
             value = getattr(self, name)
