@@ -1,4 +1,4 @@
-"""Tests of transplanter.recording: write a short trial to an .rrd and read it back."""
+"""Recording a trial to .rrd and reading it back (transplanter.recording, transplanter.playback)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from transplanter.recording import RecordingConfig, TrialRecorder, read_summary, replay
+from transplanter.playback import read_summary, replay
+from transplanter.recording import RecordingConfig, TrialRecorder
 
 MJCF = """
 <mujoco>

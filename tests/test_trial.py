@@ -150,7 +150,7 @@ def test_invalid_physics_is_never_a_success():
 def test_recorded_trial_reads_back(tmp_path, capsys):
     """A 2-seedling trial recorded to .rrd, read back with rerun's own API."""
     from transplanter.channels import channel_names
-    from transplanter.recording import read_summary
+    from transplanter.playback import read_summary
 
     rrd, out = tmp_path / "two.rrd", tmp_path / "two.json"
     args = ["trial", "paper", "--seedlings", "2", "--record", str(rrd), "--json", str(out)]

@@ -291,7 +291,7 @@ def _err(message: str) -> None:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from transplanter.recording import replay
+    from transplanter.playback import replay
 
     return replay(args.file)
 
