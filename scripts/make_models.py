@@ -71,7 +71,6 @@ def transplanter_values(
     for jaw in ("jaw_left", "jaw_right"):
         j = spec.joint(jaw)
         out.append(("joint", jaw, {"range": fmt(*j.range), "damping": fmt(j.damping[0])}))
-        out.append(("geom", jaw, {"friction": fmt(*spec.geom(jaw).friction)}))
     out.append(("geom", "platform", {"mass": fmt(spec.geom("platform").mass)}))
     for geom in ("motor1", "motor2", "palm", "palm_visual"):
         out.append(("geom", geom, {"pos": fmt(*spec.geom(geom).pos)}))

@@ -410,3 +410,33 @@ def test_rows_past_the_edge_follow_the_carriage_position_of_each_index():
     assert drive.indexing(resumed, 0.3) and drive.reference(resumed, 0.3) == drive.reference(
         snapshot, 0.3
     )
+
+
+@pytest.mark.slow
+def test_jaw_pot_contacts_take_the_pots_friction():
+    """The pot's friction (scenario pots.friction), not a jaw setting, acts at the jaws."""
+    for friction in (0.45, 0.9):
+        scene = build_scene(one_heavy_pot(friction), seed=0)
+        run, _ = grasp_and_carry(scene)
+        d, m = run.data, scene.model
+        jaws = {m.geom("jaw_left").id, m.geom("jaw_right").id}
+        pot = m.geom("pot_0_0").id
+        mus = [c.friction[0] for c in d.contact[: d.ncon] if {c.geom1, c.geom2} & jaws
+               and pot in (c.geom1, c.geom2)]  # fmt: skip
+        assert mus and all(mu == pytest.approx(friction) for mu in mus)
+
+
+@pytest.mark.slow
+def test_a_conveyor_of_100_rows_builds_and_runs():
+    """Every size the schema accepts builds: per-row collision bits are reused 23 rows apart
+    (bit 31 would overflow), and a pot only touches the ribs of its own row."""
+    scene = build_scene(SceneConfig(rows=100, cols=1), seed=0)
+    data = scene.make_data()
+    for _ in range(200):
+        mujoco.mj_step(scene.model, data)
+    assert data.warning.number.sum() == 0
+    pots = scene.pot_positions(data)
+    assert pots.shape == (100, 3)
+    assert np.abs(pots[:, 2] - scene.config.pot_height / 2).max() < 0.003  # all standing
+    m = scene.model
+    assert (m.geom_contype >= 0).all() and (m.geom_conaffinity >= 0).all()

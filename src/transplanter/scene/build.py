@@ -218,7 +218,6 @@ def apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     for jaw in ("jaw_left", "jaw_right"):
         spec.joint(jaw).range = [0, cfg.gripper_max_opening / 2]
         spec.joint(jaw).damping = [cfg.jaw_damping, 0, 0]
-        spec.geom(jaw).friction = [cfg.jaw_friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
     wrist = spec.actuator("wrist")
     wrist.gainprm = [cfg.wrist_kp] + [0] * 9
     wrist.biasprm = [0, -cfg.wrist_kp, 0] + [0] * 7

@@ -14,12 +14,14 @@ import numpy as np
 from transplanter.kinematics import FiveBarGeometry, FiveBarKinematics
 
 # Collision bits (contype/conaffinity): 1 world/static, 2 pots, 4 gripper; each conveyor row
-# r has its own bit ROW_BIT_FIRST + r % ROW_BITS (bits 8..31), shared by its ribs and pots.
+# r has the bit ROW_BIT_FIRST + r % ROW_BITS (bits 8..30; bit 31 would overflow MuJoCo's
+# signed 32-bit contype), shared by its ribs and pots. Rows ROW_BITS apart share a bit: they
+# are ROW_BITS row pitches (over a metre) apart on the belt, so their ribs and pots never meet.
 BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
 ROW_BIT_FIRST = 8
-ROW_BITS = 24
+ROW_BITS = 23
 
 
 def row_bit(row: int) -> int:
@@ -101,7 +103,8 @@ class SceneConfig:
     grip_force: float = 6.0
     gripper_kp: float = 3000.0
     jaw_damping: float = 2.0
-    jaw_friction: float = 0.8
+    # (No jaw friction: the pots' contact priority makes every jaw-pot contact take the pot's
+    # friction, the scenario's pots.friction; a jaw friction would never act.)
     # Wrist (elbow) servo: stiffness (N*m/rad), torque limit (N*m).
     wrist_kp: float = 3.0
     wrist_torque: float = 0.25
