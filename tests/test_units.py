@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from transplanter import units
+from transplanter.config import machine_config
 from transplanter.firmware.pgf import LinePhase, build_program
 from transplanter.firmware.rig import SimulatedEndstops
 from transplanter.firmware.sgf import SGF, SGFConfig
 from transplanter.gcode import parse_line
-from transplanter.config import machine_config
 from transplanter.machine import power_on_joints
 from transplanter.scenario import load_scenario
 
