@@ -39,7 +39,7 @@ from transplanter.kinematics import (
 )
 from transplanter.motion import MotionConfig, PlannedMove, plan_line
 from transplanter.steppers import StepperDrive, default_drives
-from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS
+from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS, show
 
 
 @dataclass(frozen=True)
@@ -258,6 +258,22 @@ class SGF:
             out[mask] = self._segments[segment](times[mask])
         return out
 
+    def forget_before(self, t: float) -> int:
+        """Drop the motion history that ``pulses_at`` no longer needs for times >= ``t``.
+
+        Keeps the last segment that starts at or before ``t`` and everything after it, so
+        ``pulses_at`` answers as before for every time >= ``t`` (earlier times are no longer
+        valid). A caller whose clock only moves forward (the planner, the simulator) calls
+        this to keep memory constant per move. Returns how many segments were dropped.
+        """
+        starts = self._segment_starts
+        keep_from = int(np.searchsorted(np.asarray(starts), t, side="right")) - 1
+        if keep_from <= 0:
+            return 0
+        del self._segment_starts[:keep_from]
+        del self._segments[:keep_from]
+        return keep_from
+
     def drain_servo_commands(self) -> list[tuple[float, int, float]]:
         """(t, servo index, angle deg) commanded since the last drain."""
         out, self._servo_commands = self._servo_commands, []
@@ -329,7 +345,7 @@ class SGF:
         if not self.config.z_min_m <= z <= self.config.z_max_m:
             raise GcodeError(
                 ErrorCode.INVALID_TARGET,
-                f"Z {z / M_PER_MM:.3f} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
+                f"Z {show(z / M_PER_MM)} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
                 f"{self.config.z_max_m / M_PER_MM:.3f}] mm",
             )
         config = self.config
@@ -339,7 +355,7 @@ class SGF:
                 config.geometry, config.limits, config.drives, config.motion, config.mode,
             )  # fmt: skip
         except UnreachableError as error:
-            shown = ", ".join(f"{v / M_PER_MM:.3f}" for v in target)
+            shown = ", ".join(show(v / M_PER_MM) for v in target)
             raise GcodeError(
                 ErrorCode.INVALID_TARGET,
                 f"target position not reachable: {error.reason} "
