@@ -202,6 +202,30 @@ def test_line_numbers_and_required_checksum():
     assert replies[3] == "ok"
 
 
+def test_a_line_whose_checksum_passes_advances_n_whatever_its_command():
+    """Issue row 13: ``N2 G2 X1*96`` got error:20 but N stayed at 1, so the next line got
+    error:61 "expected N2". As in Marlin, a good checksum counts the line as received."""
+    from transplanter.gcode import checksum
+
+    sgf = SGF(SGFConfig(require_checksum=True))
+    framed = "N2 G2 X1"
+    bad_command = f"{framed}*{checksum(framed)}"
+    assert bad_command == "N2 G2 X1*96"
+    sgf.receive(format_line("M105", line_number=1), 0.0)
+    sgf.receive(bad_command, 0.0)
+    sgf.receive(format_line("M105", line_number=3), 0.0)
+    sgf.receive("N4 M105*0", 0.0)  # bad checksum: N does not advance
+    sgf.receive(format_line("M105", line_number=5), 0.0)  # so N5 is out of sequence
+    sgf.receive(format_line("M105", line_number=4), 0.0)
+    replies = sgf.poll(0.0)
+    assert replies[0] == "ok"
+    assert replies[1].startswith("error:20 ")
+    assert replies[2] == "ok"
+    assert replies[3].startswith("error:60 ")
+    assert replies[4].startswith("error:61 ") and "expected N4" in replies[4]
+    assert replies[5] == "ok"
+
+
 def test_default_home_is_the_folded_back_pose_of_the_model():
     config = SGFConfig()
     assert config.home_joint_positions == pytest.approx(

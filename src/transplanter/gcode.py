@@ -73,6 +73,9 @@ class GcodeError(ValueError):
         self.code = code
         """An :class:`ErrorCode` (an int)."""
         self.message = message
+        self.line_number: int | None = None
+        """The line's ``N<n>`` when its framing passed (checksum good, in sequence) and only
+        its command was refused: the firmware counts the line as received, like Marlin."""
 
     @property
     def reply(self) -> str:
@@ -434,6 +437,14 @@ def parse_line(
             f"line number N{line_number} out of sequence, expected N{expected_line_number}; "
             f"resend from N{expected_line_number}",
         )
+    try:
+        return _parse_body(body, line_number, text)
+    except GcodeError as error:
+        error.line_number = line_number  # the framing passed: N advances whatever the command
+        raise
+
+
+def _parse_body(body: str, line_number: int | None, text: str) -> GcodeLine | None:
     tokens = _tokenise(body)
     if not tokens:
         if line_number is not None:

@@ -42,6 +42,7 @@ def show_outside(value: float, lo: float, hi: float, decimals: int = 1) -> tuple
         shown = round(value, places)
         if not (round(lo, places) <= shown <= round(hi, places)):
             break
+
     def bound(b: float) -> str:
         text = show(b, places)
         return text.rstrip("0").rstrip(".") if "." in text and "e" not in text else text

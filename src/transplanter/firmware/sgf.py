@@ -204,7 +204,8 @@ class SGF:
             parsed = error
         if parsed is None:
             return
-        if isinstance(parsed, GcodeLine) and parsed.line_number is not None:
+        if parsed.line_number is not None:
+            # a line whose checksum passed advances N, whatever its command's fate (Marlin)
             self._last_line_number = parsed.line_number
         self._queue.append(_Job(parsed, now))
 
