@@ -44,12 +44,35 @@ def test_round_trip_every_command(command, words, line_number):
 
 
 def test_format_numbers_compact():
-    assert format_line("G1", {"X": 10, "Y": 5.25, "Z": 0.12349, "S": 150.0}) == (
+    assert format_line("G1", {"X": 10, "Y": 5.25, "Z": 0.123, "S": 150.0}) == (
         "G1 X10 Y5.25 Z0.123 S150"
     )
-    assert format_line("G1", {"X": -0.0001}) == "G1 X0"
+    assert format_line("G1", {"X": 12.299999999999999}) == "G1 X12.3"  # float noise
+    assert format_line("G1", {"X": -0.0}) == "G1 X0"
     assert format_line("G4", {"P": np.int64(250)}) == "G4 P250"
     assert format_line("g1", {"x": 1.5}) == "G1 X1.5"
+
+
+@pytest.mark.parametrize("words", [{"S": 0.0001}, {"Z": 0.12349}, {"X": -0.0001}, {"X": 1.0005}])
+def test_format_refuses_a_number_it_cannot_write_exactly(words):
+    """Issue row 16: S0.0001 parsed but format_line wrote S0 (then refused it, error 22):
+    a value 3 decimals cannot write is refused, never silently rounded to another number."""
+    with pytest.raises(ValueError, match="cannot be written exactly with 3 decimals"):
+        format_line("G1", {"X": 1, **words} if "X" not in words else words)
+
+
+@pytest.mark.parametrize(
+    ("text", "shown"),
+    [("G1 X1e3", "X1e3: exponent notation is not G-code; write 1000"),
+     ("G1 Y2.5E-2", "Y2.5E-2: exponent notation is not G-code; write 0.025"),
+     ("G1 X1e400", "X1e400: exponent notation is not G-code; write the number in full")],
+)  # fmt: skip
+def test_exponent_notation_is_reported_as_such(text, shown):
+    """Issue row 16: X1e3 was reported as "word E is not used"."""
+    with pytest.raises(GcodeError) as info:
+        parse_line(text)
+    assert info.value.code == ErrorCode.BAD_NUMBER_FORMAT
+    assert info.value.message == shown
 
 
 def test_format_refuses_invalid_lines():
@@ -175,7 +198,8 @@ MALFORMED = [
     ("G28 X0", 36),
     ("G4 P10 X1", 36),
     ("G1 X1 E5", 36),
-    ("G1 X1e5", 36),
+    ("G1 X1e5", 2),
+    ("G1 X1 E5", 36),
     ("M400 S1", 36),
     ("G1 X1 P3", 36),
     ("G1 X1 F600 S10", 36),

@@ -21,6 +21,7 @@ Marlin framing are removed (grbl counts its line buffer the same way).
 
 from __future__ import annotations
 
+import decimal
 import math
 import numbers
 import re
@@ -302,10 +303,36 @@ def _tokenise(body: str) -> list[tuple[str, str]]:
                 ErrorCode.EXPECTED_COMMAND_LETTER,
                 f"expected a command letter, found {_describe(char)}; remove the character",
             )
+        if char in "eE" and words and index > 0 and body[index - 1] in "0123456789.":
+            _refuse_exponent(body, words[-1], index)
         end = _word_end(body, index)
         words.append((char.upper(), body[index + 1 : end]))
         index = end
     return words
+
+
+def _refuse_exponent(body: str, previous: tuple[str, str], index: int) -> None:
+    """BAD_NUMBER_FORMAT for ``X1e3``: an exponent glued to the previous word's number."""
+    letter, mantissa = previous
+    end = _word_end(body, index)
+    exponent = body[index + 1 : end]
+    shown = f"{letter}{mantissa}{body[index]}{exponent}"
+    hint = ""
+    if _NUMBER_RE.fullmatch(mantissa) and _DIGITS_RE.fullmatch(exponent.lstrip("+-")):
+        try:
+            value = float(f"{mantissa}e{exponent}")
+        except (ValueError, OverflowError):
+            value = math.inf
+        if math.isfinite(value):
+            written = format(decimal.Decimal(repr(value)), "f")
+            if "." in written:
+                written = written.rstrip("0").rstrip(".")
+            if len(written) <= 20:
+                hint = f"; write {written}"
+    raise GcodeError(
+        ErrorCode.BAD_NUMBER_FORMAT,
+        f"{shown}: exponent notation is not G-code{hint or '; write the number in full'}",
+    )
 
 
 def _number(letter: str, token: str) -> float:
@@ -489,16 +516,35 @@ def _parse_body(body: str, line_number: int | None, text: str) -> GcodeLine | No
     return GcodeLine(command=command, words=words, line_number=line_number, raw=text)
 
 
+FORMAT_DECIMALS = 3
+"""Decimals ``format_number`` writes (1 um, 0.001 mm/s, 0.001 deg, 0.001 ms)."""
+_FORMAT_TOLERANCE = 1e-9
+"""Relative (to max(1, |value|)) difference between a value and its text that counts as
+float noise (12.299999999999999 -> 12.3); anything more is refused, not silently rounded."""
+
+
 def format_number(value: float) -> str:
-    """Compact text for a word value: integers stay integers, at most 3 decimals."""
+    """Compact text for a word value: integers stay integers, at most 3 decimals.
+
+    The text must stand for the value: one that 3 decimals cannot write (``0.0001``, which
+    would become ``0``; ``1.0005``) is refused with ValueError instead of being rounded to a
+    different number. Float noise (``12.299999999999999``) is written as ``12.3``.
+    """
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"a G-code word value must be a number, got {value!r}")
     if isinstance(value, numbers.Integral):
         return str(int(value))
     if not math.isfinite(value):
         raise ValueError(f"a G-code word value must be finite, got {value!r}")
-    text = f"{float(value):.3f}".rstrip("0").rstrip(".")
-    return "0" if text in ("-0", "") else text
+    value = float(value)
+    text = f"{value:.{FORMAT_DECIMALS}f}".rstrip("0").rstrip(".")
+    text = "0" if text in ("-0", "") else text
+    if abs(float(text) - value) > _FORMAT_TOLERANCE * max(1.0, abs(value)):
+        raise ValueError(
+            f"{value!r} cannot be written exactly with {FORMAT_DECIMALS} decimals (it would "
+            f"become {text}); round it to a multiple of 0.001 first"
+        )
+    return text
 
 
 def format_line(
