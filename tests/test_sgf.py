@@ -1,4 +1,5 @@
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -414,3 +415,52 @@ def test_homing_alone_seeks_pulls_off_locates_and_pulls_off_again():
     # raw pulses never jump: at most one step per motor between polls 0.1 ms apart
     times = np.arange(0.0, homing.t_done, 1e-4)
     assert np.abs(np.diff(homing.pulses(times), axis=0)).max() <= 1
+
+
+@pytest.mark.parametrize(
+    ("steps_per_rev", "microsteps", "named"),
+    [(100000, 16, "steps_per_rev=100000"), (100000, 256, "microsteps=256")],
+)
+def test_drives_whose_moves_cannot_be_held_are_refused(steps_per_rev, microsteps, named):
+    """Issue row 8: drives.steps_per_rev = 100000 (in the scenario's range) ran 17 s into
+    a MemoryError. The SGF refuses, at configuration, drives whose move across the
+    workspace needs more step pulses than a move may emit, naming the values."""
+    import time
+
+    from transplanter.config import machine_config
+    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.steppers import StepperDrive
+
+    drives = tuple(
+        StepperDrive(name, steps_per_rev=steps_per_rev, microsteps=microsteps, **extra)
+        for name, extra in (("arm1", {}), ("arm2", {}), ("z", {"ratio": 1.0, "lead_m": 0.008}))
+    )
+    with pytest.raises(ValueError, match=named) as info:
+        SGFConfig(drives=drives)
+    assert "step pulses one move may emit" in str(info.value)
+    t0 = time.perf_counter()
+    overrides = {"drives.steps_per_rev": steps_per_rev, "drives.microsteps": microsteps}
+    with pytest.raises(ScenarioError, match=named):
+        machine_config(load_scenario(Path(__file__).parents[1] / "scenarios/paper.toml", overrides))
+    assert time.perf_counter() - t0 < 5.0
+
+
+def test_paper_class_drives_are_accepted():
+    from transplanter.steppers import StepperDrive
+
+    drives = tuple(
+        StepperDrive(name, steps_per_rev=400, microsteps=256, **extra)
+        for name, extra in (("arm1", {}), ("arm2", {}), ("z", {"ratio": 1.0, "lead_m": 0.008}))
+    )
+    SGFConfig(drives=drives)
+
+
+def test_a_move_with_too_many_step_pulses_is_refused_before_its_events(homed, monkeypatch):
+    """Row 8, the planner's bound: a move is refused (error:33) before its step events exist."""
+    import transplanter.motion as motion
+
+    sgf, endstops, t = homed
+    monkeypatch.setattr(motion, "MAX_STEPS_PER_MOVE", 1000)
+    replies, t = run_line(sgf, "G1 X0 Y200 Z100", t)
+    assert replies[-1].startswith("error:33 move refused: plan_line: the move needs ")
+    assert "step pulses, more than 1000 a move" in replies[-1]

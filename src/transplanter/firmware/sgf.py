@@ -37,7 +37,7 @@ from transplanter.kinematics import (
     KinematicLimits,
     UnreachableError,
 )
-from transplanter.motion import MotionConfig, PlannedMove, plan_line
+from transplanter.motion import MAX_STEPS_PER_MOVE, MotionConfig, PlannedMove, plan_line
 from transplanter.steppers import StepperDrive, default_drives
 from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS, show
 
@@ -90,6 +90,7 @@ class SGFConfig:
             locate = tuple(float(r) / 10.0 for r in self.homing_rate_hz)
             object.__setattr__(self, "homing_locate_rate_hz", locate)
         check_homing_settings(self)
+        self._check_steps_per_move()
         if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
             raise ValueError(
                 f"SGFConfig.default_speed_m_s must be > 0, got {self.default_speed_m_s}"
@@ -98,6 +99,28 @@ class SGFConfig:
             raise ValueError(
                 f"SGFConfig.conveyor_index_s must be >= 0, got {self.conveyor_index_s}"
             )
+
+    def _check_steps_per_move(self) -> None:
+        """Refuse drives whose longest possible move (each joint across its whole range:
+        the motor windows, z_min..z_max) needs more step pulses than a move may emit
+        (motion.MAX_STEPS_PER_MOVE): the SGF could not hold such a move's step events."""
+        spans = (
+            *(hi - lo for lo, hi in (self.limits.motor_window(m) for m in (1, 2))),
+            self.z_max_m - self.z_min_m,
+        )
+        needed = [d.steps_per_unit * span for d, span in zip(self.drives, spans, strict=True)]
+        if sum(needed) <= MAX_STEPS_PER_MOVE:
+            return
+        worst = int(np.argmax(needed))
+        drive = self.drives[worst]
+        unit = "m of Z travel" if drive.linear else "rad of its motor window"
+        raise ValueError(
+            f"drive {drive.name!r} with steps_per_rev={drive.steps_per_rev} and "
+            f"microsteps={drive.microsteps} needs {needed[worst]:.4g} step pulses across "
+            f"{spans[worst]:.4g} {unit}; the three drives need {sum(needed):.4g} for a "
+            f"move across the whole workspace, more than the {MAX_STEPS_PER_MOVE} step "
+            "pulses one move may emit: lower steps_per_rev or microsteps"
+        )
 
     @property
     def home_joint_positions(self) -> tuple[float, float, float]:
