@@ -252,6 +252,7 @@ def test_malformed_corpus_is_large_and_covers_codes():
         ErrorCode.SYSTEM_LOCKED,
         ErrorCode.INVALID_TARGET,
         ErrorCode.LINE_OUT_OF_SEQUENCE,
+        ErrorCode.RX_BUFFER_OVERFLOW,
     }
     assert set(seen) == parser_codes
 

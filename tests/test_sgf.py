@@ -464,3 +464,59 @@ def test_a_move_with_too_many_step_pulses_is_refused_before_its_events(homed, mo
     replies, t = run_line(sgf, "G1 X0 Y200 Z100", t)
     assert replies[-1].startswith("error:33 move refused: plan_line: the move needs ")
     assert "step pulses, more than 1000 a move" in replies[-1]
+
+
+def test_receive_buffer_is_bounded_like_marlins():
+    """Issue row 14: 200,000 lines queued without an ok (185 MB). Four parsed lines wait
+    (BUFSIZE), then rx_buffer_bytes of raw lines; the rest is dropped with error:66."""
+    import time
+
+    sgf = SGF(SGFConfig())
+    t0 = time.perf_counter()
+    for _ in range(200_000):
+        sgf.receive("G4 P1", 0.0)
+    assert time.perf_counter() - t0 < 10.0
+    assert len(sgf._queue) == 4
+    held = len(sgf._rx)
+    assert held == 512 // len("G4 P1\n")
+    assert sgf.rx_dropped == 200_000 - 4 - held
+    replies = sgf.poll(0.0)
+    assert len(replies) == sgf.rx_dropped and replies[0].startswith("error:66 receive buffer")
+    # the held lines run in order once slots free: every kept line gets its ok
+    t, oks = 0.0, 0
+    while sgf.busy:
+        t = sgf.next_event_time()
+        oks += sgf.poll(t).count("ok")
+    assert oks == 4 + held
+
+
+def test_held_lines_keep_order_and_numbering():
+    config = SGFConfig(command_queue_lines=1)
+    sgf = SGF(config)
+    for n in range(1, 6):
+        sgf.receive(format_line("G4", {"P": 10}, line_number=n), 0.0)
+    t, replies = 0.0, []
+    while sgf.busy:
+        t = sgf.next_event_time()
+        replies += sgf.poll(t)
+    assert replies == ["ok"] * 5 and t == pytest.approx(0.05)
+
+
+def test_an_over_long_line_is_refused_with_line_overflow_at_once():
+    """Issue row 14: a 1M-character line was accepted; it gets error:11 without parsing."""
+    import time
+
+    from transplanter.gcode import MAX_LINE_CHARS, GcodeError, parse_line
+
+    sgf = SGF(SGFConfig())
+    long_line = "G4 P1 ;" + "x" * 1_000_000
+    t0 = time.perf_counter()
+    sgf.receive(long_line, 0.0)
+    (reply,) = sgf.poll(0.0)
+    assert time.perf_counter() - t0 < 0.5
+    assert reply.startswith(f"error:11 line of 1000007 characters overflows the {MAX_LINE_CHARS}")
+    assert not sgf._queue
+    with pytest.raises(GcodeError) as info:
+        parse_line("G4 P1 ;" + "x" * MAX_LINE_CHARS)
+    assert info.value.code == 11
+    assert parse_line("G4 P1 ;" + "x" * (MAX_LINE_CHARS - 7)).command == "G4"

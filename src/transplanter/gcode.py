@@ -33,6 +33,11 @@ from transplanter.errors import ErrorCode
 MAX_PAYLOAD_CHARS = 80
 """grbl's LINE_BUFFER_SIZE: the longest payload a line may carry."""
 
+MAX_LINE_CHARS = 256
+"""Longest line the serial reader holds, comments and framing included (Marlin's
+MAX_CMD_SIZE, raised to take this dialect's comments): a longer line is refused whole
+with error 11 before anything else is looked at."""
+
 MAX_LINE_NUMBER = 2**31 - 1
 """Largest N a line may carry (Marlin keeps it in a 32-bit long)."""
 
@@ -426,6 +431,12 @@ def parse_line(
     if not isinstance(text, str):
         raise TypeError(f"parse_line needs a str, got {type(text).__name__}")
     line = text.rstrip("\r\n")
+    if len(line) > MAX_LINE_CHARS:
+        raise GcodeError(
+            ErrorCode.LINE_OVERFLOW,
+            f"line of {len(line)} characters overflows the {MAX_LINE_CHARS}-character line "
+            "buffer; shorten it",
+        )
     for char in line:
         if char in "\r\n\x00":
             raise GcodeError(

@@ -11,6 +11,14 @@ its reply when it is done, so replies come back in line order:
   ``M710``: conveyor index recorded, ``ok`` after ``conveyor_index_s``. ``M400``: ``ok``
   (the FIFO has already finished everything before it). ``M114``/``M119``: a report line,
   then ``ok``. ``M105``: ``ok``.
+- Receive buffer (Marlin's model): parsed lines wait in a command queue of
+  ``command_queue_lines`` (BUFSIZE = 4) behind the running one. While it is full, arriving
+  lines wait unparsed in a receive buffer of ``rx_buffer_bytes`` and enter the queue in
+  order as slots free (Marlin stops reading serial: flow control by the ok handshake). A
+  line that fits in neither is dropped and answered ``error:66`` at once, out of line
+  order (a real UART loses the bytes; with N framing the next line is then out of
+  sequence). A host that waits for ``ok`` before each line (the PGF) never fills them.
+  A line over ``gcode.MAX_LINE_CHARS`` (256) characters gets ``error:11`` (line overflow).
 - ``G28``: two-pass homing like grbl's (:class:`transplanter.firmware.homing.Homing`): seek,
   pull off, slow locate, pull off; ``ok`` once done, ``error:9`` if a switch is not found.
   Moves before homing are refused (error 9, like grbl's alarm lock).
@@ -30,7 +38,7 @@ import numpy as np
 
 from transplanter.errors import ErrorCode
 from transplanter.firmware.homing import Homing, check_homing_settings
-from transplanter.gcode import GcodeError, GcodeLine, parse_line
+from transplanter.gcode import MAX_LINE_CHARS, GcodeError, GcodeLine, parse_line
 from transplanter.kinematics import (
     FiveBarGeometry,
     FiveBarKinematics,
@@ -78,6 +86,13 @@ class SGFConfig:
     """Refuse lines without Marlin ``N<n> ... *<checksum>`` framing."""
     mode: str = "+-"
     """Five-bar working mode passed to the IK (paper: '+-', elbows out)."""
+    command_queue_lines: int = 4
+    """Parsed lines waiting behind the running one (Marlin's BUFSIZE = 4)."""
+    rx_buffer_bytes: int = 512
+    """Serial receive buffer: lines that arrive while the command queue is full wait here,
+    unparsed (Marlin stops reading serial while its queue is full; its RX_BUFFER_SIZE may be
+    set up to 2048); a line that does not
+    fit is dropped with error:66 (see the module docstring)."""
 
     def __post_init__(self):
         if len(self.drives) != 3:
@@ -94,6 +109,18 @@ class SGFConfig:
         if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
             raise ValueError(
                 f"SGFConfig.default_speed_m_s must be > 0, got {self.default_speed_m_s}"
+            )
+        if not (isinstance(self.command_queue_lines, int) and self.command_queue_lines >= 1):
+            raise ValueError(
+                f"SGFConfig.command_queue_lines must be an integer >= 1, "
+                f"got {self.command_queue_lines!r}"
+            )
+        if not (
+            isinstance(self.rx_buffer_bytes, int) and self.rx_buffer_bytes >= MAX_LINE_CHARS + 1
+        ):
+            raise ValueError(
+                f"SGFConfig.rx_buffer_bytes must be an integer >= {MAX_LINE_CHARS + 1} (one "
+                f"longest line and its newline), got {self.rx_buffer_bytes!r}"
             )
         if not (math.isfinite(self.conveyor_index_s) and self.conveyor_index_s >= 0):
             raise ValueError(
@@ -169,6 +196,10 @@ class SGF:
     def __init__(self, config: SGFConfig | None = None):
         self.config = config if config is not None else SGFConfig()
         self._queue: deque[_Job] = deque()
+        self._rx: deque[tuple[str, float]] = deque()  # (line, arrival) waiting for a slot
+        self._rx_bytes = 0
+        self.rx_dropped = 0
+        """Lines dropped because the command queue and the receive buffer were full."""
         self._current: _Job | None = None
         self._t_free = -math.inf
         self._now = -math.inf
@@ -215,8 +246,39 @@ class SGF:
 
     # -- input -----------------------------------------------------------------------
     def receive(self, line: str, now: float) -> None:
-        """A line has arrived: parse it now (for line numbering), execute it in turn."""
+        """A line has arrived: parse it now (for line numbering), execute it in turn.
+
+        With the command queue full it waits in the receive buffer and is parsed when a slot
+        frees; with that full too it is dropped and answered ``error:66`` at once.
+        """
         self._check_time(now)
+        if not isinstance(line, str):
+            raise TypeError(f"a received line is a str, got {type(line).__name__}")
+        if len(self._queue) < self.config.command_queue_lines and not self._rx:
+            self._enqueue(line, now)
+            return
+        size = len(line) + 1  # and its newline
+        if size <= self.config.rx_buffer_bytes - self._rx_bytes:
+            self._rx.append((line, now))
+            self._rx_bytes += size
+            return
+        self.rx_dropped += 1
+        self._replies.append(
+            ErrorCode.RX_BUFFER_OVERFLOW.reply(
+                f"receive buffer full ({self.config.command_queue_lines} queued lines, "
+                f"{self._rx_bytes} of {self.config.rx_buffer_bytes} bytes waiting): a line of "
+                f"{len(line)} characters was dropped; wait for ok before sending more"
+            )
+        )
+
+    def _refill(self) -> None:
+        """Move lines from the receive buffer into free command-queue slots, in order."""
+        while self._rx and len(self._queue) < self.config.command_queue_lines:
+            line, arrival = self._rx.popleft()
+            self._rx_bytes -= len(line) + 1
+            self._enqueue(line, arrival)
+
+    def _enqueue(self, line: str, now: float) -> None:
         try:
             parsed = parse_line(
                 line,
@@ -248,6 +310,7 @@ class SGF:
                 if not self._queue:
                     break
                 job = self._queue.popleft()
+                self._refill()
                 self._start(job, max(job.arrival, self._t_free))
                 self._current = job
             job = self._current
