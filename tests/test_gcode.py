@@ -53,12 +53,22 @@ def test_format_numbers_compact():
     assert format_line("g1", {"x": 1.5}) == "G1 X1.5"
 
 
-@pytest.mark.parametrize("words", [{"S": 0.0001}, {"Z": 0.12349}, {"X": -0.0001}, {"X": 1.0005}])
-def test_format_refuses_a_number_it_cannot_write_exactly(words):
+@pytest.mark.parametrize(
+    ("value", "text"), [(0.0001, "0.0001"), (0.12349, "0.12349"), (-0.0001, "-0.0001"),
+                        (1.0005, "1.0005"), (2e-5, "0.00002"), (1 / 3, "0.3333333333333333")]
+)  # fmt: skip
+def test_format_writes_a_number_exactly(value, text):
     """Issue row 16: S0.0001 parsed but format_line wrote S0 (then refused it, error 22):
-    a value 3 decimals cannot write is refused, never silently rounded to another number."""
-    with pytest.raises(ValueError, match="cannot be written exactly with 3 decimals"):
-        format_line("G1", {"X": 1, **words} if "X" not in words else words)
+    a value 3 decimals cannot hold is written exactly, never rounded to another number."""
+    line = format_line("G1", {"X": 1, "S": value} if value > 0 else {"X": value})
+    assert line.endswith(text)
+    assert parse_line(line).words["S" if value > 0 else "X"] == value
+
+
+def test_format_refuses_a_number_too_long_to_send():
+    with pytest.raises(GcodeError) as info:
+        format_line("G1", {"X": 1e-300})  # 300 digits: over the payload limit
+    assert info.value.code == ErrorCode.LINE_OVERFLOW
 
 
 @pytest.mark.parametrize(

@@ -329,9 +329,7 @@ def _refuse_exponent(body: str, previous: tuple[str, str], index: int) -> None:
         except (ValueError, OverflowError):
             value = math.inf
         if math.isfinite(value):
-            written = format(decimal.Decimal(repr(value)), "f")
-            if "." in written:
-                written = written.rstrip("0").rstrip(".")
+            written = _exact_text(value)
             if len(written) <= 20:
                 hint = f"; write {written}"
     raise GcodeError(
@@ -528,19 +526,25 @@ def _parse_body(body: str, line_number: int | None, text: str) -> GcodeLine | No
 
 
 FORMAT_DECIMALS = 3
-"""Decimals ``format_number`` writes (1 um, 0.001 mm/s, 0.001 deg, 0.001 ms)."""
+"""Decimals ``format_number`` writes when they hold the value (1 um, 0.001 mm/s)."""
 _FORMAT_TOLERANCE = 1e-9
-"""Relative (to max(1, |value|)) difference between a value and its text that counts as
-float noise (12.299999999999999 -> 12.3); anything more is refused, not silently rounded."""
+"""Relative difference between a value and its 3-decimal text that
+counts as float noise (12.299999999999999 -> 12.3)."""
+
+
+def _exact_text(value: float) -> str:
+    """The shortest decimal text that reads back as ``value``, without exponent."""
+    text = format(decimal.Decimal(repr(value)), "f")
+    if "." in text:
+        text = text.rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
 
 
 def format_number(value: float) -> str:
-    """Compact text for a word value: integers stay integers, at most 3 decimals.
-
-    The text must stand for the value: one that 3 decimals cannot write (``0.0001``, which
-    would become ``0``; ``1.0005``) is refused with ValueError instead of being rounded to a
-    different number. Float noise (``12.299999999999999``) is written as ``12.3``.
-    """
+    """Compact text for a word value: integers stay integers; 3 decimals when they hold the
+    value (float noise such as ``12.299999999999999`` is written ``12.3``), else the
+    shortest exact decimal (``0.0001``, ``0.12349``): a value is never rounded to another
+    number (``S0.0001`` used to become ``S0``)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"a G-code word value must be a number, got {value!r}")
     if isinstance(value, numbers.Integral):
@@ -550,11 +554,8 @@ def format_number(value: float) -> str:
     value = float(value)
     text = f"{value:.{FORMAT_DECIMALS}f}".rstrip("0").rstrip(".")
     text = "0" if text in ("-0", "") else text
-    if abs(float(text) - value) > _FORMAT_TOLERANCE * max(1.0, abs(value)):
-        raise ValueError(
-            f"{value!r} cannot be written exactly with {FORMAT_DECIMALS} decimals (it would "
-            f"become {text}); round it to a multiple of 0.001 first"
-        )
+    if abs(float(text) - value) > _FORMAT_TOLERANCE * abs(value):
+        return _exact_text(value)
     return text
 
 
