@@ -353,6 +353,17 @@ def test_non_string_input_is_a_type_error():
         parse_line(b"G28")
 
 
+def assert_round_trips(result: GcodeLine) -> None:
+    """A parsed line formats back (format_line) to a line that parses to the same content."""
+    text = format_line(result.command, result.words, line_number=result.line_number)
+    again = parse_line(text)
+    assert (again.command, again.words, again.line_number) == (
+        result.command,
+        result.words,
+        result.line_number,
+    ), (result.raw, text)
+
+
 def test_fuzz_random_strings_only_give_lines_or_gcode_errors():
     rng = np.random.default_rng(1234)
     alphabet = list("GMNXYZFSPE0123456789.-+ *;()\t#$%abcxyz\u00e9\u2603\x00\r\n") + ["\ud800"]
@@ -369,6 +380,8 @@ def test_fuzz_random_strings_only_give_lines_or_gcode_errors():
             else:
                 assert result is None or isinstance(result, GcodeLine)
                 outcomes["none" if result is None else "line"] += 1
+                if result is not None:
+                    assert_round_trips(result)
     assert outcomes["error"] > 1000
     assert outcomes["line"] + outcomes["none"] > 0
 
@@ -376,15 +389,23 @@ def test_fuzz_random_strings_only_give_lines_or_gcode_errors():
 def test_fuzz_mutated_valid_lines():
     rng = np.random.default_rng(99)
     base = [format_line(c, w, line_number=n) for c, w in ROUND_TRIP for n in (None, 12)]
+    accepted = 0
     for _ in range(3000):
         text = list(base[int(rng.integers(len(base)))])
         position = int(rng.integers(len(text)))
-        text[position] = chr(int(rng.integers(0, 0x3000)))
+        if rng.integers(2):
+            text[position] = chr(int(rng.integers(0, 0x3000)))
+        else:  # an ASCII G-code character: more mutants parse, and must round-trip
+            text[position] = "0123456789.-+ XYZSPN;("[int(rng.integers(22))]
         try:
             result = parse_line("".join(text), require_checksum=bool(rng.integers(2)))
         except GcodeError:
             continue
         assert result is None or isinstance(result, GcodeLine)
+        if result is not None:
+            accepted += 1
+            assert_round_trips(result)
+    assert accepted > 50
 
 
 @pytest.mark.parametrize("angle", [0.0, 90.0, 180.0, 180.0001, -0.5, float("nan")])
