@@ -25,6 +25,8 @@ PROFILES = ("trapezoid", "scurve")
 MAX_POINTS_PER_MOVE = 1_000_000
 """Most interpolated points one move may have (100 m at the 0.1 mm default grid): a move
 needing more is refused before anything is built, so memory per move stays bounded."""
+_TARGET_FIRST_POINTS = 4096
+"""Moves of at least this many grid points get their target checked before interpolation."""
 MAX_STEPS_PER_MOVE = 4_000_000
 """Most step pulses (all motors) one move may emit; each costs 9 bytes of event arrays and
 a few temporaries, so this bounds a move's memory to well under a GiB."""
@@ -291,18 +293,20 @@ def plan_line(
     _check_drives(drives)
     res = config.resolution_m
 
-    # The ends first, before any interpolation: a far-away target is refused at once
-    # (no Bresenham line of 10^9 points is built to find its first bad point).
+    # A long move's target first, before any interpolation: a far-away target is refused
+    # at once (no Bresenham line of 10^9 points is built to find its first bad point).
+    # A short move is checked point by point below, which names its first bad point.
     start_idx = np.rint(start / res)
     end_idx = np.rint(end / res)
     major = float(np.max(np.abs(end_idx - start_idx)))
-    try:
-        kin.require_reachable(geom, limits, np.array([end[0]]), np.array([end[1]]), mode)
-    except kin.UnreachableError as err:
-        last = int(major) if major < 2**62 else 2**62
-        raise kin.UnreachableError(
-            last, err.reason, _refusal(start, end, last, last + 1, end, err.reason)
-        ) from None
+    if major >= _TARGET_FIRST_POINTS:
+        try:
+            kin.require_reachable(geom, limits, np.array([end[0]]), np.array([end[1]]), mode)
+        except kin.UnreachableError as err:
+            last = int(min(major, 2.0**62))
+            raise kin.UnreachableError(
+                last, err.reason, _refusal(start, end, last, last + 1, end, err.reason)
+            ) from None
     if major + 1 > MAX_POINTS_PER_MOVE:
         raise ValueError(
             f"plan_line: the move needs {show(major + 1, 0)} interpolated points at "
