@@ -520,3 +520,27 @@ def test_an_over_long_line_is_refused_with_line_overflow_at_once():
         parse_line("G4 P1 ;" + "x" * MAX_LINE_CHARS)
     assert info.value.code == 11
     assert parse_line("G4 P1 ;" + "x" * (MAX_LINE_CHARS - 7)).command == "G4"
+
+
+def test_homing_distances_follow_the_drives_and_256_microsteps_plan():
+    """Row 8: drives.microsteps = 256 (in range) ran into a MemoryError; with homing
+    distances in steps fixed for 16 microsteps it could not even home. The defaults are
+    joint distances converted with the drives, and the example program plans quickly."""
+    import time
+
+    from transplanter.config import machine_config
+    from transplanter.planner import plan_program
+    from transplanter.scenario import load_scenario
+
+    assert SGFConfig().homing_pulloff_steps == (96, 96, 400)
+    assert SGFConfig().homing_max_steps == (4800, 4800, 80000)
+    root = Path(__file__).parents[1]
+    machine = machine_config(
+        load_scenario(root / "scenarios/paper.toml", {"drives.microsteps": 256})
+    )
+    assert machine.sgf.homing_pulloff_steps == (1536, 1536, 6400)
+    t0 = time.perf_counter()
+    rows = plan_program(machine, (root / "scenarios/example.gcode").read_text())
+    assert time.perf_counter() - t0 < 30.0
+    lift = next(r for r in rows if r.text.startswith("G1 X0 Y215 Z60 S60"))
+    assert list(lift.steps) == [0, 0, 26 * 400 * 16]

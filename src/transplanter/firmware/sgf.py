@@ -73,10 +73,12 @@ class SGFConfig:
     """Step rate of the slow second approach (locate); None: homing_rate_hz / 10."""
     homing_dirs: tuple[int, int, int] = (+1, -1, +1)
     """Direction (+1/-1 in step counts) in which each motor seeks its switch."""
-    homing_pulloff_steps: tuple[int, int, int] = (96, 96, 400)
-    """Steps each motor backs off its switch after it trips (3.6 deg, 3.6 deg, 1 mm)."""
-    homing_max_steps: tuple[int, int, int] = (4800, 4800, 80000)
-    """Longest seek before homing fails (half an arm revolution, 200 mm of Z)."""
+    homing_pulloff_steps: tuple[int, int, int] | None = None
+    """Steps each motor backs off its switch after it trips; None: 3.6 deg of each arm joint
+    and 1 mm of Z in the drives' steps (96, 96, 400 with the default drives)."""
+    homing_max_steps: tuple[int, int, int] | None = None
+    """Longest seek before homing fails; None: half an arm joint revolution and 200 mm of
+    Z in the drives' steps (4800, 4800, 80000 with the default drives)."""
     homing_locate_scalar: float = 5.0
     """The locate fails after this many pull-off distances (grbl's HOMING_AXIS_LOCATE_SCALAR)."""
     default_speed_m_s: float = 0.05
@@ -101,6 +103,16 @@ class SGFConfig:
             raise ValueError(
                 f"SGFConfig needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
             )
+        if len(self.drives) == 3 and all(isinstance(d, StepperDrive) for d in self.drives):
+            per_unit = [d.steps_per_unit for d in self.drives]
+            if self.homing_pulloff_steps is None:
+                joint = (math.radians(3.6), math.radians(3.6), 0.001)
+                pulloff = tuple(max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True))
+                object.__setattr__(self, "homing_pulloff_steps", pulloff)
+            if self.homing_max_steps is None:
+                joint = (math.pi, math.pi, 0.200)
+                longest = tuple(max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True))
+                object.__setattr__(self, "homing_max_steps", longest)
         if self.homing_locate_rate_hz is None:
             locate = tuple(float(r) / 10.0 for r in self.homing_rate_hz)
             object.__setattr__(self, "homing_locate_rate_hz", locate)
