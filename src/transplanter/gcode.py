@@ -16,7 +16,12 @@ Errors carry grbl's numbers where grbl has one, and numbers from 60 up for the r
 code is named once in :class:`transplanter.errors.ErrorCode` (table there).
 
 The payload that error 11 counts is what remains after comments, whitespace and the
-Marlin framing are removed (grbl counts its line buffer the same way).
+Marlin framing are removed (grbl counts its line buffer the same way); a whole line over
+``MAX_LINE_CHARS`` (256) is refused with error 11 before anything else. Numbers are
+plain decimals: exponent notation (``X1e3``) is refused with error 2, naming it.
+``format_number`` never rounds a value to another number (3 decimals when they hold it,
+else the exact decimal), so every line ``parse_line`` accepts formats back to an
+equivalent line (tests/test_gcode_properties.py).
 """
 
 from __future__ import annotations
