@@ -227,3 +227,54 @@ def test_pickup_validation():
         Pickup((0.0, 0.175), (0.0, 215.0), 90.0)
     pickup = Pickup([0, 0.175], np.array([0.0, 0.215]), 90)
     assert pickup.approach_xy_m == (0.0, 0.175) and isinstance(pickup.grip_xy_m, tuple)
+
+
+def test_load_refuses_missing_special_and_wrong_size_files_naming_the_path(tmp_path):
+    """Issue row 17: a missing file raised a bare FileNotFoundError; /dev/zero or a FIFO
+    would read forever or hang. Only a regular file of the image's size is read."""
+    import os
+    import threading
+
+    missing = tmp_path / "nope.bin"
+    with pytest.raises(EepromError, match=r"cannot open EEPROM image .*nope\.bin"):
+        EepromImage.load(missing)
+    with pytest.raises(EepromError, match="is not a regular file"):
+        EepromImage.load(tmp_path)  # a directory
+    if os.path.exists("/dev/zero"):
+        with pytest.raises(EepromError, match=r"'/dev/zero' is not a regular file"):
+            EepromImage.load("/dev/zero")
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    outcome = []
+
+    def load_fifo():
+        try:
+            EepromImage.load(fifo)
+        except EepromError as error:
+            outcome.append(str(error))
+
+    worker = threading.Thread(target=load_fifo, daemon=True)
+    worker.start()
+    worker.join(5.0)
+    assert not worker.is_alive(), "loading a FIFO hung"
+    assert outcome and "is not a regular file" in outcome[0]
+    short = tmp_path / "short.bin"
+    short.write_bytes(paper_image().to_bytes()[:100])
+    with pytest.raises(EepromError, match=r"short\.bin' is 100 bytes, expected exactly 4096"):
+        EepromImage.load(short)
+
+
+@pytest.mark.parametrize("offset", [7, 30, 31, 32 + 18, 32 + 20 + 19])
+def test_reserved_bytes_must_be_zero(offset):
+    image = bytearray(paper_image(5).to_bytes())
+    image[offset] = 0x5A
+    crc_offset = 232
+    struct.pack_into("<I", image, crc_offset, zlib.crc32(bytes(image[:crc_offset])))
+    with pytest.raises(EepromError, match="reserved field .* must be 0"):
+        EepromImage.from_bytes(bytes(image))
+
+
+def test_reserved_bytes_of_unused_slots_are_not_checked():
+    image = bytearray(paper_image(2).to_bytes())
+    assert image[32 + 2 * 20 + 18 : 32 + 2 * 20 + 20] == b"\xff\xff"  # slot 2 unused, erased
+    assert EepromImage.from_bytes(bytes(image)) == paper_image(2)

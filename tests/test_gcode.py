@@ -44,12 +44,45 @@ def test_round_trip_every_command(command, words, line_number):
 
 
 def test_format_numbers_compact():
-    assert format_line("G1", {"X": 10, "Y": 5.25, "Z": 0.12349, "S": 150.0}) == (
+    assert format_line("G1", {"X": 10, "Y": 5.25, "Z": 0.123, "S": 150.0}) == (
         "G1 X10 Y5.25 Z0.123 S150"
     )
-    assert format_line("G1", {"X": -0.0001}) == "G1 X0"
+    assert format_line("G1", {"X": 12.299999999999999}) == "G1 X12.3"  # float noise
+    assert format_line("G1", {"X": -0.0}) == "G1 X0"
     assert format_line("G4", {"P": np.int64(250)}) == "G4 P250"
     assert format_line("g1", {"x": 1.5}) == "G1 X1.5"
+
+
+@pytest.mark.parametrize(
+    ("value", "text"), [(0.0001, "0.0001"), (0.12349, "0.12349"), (-0.0001, "-0.0001"),
+                        (1.0005, "1.0005"), (2e-5, "0.00002"), (1 / 3, "0.3333333333333333")]
+)  # fmt: skip
+def test_format_writes_a_number_exactly(value, text):
+    """Issue row 16: S0.0001 parsed but format_line wrote S0 (then refused it, error 22):
+    a value 3 decimals cannot hold is written exactly, never rounded to another number."""
+    line = format_line("G1", {"X": 1, "S": value} if value > 0 else {"X": value})
+    assert line.endswith(text)
+    assert parse_line(line).words["S" if value > 0 else "X"] == value
+
+
+def test_format_refuses_a_number_too_long_to_send():
+    with pytest.raises(GcodeError) as info:
+        format_line("G1", {"X": 1e-300})  # 300 digits: over the payload limit
+    assert info.value.code == ErrorCode.LINE_OVERFLOW
+
+
+@pytest.mark.parametrize(
+    ("text", "shown"),
+    [("G1 X1e3", "X1e3: exponent notation is not G-code; write 1000"),
+     ("G1 Y2.5E-2", "Y2.5E-2: exponent notation is not G-code; write 0.025"),
+     ("G1 X1e400", "X1e400: exponent notation is not G-code; write the number in full")],
+)  # fmt: skip
+def test_exponent_notation_is_reported_as_such(text, shown):
+    """Issue row 16: X1e3 was reported as "word E is not used"."""
+    with pytest.raises(GcodeError) as info:
+        parse_line(text)
+    assert info.value.code == ErrorCode.BAD_NUMBER_FORMAT
+    assert info.value.message == shown
 
 
 def test_format_refuses_invalid_lines():
@@ -175,7 +208,8 @@ MALFORMED = [
     ("G28 X0", 36),
     ("G4 P10 X1", 36),
     ("G1 X1 E5", 36),
-    ("G1 X1e5", 36),
+    ("G1 X1e5", 2),
+    ("G1 X1 E5", 36),
     ("M400 S1", 36),
     ("G1 X1 P3", 36),
     ("G1 X1 F600 S10", 36),
@@ -228,6 +262,7 @@ def test_malformed_corpus_is_large_and_covers_codes():
         ErrorCode.SYSTEM_LOCKED,
         ErrorCode.INVALID_TARGET,
         ErrorCode.LINE_OUT_OF_SEQUENCE,
+        ErrorCode.RX_BUFFER_OVERFLOW,
     }
     assert set(seen) == parser_codes
 
@@ -318,6 +353,17 @@ def test_non_string_input_is_a_type_error():
         parse_line(b"G28")
 
 
+def assert_round_trips(result: GcodeLine) -> None:
+    """A parsed line formats back (format_line) to a line that parses to the same content."""
+    text = format_line(result.command, result.words, line_number=result.line_number)
+    again = parse_line(text)
+    assert (again.command, again.words, again.line_number) == (
+        result.command,
+        result.words,
+        result.line_number,
+    ), (result.raw, text)
+
+
 def test_fuzz_random_strings_only_give_lines_or_gcode_errors():
     rng = np.random.default_rng(1234)
     alphabet = list("GMNXYZFSPE0123456789.-+ *;()\t#$%abcxyz\u00e9\u2603\x00\r\n") + ["\ud800"]
@@ -334,6 +380,8 @@ def test_fuzz_random_strings_only_give_lines_or_gcode_errors():
             else:
                 assert result is None or isinstance(result, GcodeLine)
                 outcomes["none" if result is None else "line"] += 1
+                if result is not None:
+                    assert_round_trips(result)
     assert outcomes["error"] > 1000
     assert outcomes["line"] + outcomes["none"] > 0
 
@@ -341,15 +389,23 @@ def test_fuzz_random_strings_only_give_lines_or_gcode_errors():
 def test_fuzz_mutated_valid_lines():
     rng = np.random.default_rng(99)
     base = [format_line(c, w, line_number=n) for c, w in ROUND_TRIP for n in (None, 12)]
+    accepted = 0
     for _ in range(3000):
         text = list(base[int(rng.integers(len(base)))])
         position = int(rng.integers(len(text)))
-        text[position] = chr(int(rng.integers(0, 0x3000)))
+        if rng.integers(2):
+            text[position] = chr(int(rng.integers(0, 0x3000)))
+        else:  # an ASCII G-code character: more mutants parse, and must round-trip
+            text[position] = "0123456789.-+ XYZSPN;("[int(rng.integers(22))]
         try:
             result = parse_line("".join(text), require_checksum=bool(rng.integers(2)))
         except GcodeError:
             continue
         assert result is None or isinstance(result, GcodeLine)
+        if result is not None:
+            accepted += 1
+            assert_round_trips(result)
+    assert accepted > 50
 
 
 @pytest.mark.parametrize("angle", [0.0, 90.0, 180.0, 180.0001, -0.5, float("nan")])

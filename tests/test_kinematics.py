@@ -1,4 +1,5 @@
 import math
+import re
 
 import numpy as np
 import pytest
@@ -182,10 +183,24 @@ def test_rejects_near_parallel_singularity_with_reason():
     assert near.any() and (~near).any()
     assert not report.ok[near].any()
     for i in np.flatnonzero(near)[:20]:
-        assert (
-            f"transmission angle {trans_deg[i]:.1f} deg outside [30, 150] deg" in report.reasons[i]
+        match = re.search(
+            r"transmission angle (\S+) deg outside \[30, 150\] deg", report.reasons[i]
         )
+        assert match, report.reasons[i]
+        # the value is shown with enough digits to be visibly below 30 (no "30.0 outside")
+        shown = float(match.group(1))
+        assert shown < 30.0 and shown == pytest.approx(trans_deg[i], abs=0.05)
         assert "near parallel singularity" in report.reasons[i]
+
+
+def test_limit_messages_show_enough_digits_to_be_outside():
+    """Issue row 16: rounding made 79.96 deg read "80.0 deg outside [80, 235]"."""
+    from transplanter.units import show, show_outside
+
+    assert show_outside(79.96, 80, 235) == ("79.96", "80", "235")
+    assert show_outside(235.0004, 80, 235) == ("235.0004", "80", "235")
+    assert show_outside(65.3, 80, 235) == ("65.3", "80", "235")
+    assert show(1e300) == "1e+300"  # no 300-digit numbers in a message
 
 
 def test_rejects_condition_number_with_reason():

@@ -78,3 +78,84 @@ def test_unicode_spaces_around_a_line_are_refused_not_stripped(machine, blank):
     with pytest.raises(PlanError) as err:
         plan_program(machine, ["G28", f"G90{blank}"])
     assert err.value.line_no == 2 and str(err.value).startswith("error:1 non-ASCII")
+
+
+def test_huge_target_is_refused_at_once_under_a_memory_cap(tmp_path):
+    """Issue row 4: G1 X100000000 built a 10^12-point Bresenham line (7.45 GiB) before any
+    check. Under a 1.5 GiB address-space cap it must answer error:33 within seconds."""
+    import subprocess
+    import sys
+    import textwrap
+
+    script = textwrap.dedent(
+        f"""
+        import resource, time
+        from pathlib import Path
+        from transplanter.config import machine_config
+        from transplanter.planner import PlanError, plan_program
+        from transplanter.scenario import load_scenario
+        machine = machine_config(load_scenario(Path({str(ROOT)!r}) / "scenarios" / "paper.toml"))
+        cap = 1536 * 2**20
+        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+        for target in ("X100000000 Y140 Z60", "X0 Y" + "9" * 70 + " Z60"):
+            t0 = time.perf_counter()
+            try:
+                plan_program(machine, ["G28", "G1 X0 Y180 Z60", "G1 " + target])
+            except PlanError as error:
+                print(error.line_no, round(time.perf_counter() - t0, 3), error)
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    out = done.stdout.splitlines()
+    assert len(out) == 2, done.stdout
+    for line in out:
+        line_no, seconds, message = line.split(" ", 2)
+        assert line_no == "3" and message.startswith("error:33 ")
+        assert float(seconds) < 10.0  # homing included
+        assert len(message) < 400 and "9" * 20 not in message  # no 70-digit numbers
+
+
+def test_planner_keeps_constant_history_per_move(machine, monkeypatch):
+    """Issue row 10: the SGF's pulses_at history of earlier moves was kept for the whole
+    program (about 6 KB a move, quadratic time). The planner drops what it cannot query."""
+    import transplanter.planner as planner
+
+    made = []
+
+    class Recording(planner.SGF):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(planner, "SGF", Recording)
+    program = ["G28", "G1 X0 Y180 Z60 S100"]
+    program += [f"G1 X{(i % 20) - 10} Y{180 + (i % 7)} Z60" for i in range(300)]
+    rows = plan_program(machine, program)
+    assert len(rows) == 302
+    (sgf,) = made
+    assert len(sgf._segments) <= 2
+
+
+def test_forget_before_keeps_later_pulses(machine):
+    from transplanter.firmware.sgf import SGF
+
+    rows = plan_program(machine, ["G28", "G1 X0 Y180 Z60 S100", "G1 X20 Y190 Z70"])
+    assert len(rows) == 3
+    sgf = SGF(machine.sgf)
+    sgf.homed = True
+    sgf._logical = machine.sgf.homed_steps
+    sgf._position = machine.sgf.kinematics.point_of_steps(sgf._logical, machine.sgf.drives)
+    sgf.receive("G1 X0 Y180 Z60", 0.0)
+    sgf.receive("G1 X20 Y190 Z70", 0.0)
+    times = np.linspace(0.0, 3.0, 301)
+    while sgf.busy:
+        t = sgf.next_event_time()
+        sgf.poll(t)
+    before = sgf.pulses_at(times)
+    t_mid = float(sgf._segment_starts[-1]) + 0.01
+    assert sgf.forget_before(t_mid) == 1
+    later = times >= t_mid
+    assert np.array_equal(sgf.pulses_at(times[later]), before[later])

@@ -1,4 +1,5 @@
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -202,6 +203,30 @@ def test_line_numbers_and_required_checksum():
     assert replies[3] == "ok"
 
 
+def test_a_line_whose_checksum_passes_advances_n_whatever_its_command():
+    """Issue row 13: ``N2 G2 X1*96`` got error:20 but N stayed at 1, so the next line got
+    error:61 "expected N2". As in Marlin, a good checksum counts the line as received."""
+    from transplanter.gcode import checksum
+
+    sgf = SGF(SGFConfig(require_checksum=True))
+    framed = "N2 G2 X1"
+    bad_command = f"{framed}*{checksum(framed)}"
+    assert bad_command == "N2 G2 X1*96"
+    sgf.receive(format_line("M105", line_number=1), 0.0)
+    sgf.receive(bad_command, 0.0)
+    sgf.receive(format_line("M105", line_number=3), 0.0)
+    sgf.receive("N4 M105*0", 0.0)  # bad checksum: N does not advance
+    sgf.receive(format_line("M105", line_number=5), 0.0)  # so N5 is out of sequence
+    sgf.receive(format_line("M105", line_number=4), 0.0)
+    replies = sgf.poll(0.0)
+    assert replies[0] == "ok"
+    assert replies[1].startswith("error:20 ")
+    assert replies[2] == "ok"
+    assert replies[3].startswith("error:60 ")
+    assert replies[4].startswith("error:61 ") and "expected N4" in replies[4]
+    assert replies[5] == "ok"
+
+
 def test_default_home_is_the_folded_back_pose_of_the_model():
     config = SGFConfig()
     assert config.home_joint_positions == pytest.approx(
@@ -390,3 +415,132 @@ def test_homing_alone_seeks_pulls_off_locates_and_pulls_off_again():
     # raw pulses never jump: at most one step per motor between polls 0.1 ms apart
     times = np.arange(0.0, homing.t_done, 1e-4)
     assert np.abs(np.diff(homing.pulses(times), axis=0)).max() <= 1
+
+
+@pytest.mark.parametrize(
+    ("steps_per_rev", "microsteps", "named"),
+    [(100000, 16, "steps_per_rev=100000"), (100000, 256, "microsteps=256")],
+)
+def test_drives_whose_moves_cannot_be_held_are_refused(steps_per_rev, microsteps, named):
+    """Issue row 8: drives.steps_per_rev = 100000 (in the scenario's range) ran 17 s into
+    a MemoryError. The SGF refuses, at configuration, drives whose move across the
+    workspace needs more step pulses than a move may emit, naming the values."""
+    import time
+
+    from transplanter.config import machine_config
+    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.steppers import StepperDrive
+
+    drives = tuple(
+        StepperDrive(name, steps_per_rev=steps_per_rev, microsteps=microsteps, **extra)
+        for name, extra in (("arm1", {}), ("arm2", {}), ("z", {"ratio": 1.0, "lead_m": 0.008}))
+    )
+    with pytest.raises(ValueError, match=named) as info:
+        SGFConfig(drives=drives)
+    assert "step pulses one move may emit" in str(info.value)
+    t0 = time.perf_counter()
+    overrides = {"drives.steps_per_rev": steps_per_rev, "drives.microsteps": microsteps}
+    with pytest.raises(ScenarioError, match=named):
+        machine_config(load_scenario(Path(__file__).parents[1] / "scenarios/paper.toml", overrides))
+    assert time.perf_counter() - t0 < 5.0
+
+
+def test_paper_class_drives_are_accepted():
+    from transplanter.steppers import StepperDrive
+
+    drives = tuple(
+        StepperDrive(name, steps_per_rev=400, microsteps=256, **extra)
+        for name, extra in (("arm1", {}), ("arm2", {}), ("z", {"ratio": 1.0, "lead_m": 0.008}))
+    )
+    SGFConfig(drives=drives)
+
+
+def test_a_move_with_too_many_step_pulses_is_refused_before_its_events(homed, monkeypatch):
+    """Row 8, the planner's bound: a move is refused (error:33) before its step events exist."""
+    import transplanter.motion as motion
+
+    sgf, endstops, t = homed
+    monkeypatch.setattr(motion, "MAX_STEPS_PER_MOVE", 1000)
+    replies, t = run_line(sgf, "G1 X0 Y200 Z100", t)
+    assert replies[-1].startswith("error:33 move refused: plan_line: the move needs ")
+    assert "step pulses, more than 1000 a move" in replies[-1]
+
+
+def test_receive_buffer_is_bounded_like_marlins():
+    """Issue row 14: 200,000 lines queued without an ok (185 MB). Four parsed lines wait
+    (BUFSIZE), then rx_buffer_bytes of raw lines; the rest is dropped with error:66."""
+    import time
+
+    sgf = SGF(SGFConfig())
+    t0 = time.perf_counter()
+    for _ in range(200_000):
+        sgf.receive("G4 P1", 0.0)
+    assert time.perf_counter() - t0 < 10.0
+    assert len(sgf._queue) == 4
+    held = len(sgf._rx)
+    assert held == 512 // len("G4 P1\n")
+    assert sgf.rx_dropped == 200_000 - 4 - held
+    replies = sgf.poll(0.0)
+    assert len(replies) == sgf.rx_dropped and replies[0].startswith("error:66 receive buffer")
+    # the held lines run in order once slots free: every kept line gets its ok
+    t, oks = 0.0, 0
+    while sgf.busy:
+        t = sgf.next_event_time()
+        oks += sgf.poll(t).count("ok")
+    assert oks == 4 + held
+
+
+def test_held_lines_keep_order_and_numbering():
+    config = SGFConfig(command_queue_lines=1)
+    sgf = SGF(config)
+    for n in range(1, 6):
+        sgf.receive(format_line("G4", {"P": 10}, line_number=n), 0.0)
+    t, replies = 0.0, []
+    while sgf.busy:
+        t = sgf.next_event_time()
+        replies += sgf.poll(t)
+    assert replies == ["ok"] * 5 and t == pytest.approx(0.05)
+
+
+def test_an_over_long_line_is_refused_with_line_overflow_at_once():
+    """Issue row 14: a 1M-character line was accepted; it gets error:11 without parsing."""
+    import time
+
+    from transplanter.gcode import MAX_LINE_CHARS, GcodeError, parse_line
+
+    sgf = SGF(SGFConfig())
+    long_line = "G4 P1 ;" + "x" * 1_000_000
+    t0 = time.perf_counter()
+    sgf.receive(long_line, 0.0)
+    (reply,) = sgf.poll(0.0)
+    assert time.perf_counter() - t0 < 0.5
+    assert reply.startswith(f"error:11 line of 1000007 characters overflows the {MAX_LINE_CHARS}")
+    assert not sgf._queue
+    with pytest.raises(GcodeError) as info:
+        parse_line("G4 P1 ;" + "x" * MAX_LINE_CHARS)
+    assert info.value.code == 11
+    assert parse_line("G4 P1 ;" + "x" * (MAX_LINE_CHARS - 7)).command == "G4"
+
+
+def test_homing_distances_follow_the_drives_and_256_microsteps_plan():
+    """Row 8: drives.microsteps = 256 (in range) ran into a MemoryError; with homing
+    distances in steps fixed for 16 microsteps it could not even home. The defaults are
+    joint distances converted with the drives, and the example program plans quickly."""
+    import time
+
+    from transplanter.config import machine_config
+    from transplanter.planner import plan_program
+    from transplanter.scenario import load_scenario
+
+    assert SGFConfig().homing_pulloff_steps == (96, 96, 400)
+    assert SGFConfig().homing_max_steps == (4800, 4800, 80000)
+    root = Path(__file__).parents[1]
+    machine = machine_config(
+        load_scenario(root / "scenarios/paper.toml", {"drives.microsteps": 256})
+    )
+    assert machine.sgf.homing_pulloff_steps == (1536, 1536, 6400)
+    t0 = time.perf_counter()
+    rows = plan_program(machine, (root / "scenarios/example.gcode").read_text())
+    assert time.perf_counter() - t0 < 30.0
+    lift = next(r for r in rows if r.text.startswith("G1 X0 Y215 Z60 S60"))
+    assert list(lift.steps) == [0, 0, 26 * 400 * 16]

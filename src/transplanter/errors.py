@@ -10,7 +10,7 @@ grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line fr
 | 2 | BAD_NUMBER_FORMAT | a letter with no number, ``1.2.3``, a non-finite value |
 | 4 | NEGATIVE_VALUE | negative value where only a positive one makes sense (F, S, G4 P) |
 | 9 | SYSTEM_LOCKED | motion refused while the position is unknown (grbl's alarm lock) |
-| 11 | LINE_OVERFLOW | more than 80 characters of payload |
+| 11 | LINE_OVERFLOW | more than 80 characters of payload, or a line over 256 characters |
 | 20 | UNSUPPORTED_COMMAND | a G or M command this firmware does not know |
 | 21 | MODAL_GROUP_VIOLATION | more than one command on the line |
 | 22 | UNDEFINED_FEED_RATE | F or S is zero |
@@ -27,6 +27,7 @@ grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line fr
 | 63 | VALUE_OUT_OF_RANGE | servo index not 0/1, servo angle not 0-180 deg |
 | 64 | UNTERMINATED_COMMENT | a ``(`` comment is never closed |
 | 65 | CHECKSUM_WITHOUT_LINE_NUMBER | ``*<checksum>`` on a line with no ``N<n>`` |
+| 66 | RX_BUFFER_OVERFLOW | command queue and receive buffer full: the line was dropped |
 """
 
 from __future__ import annotations
@@ -60,6 +61,7 @@ class ErrorCode(IntEnum):
     VALUE_OUT_OF_RANGE = 63
     UNTERMINATED_COMMENT = 64
     CHECKSUM_WITHOUT_LINE_NUMBER = 65
+    RX_BUFFER_OVERFLOW = 66
 
     def reply(self, message: str) -> str:
         """The firmware's answer for this code: ``error:<code> <message>``."""

@@ -16,11 +16,17 @@ Errors carry grbl's numbers where grbl has one, and numbers from 60 up for the r
 code is named once in :class:`transplanter.errors.ErrorCode` (table there).
 
 The payload that error 11 counts is what remains after comments, whitespace and the
-Marlin framing are removed (grbl counts its line buffer the same way).
+Marlin framing are removed (grbl counts its line buffer the same way); a whole line over
+``MAX_LINE_CHARS`` (256) is refused with error 11 before anything else. Numbers are
+plain decimals: exponent notation (``X1e3``) is refused with error 2, naming it.
+``format_number`` never rounds a value to another number (3 decimals when they hold it,
+else the exact decimal), so every line ``parse_line`` accepts formats back to an
+equivalent line (tests/test_gcode_properties.py).
 """
 
 from __future__ import annotations
 
+import decimal
 import math
 import numbers
 import re
@@ -31,6 +37,11 @@ from transplanter.errors import ErrorCode
 
 MAX_PAYLOAD_CHARS = 80
 """grbl's LINE_BUFFER_SIZE: the longest payload a line may carry."""
+
+MAX_LINE_CHARS = 256
+"""Longest line the serial reader holds, comments and framing included (Marlin's
+MAX_CMD_SIZE, raised to take this dialect's comments): a longer line is refused whole
+with error 11 before anything else is looked at."""
 
 MAX_LINE_NUMBER = 2**31 - 1
 """Largest N a line may carry (Marlin keeps it in a 32-bit long)."""
@@ -73,6 +84,9 @@ class GcodeError(ValueError):
         self.code = code
         """An :class:`ErrorCode` (an int)."""
         self.message = message
+        self.line_number: int | None = None
+        """The line's ``N<n>`` when its framing passed (checksum good, in sequence) and only
+        its command was refused: the firmware counts the line as received, like Marlin."""
 
     @property
     def reply(self) -> str:
@@ -299,10 +313,34 @@ def _tokenise(body: str) -> list[tuple[str, str]]:
                 ErrorCode.EXPECTED_COMMAND_LETTER,
                 f"expected a command letter, found {_describe(char)}; remove the character",
             )
+        if char in "eE" and words and index > 0 and body[index - 1] in "0123456789.":
+            _refuse_exponent(body, words[-1], index)
         end = _word_end(body, index)
         words.append((char.upper(), body[index + 1 : end]))
         index = end
     return words
+
+
+def _refuse_exponent(body: str, previous: tuple[str, str], index: int) -> None:
+    """BAD_NUMBER_FORMAT for ``X1e3``: an exponent glued to the previous word's number."""
+    letter, mantissa = previous
+    end = _word_end(body, index)
+    exponent = body[index + 1 : end]
+    shown = f"{letter}{mantissa}{body[index]}{exponent}"
+    hint = ""
+    if _NUMBER_RE.fullmatch(mantissa) and _DIGITS_RE.fullmatch(exponent.lstrip("+-")):
+        try:
+            value = float(f"{mantissa}e{exponent}")
+        except (ValueError, OverflowError):
+            value = math.inf
+        if math.isfinite(value):
+            written = _exact_text(value)
+            if len(written) <= 20:
+                hint = f"; write {written}"
+    raise GcodeError(
+        ErrorCode.BAD_NUMBER_FORMAT,
+        f"{shown}: exponent notation is not G-code{hint or '; write the number in full'}",
+    )
 
 
 def _number(letter: str, token: str) -> float:
@@ -396,6 +434,12 @@ def parse_line(
     if not isinstance(text, str):
         raise TypeError(f"parse_line needs a str, got {type(text).__name__}")
     line = text.rstrip("\r\n")
+    if len(line) > MAX_LINE_CHARS:
+        raise GcodeError(
+            ErrorCode.LINE_OVERFLOW,
+            f"line of {len(line)} characters overflows the {MAX_LINE_CHARS}-character line "
+            "buffer; shorten it",
+        )
     for char in line:
         if char in "\r\n\x00":
             raise GcodeError(
@@ -434,6 +478,14 @@ def parse_line(
             f"line number N{line_number} out of sequence, expected N{expected_line_number}; "
             f"resend from N{expected_line_number}",
         )
+    try:
+        return _parse_body(body, line_number, text)
+    except GcodeError as error:
+        error.line_number = line_number  # the framing passed: N advances whatever the command
+        raise
+
+
+def _parse_body(body: str, line_number: int | None, text: str) -> GcodeLine | None:
     tokens = _tokenise(body)
     if not tokens:
         if line_number is not None:
@@ -478,16 +530,38 @@ def parse_line(
     return GcodeLine(command=command, words=words, line_number=line_number, raw=text)
 
 
+FORMAT_DECIMALS = 3
+"""Decimals ``format_number`` writes when they hold the value (1 um, 0.001 mm/s)."""
+_FORMAT_TOLERANCE = 1e-9
+"""Relative difference between a value and its 3-decimal text that
+counts as float noise (12.299999999999999 -> 12.3)."""
+
+
+def _exact_text(value: float) -> str:
+    """The shortest decimal text that reads back as ``value``, without exponent."""
+    text = format(decimal.Decimal(repr(value)), "f")
+    if "." in text:
+        text = text.rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
 def format_number(value: float) -> str:
-    """Compact text for a word value: integers stay integers, at most 3 decimals."""
+    """Compact text for a word value: integers stay integers; 3 decimals when they hold the
+    value (float noise such as ``12.299999999999999`` is written ``12.3``), else the
+    shortest exact decimal (``0.0001``, ``0.12349``): a value is never rounded to another
+    number (``S0.0001`` used to become ``S0``)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"a G-code word value must be a number, got {value!r}")
     if isinstance(value, numbers.Integral):
         return str(int(value))
     if not math.isfinite(value):
         raise ValueError(f"a G-code word value must be finite, got {value!r}")
-    text = f"{float(value):.3f}".rstrip("0").rstrip(".")
-    return "0" if text in ("-0", "") else text
+    value = float(value)
+    text = f"{value:.{FORMAT_DECIMALS}f}".rstrip("0").rstrip(".")
+    text = "0" if text in ("-0", "") else text
+    if abs(float(text) - value) > _FORMAT_TOLERANCE * abs(value):
+        return _exact_text(value)
+    return text
 
 
 def format_line(

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from transplanter.units import M_PER_MM
+from transplanter.units import M_PER_MM, show, show_outside
 
 TWO_PI = 2.0 * math.pi
 MODES = ("+-", "-+", "++", "--")
@@ -367,7 +367,9 @@ def _reason(geom, limits, bad, arrays, i) -> str:
                 parts.append("outside workspace: coordinates are not finite")
                 break
             if dist > lmax:
-                parts.append(f"outside workspace: |C-O{arm}|={dist:.4f} m > L1+L2={lmax:.4f} m")
+                parts.append(
+                    f"outside workspace: |C-O{arm}|={show(dist, 4)} m > L1+L2={lmax:.4f} m"
+                )
             elif dist < lmin:
                 parts.append(f"outside workspace: |C-O{arm}|={dist:.4f} m < |L1-L2|={lmin:.4f} m")
         return "; ".join(parts)
@@ -377,22 +379,25 @@ def _reason(geom, limits, bad, arrays, i) -> str:
             theta = arrays[f"theta{motor}"][i]
             if theta - hi > lo + TWO_PI - theta:  # closer to the lower limit: show it below
                 theta -= TWO_PI
-            parts.append(
-                f"motor {motor} angle {deg(theta):.1f} deg outside "
-                f"[{deg(lo):.0f}, {deg(hi):.0f}] deg"
-            )
+            v, a, b = show_outside(deg(theta), deg(lo), deg(hi))
+            parts.append(f"motor {motor} angle {v} deg outside [{a}, {b}] deg")
     for arm, elbow in ((1, "B"), (2, "D")):
         if bad[f"elbow{arm}"][i]:
+            v, a, b = show_outside(
+                deg(arrays[f"elbow{arm}"][i]), deg(limits.elbow_min_rad), deg(limits.elbow_max_rad)
+            )
             parts.append(
-                f"elbow angle at {elbow} {deg(arrays[f'elbow{arm}'][i]):.1f} deg outside "
-                f"[{deg(limits.elbow_min_rad):.0f}, {deg(limits.elbow_max_rad):.0f}] deg"
+                f"elbow angle at {elbow} {v} deg outside [{a}, {b}] deg"
                 " (near a serial singularity at the workspace boundary)"
             )
     if bad["transmission"][i]:
+        v, a, b = show_outside(
+            deg(arrays["transmission"][i]),
+            deg(limits.transmission_min_rad),
+            deg(limits.transmission_max_rad),
+        )
         parts.append(
-            f"transmission angle {deg(arrays['transmission'][i]):.1f} deg outside "
-            f"[{deg(limits.transmission_min_rad):.0f}, {deg(limits.transmission_max_rad):.0f}] deg"
-            " (near parallel singularity)"
+            f"transmission angle {v} deg outside [{a}, {b}] deg (near parallel singularity)"
         )
     if bad["condition"][i]:
         parts.append(f"Jacobian condition {arrays['condition'][i]:.3g} > {limits.max_condition:g}")
@@ -427,7 +432,7 @@ def require_reachable(geom: FiveBarGeometry, limits: KinematicLimits, x, y, mode
         reason = _reason(geom, limits, bad, arrays, i)
         message = (
             f"target position not reachable: point {i} at (x, y) = "
-            f"({arrays['x'][i] / M_PER_MM:.3f}, {arrays['y'][i] / M_PER_MM:.3f}) mm: {reason}"
+            f"({show(arrays['x'][i] / M_PER_MM)}, {show(arrays['y'][i] / M_PER_MM)}) mm: {reason}"
         )
         raise UnreachableError(i, reason, message)
     return arrays["theta1"], arrays["theta2"]

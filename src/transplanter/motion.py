@@ -18,9 +18,18 @@ import numpy as np
 
 from transplanter import kinematics as kin
 from transplanter.steppers import StepperDrive, count_at, step_counts
-from transplanter.units import M_PER_MM
+from transplanter.units import M_PER_MM, show
 
 PROFILES = ("trapezoid", "scurve")
+
+MAX_POINTS_PER_MOVE = 1_000_000
+"""Most interpolated points one move may have (100 m at the 0.1 mm default grid): a move
+needing more is refused before anything is built, so memory per move stays bounded."""
+_TARGET_FIRST_POINTS = 4096
+"""Moves of at least this many grid points get their target checked before interpolation."""
+MAX_STEPS_PER_MOVE = 4_000_000
+"""Most step pulses (all motors) one move may emit; each costs 9 bytes of event arrays and
+a few temporaries, so this bounds a move's memory to well under a GiB."""
 
 
 @dataclass(frozen=True)
@@ -247,6 +256,14 @@ def _step_events(
     return tuple(times), tuple(dirs)
 
 
+def _refusal(start, end, index: int, count: int, point, reason: str) -> str:
+    a, b, p = (", ".join(show(v / M_PER_MM) for v in xyz) for xyz in (start, end, point))
+    return (
+        f"move from ({a}) mm to ({b}) mm rejected before any step: point {index} of {count} "
+        f"at ({p}) mm is not reachable: {reason}"
+    )
+
+
 def plan_line(
     start_steps,
     start_xyz,
@@ -276,13 +293,32 @@ def plan_line(
     _check_drives(drives)
     res = config.resolution_m
 
+    # A long move's target first, before any interpolation: a far-away target is refused
+    # at once (no Bresenham line of 10^9 points is built to find its first bad point).
+    # A short move is checked point by point below, which names its first bad point.
+    start_idx = np.rint(start / res)
+    end_idx = np.rint(end / res)
+    major = float(np.max(np.abs(end_idx - start_idx)))
+    if major >= _TARGET_FIRST_POINTS:
+        try:
+            kin.require_reachable(geom, limits, np.array([end[0]]), np.array([end[1]]), mode)
+        except kin.UnreachableError as err:
+            last = int(min(major, 2.0**62))
+            raise kin.UnreachableError(
+                last, err.reason, _refusal(start, end, last, last + 1, end, err.reason)
+            ) from None
+    if major + 1 > MAX_POINTS_PER_MOVE:
+        raise ValueError(
+            f"plan_line: the move needs {show(major + 1, 0)} interpolated points at "
+            f"{res / M_PER_MM:g} mm, more than {MAX_POINTS_PER_MOVE}; split it or coarsen "
+            "the resolution"
+        )
+
     if np.array_equal(start, end):
         points = start[None, :].copy()
         line_param = np.zeros(1)
     else:
-        grid = bresenham_3d(
-            np.rint(start / res).astype(np.int64), np.rint(end / res).astype(np.int64)
-        )
+        grid = bresenham_3d(start_idx.astype(np.int64), end_idx.astype(np.int64))
         if grid.shape[0] < 2:
             points = np.stack([start, end])
             line_param = np.array([0.0, 1.0])
@@ -301,17 +337,19 @@ def plan_line(
     try:
         theta1, theta2 = kin.require_reachable(geom, limits, points[:, 0], points[:, 1], mode)
     except kin.UnreachableError as err:
-        p = points[err.index] / M_PER_MM
-        a, b = start / M_PER_MM, end / M_PER_MM
-        message = (
-            f"move from ({a[0]:.3f}, {a[1]:.3f}, {a[2]:.3f}) mm to ({b[0]:.3f}, {b[1]:.3f}, "
-            f"{b[2]:.3f}) mm rejected before any step: point {err.index} of {points.shape[0]} "
-            f"at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) mm is not reachable: {err.reason}"
-        )
+        message = _refusal(start, end, err.index, points.shape[0], points[err.index], err.reason)
         raise kin.UnreachableError(err.index, err.reason, message) from None
 
     joints = np.column_stack([theta1, theta2, points[:, 2]])
     point_steps = np.column_stack([drives[m].to_steps(joints[:, m]) for m in range(3)])
+    steps_needed = int(np.abs(np.diff(point_steps, axis=0)).sum()) + int(
+        np.abs(point_steps[0] - start_counts).sum()
+    )
+    if steps_needed > MAX_STEPS_PER_MOVE:
+        raise ValueError(
+            f"plan_line: the move needs {steps_needed} step pulses, more than "
+            f"{MAX_STEPS_PER_MOVE} a move; split it or use fewer microsteps per unit"
+        )
     rates = np.array([d.max_step_rate_hz for d in drives])
 
     if points.shape[0] == 1:

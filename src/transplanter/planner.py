@@ -52,6 +52,7 @@ def plan_program(machine: Machine, lines: str | Iterable[str]) -> list[PlannedLi
     endstops = SimulatedEndstops(config, power_on_joints(config))
     t = 0.0
     rows: list[PlannedLine] = []
+    pulses_t = None  # raw pulses at t, once computed
     for line_no, raw in enumerate(lines, start=1):
         text = raw.strip(_ASCII_BLANKS)  # a Unicode space is not a blank: the SGF refuses it
         try:
@@ -59,20 +60,25 @@ def plan_program(machine: Machine, lines: str | Iterable[str]) -> list[PlannedLi
                 continue
         except GcodeError as exc:
             raise PlanError(line_no, exc.reply) from None
-        pulses0 = sgf.pulses_at(np.array([t]))[0]
+        if pulses_t is None:
+            pulses_t = sgf.pulses_at(np.array([t]))[0]
+        pulses0 = pulses_t  # receive() adds no motion: the pulses at t are still these
         t0 = t
         sgf.receive(text, t)
         replies: list[str] = []
         while True:
-            replies += sgf.poll(t, endstops.read(sgf.pulses_at(np.array([t]))[0]))
+            replies += sgf.poll(t, endstops.read(pulses_t))
             if replies and (replies[-1] == "ok" or replies[-1].startswith("error")):
                 break
             t_next = sgf.next_event_time()
             t = t + DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
             if t - t0 > 3600.0:
                 raise PlanError(line_no, f"{text!r} did not finish within an hour of machine time")
+            pulses_t = sgf.pulses_at(np.array([t]))[0]
         if replies[-1].startswith("error"):
             raise PlanError(line_no, replies[-1])
-        steps = sgf.pulses_at(np.array([t]))[0] - pulses0
+        pulses_t = sgf.pulses_at(np.array([t]))[0]
+        steps = pulses_t - pulses0
+        sgf.forget_before(t)  # the clock only moves on: constant memory per move
         rows.append(PlannedLine(line_no, text, t - t0, steps, tuple(replies[:-1])))
     return rows

@@ -20,5 +20,9 @@ N4 M105*35 ; expect: ok
 N-5 M105*15 ; expect: error:27
 N5.5 M105*57 ; expect: error:23
 N5 ; expect: error:62
+; a line whose checksum passes advances N whatever its command's fate (Marlin)
 N5*123 ; expect: error:1
-N5 M105*34 ; expect: ok
+N5 M105*34 ; expect: error:61 line number N5 out of sequence, expected N6; resend from N6
+N6 M105*33 ; expect: ok
+N7 G2 X1*101 ; expect: error:20
+N8 M105*47 ; expect: ok

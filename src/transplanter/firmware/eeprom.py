@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import os
+import stat
 import struct
 import tempfile
 import zlib
@@ -230,12 +231,24 @@ class EepromImage:
             )
         if not 1 <= m_pp <= MAX_PICKUPS:
             raise EepromError(f"M_pp = {m_pp} is out of range 1..{MAX_PICKUPS}")
-        _, _, _, _, z_up, z_low, s_low, s_high, drop_x, drop_y, drop_elbow, _ = header
+        _, _, _, reserved7, z_up, z_low, s_low, s_high, drop_x, drop_y, drop_elbow, reserved30 = (
+            header
+        )
+        for offset, value in ((7, reserved7), (30, reserved30)):
+            if value != 0:
+                raise EepromError(
+                    f"reserved field at byte {offset} is {value:#x}, must be 0: the image was "
+                    "written by another layout or is corrupt"
+                )
         pickups = []
         for index in range(m_pp):
-            ax, ay, gx, gy, elbow, _ = _PICKUP.unpack_from(
-                data, PICKUPS_OFFSET + index * _PICKUP.size
-            )
+            record_offset = PICKUPS_OFFSET + index * _PICKUP.size
+            ax, ay, gx, gy, elbow, reserved = _PICKUP.unpack_from(data, record_offset)
+            if reserved != 0:
+                raise EepromError(
+                    f"pickup {index}: reserved field at byte {record_offset + _PICKUP.size - 2} "
+                    f"is {reserved:#x}, must be 0"
+                )
             pickups.append(
                 Pickup(
                     approach_xy_m=(ax / POSITION_COUNTS_PER_M, ay / POSITION_COUNTS_PER_M),
@@ -255,8 +268,45 @@ class EepromImage:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> EepromImage:
-        """Read an image file written by ``save``."""
-        return cls.from_bytes(Path(path).read_bytes())
+        """Read an image file written by ``save``; EepromError (naming the path) if it is
+        missing, unreadable, not a regular file or not exactly EEPROM_SIZE bytes.
+
+        The file is opened with O_NONBLOCK and checked with fstat before any read, so a FIFO
+        or a device (/dev/zero) is refused instead of hanging or reading forever.
+        """
+        shown = os.fspath(path)
+        try:
+            fd = os.open(shown, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        except OSError as error:
+            raise EepromError(
+                f"cannot open EEPROM image {shown!r}: {error.strerror or error}"
+            ) from None
+        try:
+            info = os.fstat(fd)
+            if not stat.S_ISREG(info.st_mode):
+                raise EepromError(f"EEPROM image {shown!r} is not a regular file")
+            if info.st_size != EEPROM_SIZE:
+                raise EepromError(
+                    f"EEPROM image {shown!r} is {info.st_size} bytes, expected exactly "
+                    f"{EEPROM_SIZE}"
+                )
+            chunks, size = [], 0
+            while size <= EEPROM_SIZE:
+                chunk = os.read(fd, EEPROM_SIZE + 1 - size)
+                if not chunk:
+                    break
+                chunks.append(chunk)
+                size += len(chunk)
+        except OSError as error:
+            raise EepromError(
+                f"cannot read EEPROM image {shown!r}: {error.strerror or error}"
+            ) from None
+        finally:
+            os.close(fd)
+        try:
+            return cls.from_bytes(b"".join(chunks))
+        except EepromError as error:
+            raise EepromError(f"EEPROM image {shown!r}: {error}") from None
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the image atomically (temp file in the same folder, then os.replace)."""

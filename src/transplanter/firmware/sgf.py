@@ -11,6 +11,14 @@ its reply when it is done, so replies come back in line order:
   ``M710``: conveyor index recorded, ``ok`` after ``conveyor_index_s``. ``M400``: ``ok``
   (the FIFO has already finished everything before it). ``M114``/``M119``: a report line,
   then ``ok``. ``M105``: ``ok``.
+- Receive buffer (Marlin's model): parsed lines wait in a command queue of
+  ``command_queue_lines`` (BUFSIZE = 4) behind the running one. While it is full, arriving
+  lines wait unparsed in a receive buffer of ``rx_buffer_bytes`` and enter the queue in
+  order as slots free (Marlin stops reading serial: flow control by the ok handshake). A
+  line that fits in neither is dropped and answered ``error:66`` at once, out of line
+  order (a real UART loses the bytes; with N framing the next line is then out of
+  sequence). A host that waits for ``ok`` before each line (the PGF) never fills them.
+  A line over ``gcode.MAX_LINE_CHARS`` (256) characters gets ``error:11`` (line overflow).
 - ``G28``: two-pass homing like grbl's (:class:`transplanter.firmware.homing.Homing`): seek,
   pull off, slow locate, pull off; ``ok`` once done, ``error:9`` if a switch is not found.
   Moves before homing are refused (error 9, like grbl's alarm lock).
@@ -30,16 +38,16 @@ import numpy as np
 
 from transplanter.errors import ErrorCode
 from transplanter.firmware.homing import Homing, check_homing_settings
-from transplanter.gcode import GcodeError, GcodeLine, parse_line
+from transplanter.gcode import MAX_LINE_CHARS, GcodeError, GcodeLine, parse_line
 from transplanter.kinematics import (
     FiveBarGeometry,
     FiveBarKinematics,
     KinematicLimits,
     UnreachableError,
 )
-from transplanter.motion import MotionConfig, PlannedMove, plan_line
+from transplanter.motion import MAX_STEPS_PER_MOVE, MotionConfig, PlannedMove, plan_line
 from transplanter.steppers import StepperDrive, default_drives
-from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS
+from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS, show
 
 
 @dataclass(frozen=True)
@@ -65,10 +73,12 @@ class SGFConfig:
     """Step rate of the slow second approach (locate); None: homing_rate_hz / 10."""
     homing_dirs: tuple[int, int, int] = (+1, -1, +1)
     """Direction (+1/-1 in step counts) in which each motor seeks its switch."""
-    homing_pulloff_steps: tuple[int, int, int] = (96, 96, 400)
-    """Steps each motor backs off its switch after it trips (3.6 deg, 3.6 deg, 1 mm)."""
-    homing_max_steps: tuple[int, int, int] = (4800, 4800, 80000)
-    """Longest seek before homing fails (half an arm revolution, 200 mm of Z)."""
+    homing_pulloff_steps: tuple[int, int, int] | None = None
+    """Steps each motor backs off its switch after it trips; None: 3.6 deg of each arm joint
+    and 1 mm of Z in the drives' steps (96, 96, 400 with the default drives)."""
+    homing_max_steps: tuple[int, int, int] | None = None
+    """Longest seek before homing fails; None: half an arm joint revolution and 200 mm of
+    Z in the drives' steps (4800, 4800, 80000 with the default drives)."""
     homing_locate_scalar: float = 5.0
     """The locate fails after this many pull-off distances (grbl's HOMING_AXIS_LOCATE_SCALAR)."""
     default_speed_m_s: float = 0.05
@@ -78,6 +88,13 @@ class SGFConfig:
     """Refuse lines without Marlin ``N<n> ... *<checksum>`` framing."""
     mode: str = "+-"
     """Five-bar working mode passed to the IK (paper: '+-', elbows out)."""
+    command_queue_lines: int = 4
+    """Parsed lines waiting behind the running one (Marlin's BUFSIZE = 4)."""
+    rx_buffer_bytes: int = 512
+    """Serial receive buffer: lines that arrive while the command queue is full wait here,
+    unparsed (Marlin stops reading serial while its queue is full; its RX_BUFFER_SIZE may be
+    set up to 2048); a line that does not
+    fit is dropped with error:66 (see the module docstring)."""
 
     def __post_init__(self):
         if len(self.drives) != 3:
@@ -86,18 +103,63 @@ class SGFConfig:
             raise ValueError(
                 f"SGFConfig needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
             )
+        if len(self.drives) == 3 and all(isinstance(d, StepperDrive) for d in self.drives):
+            per_unit = [d.steps_per_unit for d in self.drives]
+            if self.homing_pulloff_steps is None:
+                joint = (math.radians(3.6), math.radians(3.6), 0.001)
+                pulloff = tuple(max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True))
+                object.__setattr__(self, "homing_pulloff_steps", pulloff)
+            if self.homing_max_steps is None:
+                joint = (math.pi, math.pi, 0.200)
+                longest = tuple(max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True))
+                object.__setattr__(self, "homing_max_steps", longest)
         if self.homing_locate_rate_hz is None:
             locate = tuple(float(r) / 10.0 for r in self.homing_rate_hz)
             object.__setattr__(self, "homing_locate_rate_hz", locate)
         check_homing_settings(self)
+        self._check_steps_per_move()
         if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
             raise ValueError(
                 f"SGFConfig.default_speed_m_s must be > 0, got {self.default_speed_m_s}"
+            )
+        if not (isinstance(self.command_queue_lines, int) and self.command_queue_lines >= 1):
+            raise ValueError(
+                f"SGFConfig.command_queue_lines must be an integer >= 1, "
+                f"got {self.command_queue_lines!r}"
+            )
+        if not (
+            isinstance(self.rx_buffer_bytes, int) and self.rx_buffer_bytes >= MAX_LINE_CHARS + 1
+        ):
+            raise ValueError(
+                f"SGFConfig.rx_buffer_bytes must be an integer >= {MAX_LINE_CHARS + 1} (one "
+                f"longest line and its newline), got {self.rx_buffer_bytes!r}"
             )
         if not (math.isfinite(self.conveyor_index_s) and self.conveyor_index_s >= 0):
             raise ValueError(
                 f"SGFConfig.conveyor_index_s must be >= 0, got {self.conveyor_index_s}"
             )
+
+    def _check_steps_per_move(self) -> None:
+        """Refuse drives whose longest possible move (each joint across its whole range:
+        the motor windows, z_min..z_max) needs more step pulses than a move may emit
+        (motion.MAX_STEPS_PER_MOVE): the SGF could not hold such a move's step events."""
+        spans = (
+            *(hi - lo for lo, hi in (self.limits.motor_window(m) for m in (1, 2))),
+            self.z_max_m - self.z_min_m,
+        )
+        needed = [d.steps_per_unit * span for d, span in zip(self.drives, spans, strict=True)]
+        if sum(needed) <= MAX_STEPS_PER_MOVE:
+            return
+        worst = int(np.argmax(needed))
+        drive = self.drives[worst]
+        unit = "m of Z travel" if drive.linear else "rad of its motor window"
+        raise ValueError(
+            f"drive {drive.name!r} with steps_per_rev={drive.steps_per_rev} and "
+            f"microsteps={drive.microsteps} needs {needed[worst]:.4g} step pulses across "
+            f"{spans[worst]:.4g} {unit}; the three drives need {sum(needed):.4g} for a "
+            f"move across the whole workspace, more than the {MAX_STEPS_PER_MOVE} step "
+            "pulses one move may emit: lower steps_per_rev or microsteps"
+        )
 
     @property
     def home_joint_positions(self) -> tuple[float, float, float]:
@@ -146,6 +208,10 @@ class SGF:
     def __init__(self, config: SGFConfig | None = None):
         self.config = config if config is not None else SGFConfig()
         self._queue: deque[_Job] = deque()
+        self._rx: deque[tuple[str, float]] = deque()  # (line, arrival) waiting for a slot
+        self._rx_bytes = 0
+        self.rx_dropped = 0
+        """Lines dropped because the command queue and the receive buffer were full."""
         self._current: _Job | None = None
         self._t_free = -math.inf
         self._now = -math.inf
@@ -192,8 +258,39 @@ class SGF:
 
     # -- input -----------------------------------------------------------------------
     def receive(self, line: str, now: float) -> None:
-        """A line has arrived: parse it now (for line numbering), execute it in turn."""
+        """A line has arrived: parse it now (for line numbering), execute it in turn.
+
+        With the command queue full it waits in the receive buffer and is parsed when a slot
+        frees; with that full too it is dropped and answered ``error:66`` at once.
+        """
         self._check_time(now)
+        if not isinstance(line, str):
+            raise TypeError(f"a received line is a str, got {type(line).__name__}")
+        if len(self._queue) < self.config.command_queue_lines and not self._rx:
+            self._enqueue(line, now)
+            return
+        size = len(line) + 1  # and its newline
+        if size <= self.config.rx_buffer_bytes - self._rx_bytes:
+            self._rx.append((line, now))
+            self._rx_bytes += size
+            return
+        self.rx_dropped += 1
+        self._replies.append(
+            ErrorCode.RX_BUFFER_OVERFLOW.reply(
+                f"receive buffer full ({self.config.command_queue_lines} queued lines, "
+                f"{self._rx_bytes} of {self.config.rx_buffer_bytes} bytes waiting): a line of "
+                f"{len(line)} characters was dropped; wait for ok before sending more"
+            )
+        )
+
+    def _refill(self) -> None:
+        """Move lines from the receive buffer into free command-queue slots, in order."""
+        while self._rx and len(self._queue) < self.config.command_queue_lines:
+            line, arrival = self._rx.popleft()
+            self._rx_bytes -= len(line) + 1
+            self._enqueue(line, arrival)
+
+    def _enqueue(self, line: str, now: float) -> None:
         try:
             parsed = parse_line(
                 line,
@@ -204,7 +301,8 @@ class SGF:
             parsed = error
         if parsed is None:
             return
-        if isinstance(parsed, GcodeLine) and parsed.line_number is not None:
+        if parsed.line_number is not None:
+            # a line whose checksum passed advances N, whatever its command's fate (Marlin)
             self._last_line_number = parsed.line_number
         self._queue.append(_Job(parsed, now))
 
@@ -224,6 +322,7 @@ class SGF:
                 if not self._queue:
                     break
                 job = self._queue.popleft()
+                self._refill()
                 self._start(job, max(job.arrival, self._t_free))
                 self._current = job
             job = self._current
@@ -257,6 +356,22 @@ class SGF:
             mask = index == segment
             out[mask] = self._segments[segment](times[mask])
         return out
+
+    def forget_before(self, t: float) -> int:
+        """Drop the motion history that ``pulses_at`` no longer needs for times >= ``t``.
+
+        Keeps the last segment that starts at or before ``t`` and everything after it, so
+        ``pulses_at`` answers as before for every time >= ``t`` (earlier times are no longer
+        valid). A caller whose clock only moves forward (the planner, the simulator) calls
+        this to keep memory constant per move. Returns how many segments were dropped.
+        """
+        starts = self._segment_starts
+        keep_from = int(np.searchsorted(np.asarray(starts), t, side="right")) - 1
+        if keep_from <= 0:
+            return 0
+        del self._segment_starts[:keep_from]
+        del self._segments[:keep_from]
+        return keep_from
 
     def drain_servo_commands(self) -> list[tuple[float, int, float]]:
         """(t, servo index, angle deg) commanded since the last drain."""
@@ -329,7 +444,7 @@ class SGF:
         if not self.config.z_min_m <= z <= self.config.z_max_m:
             raise GcodeError(
                 ErrorCode.INVALID_TARGET,
-                f"Z {z / M_PER_MM:.3f} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
+                f"Z {show(z / M_PER_MM)} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
                 f"{self.config.z_max_m / M_PER_MM:.3f}] mm",
             )
         config = self.config
@@ -339,7 +454,7 @@ class SGF:
                 config.geometry, config.limits, config.drives, config.motion, config.mode,
             )  # fmt: skip
         except UnreachableError as error:
-            shown = ", ".join(f"{v / M_PER_MM:.3f}" for v in target)
+            shown = ", ".join(show(v / M_PER_MM) for v in target)
             raise GcodeError(
                 ErrorCode.INVALID_TARGET,
                 f"target position not reachable: {error.reason} "
