@@ -164,3 +164,12 @@ def test_ctrl_c_stops_cleanly_and_never_replaces_a_complete_recording(tmp_path):
     assert rrd.read_text() == "a complete earlier recording"
     assert (tmp_path / "r.partial.rrd").stat().st_size > 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "r.partial.rrd", "r.rrd"]
+
+
+def test_numbers_on_the_command_line_are_ascii(capsys):
+    for argv in (["ik", "١٠", "200"], ["ik", "0", "２００"], ["trial", "paper", "--seed", "٣"]):
+        with pytest.raises(SystemExit) as stop:
+            main(argv)
+        assert stop.value.code == 2
+        assert "ASCII digits 0-9" in capsys.readouterr().err
+    assert main(["ik", "0", "2e2"]) == 0  # exponent notation is an ordinary number here

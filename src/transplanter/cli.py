@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,24 @@ EXIT_OUTPUT_FAILED = 5  # a result file or the recording could not be written
 EXIT_INTERRUPTED = 130  # Ctrl-C, as shells report SIGINT
 # A G-code program for `plan`: a 100k-move file is about 3 MB; anything far bigger is not one.
 MAX_GCODE_FILE_BYTES = 64 << 20
+
+
+_FLOAT_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:inf|nan)", re.I)
+_INT_RE = re.compile(r"[+-]?\d+")
+
+
+def ascii_float(text: str) -> float:
+    """A number written in ASCII (Python's float() also takes Unicode digits such as '١٠')."""
+    if not (text.isascii() and _FLOAT_RE.fullmatch(text.strip())):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number (ASCII digits 0-9)")
+    return float(text)
+
+
+def ascii_int(text: str) -> int:
+    """A whole number written in ASCII digits."""
+    if not (text.isascii() and _INT_RE.fullmatch(text.strip())):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number (ASCII digits 0-9)")
+    return int(text)
 
 
 def _scenario_arg(parser: argparse.ArgumentParser) -> None:
@@ -304,8 +323,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("ik", help="joint angles for a point of the plane (mm)")
-    p.add_argument("x", type=float, help="x in mm")
-    p.add_argument("y", type=float, help="y in mm")
+    p.add_argument("x", type=ascii_float, help="x in mm")
+    p.add_argument("y", type=ascii_float, help="y in mm")
     _scenario_arg(p)
     p.set_defaults(func=cmd_ik)
 
@@ -323,8 +342,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
     _set_arg(p)
-    p.add_argument("--seedlings", type=int, default=None, help="override scenario.seedlings")
-    p.add_argument("--seed", type=int, default=None, help="override scenario.seed")
+    p.add_argument("--seedlings", type=ascii_int, default=None, help="override scenario.seedlings")
+    p.add_argument("--seed", type=ascii_int, default=None, help="override scenario.seed")
     p.add_argument(
         "--seeds",
         default=None,
@@ -333,7 +352,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", type=Path, default=None, help="write results to this JSON file")
     p.add_argument("--record", type=Path, default=None, help="write a rerun .rrd recording")
-    p.add_argument("--record-rate", type=float, default=60.0, help="recording rate in Hz (> 0)")
+    p.add_argument(
+        "--record-rate", type=ascii_float, default=60.0, help="recording rate in Hz (> 0)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument(
         "--no-preflight",
