@@ -173,3 +173,23 @@ def test_line_phases_are_members_that_still_compare_as_strings():
         LinePhase.LIFT,
         LinePhase.TO_DROP,
     ]
+
+
+def test_rehome_every_n_cycles_opens_those_cycles():
+    """Recovery: G28 and back to the drop point open cycles 3, 6, ... (every 3rd after the
+    first three); the default, as the paper's open-loop machine, never re-homes."""
+    image = five_pickup_image()
+    plain = build_program(image, PGFConfig(seedlings=7, line_numbers=False))
+    assert not any(line.phase is LinePhase.REHOME for line in plain)
+    lines = build_program(image, PGFConfig(seedlings=7, line_numbers=False, rehome_every_cycles=3))
+    rehomes = [line for line in lines if line.phase is LinePhase.REHOME]
+    assert [(line.seedling, line.text) for line in rehomes] == [(3, "G28"), (6, "G28")]
+    for seedling in (3, 6):
+        first = [line for line in lines if line.seedling == seedling][:3]
+        assert [line.phase for line in first] == [
+            LinePhase.REHOME, LinePhase.REHOME_TO_START, LinePhase.APPROACH,
+        ]  # fmt: skip
+        assert first[1].text == next(ln.text for ln in lines if ln.phase is LinePhase.TO_START)
+    assert len(lines) == len(plain) + 4
+    with pytest.raises(ValueError, match="rehome_every_cycles"):
+        PGFConfig(rehome_every_cycles=-1)

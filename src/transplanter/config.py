@@ -183,6 +183,7 @@ def _machine(s: Scenario) -> Machine:
         release_dwell_s=grip.release_dwell_s,
         seedlings=s.meta.seedlings,
         line_numbers=s.bus.line_numbers,
+        rehome_every_cycles=s.recovery.rehome_every_cycles,
     )
     taught = s.taught
     taught_image = EepromImage(

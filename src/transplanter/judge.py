@@ -72,6 +72,8 @@ class Judge:
         rec = self.records[line.seedling] if line.seedling is not None else None
         if event.kind == LineEventKind.SENT:
             self._emit(t, EventKind.SENT, f"{line.phase}: {line.text}", line.seedling)
+            if rec is not None and rec.t_start_s is None:
+                rec.t_start_s = t  # the cycle starts with its first line (a re-home, if any)
             if rec is not None and line.phase == LinePhase.APPROACH:
                 self._start(rec, t)
             return
@@ -83,7 +85,7 @@ class Judge:
             self._emit(t, EventKind.FAILURE, f"rejected {line.text}: {line.reply}", line.seedling)
             return
         self._emit(t, EventKind.ACK, f"{line.phase}: {line.reply}", line.seedling)
-        if line.phase == LinePhase.HOME:  # homing re-references the motors
+        if line.phase in (LinePhase.HOME, LinePhase.REHOME):  # homing re-references the motors
             self.lost_at_homing = self.twin.microsteps_lost.copy()
             self.events_at_homing = len(self.twin.lost_step_events)
         if rec is None:
@@ -112,7 +114,6 @@ class Judge:
             self.indexes_done += 1
 
     def _start(self, rec: SeedlingRecord, t: float) -> None:
-        rec.t_start_s = t
         self.current = rec
         self.microsteps_lost0 = self.twin.microsteps_lost.copy()
         off = int(np.abs(self.microsteps_lost0 - self.lost_at_homing).sum())

@@ -285,6 +285,18 @@ class PhysicsSection:
 
 
 @dataclass(frozen=True)
+class RecoverySection:
+    """[recovery]: what the machine does about lost steps (the paper's machine: nothing)."""
+
+    rehome_every_cycles: int = key(
+        "int",
+        lo=0,
+        hi=100000,
+        doc="G28 and back to the drop point before every N-th cycle; 0 never",
+    )
+
+
+@dataclass(frozen=True)
 class TaughtPickup:
     """One [[taught.pickup]]: approach (via) point M_pd, grip point M_pgd, wrist angle M_pep."""
 
@@ -330,6 +342,7 @@ SECTIONS: dict[str, type] = {
     "drop_tube": DropTubeSection,
     "metrics": MetricsSection,
     "physics": PhysicsSection,
+    "recovery": RecoverySection,
     "taught": TaughtSection,
 }
 
@@ -375,6 +388,7 @@ class Scenario:
     drop_tube: DropTubeSection
     metrics: MetricsSection
     physics: PhysicsSection
+    recovery: RecoverySection
     taught: TaughtSection
     overrides: tuple[tuple[str, Any], ...] = ()
     """The 'section.key' = value overrides applied on top of the file, as given."""

@@ -54,6 +54,9 @@ class PGFConfig:
     index_conveyor: bool = True
     line_numbers: bool = True
     """Marlin ``N<n> ... *<checksum>`` framing on every line."""
+    rehome_every_cycles: int = 0
+    """Re-home (G28, back to the drop point) before every N-th cycle after the first N; 0:
+    never, as the paper's open-loop machine. The lines belong to that seedling's cycle."""
 
     def __post_init__(self):
         for name in ("gripper_servo", "wrist_servo"):
@@ -75,6 +78,12 @@ class PGFConfig:
             raise ValueError(f"seedlings must be an int, got {self.seedlings!r}")
         if self.seedlings < 1:
             raise ValueError(f"seedlings = {self.seedlings}: plant at least one")
+        if isinstance(self.rehome_every_cycles, bool) or not (
+            isinstance(self.rehome_every_cycles, int) and self.rehome_every_cycles >= 0
+        ):
+            raise ValueError(
+                f"rehome_every_cycles must be a whole number >= 0, got {self.rehome_every_cycles!r}"
+            )
 
 
 class LinePhase(StrEnum):
@@ -102,6 +111,8 @@ class LinePhase(StrEnum):
     RELEASE = "release"
     RELEASE_WAIT = "release_wait"
     INDEX = "index"
+    REHOME = "rehome"  # recovery: G28 inside a cycle (PGFConfig.rehome_every_cycles)
+    REHOME_TO_START = "rehome_to_start"  # back to the drop point after it
     FINISH = "finish"
 
 
@@ -154,7 +165,13 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
         pickup = eeprom.pickups[pickup_index]
         ax, ay = (_mm(v) for v in pickup.approach_xy_m)
         gx, gy = (_mm(v) for v in pickup.grip_xy_m)
+        every = config.rehome_every_cycles
+        rehome = every and seedling and seedling % every == 0
         cycle = [
+            (LinePhase.REHOME, "G28", {}),
+            (LinePhase.REHOME_TO_START, "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
+        ] if rehome else []  # fmt: skip
+        cycle += [
             (LinePhase.APPROACH, "G1", {"X": ax, "Y": ay, "Z": z_low, "S": s_high}),
             (LinePhase.ELBOW, "M280", {"P": wrist, "S": pickup.elbow_deg}),
             (LinePhase.OPEN, "M280", {"P": gripper, "S": open_deg}),
