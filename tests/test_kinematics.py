@@ -21,7 +21,7 @@ def test_geometry_and_limits_validate():
     with pytest.raises(ValueError, match="l0_m"):
         kin.FiveBarGeometry(l0_m=float("nan"))
     with pytest.raises(ValueError, match="motor 1 window"):
-        kin.KinematicLimits(motor_min_rad=2.0, motor_max_rad=1.0)
+        kin.KinematicLimits(motor1_min_rad=2.0, motor1_max_rad=1.0)
     with pytest.raises(ValueError, match="transmission_min_rad"):
         kin.KinematicLimits(transmission_min_rad=2.0, transmission_max_rad=1.0)
     with pytest.raises(ValueError, match="mode"):
@@ -32,8 +32,8 @@ def test_geometry_and_limits_validate():
 
 def test_motor2_window_mirrors_motor1_by_default():
     lo, hi = LIMITS.motor_window(2)
-    assert lo == pytest.approx(math.pi - LIMITS.motor_max_rad)
-    assert hi == pytest.approx(math.pi - LIMITS.motor_min_rad)
+    assert lo == pytest.approx(math.pi - LIMITS.motor1_max_rad)
+    assert hi == pytest.approx(math.pi - LIMITS.motor1_min_rad)
     custom = kin.KinematicLimits(motor2_min_rad=-1.0, motor2_max_rad=1.5)
     assert custom.motor_window(2) == (-1.0, 1.5)
 

@@ -127,8 +127,8 @@ def _machine(s: Scenario) -> Machine:
     arm, lim, drv, mot, grip = s.arm, s.limits, s.drives, s.motion, s.gripper
     geometry = FiveBarGeometry(l0_m=arm.l0_m, l1_m=arm.l1_m, l2_m=arm.l2_m)
     limits = KinematicLimits(
-        motor_min_rad=lim.motor1_min_rad,
-        motor_max_rad=lim.motor1_max_rad,
+        motor1_min_rad=lim.motor1_min_rad,
+        motor1_max_rad=lim.motor1_max_rad,
         motor2_min_rad=lim.motor2_min_rad,
         motor2_max_rad=lim.motor2_max_rad,
         elbow_min_rad=lim.elbow_min_rad,

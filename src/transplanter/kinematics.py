@@ -60,14 +60,14 @@ class KinematicLimits:
     mirror image [-55, 100] deg (about 15 deg of margin on each side).
     """
 
-    motor_min_rad: float = math.radians(80.0)
+    motor1_min_rad: float = math.radians(80.0)
     """Lower limit of motor 1 (theta1); also motor 2's upper limit mirrored (pi - it)."""
-    motor_max_rad: float = math.radians(235.0)
+    motor1_max_rad: float = math.radians(235.0)
     """Upper limit of motor 1 (theta1); also motor 2's lower limit mirrored (pi - it)."""
     motor2_min_rad: float | None = None
-    """Lower limit of motor 2 (theta2); None mirrors motor 1: pi - motor_max_rad."""
+    """Lower limit of motor 2 (theta2); None mirrors motor 1: pi - motor1_max_rad."""
     motor2_max_rad: float | None = None
-    """Upper limit of motor 2 (theta2); None mirrors motor 1: pi - motor_min_rad."""
+    """Upper limit of motor 2 (theta2); None mirrors motor 1: pi - motor1_min_rad."""
     elbow_min_rad: float = math.radians(15.0)
     """Smallest angle between active and passive link at B and at D (0 = folded: serial
     singularity at the inner workspace boundary)."""
@@ -112,13 +112,17 @@ class KinematicLimits:
     def motor_window(self, motor: int) -> tuple[float, float]:
         """(min, max) angle of motor 1 or 2 in rad."""
         if motor == 1:
-            return self.motor_min_rad, self.motor_max_rad
+            return self.motor1_min_rad, self.motor1_max_rad
         if motor == 2:
             lo = (
-                math.pi - self.motor_max_rad if self.motor2_min_rad is None else self.motor2_min_rad
+                math.pi - self.motor1_max_rad
+                if self.motor2_min_rad is None
+                else self.motor2_min_rad
             )
             hi = (
-                math.pi - self.motor_min_rad if self.motor2_max_rad is None else self.motor2_max_rad
+                math.pi - self.motor1_min_rad
+                if self.motor2_max_rad is None
+                else self.motor2_max_rad
             )
             return lo, hi
         raise ValueError(f"motor must be 1 or 2, got {motor!r}")
