@@ -309,6 +309,26 @@ def _err(message: str) -> None:
     print(printable(message), file=sys.stderr)
 
 
+def cmd_export(args: argparse.Namespace) -> int:
+    from transplanter import fileio
+    from transplanter.config import assemble
+    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.scene import export_scene
+
+    try:
+        overrides = _overrides(args)
+        if args.seed is not None:
+            overrides["scenario.seed"] = args.seed
+        config = assemble(load_scenario(args.scenario, overrides), preflight=False)
+        path = export_scene(config.scene, config.seed, args.out)
+    except (ScenarioError, fileio.FileRefused) as exc:
+        _err(f"export refused: {exc}")
+        return EXIT_REFUSED
+    print(f"scene of {_show(config.name)} (seed {config.seed}) written to {_show(path)}")
+    print(f"view it with: python -m mujoco.viewer --mjcf {_show(path)}")
+    return EXIT_OK
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from transplanter.playback import replay
 
@@ -363,6 +383,16 @@ def build_parser() -> argparse.ArgumentParser:
         "refuses an unreachable move itself (exit status 4), as the real firmware would",
     )
     p.set_defaults(func=cmd_trial)
+
+    p = sub.add_parser(
+        "export",
+        help="write the scene a trial builds (pots, seedlings, conveyor, drop tube) as MJCF",
+    )
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    p.add_argument("out", type=Path, help="the .xml file to write (meshes go to assets/ beside)")
+    p.add_argument("--seed", type=ascii_int, default=None, help="override scenario.seed")
+    _set_arg(p)
+    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("replay", help="open a recorded trial in the rerun viewer")
     p.add_argument("file", type=Path)

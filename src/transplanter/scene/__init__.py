@@ -11,7 +11,7 @@ models/*.xml carry SceneConfig()'s numbers (scripts/make_models.py); models/READ
 describes the robot, its frames, joints and actuators.
 """
 
-from transplanter.scene.build import build_scene, models_dir
+from transplanter.scene.build import build_scene, export_scene, models_dir
 from transplanter.scene.config import SceneConfig
 from transplanter.scene.conveyor import ConveyorDrive
 from transplanter.scene.geometry import drop_tube_boxes, ring_boxes
@@ -24,6 +24,7 @@ __all__ = [
     "Scene",
     "SceneConfig",
     "build_scene",
+    "export_scene",
     "drop_tube_boxes",
     "models_dir",
     "ring_boxes",
