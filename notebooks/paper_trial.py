@@ -51,7 +51,7 @@ for rec in result.per_seedling:
 # Tune before touching hardware: a faster S_h, or a lower approach height (Z_low).
 
 # %%
-for over in ({"taught.s_high_mm_s": 250.0}, {"taught.z_low_mm": 26.0}):
+for over in ({"taught.s_high_mm_s": 250.0}, {"taught.z_low_mm": 22.0}):
     scenario = load_scenario("paper", {"scenario.seedlings": SEEDLINGS, **over})
     d = run_trial(assemble(scenario)).to_dict()
     print(over, f"cycle {d['cycle_time_s']:.3f} s, success {100 * d['success_rate']:.0f} %")

@@ -110,7 +110,15 @@ def scene_values(spec: mujoco.MjSpec) -> list[tuple[str, str | None, dict[str, s
     return [
         ("geom", "belt_table", {"size": fmt(*table.size), "pos": fmt(*table.pos)}),
         ("body", "conveyor", {}),
-        ("joint", "conveyor", {"frictionloss": fmt(spec.joint("conveyor").frictionloss)}),
+        (
+            "joint",
+            "conveyor",
+            {
+                "frictionloss": fmt(spec.joint("conveyor").frictionloss),
+                "stiffness": fmt(spec.joint("conveyor").stiffness[0]),
+                "damping": fmt(spec.joint("conveyor").damping[0]),
+            },
+        ),  # fmt: skip
         ("inertial", None, {"mass": fmt(spec.body("conveyor").mass)}),
         ("body", "drop_tube", {"pos": fmt(*spec.body("drop_tube").pos)}),
         ("geom", "planting_plate", {"pos": fmt(*spec.geom("planting_plate").pos)}),

@@ -72,7 +72,20 @@ def test_every_code_is_a_reply_the_firmware_gives():
     for _ in range(1000):  # nobody polls: the queue and receive buffer fill up
         flooded.receive("M105", 0.0)
     given |= {ErrorCode(int(r.split(" ")[0][6:])) for r in flooded.poll(0.0) if "error" in r}
+    stalled = SGF(SGFConfig(stall_detection=True))
+    stalled.homed = True  # a driver's stall flag while a line runs
+    stalled.receive("G4 P100", 0.0)
+    stalled.poll(0.0)
+    stalled.stall(0.05, 0)
+    given |= {ErrorCode(int(r.split(" ")[0][6:])) for r in stalled.poll(0.05)}
     assert given == set(ErrorCode)
+
+
+def test_the_code_of_a_reply():
+    assert ErrorCode.of_reply("error:67 motor 2 stalled") is ErrorCode.MOTOR_STALLED
+    assert ErrorCode.of_reply("error:9") is ErrorCode.SYSTEM_LOCKED
+    for other in ("ok", "error:", "error:670 x", "error:x1", "Error:9", "error:\u0661"):
+        assert ErrorCode.of_reply(other) is None, other
 
 
 def test_reply_format_and_int_compatibility():
@@ -80,7 +93,7 @@ def test_reply_format_and_int_compatibility():
     assert ErrorCode(9) is ErrorCode.SYSTEM_LOCKED
     assert f"error:{ErrorCode.SYSTEM_LOCKED}" == "error:9"  # formats as its number
     assert ErrorCode.BAD_CHECKSUM + 1 == ErrorCode.LINE_OUT_OF_SEQUENCE
-    assert sorted(ErrorCode)[0] == 1 and max(ErrorCode) == 66
+    assert sorted(ErrorCode)[0] == 1 and max(ErrorCode) == 67
 
 
 def _first_args_of_gcode_errors(path: Path) -> list[ast.expr]:

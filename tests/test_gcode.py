@@ -263,6 +263,7 @@ def test_malformed_corpus_is_large_and_covers_codes():
         ErrorCode.INVALID_TARGET,
         ErrorCode.LINE_OUT_OF_SEQUENCE,
         ErrorCode.RX_BUFFER_OVERFLOW,
+        ErrorCode.MOTOR_STALLED,
     }
     assert set(seen) == parser_codes
 

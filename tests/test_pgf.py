@@ -193,3 +193,99 @@ def test_rehome_every_n_cycles_opens_those_cycles():
     assert len(lines) == len(plain) + 4
     with pytest.raises(ValueError, match="rehome_every_cycles"):
         PGFConfig(rehome_every_cycles=-1)
+
+
+def _to_grip(pgf: PGF) -> float:
+    """Answer ok until the first seedling's grip line is outstanding; return the time."""
+    now, replies = 0.0, []
+    while True:
+        pgf.poll(now, replies)
+        if pgf.current.phase == LinePhase.GRIP:
+            return now
+        replies, now = ["ok"], now + 0.1
+
+
+STALL_REPLY = "error:67 motor 2 stalled at t=3.575 s: motion stopped, position lost; home with G28"
+
+
+def test_a_stall_without_recovery_faults_like_any_refused_line():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=2, line_numbers=False))
+    now = _to_grip(pgf)
+    assert pgf.poll(now + 0.1, [STALL_REPLY]) == []
+    assert "error:67" in pgf.fault and "grip" in pgf.fault and pgf.stalls == []
+
+
+@pytest.mark.parametrize(
+    ("phase", "resume", "resume_text"),
+    [
+        ("grip", "approach", "G1 X-90 Y175 Z32 S150"),  # gripper open: retry the seedling
+        ("lift", "drop_elbow", "M280 P1 S12.5"),  # pot maybe in the jaws: carry it to the tube
+        ("release_wait", "release_wait", "G4 P200"),  # after the release: the line again
+    ],
+)
+def test_a_stall_with_recovery_settles_rehomes_and_resumes(phase, resume, resume_text):
+    config = PGFConfig(seedlings=2, line_numbers=False, stall_recovery=True, stall_settle_s=0.4)
+    pgf = PGF(five_pickup_image(), config)
+    now, replies = 0.0, []
+    while True:
+        pgf.poll(now, replies)
+        if pgf.current.phase == phase and pgf.current.seedling == 0:
+            break
+        replies, now = ["ok"], now + 0.1
+    assert pgf.poll(now + 0.1, [STALL_REPLY]) == ["G4 P400"]
+    assert pgf.fault is None and pgf.stalls[0][1].phase == phase
+    assert pgf.poll(now + 0.5, ["ok"]) == ["G28"]
+    assert pgf.poll(now + 3.0, ["ok"]) == ["G1 X0 Y140 Z100 S150"]
+    assert pgf.poll(now + 5.0, ["ok"]) == [resume_text]
+    assert [s.phase for s in pgf.sent[-4:]] == [
+        "stall_settle",
+        "stall_rehome",
+        "stall_to_start",
+        resume,
+    ]
+    assert all(s.seedling == 0 for s in pgf.sent[-4:])
+    for _ in range(200):  # ok to everything from here
+        if pgf.done:
+            break
+        now += 0.1
+        pgf.poll(now + 6.0, ["ok"])
+    assert pgf.done and pgf.sent[-1].phase == "finish"
+    # after the detour the program goes on to the end, each line once more at most
+    assert sum(s.phase == "to_drop" for s in pgf.sent) == 2
+
+
+def test_stall_recovery_gives_a_seedling_up_after_the_retries_and_numbers_lines_as_sent():
+    """Seedling 4 (the row's last) keeps stalling at its grip: after 2 recoveries the third
+    stall gives it up; the PGF re-homes, still indexes the conveyor and goes on with
+    seedling 5. Line numbers follow the lines as sent."""
+    config = PGFConfig(seedlings=6, stall_recovery=True, stall_retries=2)
+    pgf = PGF(five_pickup_image(), config)
+    now, replies = 0.0, []
+    while True:
+        pgf.poll(now, replies)
+        if pgf.current.phase == LinePhase.GRIP and pgf.current.seedling == 4:
+            break
+        replies, now = ["ok"], now + 0.1
+    for attempt in range(3):
+        sent = pgf.poll(now + 0.1, [STALL_REPLY])
+        assert parse_line(sent[0]).command == "G4", attempt
+        for _ in range(3 if attempt == 2 else 7):  # settle, G28, to start, (approach ... wait)
+            sent = pgf.poll(now + 0.2, ["ok"])
+            now += 0.2
+        if attempt < 2:
+            assert pgf.current.phase == "grip" and pgf.current.seedling == 4
+    assert pgf.abandoned == [4] and len(pgf.stalls) == 3 and pgf.fault is None
+    assert [(s.seedling, s.phase) for s in pgf.sent[-2:]] == [(4, "stall_to_start"), (4, "index")]
+    pgf.poll(now + 0.1, ["ok"])
+    assert (pgf.current.seedling, pgf.current.phase) == (5, "approach")
+    numbers = [parse_line(s.text).line_number for s in pgf.sent]
+    assert numbers == list(range(1, len(pgf.sent) + 1))  # the detour shifts later numbers
+
+
+def test_a_stall_outside_a_cycle_beyond_the_retries_faults():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=1, stall_recovery=True, stall_retries=1))
+    pgf.poll(0.0, [])
+    assert pgf.current.phase == "home"
+    assert parse_line(pgf.poll(0.1, [STALL_REPLY])[0]).command == "G28"  # homing again
+    assert pgf.poll(0.2, [STALL_REPLY]) == []
+    assert "error:67" in pgf.fault and pgf.abandoned == []

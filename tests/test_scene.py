@@ -440,3 +440,48 @@ def test_a_conveyor_of_100_rows_builds_and_runs():
     assert np.abs(pots[:, 2] - scene.config.pot_height / 2).max() < 0.003  # all standing
     m = scene.model
     assert (m.geom_contype >= 0).all() and (m.geom_conaffinity >= 0).all()
+
+
+def test_the_conveyor_drive_holds_the_carriage_between_indexes():
+    """The carriage is held by its drive (a NEMA17's detent stiffness through a GT2 20T
+    pulley, about 493 kN/m): a 50 N push between indexes moves it 0.1 mm, not the 20 mm that
+    its slide friction alone allowed, and it comes back when the push ends; after an index the
+    drive holds the new position, and the carriage still falls asleep."""
+    cfg = SceneConfig(rows=3, cols=3)
+    k = cfg.conveyor_hold_stiffness
+    assert k == pytest.approx(0.40 * (math.pi / 2) / (2 * math.pi / 200) / 0.00637**2)
+    assert 4.9e5 < k < 5.0e5
+    scene = build_scene(cfg, seed=5)
+    run = Runner(scene)
+    data, dof, conveyor = run.data, scene.conveyor_dof_adr, run.conveyor
+    run.step(300)
+    assert data.ntree_awake == 1
+    push = 50.0
+    for sign in (+1, -1):
+        data.qfrc_applied[dof] = sign * push
+        run.step(200)
+        friction = cfg.conveyor_frictionloss  # the slide's dry friction holds up to 5 N
+        moved = sign * conveyor.displacement(data)
+        assert (push - friction) / k * 0.99 <= moved <= (push + friction) / k * 1.01
+        assert moved == pytest.approx(1.0e-4, rel=0.15)
+        data.qfrc_applied[dof] = 0.0
+        run.step(200)
+        assert abs(conveyor.displacement(data)) <= friction / k * 1.01
+    for c in range(cfg.cols):  # empty the pickup row, index once
+        adr = scene.pot_qpos_adr[c]
+        data.qpos[adr : adr + 3] = [0.4 + 0.05 * c, 0.1, -0.13]
+    conveyor.start(data, data.time, 0.6)
+    assert model_hold(scene) == (0.0, 0.0)  # the index profile alone drives the carriage
+    assert conveyor.displacement(data) == 0.0
+    run.step_until(data.time + 0.6)
+    conveyor.apply(data, data.time)
+    assert conveyor.hold_position() == pytest.approx(-cfg.row_pitch)
+    assert model_hold(scene) == pytest.approx((k, cfg.conveyor_hold_damping))
+    run.step(400)
+    assert abs(conveyor.displacement(data)) < 2e-4
+    assert data.ntree_awake == 1  # the hold lets it sleep (a passive force, no actuator)
+
+
+def model_hold(scene):
+    m, dof = scene.model, scene.conveyor_dof_adr
+    return float(m.jnt_stiffness[m.dof_jntid[dof]]), float(m.dof_damping[dof])

@@ -544,3 +544,64 @@ def test_homing_distances_follow_the_drives_and_256_microsteps_plan():
     assert time.perf_counter() - t0 < 30.0
     lift = next(r for r in rows if r.text.startswith("G1 X0 Y215 Z60 S60"))
     assert list(lift.steps) == [0, 0, 26 * 400 * 16]
+
+
+STALL = "error:67 motor 2 stalled"
+
+
+def test_a_stall_stops_the_motors_where_they_are_and_locks_until_homed(homed):
+    """A stall in the middle of a move: the pulses hold from that moment, the move is
+    answered error:67, the queued lines each get error:67, the next move is locked out
+    (error:9) and a G28 re-references the motors."""
+    sgf, endstops, t = homed
+    sgf.receive("G1 X45 Y200 Z60 S100", t)
+    sgf.receive("G4 P100", t)
+    sgf.receive("M280 P0 S90", t)
+    assert sgf.poll(t) == []
+    t_done = sgf.next_event_time()
+    t_stall = t + 0.4 * (t_done - t)
+    held = sgf.pulses_at(t_stall)[0]
+    assert sgf.poll(t_stall) == []
+    sgf.stall(t_stall, 1)
+    replies = sgf.poll(t_stall)
+    assert len(replies) == 3 and all(r.startswith(STALL) for r in replies)
+    assert "home with G28" in replies[0]
+    assert sgf.drain_servo_commands() == []  # the flushed M280 never ran
+    assert np.array_equal(sgf.pulses_at([t_stall, t_done, t_done + 5.0]), [held] * 3)
+    assert np.array_equal(sgf.raw_pulses, held)
+    assert not sgf.homed and np.isnan(sgf.position_xyz).all() and not sgf.busy
+    assert sgf.stalls == [(t_stall, 1)]
+    assert [name for _, name in sgf.drain_machine_events()][-1] == "stalled"
+    replies, t1 = run_line(sgf, "G1 X0 Y180 Z60", t_stall + 0.1)
+    assert replies[0].startswith("error:9")
+    t2 = home(sgf, endstops, t1)
+    replies, _ = run_line(sgf, "G1 X45 Y200 Z60 S100", t2)
+    assert replies == ["ok"] and np.allclose(sgf.position_xyz, [0.045, 0.200, 0.060])
+
+
+def test_a_stall_while_idle_answers_the_next_line_and_a_g28_clears_it(homed):
+    sgf, endstops, t = homed
+    sgf.stall(t + 0.1, 0)
+    assert sgf.poll(t + 0.1) == []  # nothing running: the host hears of it with its next line
+    replies, t1 = run_line(sgf, "M280 P0 S90", t + 0.2)
+    assert len(replies) == 1 and replies[0].startswith(
+        f"error:67 motor 1 stalled at t={t + 0.1:.3f} s"
+    )
+    assert sgf.drain_servo_commands() == []
+    replies, t2 = run_line(sgf, "M280 P0 S90", t1)  # reported once: now only locked
+    assert replies == ["ok"]
+    sgf2 = SGF(SGFConfig())  # a G28 after an idle stall homes as usual
+    t3 = home(sgf2, SimulatedEndstops(sgf2.config, START))
+    sgf2.stall(t3 + 0.1, 2)
+    assert home(sgf2, SimulatedEndstops(sgf2.config, START), t3 + 0.2) > t3
+    assert sgf2.homed
+
+
+def test_stalls_while_stopped_or_before_homing_change_nothing():
+    sgf = SGF(SGFConfig())
+    sgf.stall(0.5, 0)  # never homed: nothing runs
+    assert sgf.stalls == [] and sgf.poll(0.6) == []
+    replies, _ = run_line(sgf, "M280 P0 S90", 0.7)
+    assert replies == ["ok"]
+    with pytest.raises(ValueError, match="motor must be 0, 1 or 2"):
+        sgf.stall(0.8, 3)

@@ -86,9 +86,10 @@ def test_overloaded_motor_loses_steps_for_good():
     firmware's position and the platform's differ by them once the motor is at rest)."""
     weak = paper_config(1, **{"drives.holding_torque_nm": 0.12})
     twin = Twin(weak)
-    twin.step_until(2.0)  # homed (homing re-references whatever slipped on the way up)
+    while not twin.sgf.homed:  # homing re-references whatever slipped on the way up
+        twin.step_until(twin.time + 0.1)
     lost_at_homing = twin.microsteps_lost.copy()
-    twin.step_until(6.2)  # through the lift, into the retract at Z_up
+    twin.step_until(twin.time + 4.6)  # through the lift, into the retract at Z_up
     lost = twin.microsteps_lost - lost_at_homing
     assert lost[2] > 1000  # microsteps: more than 2.5 mm
     # the firmware believes it is at Z_up; the platform is short by the lost steps (within

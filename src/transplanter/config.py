@@ -172,6 +172,7 @@ def _machine(s: Scenario) -> Machine:
         homing_rate_hz=(drv.homing_rate_arm_hz, drv.homing_rate_arm_hz, drv.homing_rate_z_hz),
         conveyor_index_s=s.conveyor.index_time_s,
         mode=arm.working_mode,
+        stall_detection=s.recovery.stall_detection,
     )
     pgf = PGFConfig(
         gripper_servo=GRIPPER_SERVO,
@@ -184,6 +185,9 @@ def _machine(s: Scenario) -> Machine:
         seedlings=s.meta.seedlings,
         line_numbers=s.bus.line_numbers,
         rehome_every_cycles=s.recovery.rehome_every_cycles,
+        stall_recovery=s.recovery.stall_detection,
+        stall_retries=s.recovery.stall_retries,
+        stall_settle_s=s.recovery.stall_settle_s,
     )
     taught = s.taught
     taught_image = EepromImage(

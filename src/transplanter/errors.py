@@ -28,6 +28,7 @@ grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line fr
 | 64 | UNTERMINATED_COMMENT | a ``(`` comment is never closed |
 | 65 | CHECKSUM_WITHOUT_LINE_NUMBER | ``*<checksum>`` on a line with no ``N<n>`` |
 | 66 | RX_BUFFER_OVERFLOW | command queue and receive buffer full: the line was dropped |
+| 67 | MOTOR_STALLED | a driver reported a stall: motion stopped, queue flushed, home with G28 |
 """
 
 from __future__ import annotations
@@ -62,7 +63,19 @@ class ErrorCode(IntEnum):
     UNTERMINATED_COMMENT = 64
     CHECKSUM_WITHOUT_LINE_NUMBER = 65
     RX_BUFFER_OVERFLOW = 66
+    MOTOR_STALLED = 67
 
     def reply(self, message: str) -> str:
         """The firmware's answer for this code: ``error:<code> <message>``."""
         return f"error:{int(self)} {message}"
+
+    @classmethod
+    def of_reply(cls, reply: str) -> ErrorCode | None:
+        """The code of an ``error:<code> ...`` reply; None for any other line or code."""
+        head, _, number = reply.partition(" ")[0].partition(":")
+        if head != "error" or not (number.isascii() and number.isdigit()):
+            return None
+        try:
+            return cls(int(number))
+        except ValueError:
+            return None

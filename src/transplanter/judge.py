@@ -19,8 +19,11 @@ from transplanter.config import JudgeConfig
 from transplanter.firmware.pgf import LinePhase
 from transplanter.results import EventKind, Outcome, SeedlingRecord
 from transplanter.sim import LineEvent, LineEventKind, Twin
+from transplanter.units import M_PER_MM
 
 __all__ = ["Judge", "EventSink"]
+
+_HOMING = (LinePhase.HOME, LinePhase.REHOME, LinePhase.STALL_REHOME)
 
 # (time s, kind, text, seedling index or None): what the judge reports as it goes.
 EventSink = Callable[[float, EventKind, str, "int | None"], None]
@@ -78,6 +81,18 @@ class Judge:
                 self._start(rec, t)
             return
         if line.reply is not None and line.reply.startswith("error"):
+            if self.twin.pgf.fault is None:  # a stall the PGF recovers from: re-home, retry
+                self._emit(t, EventKind.STALL, f"{line.phase}: {line.reply}", line.seedling)
+                if rec is not None:
+                    rec.stall_recoveries += 1
+                    if rec.index in self.twin.pgf.abandoned and rec.outcome == Outcome.PENDING:
+                        self._update_microsteps_lost(rec)
+                        rec.outcome = self.failure_kind(rec)  # given up: never released
+                        self._emit(t, EventKind.FAILURE, f"seedling {rec.index}: "
+                                   f"{rec.outcome} (given up after {rec.stall_recoveries - 1} "
+                                   "stall recoveries)", rec.index)  # fmt: skip
+                        self.current = None
+                return
             if rec is not None:
                 rec.outcome = Outcome.MOVE_REJECTED
                 rec.rejected_line = f"{line.text} -> {line.reply}"
@@ -85,7 +100,7 @@ class Judge:
             self._emit(t, EventKind.FAILURE, f"rejected {line.text}: {line.reply}", line.seedling)
             return
         self._emit(t, EventKind.ACK, f"{line.phase}: {line.reply}", line.seedling)
-        if line.phase in (LinePhase.HOME, LinePhase.REHOME):  # homing re-references the motors
+        if line.phase in _HOMING:  # homing re-references the motors
             self.lost_at_homing = self.twin.microsteps_lost.copy()
             self.events_at_homing = len(self.twin.lost_step_events)
         if rec is None:
@@ -194,10 +209,10 @@ class Judge:
         """The first check a seedling whose pot is not in the tube failed."""
         if rec.knocked_before:
             return Outcome.KNOCKED_OVER
+        if rec.position_error_microsteps:  # off position from the start: the earlier strike
+            return Outcome.POSITION_LOST
         if rec.microsteps_lost:
             return Outcome.LOST_STEPS
-        if rec.position_error_microsteps:
-            return Outcome.POSITION_LOST
         if not rec.lifted:
             return Outcome.NOT_GRIPPED
         if not rec.in_gripper_at_drop:
@@ -241,6 +256,9 @@ class Judge:
         if not rec.leaves_hit:
             hit = scene.leaf_hit_pots(d)
             rec.leaves_hit = bool((hit != rec.pot).any())  # the neighbours' leaves
+        belt = abs(twin.conveyor.displacement(d)) / M_PER_MM
+        if belt > rec.max_belt_displacement_mm:
+            rec.max_belt_displacement_mm = belt
         lag = float(twin.motor_lag_full_steps().max())
         if lag > rec.max_lag_full_steps:
             rec.max_lag_full_steps = lag

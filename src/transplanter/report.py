@@ -43,14 +43,23 @@ def format_summary(result: TrialResult) -> str:
         ("real-time factor", f"{d['real_time_factor']:.1f}x" if d["real_time_factor"] else "n/a"),
     ]
     rows += [(f"failures: {k}", str(v)) for k, v in d["failures"].items()]
+    realign = max((abs(r["offset_mm"]) for r in d["belt_realignments"]), default=0.0)
+    rows.append(
+        (
+            "belt off its hold",
+            f"{d['max_belt_displacement_mm']:.3f} mm at most during a pick; "
+            f"{realign:.3f} mm at most taken back by an index",
+        )
+    )
     for i, e in enumerate(d["lost_step_events"]):
         cost = sum(r.lost_step_event == i for r in result.per_seedling if r.outcome != "success")
         touching = ", ".join(e["contacts"]) or "nothing"
+        after = "stall detected, re-homed" if e.get("detected") else f"cost {cost} seedlings"
         rows.append(
             (
                 f"lost steps #{i}",
                 f"t {e['t_s']:.3f} s, motor {e['motor'] + 1}, {e['microsteps']} microsteps, "
-                f"touching {printable(touching)}; cost {cost} seedlings",
+                f"touching {printable(touching)}; {after}",
             )
         )
     if d["fault"]:

@@ -45,6 +45,7 @@ class EventKind(StrEnum):
     RELEASE = "release"  # the gripper opens over the drop tube
     SUCCESS = "success"  # a seedling's pot is in the tube
     FAILURE = "failure"  # a seedling failed, or a line was refused
+    STALL = "stall"  # a driver reported a stall: the SGF stopped, the PGF re-homes
 
 
 FAILURE_KINDS: tuple[Outcome, ...] = tuple(
@@ -73,6 +74,8 @@ class SeedlingRecord:
     lifted: bool | None = None
     in_gripper_at_drop: bool | None = None
     rejected_line: str | None = None
+    stall_recoveries: int = 0  # stalls in this cycle the PGF re-homed and went on from
+    max_belt_displacement_mm: float = 0.0  # largest carriage offset from its held position
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
@@ -102,6 +105,7 @@ class TrialResult:
     recording_error: str | None = None  # the recording failed; the results stand
     lost_step_events: list[dict[str, Any]] = field(default_factory=list)
     overrides: dict[str, Any] = field(default_factory=dict)  # scenario keys set on the file
+    belt_realignments: list[dict[str, float]] = field(default_factory=list)  # at each index
 
     @property
     def failures_clustered(self) -> bool:
@@ -166,6 +170,10 @@ class TrialResult:
             "success_rate_ci95": ci95,  # None when the failures cluster (see pooled trials)
             "failures_clustered": self.failures_clustered,
             "lost_step_events": self.lost_step_events,
+            "max_belt_displacement_mm": max(
+                (r.max_belt_displacement_mm for r in self.per_seedling), default=0.0
+            ),
+            "belt_realignments": self.belt_realignments,
             "failures": self.failures(),
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,
             "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,

@@ -281,7 +281,11 @@ class PhysicsSection:
     """[physics]: solver settings."""
 
     timestep_s: float = key("float", 0.01, 10)
-    sleep: bool = key("bool", doc="let resting pots sleep (never changes an outcome)")
+    sleep: bool = key(
+        "bool",
+        doc="let resting bodies sleep: faster; may change a single trial's trajectory near "
+        "the edge, not the pooled rate over seeds (docs/solver_knobs.md)",
+    )
 
 
 @dataclass(frozen=True)
@@ -293,6 +297,16 @@ class RecoverySection:
         lo=0,
         hi=100000,
         doc="G28 and back to the drop point before every N-th cycle; 0 never",
+    )
+    stall_detection: bool = key(
+        "bool",
+        doc="drivers report a stall (StallGuard): the SGF stops, the PGF re-homes and retries",
+    )
+    stall_retries: int = key(
+        "int", lo=1, hi=100, doc="stalls one seedling's cycle may recover from before the PGF stops"
+    )
+    stall_settle_s: float = key(
+        "float", lo=0, hi=10000, doc="dwell after a stall before the re-home (the arm settles)"
     )
 
 
@@ -326,6 +340,7 @@ _FILE_KEY_OVERRIDES = {
     "mass_max_kg": "mass_max_g", "open_dwell_s": "open_dwell_ms",
     "close_dwell_s": "close_dwell_ms", "release_dwell_s": "release_dwell_ms",
     "compute_time_per_point_s": "compute_time_per_point_us", "timestep_s": "timestep_ms",
+    "stall_settle_s": "stall_settle_ms",
 }  # fmt: skip
 _FILE_SUFFIX = {"_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm", "_rad": "_deg"}
 

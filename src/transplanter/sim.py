@@ -35,6 +35,9 @@ __all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepE
 _MAX_BLOCK_STEPS = 500
 # The motors are checked for slipping every this many physics steps.
 SLIP_CHECK_STEPS = 5
+# A motor counts as being stepped (its driver can sense a stall) when it got a pulse in this
+# long (s): about 3 full steps/s at 16 microsteps, StallGuard's lower speed range.
+STALL_WINDOW_S = 0.02
 # Wrist servo angle at which the jaws point along passive link 1 (the wrist joint's zero).
 WRIST_SERVO_ZERO_DEG = 90.0
 
@@ -48,6 +51,7 @@ class LostStepEvent:
     motor: int  # 0 arm 1, 1 arm 2, 2 Z
     microsteps: int
     contacts: tuple[str, ...]
+    detected: bool = False  # the driver reported it as a stall and the SGF stopped
 
 
 class SimulationInvalid(RuntimeError):
@@ -154,6 +158,9 @@ class Twin:
         self.slip_offset = np.zeros(3)  # joint units the motors have lost so far
         self.microsteps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
         self.lost_step_events: list[LostStepEvent] = []
+        self.belt_realignments: list[tuple[float, float]] = []
+        """(t, m) at each conveyor index: how far the belt was off its held position, which
+        the index's own profile then takes back."""
         platform = self.model.body("platform").id
         self._machine_body = self.model.body_rootid == self.model.body_rootid[platform]
         self.k = 0  # physics steps taken; time = k * dt exactly
@@ -182,6 +189,7 @@ class Twin:
             servo.command(ts, deg)
         for t_event, name in self.sgf.drain_machine_events():
             if name == "conveyor_index":
+                self.belt_realignments.append((t_event, self.conveyor.displacement(self.data)))
                 self.conveyor.start(self.data, t_event, self.machine.sgf.conveyor_index_s)
         sent = self.pgf.sent
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
@@ -236,32 +244,52 @@ class Twin:
                     self.conveyor.apply(d, self.time)
                 mujoco.mj_step(m, d)
                 self.k += 1
-                if self.k % SLIP_CHECK_STEPS == 0:
-                    self._slip(rows, i)
+                stalled = self.k % SLIP_CHECK_STEPS == 0 and self._slip(rows, i)
                 if monitor is not None and self.k % monitor_every == 0:
                     monitor(self, i)
+                if stalled:  # the SGF stopped: the rest of this block's commands are void
+                    break
             self._check_valid()
             if stop_when_done and (self.pgf.done or self.pgf.fault):
                 return
 
-    def _slip(self, rows: np.ndarray, i: int) -> None:
-        """Let every motor lagging more than two full steps slip by whole electrical cycles."""
+    def _slip(self, rows: np.ndarray, i: int) -> bool:
+        """Let every motor lagging more than two full steps slip by whole electrical cycles;
+        True when the drivers reported it to the SGF (stall detection), which stopped."""
         lag = self.commanded_joints() - self.scene.joint_positions(self.data)
         cycles = np.rint(lag / self.electrical_cycle)
         if not cycles.any():
-            return
+            return False
         shift = cycles * self.electrical_cycle
         self.slip_offset -= shift
         lost = (cycles * 4 * self.microsteps_per_full_step).astype(np.int64)
         self.microsteps_lost += lost
         contacts = self.machine_contacts()
+        detected = self._stall_flags(lost)
         for motor in np.flatnonzero(lost):
             self.lost_step_events.append(
-                LostStepEvent(self.time, int(motor), int(lost[motor]), contacts)
+                LostStepEvent(
+                    self.time, int(motor), int(lost[motor]), contacts, bool(detected[motor])
+                )
             )
         acts = self.scene.motor_actuators
         rows[i + 1 :, acts] -= shift * self.scene.motor_gears
         self.data.ctrl[acts] -= shift * self.scene.motor_gears
+        if not detected.any():
+            return False
+        self.sgf.stall(self.time, int(np.flatnonzero(detected)[0]))
+        return True
+
+    def _stall_flags(self, lost: np.ndarray) -> np.ndarray:
+        """Which slipping motors their drivers report as stalled: with stall detection, a
+        motor that is being stepped. StallGuard measures the back-EMF of a turning motor
+        and is blind below a minimum step rate (TMC2209 datasheet: TCOOLTHRS), so a motor
+        pushed off position while it holds still loses its steps unnoticed."""
+        if not self.sgf.config.stall_detection:
+            return np.zeros(3, dtype=bool)
+        window = np.array([self.time - STALL_WINDOW_S, self.time])
+        pulses = self.sgf.pulses_at(window)
+        return (lost != 0) & (pulses[1] != pulses[0])
 
     def _check_valid(self) -> None:
         grown = self._warning_counts() - self._warnings0

@@ -20,6 +20,7 @@ from transplanter.config import TwinConfig
 from transplanter.judge import Judge
 from transplanter.results import Outcome, SeedlingRecord, TrialResult
 from transplanter.sim import SimulationInvalid, Twin
+from transplanter.units import M_PER_MM
 
 __all__ = ["run_trial", "TrialInterrupted", "MONITOR_EVERY_STEPS", "FIRMWARE_HORIZON_S"]
 
@@ -112,6 +113,9 @@ def run_trial(
         interrupted=interrupted,
         recording_error=recording_error,
         lost_step_events=[dataclasses.asdict(e) for e in twin.lost_step_events],
+        belt_realignments=[
+            {"t_s": t, "offset_mm": offset / M_PER_MM} for t, offset in twin.belt_realignments
+        ],
         overrides=dict(config.overrides),
     )
     if interrupted:

@@ -1,6 +1,7 @@
 """Homing (G28) of the three motors, like grbl's limits.c: seek, pull off, locate, pull off.
 
-Every motor at once: seek the limit switch at ``homing_rate_hz`` until the switch reads
+Z first (``homing_z_first``, grbl's default cycle order), then both arms at once; or every
+motor at once. Each motor: seek the limit switch at ``homing_rate_hz`` until the switch reads
 closed, pull off ``homing_pulloff_steps``, then locate it again slowly at
 ``homing_locate_rate_hz`` (the switch must read open first). The fast seek trips late (the
 motor lags its command, the switch is read once per poll); the slow locate cuts that error
@@ -89,6 +90,12 @@ class Homing:
             for m in range(3)
         ]
         self.phase = np.zeros(3, dtype=np.int64)
+        # Phase -1: waiting (holding still) for the first cycle's motors to finish.
+        self.first_cycle = [2] if config.homing_z_first else [0, 1, 2]
+        for m in range(3):
+            if m not in self.first_cycle:
+                self.legs[m] = [(t0, int(raw0[m]), 1, 0.0, 0)]
+                self.phase[m] = -1
         self.t_locate = np.full(3, np.inf)
         self.cleared = np.zeros(3, dtype=bool)  # switch read open since the locate began
         self.t_end = np.full(3, np.inf)
@@ -125,6 +132,22 @@ class Homing:
 
     def update(self, now: float, endstops: Sequence[bool] | None) -> str | None:
         """Act on the switches read at ``now``; a failure message if homing failed."""
+        waiting = np.flatnonzero(self.phase == -1)
+        if waiting.size and np.all(self.phase[self.first_cycle] == 2):
+            t_start = float(np.max(self.t_end[self.first_cycle]))
+            for motor in waiting:  # the next cycle seeks once the first has pulled off
+                m = int(motor)
+                raw = int(self.legs[m][-1][1])
+                self.legs[m].append(
+                    (
+                        t_start,
+                        raw,
+                        int(self.dirs[m]),
+                        float(self.seek_rate[m]),
+                        int(self.max_steps[m]),
+                    )
+                )
+                self.phase[m] = 0
         for motor in range(3):
             closed = endstops is not None and bool(endstops[motor])
             direction = int(self.dirs[motor])

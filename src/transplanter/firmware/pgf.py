@@ -25,6 +25,17 @@ Per seedling i (pickup c = i mod M_pp) the lines and their phases are::
 framed by ``G28`` (home), ``G90`` (absolute), the wrist to M_dep and a move to the drop point
 (the cycle's initial position, paper section 1.2) at the start, and ``M400`` (finish) at the
 end.
+
+Stall recovery (``PGFConfig.stall_recovery``, off on the paper's machine): an ``error:67``
+(a motor stalled, the SGF stopped) does not stop the PGF. It waits for the arm to settle
+(``G4``), sends ``G28`` and a move back to the drop point (phases ``stall_settle``,
+``stall_rehome``, ``stall_to_start``), then goes on from where the
+seedling can be saved: before the gripper closed, the seedling's cycle again from its
+approach; with the gripper closed (the pot may be in the jaws), from ``drop_elbow`` (carry
+it to the tube and release); otherwise the refused line again. A seedling that stalls
+more than ``stall_retries`` times is given up (``abandoned``): after the re-home the PGF
+goes on with its conveyor index, if any, and the next seedling. A stall outside any
+seedling's cycle beyond the retries stops the PGF with a fault.
 """
 
 from __future__ import annotations
@@ -34,6 +45,7 @@ import math
 from dataclasses import dataclass
 from enum import StrEnum
 
+from transplanter.errors import ErrorCode
 from transplanter.firmware.eeprom import EepromImage
 from transplanter.gcode import SERVO_INDICES, SERVO_MAX_DEG, format_line, valid_servo_angle
 from transplanter.units import M_PER_MM, S_PER_MS
@@ -57,6 +69,14 @@ class PGFConfig:
     rehome_every_cycles: int = 0
     """Re-home (G28, back to the drop point) before every N-th cycle after the first N; 0:
     never, as the paper's open-loop machine. The lines belong to that seedling's cycle."""
+    stall_recovery: bool = False
+    """On an ``error:67`` stall reply re-home and retry (module docstring); False: a stall
+    stops the PGF like any refused line."""
+    stall_retries: int = 3
+    """Stalls one seedling's cycle may recover from; one more and the seedling is given up."""
+    stall_settle_s: float = 0.3
+    """Dwell before the re-home after a stall: the arm, knocked off position, comes to rest
+    against the holding motors first (a re-home into a swinging arm stalls again)."""
 
     def __post_init__(self):
         for name in ("gripper_servo", "wrist_servo"):
@@ -70,7 +90,7 @@ class PGFConfig:
                 raise ValueError(
                     f"{name} = {value} is outside the servo range 0-{SERVO_MAX_DEG:g} deg"
                 )
-        for name in ("open_dwell_s", "close_dwell_s", "release_dwell_s"):
+        for name in ("open_dwell_s", "close_dwell_s", "release_dwell_s", "stall_settle_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name} = {value} s must be >= 0")
@@ -83,6 +103,12 @@ class PGFConfig:
         ):
             raise ValueError(
                 f"rehome_every_cycles must be a whole number >= 0, got {self.rehome_every_cycles!r}"
+            )
+        if isinstance(self.stall_retries, bool) or not (
+            isinstance(self.stall_retries, int) and self.stall_retries >= 1
+        ):
+            raise ValueError(
+                f"stall_retries must be a whole number >= 1, got {self.stall_retries!r}"
             )
 
 
@@ -113,6 +139,9 @@ class LinePhase(StrEnum):
     INDEX = "index"
     REHOME = "rehome"  # recovery: G28 inside a cycle (PGFConfig.rehome_every_cycles)
     REHOME_TO_START = "rehome_to_start"  # back to the drop point after it
+    STALL_SETTLE = "stall_settle"  # recovery: a dwell after a stall (PGFConfig.stall_recovery)
+    STALL_REHOME = "stall_rehome"  # recovery: G28 after a stall (PGFConfig.stall_recovery)
+    STALL_TO_START = "stall_to_start"  # back to the drop point after it
     FINISH = "finish"
 
 
@@ -123,6 +152,23 @@ class ProgramLine:
     seedling: int | None
     phase: LinePhase
     text: str
+    command: str = ""
+    words: dict = dataclasses.field(default_factory=dict)
+
+
+# Where a seedling's cycle resumes after a stall in each phase (module docstring).
+_RETRY_FROM_APPROACH = frozenset(
+    {
+        LinePhase.REHOME, LinePhase.REHOME_TO_START, LinePhase.APPROACH, LinePhase.ELBOW,
+        LinePhase.OPEN, LinePhase.OPEN_WAIT, LinePhase.GRIP,
+    }
+)  # fmt: skip
+_RESUME_AT_DROP = frozenset(
+    {
+        LinePhase.CLOSE, LinePhase.CLOSE_WAIT, LinePhase.LIFT, LinePhase.RETRACT,
+        LinePhase.DROP_ELBOW, LinePhase.TO_DROP,
+    }
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -195,7 +241,7 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
     program = []
     for number, (seedling, phase, command, words) in enumerate(lines, start=1):
         text = format_line(command, words, line_number=number if config.line_numbers else None)
-        program.append(ProgramLine(seedling, phase, text))
+        program.append(ProgramLine(seedling, phase, text, command, words))
     return tuple(program)
 
 
@@ -209,8 +255,17 @@ class PGF:
         self.sent: list[SentLine] = []
         self.info: list[tuple[float, str]] = []
         """Replies that are neither ``ok`` nor ``error:`` (position reports, echoes)."""
+        self.stalls: list[tuple[float, SentLine]] = []
+        """(t, the line the stall reply answered) of every stall recovered from."""
+        self.abandoned: list[int] = []
+        """Seedlings given up after ``stall_retries`` recoveries (their cycle was skipped)."""
         self._fault: str | None = None
         self._outstanding = False
+        self._cursor = 0  # next program line
+        self._detour: list[ProgramLine] = []  # recovery lines to send before it
+        self._outstanding_index: int | None = None  # program index of the outstanding line
+        self._resume_index = 0
+        self._stalls_per_seedling: dict[int | None, int] = {}
 
     @property
     def fault(self) -> str | None:
@@ -225,11 +280,77 @@ class PGF:
     @property
     def done(self) -> bool:
         """Every line sent and acknowledged."""
-        return self._fault is None and not self._outstanding and len(self.sent) == len(self.program)
+        return (
+            self._fault is None
+            and not self._outstanding
+            and not self._detour
+            and self._cursor >= len(self.program)
+        )
 
     def _close_current(self, now: float, reply: str) -> None:
         self.sent[-1] = dataclasses.replace(self.sent[-1], t_reply=now, reply=reply)
         self._outstanding = False
+
+    def _recover(self, now: float, reply: str) -> bool:
+        """Plan the way back after a stall reply to the outstanding line; False: give up."""
+        line = self.sent[-1]
+        count = self._stalls_per_seedling.get(line.seedling, 0) + 1
+        self._stalls_per_seedling[line.seedling] = count
+        give_up = count > self.config.stall_retries
+        if give_up and line.seedling is None:
+            return False
+        self.stalls.append((now, line))
+        index = self._outstanding_index
+        if give_up:  # this seedling keeps stalling: re-home and go on with the next one
+            self.abandoned.append(line.seedling)
+            self._resume_index = self._after_seedling(line.seedling)
+        elif index is not None:  # a program line: where to go on from; a detour: as before
+            self._resume_index = self._resume_point(index)
+        self._cursor = self._resume_index
+        if line.phase == LinePhase.HOME:
+            self._detour = []
+            return True
+        drop_x, drop_y = (_mm(v) for v in self.eeprom.drop_xy_m)
+        words = {
+            "X": drop_x,
+            "Y": drop_y,
+            "Z": _mm(self.eeprom.z_up_m),
+            "S": _mm(self.eeprom.s_high_m_s),
+        }
+        settle = {"P": _ms(self.config.stall_settle_s)}
+        self._detour = [
+            ProgramLine(
+                line.seedling, LinePhase.STALL_SETTLE, format_line("G4", settle), "G4", settle
+            ),
+            ProgramLine(line.seedling, LinePhase.STALL_REHOME, format_line("G28", {}), "G28", {}),
+            ProgramLine(
+                line.seedling, LinePhase.STALL_TO_START, format_line("G1", words), "G1", words
+            ),
+        ]
+        return True
+
+    def _after_seedling(self, seedling: int) -> int:
+        """Program index to go on from when a seedling is given up: its conveyor index if
+        it has one (the belt must still move on), else the line after its cycle."""
+        lines = [i for i, p in enumerate(self.program) if p.seedling == seedling]
+        if self.program[lines[-1]].phase == LinePhase.INDEX:
+            return lines[-1]
+        return lines[-1] + 1
+
+    def _resume_point(self, index: int) -> int:
+        """Program index to go on from after a stall in program line ``index``."""
+        line = self.program[index]
+        if line.phase in _RETRY_FROM_APPROACH:
+            wanted = LinePhase.APPROACH
+        elif line.phase in _RESUME_AT_DROP:
+            wanted = LinePhase.DROP_ELBOW
+        else:
+            return index
+        return next(
+            i
+            for i, p in enumerate(self.program)
+            if p.seedling == line.seedling and p.phase == wanted
+        )
 
     def poll(self, now: float, replies: list[str]) -> list[str]:
         """Take the SGF's replies received by ``now``; return the lines to transmit now."""
@@ -246,15 +367,24 @@ class PGF:
             elif reply.lower().startswith("error"):
                 if self._outstanding:
                     line = self.sent[-1]
-                    self._fault = f"SGF refused {line.text!r} ({line.phase}): {reply}"
                     self._close_current(now, reply)
+                    stalled = ErrorCode.of_reply(reply) is ErrorCode.MOTOR_STALLED
+                    if not (stalled and self.config.stall_recovery and self._recover(now, reply)):
+                        self._fault = f"SGF refused {line.text!r} ({line.phase}): {reply}"
                 else:
                     self._fault = f"SGF reported {reply!r} with no line outstanding"
             else:
                 self.info.append((now, reply))
-        if self._fault is not None or self._outstanding or len(self.sent) == len(self.program):
+        if self._fault is not None or self._outstanding or self.done:
             return []
-        line = self.program[len(self.sent)]
-        self.sent.append(SentLine(line.seedling, line.phase, line.text, t_sent=now))
+        if self._detour:
+            line, self._outstanding_index = self._detour.pop(0), None
+        else:
+            line, self._outstanding_index = self.program[self._cursor], self._cursor
+            self._cursor += 1
+        text = line.text
+        if self.config.line_numbers:  # numbered as sent: a detour shifts the later numbers
+            text = format_line(line.command, line.words, line_number=len(self.sent) + 1)
+        self.sent.append(SentLine(line.seedling, line.phase, text, t_sent=now))
         self._outstanding = True
-        return [line.text]
+        return [text]

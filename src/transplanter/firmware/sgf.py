@@ -22,6 +22,12 @@ its reply when it is done, so replies come back in line order:
 - ``G28``: two-pass homing like grbl's (:class:`transplanter.firmware.homing.Homing`): seek,
   pull off, slow locate, pull off; ``ok`` once done, ``error:9`` if a switch is not found.
   Moves before homing are refused (error 9, like grbl's alarm lock).
+- Stall (``stall()``, a driver's stall output such as Trinamic StallGuard's DIAG pin, wired
+  only when ``stall_detection``): every motor stops where it is, the running line and
+  every queued or buffered line are answered ``error:67``, and the position is unknown
+  (moves get ``error:9``) until a ``G28``. A stall while idle is reported to the next line
+  (unless it is a ``G28``). Prusa's crash detection and Klipper's sensorless homing use the
+  same driver signal; what the host does next is the host's business (the PGF re-homes).
 
 Two counters per motor: raw pulses since power-on (never reset; they drive the simulated
 motors through ``pulses_at``) and logical steps, which homing sets.
@@ -73,6 +79,9 @@ class SGFConfig:
     """Step rate of the slow second approach (locate); None: homing_rate_hz / 10."""
     homing_dirs: tuple[int, int, int] = (+1, -1, +1)
     """Direction (+1/-1 in step counts) in which each motor seeks its switch."""
+    homing_z_first: bool = True
+    """Home Z (up) alone first, then both arms, like grbl's default HOMING_CYCLE_0 = Z:
+    jaws that stopped among the pots rise clear of them before the arms swing."""
     homing_pulloff_steps: tuple[int, int, int] | None = None
     """Steps each motor backs off its switch after it trips; None: 3.6 deg of each arm joint
     and 1 mm of Z in the drives' steps (96, 96, 400 with the default drives)."""
@@ -90,6 +99,9 @@ class SGFConfig:
     """Five-bar working mode passed to the IK (paper: '+-', elbows out)."""
     command_queue_lines: int = 4
     """Parsed lines waiting behind the running one (Marlin's BUFSIZE = 4)."""
+    stall_detection: bool = False
+    """The drivers' stall output is wired to the SGF (see ``SGF.stall``); the paper's
+    open-loop machine has none."""
     rx_buffer_bytes: int = 512
     """Serial receive buffer: lines that arrive while the command queue is full wait here,
     unparsed (Marlin stops reading serial while its queue is full; its RX_BUFFER_SIZE may be
@@ -229,6 +241,9 @@ class SGF:
         # motion history for pulses_at: segment start times and evaluators
         self._segment_starts: list[float] = []
         self._segments: list = []
+        self._pending_stall: str | None = None  # a stall reply for the next line
+        self.stalls: list[tuple[float, int]] = []
+        """(t, motor) of every stall that stopped the SGF."""
         self.homing_trip_raw: np.ndarray | None = None
         """Raw pulse counts at which each switch was read closed by the last homing's locate."""
 
@@ -373,13 +388,53 @@ class SGF:
         del self._segments[:keep_from]
         return keep_from
 
+    def stall(self, now: float, motor: int) -> None:
+        """A driver reports that ``motor`` (0, 1, 2) stalled at ``now``: stop everything
+        (ignored while the position is unknown and no homing runs: already stopped).
+
+        The motors hold the pulse counts they had at ``now``; the running line ends with
+        ``error:67`` and so does every line waiting in the queue or the receive buffer (each
+        line still gets exactly one reply, in order); the position is unknown until ``G28``.
+        """
+        self._check_time(now)
+        if motor not in (0, 1, 2):
+            raise ValueError(f"motor must be 0, 1 or 2, got {motor!r}")
+        if not (self.homed or self.homing):
+            return  # already stopped, or never homed: nothing runs that a stall could stop
+        self.stalls.append((now, motor))
+        held = self.pulses_at(now)[0]
+        self._add_segment(now, lambda t: np.broadcast_to(held, (np.size(t), 3)).copy())
+        self._raw = held.copy()
+        self.homed = False
+        self._position[:] = np.nan
+        message = ErrorCode.MOTOR_STALLED.reply(
+            f"motor {motor + 1} stalled at t={now:.3f} s: motion stopped, position lost; "
+            "home with G28"
+        )
+        self._machine_events.append((now, "stalled"))
+        job = self._current
+        if job is None:
+            self._pending_stall = message
+        else:
+            job.move, job.homing, job.t_done = None, None, now
+            job.replies = [message]
+            self._finish(job)
+        for _ in self._queue:
+            self._replies.append(message)
+        for _ in self._rx:
+            self._replies.append(message)
+        self._queue.clear()
+        self._rx.clear()
+        self._rx_bytes = 0
+
     def drain_servo_commands(self) -> list[tuple[float, int, float]]:
         """(t, servo index, angle deg) commanded since the last drain."""
         out, self._servo_commands = self._servo_commands, []
         return out
 
     def drain_machine_events(self) -> list[tuple[float, str]]:
-        """(t, name) events since the last drain: 'conveyor_index', 'homed', 'homing_failed'."""
+        """(t, name) events since the last drain: 'conveyor_index', 'homed', 'homing_failed',
+        'stalled'."""
         out, self._machine_events = self._machine_events, []
         return out
 
@@ -396,6 +451,11 @@ class SGF:
             job.replies = [line.reply]
             return
         command, words = line.command, line.words
+        if self._pending_stall is not None:
+            message, self._pending_stall = self._pending_stall, None
+            if command != "G28":
+                job.replies = [message]
+                return
         try:
             if command in ("G0", "G1"):
                 self._start_move(job, words)

@@ -294,8 +294,11 @@ def _add_static_box(body, name, half, pos, quat) -> None:
 
 
 def apply_conveyor_layout(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
-    """Carriage mass and slide friction, and the belt table sized for rows x cols."""
-    spec.joint("conveyor").frictionloss = cfg.conveyor_frictionloss
+    """Carriage mass, slide friction and drive hold, and the belt table sized for rows x cols."""
+    joint = spec.joint("conveyor")
+    joint.frictionloss = cfg.conveyor_frictionloss
+    joint.stiffness = [cfg.conveyor_hold_stiffness, 0.0, 0.0]  # held by its drive at springref 0
+    joint.damping = [cfg.conveyor_hold_damping, 0.0, 0.0]
     spec.body("conveyor").mass = cfg.conveyor_mass
     table = spec.geom("belt_table")
     table.size, table.pos = belt_table(cfg, table.size[2])

@@ -157,6 +157,14 @@ class SceneConfig:
     conveyor_settle_s: float = 0.10
     conveyor_push_share: float = 0.85
     conveyor_overshoot: float | None = None
+    # Between indexes the carriage is held by its drive: a NEMA17 stepper (holding torque
+    # 0.40 N*m, 17HS4401 datasheet; 1.8 deg full step) through a GT2 20-tooth pulley (pitch
+    # radius 6.37 mm). A hybrid stepper's torque near a detent is T_hold * sin(pi/2 * angle /
+    # full step), so its stiffness is T_hold * (pi/2) / full step (20 N*m/rad), and at the
+    # belt / r^2: about 493 kN/m, up to T_hold / r = 63 N. The damping ratio of that hold.
+    conveyor_holding_torque: float = 0.40
+    conveyor_pulley_radius: float = 0.00637
+    conveyor_hold_damping_ratio: float = 0.5
 
     # --- paper pots: nominal size (m), mass (kg) and their spreads (normal sd, clipped),
     # placement offset sd in the cell (m, clipped to +-pot_offset_max), friction of the
@@ -316,6 +324,23 @@ class SceneConfig:
         if self.conveyor_overshoot is not None:
             return self.conveyor_overshoot
         return self.cell_clearance
+
+    @property
+    def conveyor_hold_stiffness(self) -> float:
+        """Stiffness (N/m) of the conveyor drive holding the carriage between indexes."""
+        full_step = 2.0 * math.pi / 200.0  # the conveyor stepper's 1.8 deg
+        return (
+            self.conveyor_holding_torque
+            * (math.pi / 2)
+            / full_step
+            / self.conveyor_pulley_radius**2
+        )
+
+    @property
+    def conveyor_hold_damping(self) -> float:
+        """Damping (N*s/m) of that hold: the damping ratio of the carriage on it."""
+        k, m = self.conveyor_hold_stiffness, self.conveyor_mass
+        return 2.0 * self.conveyor_hold_damping_ratio * math.sqrt(k * m)
 
     @property
     def full_step_rad(self) -> float:

@@ -1,20 +1,26 @@
 """The conveyor's index drive: a controller of the scene's unactuated conveyor carriage.
 
 The belt table is static (it ends at the front edge of the pickup row); the pots stand on it
-and are pushed by the 5 mm ribs of the `conveyor` carriage, an UNACTUATED slide (so it sleeps
-with its resting pots). `ConveyorDrive.start(data, now, total_s)` arms a smooth profile
-followed by a short hold, all within total_s (the carriage is at rest and released by
-now + total_s, when the firmware acknowledges M710); `apply(data, now)`, called before every
-physics step while `armed(data)`, writes a PD force following it into `qfrc_applied` of the
-conveyor dof. A non-zero applied force is MuJoCo's documented way to wake a sleeping tree,
-and writing back an exact 0.0 at the end lets it fall asleep again. The profile overshoots by
-the cell clearance and comes back, so the ribs push every pot to its new cell centre and then
-leave it free (no rib contact at rest, so the pots and the carriage do not form one island).
+and are pushed by the 5 mm ribs of the `conveyor` carriage, an UNACTUATED slide (so it
+sleeps with its resting pots). Between indexes its drive holds it: the joint's stiffness and
+damping (a stepper's detent stiffness through its pulley,
+SceneConfig.conveyor_hold_stiffness) pull it back to ``qpos_spring``, the position the last
+index ended at; a passive force lets the tree sleep at rest, an actuator would not.
+`ConveyorDrive.start(data, now, total_s)` arms a smooth profile followed by a short hold,
+all within total_s (the carriage is at rest and released by now + total_s, when the firmware
+acknowledges M710); `apply(data, now)`, called before every physics step while
+`armed(data)`, writes a PD force following it into `qfrc_applied` of the conveyor dof. A
+non-zero applied force is MuJoCo's documented way to wake a sleeping tree, and writing back
+an exact 0.0 at the end lets it fall asleep again. The profile overshoots by the cell
+clearance and comes back, so the ribs push every pot to its new cell centre and then leave
+it free (no rib contact at rest, so the pots and the carriage do not form one island).
 
 Where the state lives: the index state (active flag, start time, profile duration, end time,
 start position) is in data.userdata[0:USERDATA_CONVEYOR], nowhere else, so it is part of
 the MjData and copies with it (mujoco.mj_copyData, copy.copy). The drive object itself holds
 only constants of the model (addresses, gains), so one drive serves any MjData of its scene.
+The hold is in the model (jnt_stiffness and dof_damping of the slide, off during an index;
+qpos_spring, the held position, set as each index ends), edited like the ribs below.
 
 Rows past the edge: each row's ribs collide only with that row's pots (collision bits
 8..31). When an index carries a row's cells off the belt's top run, its ribs go round the
@@ -60,6 +66,10 @@ class ConveyorDrive:
                 f"{USERDATA_CONVEYOR} (<size nuserdata=...> in models/transplanter.xml)"
             )
         m, rows = self.model, self.config.rows
+        # The drive's hold (joint stiffness about qpos_spring, and damping) as built; off
+        # while the index profile drives the carriage, back at the new position after it.
+        self._joint = int(m.dof_jntid[self.dof_adr])
+        self._hold = (float(m.jnt_stiffness[self._joint]), float(m.dof_damping[self.dof_adr]))
         self._rib_geoms_by_row = [
             np.array([g for g in range(m.ngeom) if (m.geom(g).name or "").startswith(f"rib_{r}_")])
             for r in range(rows)
@@ -99,6 +109,8 @@ class ConveyorDrive:
         profile_s, _ = self.index_phases(total_s)
         pitch = self.config.row_pitch
         q0 = round(data.qpos[self.qpos_adr] / pitch) * pitch
+        self.model.jnt_stiffness[self._joint] = 0.0
+        self.model.dof_damping[self.dof_adr] = 0.0
         self._set_rows_past_the_edge(q0 - pitch)
         u[_U_ACTIVE], u[_U_T0], u[_U_PROFILE], u[_U_END], u[_U_Q0] = (
             1.0,
@@ -168,6 +180,18 @@ class ConveyorDrive:
         # An exact 0.0 lets the carriage's tree fall asleep again.
         data.qfrc_applied[self.dof_adr] = 0.0
         data.userdata[_U_ACTIVE] = 0.0
+        self.model.qpos_spring[self.qpos_adr] = data.userdata[_U_Q0] - self.config.row_pitch
+        self.model.jnt_stiffness[self._joint], self.model.dof_damping[self.dof_adr] = self._hold
+
+    def hold_position(self) -> float:
+        """Where the drive holds the carriage between indexes (m)."""
+        return float(self.model.qpos_spring[self.qpos_adr])
+
+    def displacement(self, data: mujoco.MjData) -> float:
+        """How far (m) the carriage is off the position its drive holds; 0 while indexing."""
+        if conveyor_armed(data):
+            return 0.0
+        return float(data.qpos[self.qpos_adr] - self.model.qpos_spring[self.qpos_adr])
 
     def _set_rows_past_the_edge(self, q_after: float) -> None:
         """Rows whose cells leave the belt's top run at this index go round the front drum:
