@@ -375,6 +375,63 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_tune(args: argparse.Namespace) -> int:
+    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.stats import parse_seeds
+    from transplanter.sweep import SweepRefused, format_value, parse_param_range
+    from transplanter.tune import Param, TuneSpec, run_tune
+
+    try:
+        seeds = parse_seeds(args.seeds)
+    except ValueError as exc:
+        _err(f"--seeds: {exc}")
+        return EXIT_REFUSED
+    if args.trials < 1:
+        _err(f"--trials must be at least 1, got {args.trials}")
+        return EXIT_REFUSED
+    try:
+        overrides = _overrides(args)
+        params = tuple(Param(*parse_param_range(p)) for p in args.param)
+        seedlings = args.seedlings
+        if seedlings is None:
+            seedlings = load_scenario(args.scenario, overrides).meta.seedlings
+        spec = TuneSpec(
+            args.scenario, params, tuple(seeds), seedlings, overrides, args.sampler_seed
+        )
+        spec.check()
+        report = run_tune(
+            spec, args.trials, args.storage, args.study, args.out, workers=args.workers,
+            progress=not args.quiet and sys.stderr.isatty(),
+        )  # fmt: skip
+    except (ScenarioError, SweepRefused) as exc:
+        _err(f"tune refused: {exc}")
+        return EXIT_REFUSED
+    except OSError as exc:
+        _err(f"the results could not be written: {exc}")
+        return EXIT_OUTPUT_FAILED
+    print(
+        f"study {_show(args.study)}: {report.finished} trials ({report.ran} run now), "
+        f"{len(report.front)} on the Pareto front"
+    )
+    keys = [p.key for p in params]
+    for row in report.front:
+        values = " ".join(f"{k}={format_value(row[k])}" for k in keys)
+        print(
+            f"  trial {row['trial']:>4}: {values}  success {100 * row['success_rate']:.1f} % "
+            f"(lower 95 % bound {100 * row['ci95_low']:.1f} %), cycle {row['cycle_time_s']:.3f} s"
+        )
+    print("files: " + ", ".join(_show(p) for p in report.files))
+    if report.chosen is not None:
+        print(
+            f"run the chosen point with: transplanter trial {_show(Path(args.out) / 'tuned.toml')}"
+        )
+    print(f"browse the study with: optuna-dashboard {_show(report.storage)}")
+    if report.interrupted:
+        _err("interrupted; rerun the same command to go on (finished trials are kept)")
+        return EXIT_INTERRUPTED
+    return EXIT_OK
+
+
 def _show(path) -> str:
     from transplanter.report import printable
 
@@ -516,6 +573,46 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _set_arg(p)
     p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser(
+        "tune",
+        help="search scenario keys with Optuna for high success and short cycles",
+        description="Optuna study with two objectives: maximise the lower end of the 95 %% "
+        "interval of the success rate pooled over --seeds, minimise the mean cycle time. The "
+        "study is kept in SQLite (--storage): the same command resumes it, and "
+        "`optuna-dashboard sqlite:///results/tune.db` opens it in a browser. Writes "
+        "trials.csv, pareto.csv, pareto.png and tuned.toml (the point with the highest lower "
+        "bound, ties: the shortest cycle; `transplanter trial OUT/tuned.toml` runs it). Needs "
+        "pip install 'transplanter[tune]'.",
+        epilog="exit status: 0 done, 2 refused before any trial, 5 a result file could not be "
+        "written, 130 interrupted (finished trials stay in the study)",
+    )
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    p.add_argument(
+        "--param",
+        action="append",
+        required=True,
+        metavar="KEY=LO..HI",
+        help="a key to tune within [LO, HI] in its file unit (whole numbers for integer "
+        "keys), e.g. taught.z_low_mm=28..40; repeatable",
+    )
+    p.add_argument("--trials", type=ascii_int, default=20, help="trials in the study (20)")
+    p.add_argument("--seeds", default="1-2", help="seeds each point is judged on ('1-2')")
+    p.add_argument(
+        "--seedlings", type=ascii_int, default=None, help="seedlings per trial (the scenario's)"
+    )
+    p.add_argument(
+        "--storage", type=Path, default=Path("results/tune.db"), help="SQLite file of the study"
+    )
+    p.add_argument("--study", default="tune", help="study name in the storage (tune)")
+    p.add_argument("--out", type=Path, default=Path("results/tune"), help="output directory")
+    p.add_argument(
+        "--workers", type=_workers, default=1, help="seeds run in parallel (a number or auto)"
+    )
+    p.add_argument("--sampler-seed", type=ascii_int, default=0, help="seed of the TPE sampler (0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _set_arg(p)
+    p.set_defaults(func=cmd_tune)
 
     p = sub.add_parser("replay", help="open a recorded trial in the rerun viewer")
     p.add_argument("file", type=Path)
