@@ -306,7 +306,8 @@ class SweepSpec:
     def manifest(self) -> dict[str, Any]:
         """What identifies the sweep's results (not how it is run: backend, workers)."""
         scenario = self.check()
-        meta = dataclasses.replace(scenario.meta, seed=0)  # each run sets its own seed
+        # each run sets its own seed; the seedlings are a field of their own
+        meta = dataclasses.replace(scenario.meta, seed=0, seedlings=0)
         sections = [meta] + [
             getattr(scenario, f.name)
             for f in dataclasses.fields(scenario)
