@@ -1,5 +1,6 @@
 """Scenario loading: SI conversion, inheritance, overrides and refusals that name the key."""
 
+import json
 import math
 from pathlib import Path
 
@@ -157,3 +158,36 @@ def dataclasses_fields(cls):
     import dataclasses
 
     return dataclasses.fields(cls)
+
+
+def test_base_may_be_an_absolute_path_but_not_a_relative_one_outside(tmp_path):
+    """`transplanter tune` writes `base = "/abs/path.toml"` for a scenario kept elsewhere."""
+    elsewhere = tmp_path / "lab"
+    elsewhere.mkdir()
+    (elsewhere / "mine.toml").write_text(
+        PAPER.read_text().replace("z_low_mm = 34.0", "z_low_mm = 36.0")
+    )
+    tuned = tmp_path / "results" / "tuned.toml"
+    tuned.parent.mkdir()
+    tuned.write_text(
+        f"[scenario]\nbase = {json.dumps(str(elsewhere / 'mine.toml'))}\n[taught]\n"
+        "s_high_mm_s = 180.0\n"
+    )
+    s = load_scenario(tuned)
+    assert s.taught.z_low_m == pytest.approx(0.036) and s.taught.s_high_m_s == pytest.approx(0.18)
+    tuned.write_text('[scenario]\nbase = "../lab/mine.toml"\n')
+    with pytest.raises(ScenarioError, match="points outside the scenario's directory"):
+        load_scenario(tuned)
+
+
+def test_check_value_and_key_spec_name_the_key():
+    from transplanter.scenario import check_value, key_spec, parse_value
+
+    assert check_value("taught.z_low_mm", 30) == pytest.approx(0.030)
+    assert key_spec("motion.profile").choices == ("trapezoid", "scurve")
+    with pytest.raises(ScenarioError, match=r"taught.z_low_mm: 2000.0 is outside"):
+        check_value("taught.z_low_mm", 2000.0)
+    with pytest.raises(ScenarioError, match="taught.z_low_cm: wrong unit"):
+        key_spec("taught.z_low_cm")
+    assert parse_value("30") == 30 and parse_value("scurve") == "scurve"
+    assert parse_value("[0, 140]") == [0, 140] and parse_value("true") is True

@@ -65,9 +65,7 @@ def _set_arg(parser: argparse.ArgumentParser) -> None:
 
 def _overrides(args: argparse.Namespace) -> dict[str, Any]:
     """The --set options as {'section.key': value}; ScenarioError for a malformed one."""
-    import tomllib
-
-    from transplanter.scenario import ScenarioError
+    from transplanter.scenario import ScenarioError, parse_value
 
     out: dict[str, Any] = {}
     for item in args.set:
@@ -75,10 +73,7 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         key = key.strip()
         if not eq or "." not in key:
             raise ScenarioError(f"--set {item!r}: write SECTION.KEY=VALUE")
-        try:
-            value = tomllib.loads(f"v = {text}")["v"]
-        except tomllib.TOMLDecodeError:
-            value = text.strip()  # a bare word is a string: --set motion.profile=scurve
+        value = parse_value(text)  # a bare word is a string: --set motion.profile=scurve
         if key in out:
             raise ScenarioError(f"--set {key} is given twice")
         out[key] = value
@@ -297,6 +292,146 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
     return EXIT_FIRMWARE_FAULT if any(r.fault for r in results) else EXIT_OK
 
 
+def _workers(text: str) -> int:
+    """--workers N or auto (every CPU of this machine)."""
+    if text == "auto":
+        return os.cpu_count() or 1
+    n = ascii_int(text)
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: give at least 1 worker, or auto")
+    return n
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from transplanter.scenario import ScenarioError
+    from transplanter.stats import parse_seeds
+    from transplanter.sweep import SweepRefused, SweepSpec, format_value, parse_vary, run_sweep
+
+    try:
+        seeds = parse_seeds(args.seeds)
+    except ValueError as exc:
+        _err(f"--seeds: {exc}")
+        return EXIT_REFUSED
+    try:
+        overrides = _overrides(args)
+        axes = tuple(parse_vary(v) for v in args.vary)
+        seedlings = args.seedlings
+        if seedlings is None:
+            from transplanter.scenario import load_scenario
+
+            seedlings = load_scenario(args.scenario, overrides).meta.seedlings
+        spec = SweepSpec(args.scenario, axes, tuple(seeds), seedlings, overrides)
+        spec.check()
+        if args.address is not None and args.backend != "ray":
+            raise SweepRefused("--address names a Ray cluster: use it with --backend ray")
+    except (ScenarioError, SweepRefused) as exc:
+        _err(f"sweep refused: {exc}")
+        return EXIT_REFUSED
+    print(
+        f"{spec.runs_total} runs: {len(spec.settings())} settings x {len(seeds)} seeds, "
+        f"{seedlings} seedlings each, {args.workers} {args.backend} worker(s)"
+    )
+    try:
+        report = run_sweep(
+            spec, args.out, backend=args.backend, workers=args.workers, address=args.address,
+            progress=not args.quiet and sys.stderr.isatty(),
+        )  # fmt: skip
+    except (ScenarioError, SweepRefused) as exc:
+        _err(f"sweep refused: {exc}")
+        return EXIT_REFUSED
+    except OSError as exc:
+        _err(f"--out: the results could not be written to {_show(args.out)}: {exc}")
+        return EXIT_OUTPUT_FAILED
+    if report.skipped:
+        print(f"{report.skipped} runs were already in {_show(args.out)} (skipped)")
+    width = max(len(k) for k in spec.keys)
+    head = "  ".join(f"{k:>{width}}" for k in spec.keys)
+    print(f"{head}  {'success':>16}  {'95 % CI':>13}  {'cycle s':>7}  errors")
+    for a in report.settings:
+        values = "  ".join(f"{format_value(a[k]):>{width}}" for k in spec.keys)
+        if a["success_rate"] is None:
+            print(f"{values}  {'-':>16}  {'-':>13}  {'-':>7}  {a['errors']}")
+            continue
+        rate = f"{100 * a['success_rate']:.1f} % ({a['successes']}/{a['seedlings']})"
+        ci = f"{100 * a['ci95_low']:.1f}-{100 * a['ci95_high']:.1f} %"
+        cycle = "-" if a["cycle_time_s"] is None else f"{a['cycle_time_s']:.3f}"
+        print(f"{values}  {rate:>16}  {ci:>13}  {cycle:>7}  {a['errors']}")
+    failed = [r for r in report.rows if r["error"] is not None]
+    for r in failed[:5]:
+        where = " ".join(f"{k}={format_value(r[k])}" for k in spec.keys)
+        _err(f"run {where} seed {r['seed']}: {r['error']}")
+    if len(failed) > 5:
+        _err(f"... and {len(failed) - 5} more runs with an error (see runs.csv)")
+    print(f"results in {_show(args.out)}: runs.jsonl, runs.csv, settings.csv, sweep.json")
+    if report.plots:
+        print("plots: " + ", ".join(_show(p.name) for p in report.plots))
+    if report.plot_error:
+        _err(f"the plots could not be written: {report.plot_error}")
+        return EXIT_OUTPUT_FAILED
+    if report.interrupted:
+        _err(f"interrupted after {len(report.rows)} of {report.total} runs; rerun the same "
+             "command to finish (finished runs are kept)")  # fmt: skip
+        return EXIT_INTERRUPTED
+    return EXIT_OK
+
+
+def cmd_tune(args: argparse.Namespace) -> int:
+    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.stats import parse_seeds
+    from transplanter.sweep import SweepRefused, format_value, parse_param_range
+    from transplanter.tune import Param, TuneSpec, run_tune
+
+    try:
+        seeds = parse_seeds(args.seeds)
+    except ValueError as exc:
+        _err(f"--seeds: {exc}")
+        return EXIT_REFUSED
+    if args.trials < 1:
+        _err(f"--trials must be at least 1, got {args.trials}")
+        return EXIT_REFUSED
+    try:
+        overrides = _overrides(args)
+        params = tuple(Param(*parse_param_range(p)) for p in args.param)
+        seedlings = args.seedlings
+        if seedlings is None:
+            seedlings = load_scenario(args.scenario, overrides).meta.seedlings
+        spec = TuneSpec(
+            args.scenario, params, tuple(seeds), seedlings, overrides, args.sampler_seed
+        )
+        spec.check()
+        report = run_tune(
+            spec, args.trials, args.storage, args.study, args.out, workers=args.workers,
+            progress=not args.quiet and sys.stderr.isatty(),
+        )  # fmt: skip
+    except (ScenarioError, SweepRefused) as exc:
+        _err(f"tune refused: {exc}")
+        return EXIT_REFUSED
+    except OSError as exc:
+        _err(f"the results could not be written: {exc}")
+        return EXIT_OUTPUT_FAILED
+    print(
+        f"study {_show(args.study)}: {report.finished} trials ({report.ran} run now), "
+        f"{len(report.front)} on the Pareto front"
+    )
+    keys = [p.key for p in params]
+    for row in report.front:
+        values = " ".join(f"{k}={format_value(row[k])}" for k in keys)
+        print(
+            f"  trial {row['trial']:>4}: {values}  success {100 * row['success_rate']:.1f} % "
+            f"(lower 95 % bound {100 * row['ci95_low']:.1f} %), cycle {row['cycle_time_s']:.3f} s"
+        )
+    print("files: " + ", ".join(_show(p) for p in report.files))
+    if report.chosen is not None:
+        print(
+            f"run the chosen point with: transplanter trial {_show(Path(args.out) / 'tuned.toml')}"
+        )
+    print(f"browse the study with: optuna-dashboard {_show(report.storage)}")
+    if report.interrupted:
+        _err("interrupted; rerun the same command to go on (finished trials are kept)")
+        return EXIT_INTERRUPTED
+    return EXIT_OK
+
+
 def _show(path) -> str:
     from transplanter.report import printable
 
@@ -393,6 +528,91 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=ascii_int, default=None, help="override scenario.seed")
     _set_arg(p)
     p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser(
+        "sweep",
+        help="run a grid of settings x seeds in parallel; tables and plots in --out",
+        description="One trial per (setting, seed), judged as `transplanter trial` judges it. "
+        "Results in --out: runs.jsonl (a line per finished run), runs.csv, settings.csv "
+        "(seeds pooled per setting), sweep.json (what was run) and PNG plots. Rerunning the "
+        "same command resumes (finished runs are skipped); a different sweep into the same "
+        "directory is refused.",
+        epilog="exit status: 0 done (runs that failed are rows with their error), 2 refused "
+        "before any run, 5 a result file could not be written, 130 interrupted (Ctrl-C: "
+        "finished runs are kept; rerun to finish)",
+    )
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    p.add_argument(
+        "--vary",
+        action="append",
+        required=True,
+        metavar="KEY=LO:HI:STEP|KEY=a,b,c",
+        help="a key to vary, in its file unit: a range with HI included "
+        "(taught.z_low_mm=26:46:2) or a list (motion.profile=trapezoid,scurve); repeatable "
+        "(the grid is every combination)",
+    )
+    p.add_argument("--seeds", default="1", help="seeds of every setting ('1-5', '1,3'); 1")
+    p.add_argument(
+        "--seedlings", type=ascii_int, default=None, help="seedlings per trial (the scenario's)"
+    )
+    p.add_argument(
+        "--workers",
+        type=_workers,
+        default=1,
+        help="parallel trials: a number or auto (every CPU); default 1",
+    )
+    p.add_argument("--out", type=Path, required=True, help="directory for the results")
+    p.add_argument(
+        "--backend",
+        choices=("process", "ray"),
+        default="process",
+        help="process: a pool of processes on this machine (default); ray: a Ray cluster "
+        "(pip install 'transplanter[ray]')",
+    )
+    p.add_argument("--address", default=None, help="Ray cluster address (with --backend ray)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _set_arg(p)
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser(
+        "tune",
+        help="search scenario keys with Optuna for high success and short cycles",
+        description="Optuna study with two objectives: maximise the lower end of the 95 %% "
+        "interval of the success rate pooled over --seeds, minimise the mean cycle time. The "
+        "study is kept in SQLite (--storage): the same command resumes it, and "
+        "`optuna-dashboard sqlite:///results/tune.db` opens it in a browser. Writes "
+        "trials.csv, pareto.csv, pareto.png and tuned.toml (the point with the highest lower "
+        "bound, ties: the shortest cycle; `transplanter trial OUT/tuned.toml` runs it). Needs "
+        "pip install 'transplanter[tune]'.",
+        epilog="exit status: 0 done, 2 refused before any trial, 5 a result file could not be "
+        "written, 130 interrupted (finished trials stay in the study)",
+    )
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    p.add_argument(
+        "--param",
+        action="append",
+        required=True,
+        metavar="KEY=LO..HI",
+        help="a key to tune within [LO, HI] in its file unit (whole numbers for integer "
+        "keys), e.g. taught.z_low_mm=28..40; repeatable",
+    )
+    p.add_argument("--trials", type=ascii_int, default=20, help="trials in the study (20)")
+    p.add_argument("--seeds", default="1-2", help="seeds each point is judged on ('1-2')")
+    p.add_argument(
+        "--seedlings", type=ascii_int, default=None, help="seedlings per trial (the scenario's)"
+    )
+    p.add_argument(
+        "--storage", type=Path, default=Path("results/tune.db"), help="SQLite file of the study"
+    )
+    p.add_argument("--study", default="tune", help="study name in the storage (tune)")
+    p.add_argument("--out", type=Path, default=Path("results/tune"), help="output directory")
+    p.add_argument(
+        "--workers", type=_workers, default=1, help="seeds run in parallel (a number or auto)"
+    )
+    p.add_argument("--sampler-seed", type=ascii_int, default=0, help="seed of the TPE sampler (0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _set_arg(p)
+    p.set_defaults(func=cmd_tune)
 
     p = sub.add_parser("replay", help="open a recorded trial in the rerun viewer")
     p.add_argument("file", type=Path)

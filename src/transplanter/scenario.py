@@ -27,7 +27,10 @@ from transplanter.firmware.eeprom import MAX_PICKUPS
 __all__ = [
     "Scenario",
     "ScenarioError",
+    "check_value",
+    "key_spec",
     "load_scenario",
+    "parse_value",
     "resolve_scenario_path",
     "packaged_scenarios",
     "SCHEMA",
@@ -522,14 +525,17 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
 
 def _base_path(path: Path, base: Any) -> Path:
     """The file a `base = ...` names: a file in the scenario's own directory (or below it),
-    else a packaged scenario by name; never a path elsewhere."""
+    an absolute path (as `transplanter tune` writes for a scenario kept elsewhere), else a
+    packaged scenario by name; never a relative path out of the directory ('../x.toml')."""
     if not isinstance(base, str) or not base:
         raise ScenarioError(f"{path}: scenario.base must be a file name, got {base!r}.")
+    if Path(base).is_absolute():
+        return Path(base)
     candidate = (path.parent / base).resolve()
-    if Path(base).is_absolute() or not candidate.is_relative_to(path.parent):
+    if not candidate.is_relative_to(path.parent):
         raise ScenarioError(
             f"{path}: scenario.base = {base!r} points outside the scenario's directory; "
-            "name a file beside it or a packaged scenario (e.g. 'paper.toml')."
+            "name a file beside it, an absolute path or a packaged scenario (e.g. 'paper.toml')."
         )
     if candidate.exists() or len(Path(base).parts) != 1:
         return candidate
@@ -547,6 +553,41 @@ def _apply_overrides(raw: dict, overrides: Mapping[str, Any]) -> dict:
             raise ScenarioError(f"override {dotted!r}: [{section}] is not a table.")
         table[key] = value
     return raw
+
+
+def parse_value(text: str) -> Any:
+    """A value as `--set` and `--vary` take it: a TOML value (30, 1.5, true, [0, 140],
+    "scurve"), else the bare text as a string (scurve)."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
+def key_spec(dotted: str) -> Key:
+    """The schema entry of a file key given as 'section.key'; ScenarioError naming an
+    unknown section or key (with the known ones, or the right unit)."""
+    section, _, name = dotted.partition(".")
+    if not name:
+        raise ScenarioError(f"{dotted!r}: write SECTION.KEY (e.g. taught.z_low_mm).")
+    if section not in SCHEMA:
+        raise ScenarioError(
+            f"{dotted}: unknown section [{section}]. Known sections: {', '.join(SCHEMA)}."
+        )
+    if name not in SCHEMA[section]:
+        raise _unknown_key_error(section, name, SCHEMA[section])
+    return SCHEMA[section][name]
+
+
+def check_value(dotted: str, raw: Any) -> Any:
+    """One key's value in its file unit checked on its own (kind, range, choices), returned
+    in SI; ScenarioError naming the key. Checks between keys (z_up above z_low, reach) need
+    the whole scenario: load_scenario."""
+    spec = key_spec(dotted)
+    section, _, name = dotted.partition(".")
+    if spec.kind == "list":
+        return _pickups(section, name, raw)
+    return _convert(section, name, spec, raw)
 
 
 def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, dict[str, Any]]:

@@ -1,0 +1,351 @@
+"""transplanter.sweep: the grid, the files (manifest, resume, torn lines), the backends."""
+
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from transplanter import sweep
+from transplanter.cli import main
+from transplanter.sweep import (
+    Axis,
+    SweepRefused,
+    SweepSpec,
+    aggregate,
+    comparable,
+    parse_param_range,
+    parse_vary,
+    read_runs,
+    run_sweep,
+)
+
+# Settings the scenario refuses (Z_low above the paper's Z_up = 60 mm): rows with an error and
+# no physics, so the file handling can be tested in milliseconds.
+REFUSED = Axis("taught.z_low_mm", (61.0, 70.0))
+
+
+def _spec(axis=REFUSED, seeds=(1,), seedlings=2, **kw):
+    return SweepSpec("paper", (axis,), tuple(seeds), seedlings, kw)
+
+
+# --- the grid -----------------------------------------------------------------------------
+
+
+def test_float_range_is_exact_decimal_and_includes_hi():
+    axis = parse_vary("taught.z_low_mm=26:46:2")
+    assert axis == Axis("taught.z_low_mm", tuple(float(v) for v in range(26, 47, 2)))
+    # 0.1 + 0.1 + ... accumulated in floats ends at 0.7999999999999999, not 0.8
+    friction = parse_vary("pots.friction=0.1:0.8:0.1").values
+    assert friction == (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
+    assert parse_vary("taught.z_low_mm=30:30:1").values == (30.0,)
+
+
+def test_int_range_and_lists():
+    assert parse_vary("recovery.rehome_every_cycles=0:6:3").values == (0, 3, 6)
+    assert parse_vary("motion.profile=trapezoid,scurve").values == ("trapezoid", "scurve")
+    assert parse_vary("taught.z_low_mm=30,34.5").values == (30.0, 34.5)  # floats, one type
+    assert parse_vary("physics.sleep=true,false").values == (True, False)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("taught.z_low_mm=26:46:0", "the step must be above 0, got 0"),
+        ("taught.z_low_mm=26:46:-2", "the step must be above 0, got -2"),
+        ("taught.z_low_mm=26:46:3", "the step 3 does not divide the span 26..46 (20)"),
+        ("taught.z_low_mm=46:26:2", "HI 26 is below LO 46"),
+        ("taught.z_low_mm=26:46", "a range is LO:HI:STEP"),
+        ("taught.z_low_mm=26:x:2", "'x' is not a number"),
+        ("taught.z_low_mm=26:nan:2", "'nan' is not a number"),
+        ("taught.zlow_mm=26:46:2", "taught.zlow_mm: unknown key"),
+        ("taught.z_low_cm=2:4:1", "taught.z_low_cm: wrong unit"),
+        ("tought.z_low_mm=26", "unknown section [tought]"),
+        ("taught.z_low_mm=0:10000:1", "10001 values; at most 10000"),
+        ("taught.z_low_mm=100:1200:100", "taught.z_low_mm: 1100.0 is outside the allowed range"),
+        ("motion.profile=trapezoid,jerky", "'jerky' is not one of trapezoid, scurve"),
+        ("recovery.rehome_every_cycles=0:5:2.5", "takes whole numbers"),
+        ("recovery.rehome_every_cycles=1,2.5", "expected a whole number, got 2.5"),
+        ("taught.z_low_mm=30,30.0", "the value 30.0 is given twice"),
+        ("taught.z_low_mm=30,,34", "empty value"),
+        ("taught.drop_mm=[0, 140]", "only single values can be varied"),
+        ("scenario.seed=1,2", "use --seeds / --seedlings"),
+        ("taught.z_low_mm", "write KEY=LO:HI:STEP or KEY=a,b,c"),
+    ],
+)
+def test_bad_grids_are_refused_naming_the_problem(text, message):
+    with pytest.raises(SweepRefused) as info:
+        parse_vary(text)
+    assert message in str(info.value)
+
+
+def test_param_ranges():
+    assert parse_param_range("taught.z_low_mm=28..40") == ("taught.z_low_mm", "float", 28.0, 40.0)
+    assert parse_param_range("recovery.rehome_every_cycles=0..5") == (
+        "recovery.rehome_every_cycles",
+        "int",
+        0,
+        5,
+    )
+    for text, message in (
+        ("taught.z_low_mm=40..28", "LO must be below HI"),
+        ("taught.z_low_mm=28-40", "write KEY=LO..HI"),
+        ("recovery.rehome_every_cycles=0..2.5", "takes whole numbers"),
+        ("motion.profile=0..1", "only number keys can be tuned"),
+        ("taught.z_low_mm=28..2000", "taught.z_low_mm: 2000.0 is outside the allowed range"),
+    ):
+        with pytest.raises(SweepRefused) as info:
+            parse_param_range(text)
+        assert message in str(info.value)
+
+
+def test_spec_expands_the_grid_first_key_outermost():
+    spec = SweepSpec(
+        "paper",
+        (Axis("taught.z_low_mm", (30.0, 34.0)), Axis("motion.profile", ("trapezoid", "scurve"))),
+        (1, 2),
+        2,
+    )
+    assert spec.runs_total == 8
+    assert spec.settings() == [
+        {"taught.z_low_mm": 30.0, "motion.profile": "trapezoid"},
+        {"taught.z_low_mm": 30.0, "motion.profile": "scurve"},
+        {"taught.z_low_mm": 34.0, "motion.profile": "trapezoid"},
+        {"taught.z_low_mm": 34.0, "motion.profile": "scurve"},
+    ]
+    assert [(t["setting"]["taught.z_low_mm"], t["seed"]) for t in spec.tasks()][:3] == [
+        (30.0, 1),
+        (30.0, 2),
+        (30.0, 1),
+    ]
+    with pytest.raises(SweepRefused, match="both set .--set. and varied"):
+        _spec(**{"taught.z_low_mm": 30})
+    with pytest.raises(SweepRefused, match="varied twice"):
+        SweepSpec("paper", (REFUSED, REFUSED), (1,), 2)
+
+
+# --- files --------------------------------------------------------------------------------
+
+
+def test_refused_settings_are_rows_with_their_error(tmp_path):
+    report = run_sweep(_spec(seeds=(1, 2)), tmp_path / "s", backend="inline")
+    assert report.ran == 4 and report.complete and not report.interrupted
+    assert [(r["taught.z_low_mm"], r["seed"]) for r in report.rows] == [
+        (61.0, 1),
+        (61.0, 2),
+        (70.0, 1),
+        (70.0, 2),
+    ]
+    for r in report.rows:
+        assert r["error"] == ("setting refused: taught.z_up_mm must be above taught.z_low_mm."), r
+        assert r["successes"] is None
+    assert [(a["runs"], a["errors"], a["success_rate"]) for a in report.settings] == [
+        (2, 2, None),
+        (2, 2, None),
+    ]
+    lines = (tmp_path / "s" / "runs.jsonl").read_text().splitlines()
+    assert len(lines) == 4 and all(json.loads(line)["error"] for line in lines)
+    csv_lines = (tmp_path / "s" / "settings.csv").read_text().splitlines()
+    assert csv_lines[0].startswith("taught.z_low_mm,runs,errors,successes,seedlings,success_rate")
+    assert csv_lines[1] == "61.0,2,2,,,,,,,"
+
+
+def test_a_different_sweep_into_the_same_directory_is_refused(tmp_path):
+    out = tmp_path / "s"
+    run_sweep(_spec(), out, backend="inline")
+    before = (out / "runs.jsonl").read_bytes()
+    for other, differs in (
+        (_spec(seeds=(1, 2)), "seeds"),
+        (_spec(seedlings=3), "seedlings"),
+        (_spec(axis=Axis("taught.z_low_mm", (61.0, 71.0))), "vary"),
+        (_spec(**{"taught.z_up_mm": 59.0}), "scenario_digest, overrides"),
+    ):
+        with pytest.raises(SweepRefused) as info:
+            run_sweep(other, out, backend="inline")
+        assert f"holds the results of a different sweep (it differs in: {differs})" in str(
+            info.value
+        )
+    assert (out / "runs.jsonl").read_bytes() == before  # nothing mixed in
+    (out / "sweep.json").unlink()
+    with pytest.raises(SweepRefused, match="but no sweep.json"):
+        run_sweep(_spec(), out, backend="inline")
+
+
+def test_resume_skips_finished_runs_and_reruns_a_torn_last_line(tmp_path):
+    out = tmp_path / "s"
+    full = run_sweep(_spec(seeds=(1, 2)), out, backend="inline")
+    table = (out / "runs.csv").read_text()
+    again = run_sweep(_spec(seeds=(1, 2)), out, backend="inline")
+    assert (again.ran, again.skipped) == (0, 4)
+    # killed while writing the third line: half of it on disk, no newline
+    lines = (out / "runs.jsonl").read_bytes().splitlines(keepends=True)
+    (out / "runs.jsonl").write_bytes(b"".join(lines[:2]) + lines[2][:17])
+    resumed = run_sweep(_spec(seeds=(1, 2)), out, backend="inline")
+    assert (resumed.ran, resumed.skipped) == (2, 2)
+    assert comparable(resumed.rows) == comparable(full.rows)
+    assert len((out / "runs.jsonl").read_text().splitlines()) == 4
+    assert _without_wall_time(out / "runs.csv") == _without_wall_time_text(table)
+
+
+def test_read_runs_refuses_a_damaged_middle_line(tmp_path):
+    path = tmp_path / "runs.jsonl"
+    path.write_text('{"seed": 1}\nnot json\n{"seed": 2}\n')
+    with pytest.raises(SweepRefused, match="line 2 is damaged"):
+        read_runs(path)
+    path.write_text('{"seed": 1}\n{"seed": 2}\n{"se')
+    assert read_runs(path) == [{"seed": 1}, {"seed": 2}]
+    assert path.read_text() == '{"seed": 1}\n{"seed": 2}\n'  # cut for clean appends
+
+
+def test_a_run_that_raises_is_a_row_with_its_error(tmp_path, monkeypatch):
+    import transplanter.trial
+
+    def boom(config):
+        raise RuntimeError(f"solver exploded at seed {config.seed}")
+
+    monkeypatch.setattr(transplanter.trial, "run_trial", boom)
+    spec = _spec(axis=Axis("taught.z_low_mm", (34.0,)), seeds=(3,))
+    report = run_sweep(spec, tmp_path / "s", backend="inline", plots=False)
+    (row,) = report.rows
+    assert row["error"] == "RuntimeError: solver exploded at seed 3"
+    assert row["successes"] is None and row["seed"] == 3
+
+
+def test_aggregate_pools_seeds_and_counts_errors():
+    def row(z, seed, k, n, cycle, error=None):
+        return {"z": z, "seed": seed, "successes": k, "seedlings": n, "cycle_time_s": cycle,
+                "cycles": n, "error": error}  # fmt: skip
+
+    rows = [
+        row(30.0, 1, 9, 10, 3.0),
+        row(30.0, 2, 10, 10, 4.0),
+        row(30.0, 3, None, None, None, "setting refused: x"),
+        row(34.0, 1, 10, 10, 3.5),
+    ]
+    a30, a34 = aggregate(rows, ["z"])
+    assert (a30["runs"], a30["errors"], a30["successes"], a30["seedlings"]) == (3, 1, 19, 20)
+    assert a30["success_rate"] == 0.95 and a30["cycle_time_s"] == 3.5
+    assert a30["ci95_low"] == pytest.approx(0.7639, abs=1e-4)  # Wilson 19/20
+    assert a30["ci_method"] == "Wilson over all picks"
+    assert (a34["successes"], a34["cycle_time_s"]) == (10, 3.5)
+
+
+def test_sweep_cli_refuses_before_running(tmp_path, capsys):
+    out = tmp_path / "s"
+    args = ["sweep", "paper", "--seeds", "1", "--seedlings", "2", "--out", str(out)]
+    assert main([*args, "--vary", "taught.z_lo_mm=30,34"]) == 2
+    assert "sweep refused: --vary 'taught.z_lo_mm=30,34': taught.z_lo_mm: unknown key" in (
+        capsys.readouterr().err
+    )
+    assert main([*args, "--vary", "taught.z_low_mm=30:40:3"]) == 2
+    assert "does not divide the span 30..40" in capsys.readouterr().err
+    assert main([*args, "--vary", "taught.z_low_mm=30", "--set", "arm.l9_mm=1"]) == 2
+    assert "arm.l9_mm: unknown key" in capsys.readouterr().err
+    assert main([*args, "--vary", "taught.z_low_mm=30", "--address", "x:1"]) == 2
+    assert "use it with --backend ray" in capsys.readouterr().err
+    assert main(["sweep", "paper", "--vary", "taught.z_low_mm=30", "--seedlings", "41",
+                 "--out", str(out)]) == 2  # fmt: skip
+    assert "more than the conveyor holds" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_ray_missing_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)
+    with pytest.raises(sweep.BackendMissing, match=r"pip install 'transplanter\[ray\]'"):
+        sweep.make_backend("ray", 1)
+
+
+def _without_wall_time_text(text):
+    lines = [line.split(",") for line in text.splitlines()]
+    col = lines[0].index("wall_time_s")
+    return [row[:col] + row[col + 1 :] for row in lines]
+
+
+def _without_wall_time(path):
+    return _without_wall_time_text(path.read_text())
+
+
+# --- physics: real trials, 2 seedlings ----------------------------------------------------
+
+PHYSICS = Axis("taught.z_low_mm", (20.0, 34.0))  # 20: the jaws strike the belt table
+
+
+@pytest.fixture(scope="module")
+def inline_reference(tmp_path_factory):
+    """The uninterrupted two-setting sweep, run in this process."""
+    out = tmp_path_factory.mktemp("ref")
+    return out, run_sweep(_spec(axis=PHYSICS), out, backend="inline", plots=False)
+
+
+@pytest.mark.slow
+def test_physics_rows_hold_real_numbers(inline_reference):
+    _, ref = inline_reference
+    low, nominal = ref.rows
+    assert (nominal["successes"], nominal["seedlings"], nominal["error"]) == (2, 2, None)
+    assert 3.0 < nominal["cycle_time_s"] < 4.0 and nominal["lost_step_events"] == 0
+    assert (low["successes"], low["fail_lost_steps"], low["error"]) == (0, 2, None)
+    assert low["lost_step_events"] > 0 and low["cycle_time_s"] > nominal["cycle_time_s"]
+
+
+@pytest.mark.slow
+def test_process_pool_with_one_and_two_workers_gives_identical_rows(tmp_path, inline_reference):
+    _, ref = inline_reference
+    one = run_sweep(_spec(axis=PHYSICS), tmp_path / "one", backend="process", workers=1)
+    two = run_sweep(_spec(axis=PHYSICS), tmp_path / "two", backend="process", workers=2)
+    assert comparable(one.rows) == comparable(two.rows) == comparable(ref.rows)
+    assert _without_wall_time(tmp_path / "one" / "runs.csv") == _without_wall_time(
+        tmp_path / "two" / "runs.csv"
+    )
+    assert (tmp_path / "two" / "settings.csv").read_text() == (
+        tmp_path / "one" / "settings.csv"
+    ).read_text()
+    assert sorted(p.name for p in two.plots) == [
+        "cycle_taught.z_low_mm.png",
+        "success_taught.z_low_mm.png",
+    ]
+
+
+@pytest.mark.slow
+def test_interrupted_sweep_rerun_gives_the_uninterrupted_table(tmp_path, inline_reference):
+    ref_dir, _ = inline_reference
+    out = tmp_path / "cut"
+    out.mkdir()
+    shutil.copy(ref_dir / "sweep.json", out / "sweep.json")
+    first, second = (ref_dir / "runs.jsonl").read_bytes().splitlines(keepends=True)
+    (out / "runs.jsonl").write_bytes(first + second[: len(second) // 2])  # torn
+    resumed = run_sweep(_spec(axis=PHYSICS), out, backend="inline", plots=False)
+    assert (resumed.ran, resumed.skipped) == (1, 1)
+    assert _without_wall_time(out / "runs.csv") == _without_wall_time(ref_dir / "runs.csv")
+    assert (out / "settings.csv").read_text() == (ref_dir / "settings.csv").read_text()
+
+
+@pytest.mark.slow
+def test_ray_gives_the_rows_of_the_process_pool(tmp_path, inline_reference):
+    pytest.importorskip("ray")
+    _, ref = inline_reference
+    report = run_sweep(_spec(axis=PHYSICS), tmp_path / "ray", backend="ray", workers=2)
+    assert comparable(report.rows) == comparable(ref.rows)
+
+
+@pytest.mark.slow
+def test_ctrl_c_keeps_finished_runs_and_exits_130(tmp_path):
+    out = tmp_path / "s"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "transplanter.cli", "sweep", "paper", "--vary",
+         "taught.z_low_mm=30:40:2", "--seeds", "1", "--seedlings", "2", "--out", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    runs = out / "runs.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (runs.exists() and runs.read_text().count("\n")):
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted after" in err and "rerun the same command" in err
+    done = len(runs.read_text().splitlines())
+    assert 1 <= done < 6
+    assert len((out / "runs.csv").read_text().splitlines()) == 1 + done

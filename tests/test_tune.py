@@ -1,0 +1,83 @@
+"""transplanter tune: an Optuna study over scenario keys, resumed from SQLite, tuned.toml."""
+
+import csv
+
+import pytest
+
+from transplanter.cli import main
+from transplanter.scenario import load_scenario
+from transplanter.sweep import SweepRefused
+from transplanter.tune import Param, TuneSpec, base_reference, tuned_toml
+
+pytest.importorskip("optuna")
+
+
+def test_tuned_toml_names_the_base_and_only_the_tuned_keys(tmp_path):
+    spec = TuneSpec("paper", (Param("taught.z_low_mm", "float", 28.0, 40.0),), (1, 2), 2)
+    text = tuned_toml(spec, {"taught.z_low_mm": 36.78101606283719}, tmp_path)
+    assert text.splitlines()[1:] == [
+        "",
+        "[scenario]",
+        'base = "paper"',
+        "",
+        "[taught]",
+        "z_low_mm = 36.78101606283719",
+    ]
+    path = tmp_path / "tuned.toml"
+    path.write_text(text)
+    assert load_scenario(path).taught.z_low_m == pytest.approx(0.03678101606283719)
+
+
+def test_base_reference_of_a_file_elsewhere_is_absolute(tmp_path):
+    from conftest import PAPER_PATH
+
+    mine = tmp_path / "lab" / "mine.toml"
+    mine.parent.mkdir()
+    mine.write_text(PAPER_PATH.read_text())
+    assert base_reference(str(PAPER_PATH), tmp_path / "out") == "paper"  # the packaged file
+    assert base_reference(str(mine), tmp_path / "out") == str(mine.resolve())
+    assert base_reference(str(mine), tmp_path) == "lab/mine.toml"
+
+
+def test_tune_refusals(tmp_path, capsys):
+    args = ["tune", "paper", "--trials", "2", "--seedlings", "2", "--storage",
+            str(tmp_path / "t.db"), "--out", str(tmp_path / "out")]  # fmt: skip
+    assert main([*args, "--param", "taught.z_low_mm=40..28"]) == 2
+    assert "LO must be below HI" in capsys.readouterr().err
+    assert main([*args, "--param", "motion.profile=0..1"]) == 2
+    assert "only number keys can be tuned" in capsys.readouterr().err
+    with pytest.raises(SweepRefused, match="both set"):
+        TuneSpec("paper", (Param("taught.z_low_mm", "float", 28.0, 40.0),), (1,), 2,
+                 {"taught.z_low_mm": 30.0})  # fmt: skip
+    assert not (tmp_path / "t.db").exists()
+
+
+@pytest.mark.slow
+def test_tune_writes_the_front_and_a_tuned_scenario_that_runs(tmp_path, capsys):
+    db, out = tmp_path / "t.db", tmp_path / "out"
+    args = ["tune", "paper", "--param", "taught.z_low_mm=28..44", "--param",
+            "taught.s_high_mm_s=120..220", "--seeds", "1", "--seedlings", "2", "--storage",
+            str(db), "--out", str(out), "--study", "s", "--quiet"]  # fmt: skip
+    assert main([*args, "--trials", "3"]) == 0
+    printed = capsys.readouterr().out
+    assert "study s: 3 trials (3 run now)" in printed
+    assert "optuna-dashboard sqlite:///" in printed
+    trials = list(csv.DictReader((out / "trials.csv").open()))
+    assert [t["state"] for t in trials] == ["COMPLETE"] * 3
+    front = list(csv.DictReader((out / "pareto.csv").open()))
+    assert 1 <= len(front) <= 3
+    chosen = front[0]
+    assert float(chosen["ci95_low"]) == max(float(t["ci95_low"]) for t in front)
+    assert 28 <= float(chosen["taught.z_low_mm"]) <= 44
+    assert (out / "pareto.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    tuned = load_scenario(out / "tuned.toml")
+    assert tuned.taught.z_low_m == pytest.approx(float(chosen["taught.z_low_mm"]) * 1e-3)
+    # resume: the 3 finished trials count, one more runs; the first three are unchanged
+    assert main([*args, "--trials", "4"]) == 0
+    assert "4 trials (1 run now)" in capsys.readouterr().out
+    again = list(csv.DictReader((out / "trials.csv").open()))
+    assert again[:3] == trials
+    # a different command on the same study is refused
+    assert main([*args, "--trials", "4", "--seeds", "1-2"]) == 2
+    assert "differs in: seeds" in capsys.readouterr().err
+    assert main(["trial", str(out / "tuned.toml"), "--seedlings", "2", "--quiet"]) == 0
