@@ -2,9 +2,9 @@
 
 Each program homes (G28) and then makes a random walk of short moves (each axis up to
 +-2 mm a move, kept inside x in [-80, 80] mm, y in [140, 220] mm, Z 60-100 mm) at 100 mm/s:
-the SGF interpolates every 0.1 mm, so the cost of a move is its length plus a fixed part. Prints, per
-size, the wall time, time per move and the peak resident memory (``ru_maxrss``; each size
-runs in its own process) of the plan, to show that time grows linearly with the file and
+the SGF interpolates every 0.1 mm, so the cost of a move is its length plus a fixed part.
+Prints, per size, the wall time, time per move and the peak resident memory (``ru_maxrss``;
+each size runs in its own process) of the plan, to show that time grows linearly with the file and
 memory stays nearly constant (what grows is the list of small PlannedLine rows). Asserts
 nothing.
 
