@@ -48,6 +48,27 @@ for rec in result.per_seedling:
     )
 
 # %% [markdown]
+# The same in a picture: each seedling's cycle time, coloured by its outcome.
+
+# %%
+import matplotlib.pyplot as plt  # noqa: E402
+from IPython.display import display  # noqa: E402
+
+fig, ax = plt.subplots(figsize=(7, 3))
+ok = [r.outcome == "success" for r in result.per_seedling]
+ax.bar(
+    [r.index for r in result.per_seedling],
+    [r.cycle_time_s or 0.0 for r in result.per_seedling],
+    color=["tab:green" if good else "tab:red" for good in ok],
+)
+ax.axhline(3.5, color="k", lw=0.8, ls="--", label="paper: 3.5 s")
+ax.set_xlabel("seedling")
+ax.set_ylabel("cycle time (s)")
+ax.legend(loc="lower right")
+display(fig)
+plt.close(fig)
+
+# %% [markdown]
 # Tune before touching hardware: a faster S_h, or a lower approach height (Z_low).
 
 # %%

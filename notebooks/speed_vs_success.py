@@ -81,5 +81,7 @@ for row in report.front:
 # front here is mostly about the cycle time; quote studies with 40 seedlings and 2+ seeds.
 
 # %%
+from IPython.display import Image, display  # noqa: E402
+
 print((OUT / "tuned.toml").read_text())
-print("plot:", OUT / "pareto.png")
+display(Image(filename=OUT / "pareto.png"))

@@ -84,11 +84,11 @@ for a in report.settings:
 #
 # - **Z_low too low (22-26 mm).** The jaws hang 22.5 mm below the grip height and the palm
 #   between them sits 4.5 mm above a pot's rim at the paper's 34 mm. At 26 mm the palm comes
-#   down on the rims: pots are pressed into their cells or tilted in the jaws, and fail as
-#   `not_gripped` (the README's 40-seedling run at 26 mm loses 32 pots this way) or, in
-#   short runs such as this one with 3 seedlings, as `slipped`. At 22 mm the jaw tips strike
-#   the belt table itself: the arm motors lose steps (`lost_steps`, and `position_lost` for
-#   the seedlings after an uncorrected strike), so the failures cluster.
+#   down on the rims; the conveyor's drive holds the belt, so the pots stay in their cells
+#   and the arm, stopped by them, slips a motor by four full steps (a `lost_steps` event) but
+#   usually still picks. At 22 mm the jaw tips strike the belt table itself: the arm motors
+#   lose steps (`lost_steps`, and `position_lost` for the seedlings after an uncorrected
+#   strike), so the failures cluster.
 # - **Z_low high (58 mm).** The jaws then close above the pot's centre of mass and hold it
 #   only by its upper rim. In the twin the 6 N servo force with friction 0.6 still lifts a
 #   40-80 g pot, so this end shows **no** failures up to Z_low = 70 mm (3-seedling runs); the
@@ -105,7 +105,10 @@ for a in report.settings:
 # rate (refused settings show as "error").
 
 # %%
+from IPython.display import Image, display  # noqa: E402
+
 for path in report.plots:
     print(path.name)
+    display(Image(filename=path))
 with open(OUT / "settings.csv", newline="") as f:
     print(f"settings.csv: {sum(1 for _ in csv.DictReader(f))} settings")

@@ -1,7 +1,4 @@
-"""The jupytext notebooks in notebooks/ run from top to bottom."""
-
-import os
-import runpy
+"""The jupytext notebooks in notebooks/ execute from top to bottom in a Jupyter kernel."""
 
 import pytest
 
@@ -23,15 +20,29 @@ PLOTS = {
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
-def test_notebook_runs(path, monkeypatch, capsys, tmp_path):
+def test_notebook_executes_with_its_plots_in_the_output(path, monkeypatch, tmp_path):
+    """Each notebook runs top to bottom in a Jupyter kernel (jupytext reads the .py file,
+    nbclient executes it), prints its results and shows its plots as PNG outputs."""
+    jupytext = pytest.importorskip("jupytext")
+    nbclient = pytest.importorskip("nbclient")
     monkeypatch.setenv("NOTEBOOK_SEEDLINGS", "3")
     monkeypatch.setenv("NOTEBOOK_TRIALS", "3")
     monkeypatch.setenv("NOTEBOOK_OUT", str(tmp_path))
-    monkeypatch.chdir(path.parent)
-    runpy.run_path(str(path), run_name="__main__")
-    out = capsys.readouterr().out
-    assert "success rate" in out
-    assert os.environ["NOTEBOOK_SEEDLINGS"] == "3"
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
+    notebook = jupytext.read(path)
+    client = nbclient.NotebookClient(
+        notebook,
+        timeout=600,
+        kernel_name="python3",
+        resources={"metadata": {"path": str(path.parent)}},
+    )
+    client.execute()
+    outputs = [o for c in notebook.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    text = "".join(o.get("text", "") for o in outputs if o.get("output_type") == "stream")
+    assert "success rate" in text
+    assert not [o for o in outputs if o.get("output_type") == "error"]
+    images = [o for o in outputs if "image/png" in o.get("data", {})]
+    assert images, "the executed notebook shows its plots"
     for name in PLOTS.get(path.name, []):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
 
