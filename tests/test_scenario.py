@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from transplanter.config import assemble
 from transplanter.scenario import ScenarioError, load_scenario, si_key
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
@@ -191,3 +192,17 @@ def test_check_value_and_key_spec_name_the_key():
         key_spec("taught.z_low_cm")
     assert parse_value("30") == 30 and parse_value("scurve") == "scurve"
     assert parse_value("[0, 140]") == [0, 140] and parse_value("true") is True
+
+
+def test_a_pot_friction_below_its_floor_is_refused_not_raised():
+    """pots.friction = 0 used to be raised to 0.05 in silence; now the floor is a key, and a
+    mean below it is refused with the reason. With friction_min = 0, 0 is used as given."""
+    with pytest.raises(ScenarioError, match=r"pots.friction = 0 is below pots.friction_min"):
+        load_scenario("paper", {"pots.friction": 0.0})
+    config = assemble(
+        load_scenario(
+            "paper",
+            {"pots.friction": 0.0, "pots.friction_sd": 0.0, "pots.friction_min": 0.0},
+        )
+    )
+    assert config.scene.pot_friction == 0.0 and config.scene.pot_friction_min == 0.0

@@ -261,6 +261,7 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             pot_mass_sd=pots.mass_sd_kg,
             pot_friction=pots.friction,
             pot_friction_sd=pots.friction_sd,
+            pot_friction_min=pots.friction_min,
             pot_offset_sd=pots.placement_sd_m,
             pot_offset_max=pots.placement_max_m,
             pot_mass_range=(pots.mass_min_kg, pots.mass_max_kg),

@@ -246,6 +246,9 @@ class PotsSection:
     mass_sd_kg: float = key("float", 0, 10000)
     friction: float = key("float", 0, 10, doc="sliding friction coefficient pot-jaw")
     friction_sd: float = key("float", 0, 10)
+    friction_min: float = key(
+        "float", 0, 10, doc="drawn frictions are clipped to >= this (friction must be >= it)"
+    )
     placement_sd_m: float = key("float", 0, 100, doc="pot offset from its cell centre")
     placement_max_m: float = key("float", 0, 100, doc="largest offset the cell allows")
     mass_min_kg: float = key("float", 0.1, 10000, doc="masses are clipped to [min, max]")
@@ -287,7 +290,7 @@ class PhysicsSection:
     sleep: bool = key(
         "bool",
         doc="let resting bodies sleep: faster; may change a single trial's trajectory near "
-        "the edge, not the pooled rate over seeds (docs/solver_knobs.md)",
+        "the edge, not the pooled rate over seeds (docs/edge_trials.md)",
     )
 
 
@@ -690,6 +693,12 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     pots = v["pots"]
     if pots["mass_min_kg"] > pots["mass_kg"] or pots["mass_kg"] > pots["mass_max_kg"]:
         raise ScenarioError("pots.mass_g must lie within [pots.mass_min_g, pots.mass_max_g].")
+    if pots["friction"] < pots["friction_min"]:
+        raise ScenarioError(
+            f"pots.friction = {pots['friction']:g} is below pots.friction_min = "
+            f"{pots['friction_min']:g}, the least friction a pot is given: lower friction_min "
+            "(0 allows frictionless pots) or raise friction."
+        )
     conv = v["conveyor"]
     cells = conv["rows"] * conv["cols"]
     if v["scenario"]["seedlings"] > cells:
