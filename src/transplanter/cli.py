@@ -258,7 +258,6 @@ def _failure_clips(args: argparse.Namespace):
     why it was refused (the directory is created and proved writable first)."""
     from transplanter import fileio, video
 
-    video.prepare_gl()  # before MuJoCo is imported
     try:
         width, height = video.parse_size(args.clip_size)
         video.check_frames(width, height, args.clip_fps)
@@ -313,8 +312,6 @@ def _trial_status(result) -> int:
 
 def cmd_render(args: argparse.Namespace) -> int:
     from transplanter import fileio, video
-
-    video.prepare_gl()  # before MuJoCo is imported
     from transplanter.report import format_summary, progress_bar
     from transplanter.scenario import ScenarioError
     from transplanter.trial import TrialInterrupted, run_trial
@@ -323,6 +320,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         video.require_imageio()
         video.check_frames(args.width, args.height, args.fps)
         target = fileio.check_output(args.out, ".mp4")
+        json_target = None if args.json is None else fileio.check_output(args.json)
     except (video.VideoUnavailable, video.RenderRefused, fileio.FileRefused) as exc:
         _err(f"render refused: {exc}")
         return EXIT_REFUSED
@@ -352,6 +350,13 @@ def cmd_render(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     print(format_summary(result))
+    if json_target is not None:
+        try:
+            fileio.write_json_atomic(json_target, result.to_dict())
+            print(f"results written to {_show(args.json)}")
+        except OSError as exc:
+            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
+            return EXIT_OUTPUT_FAILED
     if interrupted:
         _err(f"interrupted after {result.judged} seedlings; no video written")
         return EXIT_INTERRUPTED
@@ -725,6 +730,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
     p.add_argument("--out", type=Path, required=True, help="the .mp4 file to write")
+    p.add_argument("--json", type=Path, default=None, help="write the trial's results to JSON")
     p.add_argument(
         "--seedlings-of",
         default=None,
@@ -870,6 +876,10 @@ def main(argv: list[str] | None = None) -> int:
     # rerun's own log lines would repeat a failed recording's one-line report on stderr
     os.environ.setdefault("RUST_LOG", "off")
     args = build_parser().parse_args(argv)
+    if args.command == "render" or getattr(args, "clips_of_failures", None) is not None:
+        from transplanter.video import prepare_gl
+
+        prepare_gl()  # MuJoCo reads MUJOCO_GL when it is first imported
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
