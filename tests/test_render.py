@@ -202,3 +202,52 @@ def test_cycle_window_runs_from_first_line_to_release_plus_tail():
 def test_size_and_index_lists():
     assert parse_size("320x240") == (320, 240)
     assert parse_indices("1,3-4", 5) == {1, 3, 4}
+
+
+class _FakeHandle:
+    def __init__(self, running_for: int) -> None:
+        self.left, self.texts, self.synced, self.closed = running_for, [], 0, False
+
+    def is_running(self) -> bool:
+        self.left -= 1
+        return self.left >= 0
+
+    def set_texts(self, texts) -> None:
+        self.texts.append(texts)
+
+    def sync(self) -> None:
+        self.synced += 1
+
+    def close(self) -> None:
+        self.closed = True
+
+
+class _FakeTwin:
+    time = 0.0
+
+
+def test_live_viewer_paces_shows_the_verdicts_and_stops_when_closed(monkeypatch):
+    import transplanter.live as live
+    from transplanter.results import Outcome
+
+    clock = {"now": 0.0}
+    monkeypatch.setattr(live.time, "perf_counter", lambda: clock["now"])
+    monkeypatch.setattr(live.time, "sleep", lambda s: clock.__setitem__("now", clock["now"] + s))
+    viewer = live.LiveViewer(speed=2.0)
+    viewer.handle = _FakeHandle(running_for=2)
+    viewer.records = [SeedlingRecord(index=i, pickup=i) for i in range(2)]
+    viewer.records[0].outcome = Outcome.NOT_GRIPPED
+    twin = _FakeTwin()
+    twin.time = 1.0
+    viewer.step(twin)
+    assert clock["now"] == pytest.approx(0.5)  # 1 s simulated at 2x: half a second of wall
+    left, right = viewer.handle.texts[-1][2:]
+    assert "last verdict" in left and "0: not_gripped" in right and "1 / 2" in right
+    twin.time = 2.0
+    viewer.step(twin)
+    with pytest.raises(KeyboardInterrupt):  # the window was closed: the trial stops
+        twin.time = 3.0
+        viewer.step(twin)
+    assert viewer.closed and viewer.closed_at == 3.0
+    viewer.finish(twin, interrupted=True)
+    assert viewer.handle.closed
