@@ -382,6 +382,11 @@ class VideoObserver:
         if interrupted:
             self.writer.discard()
             return
+        if self.writer.frames == 0:
+            self.writer.discard()
+            chosen = ", ".join(str(s) for s in sorted(self.seedlings or ()))
+            self.error = f"no frame was filmed: seedlings {chosen} never started a cycle"
+            return
         try:
             self.path = self.writer.commit()
         except Exception as exc:
