@@ -179,6 +179,15 @@ def test_video_commands_without_the_extra_name_it(tmp_path, monkeypatch, capsys)
     assert cli.main(clips) == 2
     assert "pip install 'transplanter[video]'" in capsys.readouterr().err
     assert cli.main([*clips, "--clip-size", "320by240"]) == 2
+    assert not (tmp_path / "c").exists()  # nothing made for a refused command
+
+
+def test_clips_of_failures_refuses_a_file_as_directory(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("MUJOCO_GL", "egl")
+    (tmp_path / "f").write_text("")
+    argv = ["trial", "paper", "--seedlings", "1", "--clips-of-failures", str(tmp_path / "f")]
+    assert cli.main(argv) == 2
+    assert "cannot hold the clips" in capsys.readouterr().err
 
 
 def test_frame_clock_takes_one_frame_per_interval_on_the_step_grid():

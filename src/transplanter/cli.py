@@ -203,6 +203,8 @@ def cmd_trial(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
+    if clips is not None and not _clip_dir_ready(Path(args.clips_of_failures)):
+        return EXIT_REFUSED
     bar, update = progress_bar(config.seedlings, not args.quiet and sys.stderr.isatty())
     interrupted = False
     try:
@@ -255,8 +257,8 @@ def cmd_trial(args: argparse.Namespace) -> int:
 
 def _failure_clips(args: argparse.Namespace):
     """The FailureClips observer of `trial --clips-of-failures DIR`, or None after saying
-    why it was refused (the directory is created and proved writable first)."""
-    from transplanter import fileio, video
+    why it was refused."""
+    from transplanter import video
 
     try:
         width, height = video.parse_size(args.clip_size)
@@ -267,14 +269,20 @@ def _failure_clips(args: argparse.Namespace):
     except (video.VideoUnavailable, video.RenderRefused) as exc:
         _err(f"--clips-of-failures: {exc}")
         return None
-    directory = Path(args.clips_of_failures)
+    return clips
+
+
+def _clip_dir_ready(directory: Path) -> bool:
+    """Create the clips' directory and prove it writable, or say why not (False)."""
+    from transplanter import fileio
+
     try:
         directory.mkdir(parents=True, exist_ok=True)
         fileio.discard(fileio.temp_beside(directory / "probe"))
     except OSError as exc:
         _err(f"--clips-of-failures: {_show(directory)} cannot hold the clips: {exc}")
-        return None
-    return clips
+        return False
+    return True
 
 
 def _print_clips(clips, directory) -> None:
