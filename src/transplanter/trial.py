@@ -1,17 +1,19 @@
 """Headless pick-and-drop trials: run the twin through a scenario's seedlings and judge them.
 
 `run_trial(config)` builds a Twin, lets the judge follow it and returns a `TrialResult`;
-with a recording path it also writes a rerun recording. Presentation (progress bar, summary
-table, JSON files) lives in `transplanter.report`, the command line in `transplanter.cli`.
+with a recording path it also writes a rerun recording, and `observers` (`TrialObserver`:
+video frames, failure clips, a live viewer) read the state after every physics step.
+Presentation (progress bar, summary table, JSON files) lives in `transplanter.report`, the
+command line in `transplanter.cli`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -22,7 +24,13 @@ from transplanter.results import Outcome, SeedlingRecord, TrialResult
 from transplanter.sim import SimulationInvalid, Twin
 from transplanter.units import M_PER_MM
 
-__all__ = ["run_trial", "TrialInterrupted", "MONITOR_EVERY_STEPS", "FIRMWARE_HORIZON_S"]
+__all__ = [
+    "run_trial",
+    "TrialInterrupted",
+    "TrialObserver",
+    "MONITOR_EVERY_STEPS",
+    "FIRMWARE_HORIZON_S",
+]
 
 # Grip force, leaf contacts and motor lag are sampled every this many physics steps (10 ms
 # at the paper's 1 ms step: the gripper moves at most 1.5 mm between samples).
@@ -33,6 +41,24 @@ FIRMWARE_HORIZON_S = (60.0, 30.0)
 
 # Progress callback: (seedlings finished, simulated time s).
 Progress = Callable[[int, float], None]
+
+
+class TrialObserver(Protocol):
+    """Watches a trial as it runs (frames for a video, failure clips, a live viewer).
+
+    An observer only reads the twin's state: a trial gives the same results with or
+    without observers. `attach` is called once the twin and the judge exist (an observer
+    may add line listeners: they run after the judge's, so records are up to date), `step`
+    after every physics step, `finish` once the judge gave its last verdicts (also after an
+    interrupt or invalid physics), `abort` instead of `finish` when the trial raised."""
+
+    def attach(self, twin: Twin, records: list[SeedlingRecord]) -> None: ...
+
+    def step(self, twin: Twin) -> None: ...
+
+    def finish(self, twin: Twin, interrupted: bool) -> None: ...
+
+    def abort(self) -> None: ...
 
 
 class TrialInterrupted(KeyboardInterrupt):
@@ -50,10 +76,12 @@ def run_trial(
     record_rate_hz: float = 60.0,
     progress: Progress | None = None,
     twin_factory: Callable[[TwinConfig], Twin] = Twin,
+    observers: Sequence[TrialObserver] = (),
 ) -> TrialResult:
     """Run the configured seedlings through the whole twin and measure what happens.
 
-    `twin_factory` builds the Twin (a subclass may add observers or disturbances)."""
+    `twin_factory` builds the Twin (a subclass may add observers or disturbances);
+    `observers` watch every physics step without changing the physics (TrialObserver)."""
     t_wall = time.perf_counter()
     twin = twin_factory(config)
     m_pp = twin.machine.eeprom.m_pp
@@ -71,6 +99,10 @@ def run_trial(
     every = MONITOR_EVERY_STEPS if recorder is None else 1
     if recorder is not None:
         monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state at t = 0
+    recording_monitor = monitor
+    if observers:
+        _attach(observers, twin, records, recorder)
+        monitor, every = _ObservingMonitor(monitor, every, observers), 1
     valid, reason, interrupted = True, None, False
     try:
         horizon = FIRMWARE_HORIZON_S[0] + FIRMWARE_HORIZON_S[1] * len(records)
@@ -96,11 +128,22 @@ def run_trial(
     except BaseException:
         if recorder is not None:  # an unexpected error leaves no temporary file behind
             recorder.abort()
+        for observer in observers:
+            observer.abort()
         raise
     judge.finish(twin.time, valid and not interrupted)
+    try:
+        for observer in observers:
+            observer.finish(twin, interrupted)
+    except BaseException:
+        for observer in observers:
+            observer.abort()
+        if recorder is not None:
+            recorder.abort()
+        raise
     recording_error = None
     if recorder is not None:
-        recording_error = _finish_recording(recorder, monitor, twin, interrupted)
+        recording_error = _finish_recording(recorder, recording_monitor, twin, interrupted)
     result = TrialResult(
         scenario=config.name,
         seed=config.seed,
@@ -121,6 +164,37 @@ def run_trial(
     if interrupted:
         raise TrialInterrupted(result)
     return result
+
+
+def _attach(
+    observers: Sequence[TrialObserver], twin: Twin, records: list[SeedlingRecord], recorder: Any
+) -> None:
+    """Attach every observer; if one cannot start (no GL context), none leaves a file."""
+    attached: list[TrialObserver] = []
+    try:
+        for observer in observers:
+            attached.append(observer)
+            observer.attach(twin, records)
+    except BaseException:
+        for observer in attached:
+            observer.abort()
+        if recorder is not None:
+            recorder.abort()
+        raise
+
+
+class _ObservingMonitor:
+    """Runs the trial's own monitor on its schedule and every observer after every step."""
+
+    def __init__(self, inner: Any, inner_every: int, observers: Sequence[TrialObserver]) -> None:
+        self.inner, self.inner_every = inner, inner_every
+        self.steps = [o.step for o in observers]
+
+    def __call__(self, twin: Twin, i: int) -> None:
+        if twin.k % self.inner_every == 0:
+            self.inner(twin, i)
+        for step in self.steps:
+            step(twin)
 
 
 def _finish_recording(recorder: Any, monitor: Any, twin: Twin, interrupted: bool) -> str | None:
