@@ -175,3 +175,11 @@ def test_recorded_trial_reads_back(tmp_path, capsys):
     assert events["sent"] == events["ack"] > 20
     assert set(summary["scalar_channels"]) == set(channel_names())
     assert "recording written to" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rows", [24, 100])
+def test_conveyors_up_to_the_schema_limit_run_a_trial(rows):
+    """conveyor.rows up to the schema's 100 (500 pots) run a 5-seedling paper trial."""
+    result = run_trial(paper_config(5, **{"conveyor.rows": rows}))
+    assert result.valid and result.successes == 5
