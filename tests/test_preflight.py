@@ -47,3 +47,17 @@ def test_first_move_from_home_is_checked():
     machine = machine_config(paper_scenario(**{"taught.drop_mm": [80.0, 100.0]}))
     with pytest.raises(ScenarioError, match="the first move, from the homed position .* to "):
         check_machine(machine)
+
+
+def test_a_timestep_too_coarse_for_the_stepper_servos_is_refused():
+    """Z's servo has omega = 810 rad/s: 1 ms (omega*dt 0.81) runs, 2 ms (1.62, where the
+    paper setting lost steps and fell to 78 %) is refused before anything runs."""
+    from transplanter.config import assemble
+    from transplanter.scenario import ScenarioError, load_scenario
+
+    assemble(load_scenario("paper", {"physics.timestep_ms": 0.5}))
+    with pytest.raises(ScenarioError, match=r"timestep_ms = 2 is too coarse for the z stepper"):
+        assemble(load_scenario("paper", {"physics.timestep_ms": 2.0}))
+    # without the preflight the user takes the step as given
+    config = assemble(load_scenario("paper", {"physics.timestep_ms": 2.0}), preflight=False)
+    assert config.scene.timestep == 0.002

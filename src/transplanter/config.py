@@ -84,13 +84,18 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
 
         check_machine(machine)
     s = scenario
+    scene = scene_config(s, machine)
+    if preflight:
+        from transplanter.preflight import check_timestep
+
+        check_timestep(scene)
     return TwinConfig(
         name=s.meta.name,
         seed=s.meta.seed,
         seedlings=s.meta.seedlings,
         overrides=s.overrides,
         machine=machine,
-        scene=scene_config(s, machine),
+        scene=scene,
         gripper_servo=ServoConfig(
             speed_deg_s=60.0 / s.gripper.servo_s_per_60deg,
             max_opening_m=s.gripper.max_opening_m,

@@ -15,7 +15,13 @@ from transplanter.motion import plan_line
 from transplanter.scenario import ScenarioError
 from transplanter.units import M_PER_MM
 
-__all__ = ["check_machine"]
+__all__ = ["check_machine", "check_timestep", "MAX_OMEGA_DT"]
+
+# The stepper servos are stiff explicit springs: a timestep at which a motor's natural
+# frequency times the step exceeds this rings and loses steps. The study in
+# docs/edge_trials.md: Z has omega*dt = 0.81 at 1 ms (0.5 and 1 ms agree on every setting),
+# 1.62 at 2 ms (the paper setting falls from 100 % to 78 %, with 300 lost-step events).
+MAX_OMEGA_DT = 1.0
 
 
 def check_machine(machine: Machine) -> None:
@@ -98,3 +104,40 @@ def _check_line(machine, a, b) -> None:
 
 def _mm(p) -> str:
     return "(" + ", ".join(f"{v / M_PER_MM:g}" for v in p) + ")"
+
+
+def check_timestep(scene_config) -> None:
+    """Raise ScenarioError when physics.timestep_ms is too coarse for a stepper's servo.
+
+    Builds the machine (one conveyor cell is enough: the pots do not load the motors) and
+    takes each motor's natural frequency from its servo stiffness and its joint's inertia
+    (mass matrix at the home keyframe, rotor armature included)."""
+    import dataclasses
+    import math
+
+    import mujoco
+
+    from transplanter.scene import build_scene
+
+    scene = build_scene(dataclasses.replace(scene_config, rows=1, cols=1), seed=0)
+    m = scene.model
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    mujoco.mj_forward(m, d)
+    inertia = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, inertia)
+    dt = m.opt.timestep
+    worst = (0.0, "")
+    for a in scene.motor_actuators:
+        dof = m.jnt_dofadr[m.actuator_trnid[a, 0]]
+        stiffness = m.actuator_gainprm[a, 0] * m.actuator_gear[a, 0] ** 2
+        omega = math.sqrt(stiffness / inertia[dof, dof])
+        worst = max(worst, (omega, m.actuator(a).name))
+    omega, name = worst
+    if omega * dt > MAX_OMEGA_DT:
+        raise ScenarioError(
+            f"physics.timestep_ms = {dt * 1e3:g} is too coarse for the {name} stepper's servo "
+            f"(natural frequency {omega:.0f} rad/s: omega x timestep = {omega * dt:.2f} > "
+            f"{MAX_OMEGA_DT:g}); it would ring and lose steps. Use at most "
+            f"{MAX_OMEGA_DT / omega * 1e3:.2f} ms (docs/edge_trials.md)."
+        )
