@@ -678,8 +678,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "trial",
         help="run a headless pick-and-drop trial",
-        epilog="exit status: 0 done, 2 scenario or output path refused, 3 invalid physics (a "
-        "MuJoCo warning or divergence), 4 the firmware faulted (a line was refused), 5 a "
+        epilog="exit status: 0 done, 2 scenario or output path refused, 3 the trial is not valid "
+        "(a MuJoCo warning or divergence, or the program did not finish in its simulated "
+        "time: 60 s + 30 s per seedling), 4 the firmware faulted (a line was refused), 5 a "
         "result file or the recording could not be written, 130 interrupted (Ctrl-C)",
     )
     p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")

@@ -2,7 +2,7 @@
 
 Two objectives: maximise the lower end of the 95 % interval of the success rate pooled over
 the seeds (`stats.pooled_rate`, so a lucky seed does not win) and minimise the mean cycle
-time. Each Optuna trial runs one `sweep.run_one` per seed (the same judging as
+time. Each Optuna trial runs one `sweep_backends.run_one` per seed (the same judging as
 `transplanter trial`), on the sweep's backends. The study lives in SQLite, so rerunning the
 same command resumes it: finished trials count toward `--trials`. The sampler is seeded per
 trial number (`sampler_seed + number`), so the same command gives the same study, resumed or

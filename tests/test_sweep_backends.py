@@ -1,0 +1,64 @@
+"""transplanter.sweep_backends: one run as a row (never an exception) and the backends by name."""
+
+import sys
+
+import pytest
+
+import transplanter.trial
+from transplanter.results import TrialResult
+from transplanter.sweep_backends import BackendMissing, InlineBackend, make_backend, run_one
+from transplanter.sweep_grid import SweepRefused
+
+
+def _task(z_low_mm=34.0, seed=3):
+    return {"scenario": "paper", "overrides": {}, "setting": {"taught.z_low_mm": z_low_mm},
+            "seed": seed, "seedlings": 2}  # fmt: skip
+
+
+def test_a_refused_setting_is_a_row_with_the_reason():
+    row = run_one(_task(z_low_mm=61.0))  # above the paper's Z_up = 60 mm
+    assert row["error"].startswith("setting refused: ")
+    assert "z_low_mm" in row["error"]
+    assert (row["taught.z_low_mm"], row["seed"], row["successes"]) == (61.0, 3, None)
+    assert row["wall_time_s"] >= 0
+
+
+def test_a_run_that_raises_is_a_row_with_its_error(monkeypatch):
+    def boom(config):
+        raise RuntimeError(f"solver exploded at seed {config.seed}")
+
+    monkeypatch.setattr(transplanter.trial, "run_trial", boom)
+    row = run_one(_task())
+    assert row["error"] == "RuntimeError: solver exploded at seed 3"
+    assert row["successes"] is None and row["seed"] == 3
+
+
+def test_a_trial_that_ran_out_of_time_is_not_called_invalid_physics(monkeypatch):
+    reason = "the PGF did not finish within 120 s simulated"
+
+    def timed_out(config):
+        return TrialResult(
+            scenario=config.name, seed=config.seed, per_seedling=[], sim_time_s=120.5,
+            wall_time_s=1.0, valid=False, invalid_reason=reason,
+        )  # fmt: skip
+
+    monkeypatch.setattr(transplanter.trial, "run_trial", timed_out)
+    row = run_one(_task())
+    assert row["error"] == f"trial not valid: {reason}"
+    assert row["valid"] is False and row["sim_time_s"] == 120.5
+
+
+def test_backends_by_name_and_their_refusals():
+    assert isinstance(make_backend("inline", 1), InlineBackend)
+    with pytest.raises(SweepRefused, match="choose one of process, ray, inline"):
+        make_backend("dask", 2)
+    with pytest.raises(SweepRefused, match="at least 1, got 0"):
+        make_backend("process", 0)
+    with pytest.raises(SweepRefused, match="use it with --backend ray"):
+        make_backend("process", 2, address="head:6379")
+
+
+def test_ray_missing_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)
+    with pytest.raises(BackendMissing, match=r"pip install 'transplanter\[ray\]'"):
+        make_backend("ray", 1)

@@ -1,0 +1,104 @@
+"""transplanter.sweep_grid: --vary and --param parsed and checked with the schema, the spec's
+grid of (setting, seed) runs."""
+
+import pytest
+
+from transplanter.sweep_grid import Axis, SweepRefused, SweepSpec, parse_param_range, parse_vary
+
+REFUSED = Axis("taught.z_low_mm", (61.0, 70.0))
+
+
+def _spec(axis=REFUSED, seeds=(1,), seedlings=2, **kw):
+    return SweepSpec("paper", (axis,), tuple(seeds), seedlings, kw)
+
+
+def test_float_range_is_exact_decimal_and_includes_hi():
+    axis = parse_vary("taught.z_low_mm=26:46:2")
+    assert axis == Axis("taught.z_low_mm", tuple(float(v) for v in range(26, 47, 2)))
+    # 0.1 + 0.1 + ... accumulated in floats ends at 0.7999999999999999, not 0.8
+    friction = parse_vary("pots.friction=0.1:0.8:0.1").values
+    assert friction == (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
+    assert parse_vary("taught.z_low_mm=30:30:1").values == (30.0,)
+
+
+def test_int_range_and_lists():
+    assert parse_vary("recovery.rehome_every_cycles=0:6:3").values == (0, 3, 6)
+    assert parse_vary("motion.profile=trapezoid,scurve").values == ("trapezoid", "scurve")
+    assert parse_vary("taught.z_low_mm=30,34.5").values == (30.0, 34.5)  # floats, one type
+    assert parse_vary("physics.sleep=true,false").values == (True, False)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("taught.z_low_mm=26:46:0", "the step must be above 0, got 0"),
+        ("taught.z_low_mm=26:46:-2", "the step must be above 0, got -2"),
+        ("taught.z_low_mm=26:46:3", "the step 3 does not divide the span 26..46 (20)"),
+        ("taught.z_low_mm=46:26:2", "HI 26 is below LO 46"),
+        ("taught.z_low_mm=26:46", "a range is LO:HI:STEP"),
+        ("taught.z_low_mm=26:x:2", "'x' is not a number"),
+        ("taught.z_low_mm=26:nan:2", "'nan' is not a number"),
+        ("taught.zlow_mm=26:46:2", "taught.zlow_mm: unknown key"),
+        ("taught.z_low_cm=2:4:1", "taught.z_low_cm: wrong unit"),
+        ("tought.z_low_mm=26", "unknown section [tought]"),
+        ("taught.z_low_mm=0:10000:1", "10001 values; at most 10000"),
+        ("taught.z_low_mm=100:1200:100", "taught.z_low_mm: 1100.0 is outside the allowed range"),
+        ("motion.profile=trapezoid,jerky", "'jerky' is not one of trapezoid, scurve"),
+        ("recovery.rehome_every_cycles=0:5:2.5", "takes whole numbers"),
+        ("recovery.rehome_every_cycles=1,2.5", "expected a whole number, got 2.5"),
+        ("taught.z_low_mm=30,30.0", "the value 30.0 is given twice"),
+        ("taught.z_low_mm=30,,34", "empty value"),
+        ("taught.drop_mm=[0, 140]", "only single values can be varied"),
+        ("scenario.seed=1,2", "use --seeds / --seedlings"),
+        ("taught.z_low_mm", "write KEY=LO:HI:STEP or KEY=a,b,c"),
+    ],
+)
+def test_bad_grids_are_refused_naming_the_problem(text, message):
+    with pytest.raises(SweepRefused) as info:
+        parse_vary(text)
+    assert message in str(info.value)
+
+
+def test_param_ranges():
+    assert parse_param_range("taught.z_low_mm=28..40") == ("taught.z_low_mm", "float", 28.0, 40.0)
+    assert parse_param_range("recovery.rehome_every_cycles=0..5") == (
+        "recovery.rehome_every_cycles",
+        "int",
+        0,
+        5,
+    )
+    for text, message in (
+        ("taught.z_low_mm=40..28", "LO must be below HI"),
+        ("taught.z_low_mm=28-40", "write KEY=LO..HI"),
+        ("recovery.rehome_every_cycles=0..2.5", "takes whole numbers"),
+        ("motion.profile=0..1", "only number keys can be tuned"),
+        ("taught.z_low_mm=28..2000", "taught.z_low_mm: 2000.0 is outside the allowed range"),
+    ):
+        with pytest.raises(SweepRefused) as info:
+            parse_param_range(text)
+        assert message in str(info.value)
+
+
+def test_spec_expands_the_grid_first_key_outermost():
+    spec = SweepSpec(
+        "paper",
+        (Axis("taught.z_low_mm", (30.0, 34.0)), Axis("motion.profile", ("trapezoid", "scurve"))),
+        (1, 2),
+        2,
+    )
+    assert spec.runs_total == 8
+    assert spec.settings() == [
+        {"taught.z_low_mm": 30.0, "motion.profile": "trapezoid"},
+        {"taught.z_low_mm": 30.0, "motion.profile": "scurve"},
+        {"taught.z_low_mm": 34.0, "motion.profile": "trapezoid"},
+        {"taught.z_low_mm": 34.0, "motion.profile": "scurve"},
+    ]
+    assert [(t["setting"]["taught.z_low_mm"], t["seed"]) for t in spec.tasks()][:3] == [
+        (30.0, 1),
+        (30.0, 2),
+        (30.0, 1),
+    ]
+    with pytest.raises(SweepRefused, match="both set .--set. and varied"):
+        _spec(**{"taught.z_low_mm": 30})
+    with pytest.raises(SweepRefused, match="varied twice"):
+        SweepSpec("paper", (REFUSED, REFUSED), (1,), 2)
