@@ -364,8 +364,9 @@ def test_homing_fails_when_the_switch_stays_closed_after_the_pull_off():
         replies = sgf.poll(t, (True, True, True, False))  # stuck-closed switches
         t += 1e-3
     assert replies == [
-        "error:9 homing failed: limit switch 3 still closed after the pull-off; "
-        "raise homing_pulloff_steps"
+        "error:9 homing failed: limit switch 3 still closed after the pull-off: a stuck "
+        "switch, or the axis stands beyond it (steps lost since the last homing); check it, "
+        "or raise homing_pulloff_steps"
     ]
     assert not sgf.homed and sgf.homing_trip_raw is None
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]

@@ -184,7 +184,11 @@ class Homing:
                     if self.cleared[motor]:
                         why = f"not found again within {steps} steps of the slow locate"
                     else:
-                        why = "still closed after the pull-off; raise homing_pulloff_steps"
+                        why = (
+                            "still closed after the pull-off: a stuck switch, or the axis "
+                            "stands beyond it (steps lost since the last homing); check it, "
+                            "or raise homing_pulloff_steps"
+                        )
                     return self._fail(now, f"limit switch {motor + 1} {why}")
         return None
 
