@@ -173,3 +173,36 @@ def test_numbers_on_the_command_line_are_ascii(capsys):
         assert stop.value.code == 2
         assert "ASCII digits 0-9" in capsys.readouterr().err
     assert main(["ik", "0", "2e2"]) == 0  # exponent notation is an ordinary number here
+
+
+@pytest.mark.slow
+def test_trial_seeds_prints_and_writes_the_pooled_rate(tmp_path, capsys):
+    """trial --seeds: a line per trial as it finishes, then the rate pooled over the trials
+    with its interval, in the summary and in the JSON under `pooled`."""
+    path = tmp_path / "pooled.json"
+    args = ["trial", "paper", "--seeds", "1-2", "--seedlings", "2", "--json", str(path)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"seed +1: 2/2 \(100\.0 %\)", out)
+    assert re.search(r"seed +2: 2/2 \(100\.0 %\)", out)
+    assert "pooled over 2 trials: 100.0 % (4/4), 95 % CI 51.0-100.0 %" in out
+    d = json.loads(path.read_text())
+    assert [t["seed"] for t in d["trials"]] == [1, 2]
+    assert [t["successes"] for t in d["trials"]] == [2, 2]
+    pooled = d["pooled"]
+    assert (pooled["successes"], pooled["seedlings"], pooled["trials"]) == (4, 4, 2)
+    assert pooled["success_rate"] == 1.0
+    assert pooled["ci95"] == pytest.approx([0.5101, 1.0], abs=1e-4)  # Wilson 4/4 at least
+    assert d["interrupted"] is False
+
+
+@pytest.mark.slow
+def test_trial_seeds_says_when_a_trials_failures_cluster(tmp_path, capsys):
+    # At Z_low 20 mm the jaw tips strike the belt on the first pick: every later pick starts
+    # off position, a cascade, not independent failures.
+    args = ["trial", "paper", "--seeds", "3", "--seedlings", "3", "--set", "taught.z_low_mm=20"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"seed +3: 0/3 \(0\.0 %\), failures cluster", out)
+    assert "position_lost" in out
+    assert "pooled over 1 trial: 0.0 % (0/3)" in out

@@ -460,7 +460,8 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
         payload["pooled"] = pooled.to_dict()
         lo, hi = pooled.ci95
         print(
-            f"pooled over {pooled.trials} trials: {100 * pooled.success_rate:.1f} % "
+            f"pooled over {pooled.trials} trial{'s' if pooled.trials != 1 else ''}: "
+            f"{100 * pooled.success_rate:.1f} % "
             f"({pooled.successes}/{pooled.seedlings}), 95 % CI {100 * lo:.1f}-{100 * hi:.1f} % "
             f"({pooled.method})"
         )
