@@ -131,15 +131,19 @@ def commit(tmp: Path, target: Path) -> None:
         raise
 
 
-def write_json_atomic(path: str | os.PathLike, payload: dict[str, Any]) -> None:
-    """Write JSON so that the file is either the old one or the complete new one."""
+def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write text so that the file is either the old one or the complete new one (through a
+    symlink: its target, with the temporary file beside the target)."""
     target = Path(os.path.realpath(path)) if Path(path).is_symlink() else Path(path)
     tmp = temp_beside(target)
     try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(payload, f, indent=2, sort_keys=True)
-            f.write("\n")
+        tmp.write_text(text, encoding="utf-8")
     except BaseException:
         discard(tmp)
         raise
     commit(tmp, target)
+
+
+def write_json_atomic(path: str | os.PathLike, payload: dict[str, Any]) -> None:
+    """Write JSON so that the file is either the old one or the complete new one."""
+    write_text_atomic(path, json.dumps(payload, indent=2, sort_keys=True) + "\n")

@@ -322,13 +322,7 @@ def _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted
     if chosen is not None:
         path = out / "tuned.toml"
         text = tuned_toml(spec, {k: chosen[k] for k in keys}, out, chosen, study_name)
-        tmp = fileio.temp_beside(path)
-        try:
-            tmp.write_text(text, encoding="utf-8")
-        except BaseException:
-            fileio.discard(tmp)
-            raise
-        fileio.commit(tmp, path)
+        fileio.write_text_atomic(path, text)
         try:
             load_scenario(path)
         except ScenarioError as exc:  # pragma: no cover - a bug here, never the user's input

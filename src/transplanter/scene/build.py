@@ -98,13 +98,7 @@ def export_scene(cfg: SceneConfig, seed: int, out: str | Path) -> Path:
     for mesh in sorted((models_dir() / "assets").iterdir()):
         if mesh.suffix == ".stl":
             shutil.copyfile(mesh, assets / mesh.name)
-    tmp = fileio.temp_beside(target)
-    try:
-        tmp.write_text(xml, encoding="utf-8")
-    except BaseException:
-        fileio.discard(tmp)
-        raise
-    fileio.commit(tmp, target)
+    fileio.write_text_atomic(target, xml)
     return target
 
 
