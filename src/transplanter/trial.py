@@ -126,20 +126,14 @@ def run_trial(
     except KeyboardInterrupt:
         interrupted = True
     except BaseException:
-        if recorder is not None:  # an unexpected error leaves no temporary file behind
-            recorder.abort()
-        for observer in observers:
-            observer.abort()
+        _abort(observers, recorder)  # an unexpected error leaves no temporary file behind
         raise
     judge.finish(twin.time, valid and not interrupted)
     try:
         for observer in observers:
             observer.finish(twin, interrupted)
     except BaseException:
-        for observer in observers:
-            observer.abort()
-        if recorder is not None:
-            recorder.abort()
+        _abort(observers, recorder)
         raise
     recording_error = None
     if recorder is not None:
@@ -176,11 +170,16 @@ def _attach(
             attached.append(observer)
             observer.attach(twin, records)
     except BaseException:
-        for observer in attached:
-            observer.abort()
-        if recorder is not None:
-            recorder.abort()
+        _abort(attached, recorder)
         raise
+
+
+def _abort(observers: Sequence[TrialObserver], recorder: Any) -> None:
+    """Every observer and the recorder drop what they started (no file left behind)."""
+    for observer in observers:
+        observer.abort()
+    if recorder is not None:
+        recorder.abort()
 
 
 class _ObservingMonitor:
