@@ -493,7 +493,14 @@ def _workers(text: str) -> int:
 def cmd_sweep(args: argparse.Namespace) -> int:
     from transplanter.scenario import ScenarioError
     from transplanter.stats import parse_seeds
-    from transplanter.sweep import SweepRefused, SweepSpec, format_value, parse_vary, run_sweep
+    from transplanter.sweep import (
+        SweepRefused,
+        SweepSpec,
+        check_backend,
+        format_value,
+        parse_vary,
+        run_sweep,
+    )
 
     try:
         seeds = parse_seeds(args.seeds)
@@ -510,8 +517,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             seedlings = load_scenario(args.scenario, overrides).meta.seedlings
         spec = SweepSpec(args.scenario, axes, tuple(seeds), seedlings, overrides)
         spec.check()
-        if args.address is not None and args.backend != "ray":
-            raise SweepRefused("--address names a Ray cluster: use it with --backend ray")
+        check_backend(args.backend, args.workers, args.address)
     except (ScenarioError, SweepRefused) as exc:
         _err(f"sweep refused: {exc}")
         return EXIT_REFUSED

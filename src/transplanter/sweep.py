@@ -31,13 +31,14 @@ from pathlib import Path
 from typing import Any
 
 from transplanter import fileio
-from transplanter.stats import pooled_rate
+from transplanter.stats import PooledRate, pooled_rate
 from transplanter.sweep_backends import (
     BACKENDS,
     RESULT_FIELDS,
     BackendMissing,
     InlineBackend,
     backend_of,
+    check_backend,
     comparable,
     make_backend,
     run_one,
@@ -62,11 +63,13 @@ __all__ = [
     "SweepSpec",
     "aggregate",
     "backend_of",
+    "check_backend",
     "comparable",
     "format_value",
     "make_backend",
     "parse_param_range",
     "parse_vary",
+    "pool_runs",
     "run_key",
     "run_one",
     "run_sweep",
@@ -229,9 +232,7 @@ def aggregate(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> list[di
         agg.update(runs=len(members), errors=sum(r["error"] is not None for r in members))
         agg.update({f: None for f in SETTING_FIELDS[2:]})
         if counted:
-            pooled = pooled_rate(
-                [r["successes"] for r in counted], [r["seedlings"] for r in counted]
-            )
+            pooled, agg["cycle_time_s"] = pool_runs(counted)
             agg.update(
                 successes=pooled.successes,
                 seedlings=pooled.seedlings,
@@ -240,12 +241,18 @@ def aggregate(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> list[di
                 ci95_high=pooled.ci95[1],
                 ci_method=pooled.method,
             )
-            timed = [r for r in counted if r["cycles"]]
-            n = sum(r["cycles"] for r in timed)
-            if n:
-                agg["cycle_time_s"] = sum(r["cycle_time_s"] * r["cycles"] for r in timed) / n
         out.append(agg)
     return out
+
+
+def pool_runs(rows: Sequence[Mapping[str, Any]]) -> tuple[PooledRate, float | None]:
+    """Runs that were counted (none refused or raised), pooled: their success with
+    `stats.pooled_rate`, and the mean cycle time over all their timed cycles (None if none
+    was timed)."""
+    pooled = pooled_rate([r["successes"] for r in rows], [r["seedlings"] for r in rows])
+    n = sum(r["cycles"] or 0 for r in rows)
+    cycle = sum(r["cycle_time_s"] * r["cycles"] for r in rows if r["cycles"]) / n if n else None
+    return pooled, cycle
 
 
 def best_setting(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> str:

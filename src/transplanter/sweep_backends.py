@@ -192,14 +192,19 @@ class RayBackend:
         self.close()
 
 
-def make_backend(name: str, workers: int, address: str | None = None):
-    """A backend by name: 'process' (default), 'ray' or 'inline'."""
+def check_backend(name: str, workers: int, address: str | None = None) -> None:
+    """SweepRefused naming the problem if `make_backend` would refuse these options."""
     if name not in BACKENDS:
         raise SweepRefused(f"--backend {name!r}: choose one of {', '.join(BACKENDS)}")
     if workers < 1:
         raise SweepRefused(f"--workers must be at least 1, got {workers}")
     if address is not None and name != "ray":
         raise SweepRefused("--address names a Ray cluster: use it with --backend ray")
+
+
+def make_backend(name: str, workers: int, address: str | None = None):
+    """A backend by name: 'process' (default), 'ray' or 'inline'."""
+    check_backend(name, workers, address)
     if name == "inline":
         return InlineBackend()
     if name == "ray":

@@ -27,8 +27,7 @@ from typing import Any
 
 from transplanter import fileio
 from transplanter.scenario import ScenarioError, load_scenario, resolve_scenario_path
-from transplanter.stats import pooled_rate
-from transplanter.sweep import SweepRefused, backend_of, write_csv_atomic
+from transplanter.sweep import SweepRefused, backend_of, pool_runs, write_csv_atomic
 
 __all__ = ["Param", "TuneReport", "TuneSpec", "run_tune", "tuned_toml"]
 
@@ -145,17 +144,14 @@ def evaluate(runner, spec: TuneSpec, values: Mapping[str, Any]) -> dict[str, Any
     counted = [r for r in rows if r["successes"] is not None]
     if len(counted) != len(rows):
         return out
-    pooled = pooled_rate([r["successes"] for r in rows], [r["seedlings"] for r in rows])
-    n = sum(r["cycles"] or 0 for r in rows)
+    pooled, cycle = pool_runs(rows)
     out.update(
         successes=pooled.successes,
         seedlings=pooled.seedlings,
         success_rate=pooled.success_rate,
         ci95_low=pooled.ci95[0],
         ci95_high=pooled.ci95[1],
-        cycle_time_s=(
-            sum(r["cycle_time_s"] * r["cycles"] for r in rows if r["cycles"]) / n if n else None
-        ),
+        cycle_time_s=cycle,
     )
     return out
 
