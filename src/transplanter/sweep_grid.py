@@ -208,13 +208,7 @@ class SweepSpec:
     def tasks(self) -> list[dict[str, Any]]:
         """One task per (setting, seed), in grid order: what `run_one` takes."""
         return [
-            {
-                "scenario": self.scenario,
-                "overrides": dict(self.overrides),
-                "setting": setting,
-                "seed": seed,
-                "seedlings": self.seedlings,
-            }
+            task(self.scenario, self.overrides, setting, seed, self.seedlings)
             for setting in self.settings()
             for seed in self.seeds
         ]
@@ -251,6 +245,23 @@ MANIFEST_IDENTITY = (
     "seeds",
     "seedlings",
 )
+
+
+def task(
+    scenario: str,
+    overrides: Mapping[str, Any],
+    setting: Mapping[str, Any],
+    seed: int,
+    seedlings: int,
+) -> dict[str, Any]:
+    """One run as `sweep_backends.run_one` takes it (plain data: it crosses processes)."""
+    return {
+        "scenario": scenario,
+        "overrides": dict(overrides),
+        "setting": dict(setting),
+        "seed": seed,
+        "seedlings": seedlings,
+    }
 
 
 def run_key(setting: Mapping[str, Any], seed: int, keys: Sequence[str]) -> str:

@@ -28,6 +28,7 @@ from typing import Any
 from transplanter import fileio
 from transplanter.scenario import ScenarioError, load_scenario, resolve_scenario_path
 from transplanter.sweep import SweepRefused, backend_of, pool_runs, write_csv_atomic
+from transplanter.sweep_grid import task
 
 __all__ = ["Param", "TuneReport", "TuneSpec", "run_tune", "tuned_toml"]
 
@@ -121,14 +122,7 @@ def evaluate(runner, spec: TuneSpec, values: Mapping[str, Any]) -> dict[str, Any
     """One point judged on every seed: pooled success, its interval, the mean cycle time
     and the runs' errors; `lower` and `cycle_time_s` are None when it cannot be scored."""
     tasks = [
-        {
-            "scenario": spec.scenario,
-            "overrides": dict(spec.overrides),
-            "setting": dict(values),
-            "seed": seed,
-            "seedlings": spec.seedlings,
-        }
-        for seed in spec.seeds
+        task(spec.scenario, spec.overrides, values, seed, spec.seedlings) for seed in spec.seeds
     ]
     order = {s: i for i, s in enumerate(spec.seeds)}
     rows = sorted(runner.run(tasks), key=lambda r: order[r["seed"]])
