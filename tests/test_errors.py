@@ -78,6 +78,27 @@ def test_every_code_is_a_reply_the_firmware_gives():
     stalled.poll(0.0)
     stalled.stall(0.05, 0)
     given |= {ErrorCode(int(r.split(" ")[0][6:])) for r in stalled.poll(0.05)}
+    # homing with switch 3 stuck closed (68), then with it dead (69)
+    for switch_3 in (True, False):
+        homing = SGF(SGFConfig(homing_max_steps=(200, 200, 400)))
+        homing.receive("G28", 0.0)
+        replies = []
+        for k in range(10_000):
+            replies = homing.poll(k * 1e-3, (False, False, switch_3, False))
+            if replies:
+                break
+        given.add(ErrorCode.of_reply(replies[0]))
+    # a Z-down move while limit switch 4 reads closed (70)
+    config = SGFConfig()
+    sgf, endstops = SGF(config), SimulatedEndstops(config, power_on_joints(config))
+    sgf.receive("G28", 0.0)
+    for k in range(20_000):
+        sgf.poll(k * 1e-3, endstops.read(sgf.pulses_at(k * 1e-3)[0]))
+        if sgf.homed:
+            break
+    t = k * 1e-3
+    sgf.receive("G1 X0 Y180 Z50", t)
+    given.add(ErrorCode.of_reply(sgf.poll(t, (False, False, False, True))[0]))
     assert given == set(ErrorCode)
 
 
@@ -93,7 +114,7 @@ def test_reply_format_and_int_compatibility():
     assert ErrorCode(9) is ErrorCode.SYSTEM_LOCKED
     assert f"error:{ErrorCode.SYSTEM_LOCKED}" == "error:9"  # formats as its number
     assert ErrorCode.BAD_CHECKSUM + 1 == ErrorCode.LINE_OUT_OF_SEQUENCE
-    assert sorted(ErrorCode)[0] == 1 and max(ErrorCode) == 67
+    assert sorted(ErrorCode)[0] == 1 and max(ErrorCode) == 70
 
 
 def _first_args_of_gcode_errors(path: Path) -> list[ast.expr]:

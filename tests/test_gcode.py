@@ -257,13 +257,17 @@ def test_malformed_corpus_is_large_and_covers_codes():
         assert info.value.code == code, text
         seen.append(info.value.code)
     assert len(seen) >= 40
-    # every code the parser can give (9 and 33 come from the SGF, 61 needs an expected N)
+    # every code the parser can give (9, 33 and 66-70 come from the SGF, 61 needs an
+    # expected N)
     parser_codes = set(ErrorCode) - {
         ErrorCode.SYSTEM_LOCKED,
         ErrorCode.INVALID_TARGET,
         ErrorCode.LINE_OUT_OF_SEQUENCE,
         ErrorCode.RX_BUFFER_OVERFLOW,
         ErrorCode.MOTOR_STALLED,
+        ErrorCode.HOMING_SWITCH_STUCK,
+        ErrorCode.HOMING_SWITCH_NOT_FOUND,
+        ErrorCode.LIMIT_SWITCH_CLOSED,
     }
     assert set(seen) == parser_codes
 

@@ -289,3 +289,62 @@ def test_a_stall_outside_a_cycle_beyond_the_retries_faults():
     assert parse_line(pgf.poll(0.1, [STALL_REPLY])[0]).command == "G28"  # homing again
     assert pgf.poll(0.2, [STALL_REPLY]) == []
     assert "error:67" in pgf.fault and pgf.abandoned == []
+    assert pgf.fault_kind == "motor_stalled"
+
+
+def test_a_seedling_given_up_that_stalls_again_stops_the_pgf():
+    """A jam: the seedling is given up after its retries, and its re-home stalls once more:
+    the machine cannot even home, so the PGF stops instead of re-homing for ever."""
+    config = PGFConfig(seedlings=2, line_numbers=False, stall_recovery=True, stall_retries=1)
+    pgf = PGF(five_pickup_image(), config)
+    now = _to_grip(pgf)
+    assert pgf.poll(now + 0.1, [STALL_REPLY]) == ["G4 P300"]  # recovery 1
+    assert pgf.poll(now + 0.5, ["ok"]) == ["G28"]
+    assert pgf.poll(now + 0.6, [STALL_REPLY]) == ["G4 P300"]  # the re-home stalls: given up
+    assert pgf.abandoned == [0] and pgf.fault is None
+    assert pgf.poll(now + 1.0, ["ok"]) == ["G28"]
+    assert pgf.poll(now + 1.1, [STALL_REPLY]) == []
+    assert pgf.fault == f"SGF refused 'G28' (stall_rehome): {STALL_REPLY}"
+    assert pgf.fault_kind == "motor_stalled"
+
+
+def test_reply_timeout_restarts_on_any_line_and_stops_the_pgf():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=1, reply_timeout_s=10.0))
+    assert pgf.next_event_time() is None  # nothing outstanding yet
+    assert pgf.poll(1.0, []) == ["N1 G28*18"]
+    assert pgf.next_event_time() == 11.0
+    assert pgf.poll(9.0, ["echo:busy"]) == []  # a line that is not the reply: still alive
+    assert pgf.next_event_time() == 19.0 and pgf.fault is None
+    assert pgf.poll(18.9, []) == [] and pgf.fault is None
+    assert pgf.poll(19.0, []) == []
+    assert pgf.fault == (
+        "bus timeout: no reply to line 1 'N1 G28*18' (home) within 10 s; check the serial "
+        "cable and that the SGF is powered and running"
+    )
+    assert pgf.fault_kind == "bus_timeout" and pgf.next_event_time() is None
+    assert pgf.poll(20.0, ["ok"]) == [] and len(pgf.sent) == 1  # nothing more is sent
+
+
+@pytest.mark.parametrize(
+    ("reply", "kind"),
+    [
+        ("error:33 target position not reachable", "line_refused"),
+        ("error:68 homing failed: limit switch 3 (Z up) still closed", "switch_stuck_closed"),
+        ("error:69 homing failed: limit switch 1 (arm 1 home) not found", "switch_not_found"),
+        ("error:70 limit switch 4 (Z down) reads closed", "switch_stuck_closed"),
+        (STALL_REPLY, "motor_stalled"),
+    ],
+)
+def test_fault_kind_comes_from_the_reply_code(reply, kind):
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=1))
+    pgf.poll(0.0, [])
+    pgf.poll(0.1, [reply])
+    assert pgf.fault_kind == kind and reply in pgf.fault
+
+
+def test_an_unexpected_reply_is_a_protocol_fault():
+    pgf = PGF(five_pickup_image(), PGFConfig(seedlings=1))
+    pgf.poll(0.0, ["ok"])
+    assert pgf.fault_kind == "protocol" and pgf.fault.startswith("unexpected 'ok'")
+    with pytest.raises(ValueError, match="reply_timeout_s"):
+        PGFConfig(reply_timeout_s=0.0)

@@ -232,3 +232,100 @@ def test_firmware_link_exchanges_and_schedules():
     idle = FirmwareLink(PGF(taught_image(), PGFConfig(seedlings=1)), ComBus(), SGF(config))
     idle.pgf.poll(0.0, ["ok"])  # an ok nobody asked for: the PGF faults, sends nothing
     assert idle.exchange(0.0) == [] and idle.next_event_time(0.0, 1e-3) is None
+
+
+# -- injected faults without physics (firmware.faults) ----------------------------------------
+
+FAULT_START = (math.radians(150), math.radians(30), 0.120)
+
+
+def _run_with_faults(faults, bus=None):
+    """One seedling through the rig with the switch faults applied where they are read."""
+    config = SGFConfig()
+    pgf = PGF(taught_image(), PGFConfig(seedlings=1))
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, on_step_grid(config, FAULT_START), faults=faults)
+    result = run_firmware(pgf, bus or ComBus(), sgf, endstops)
+    return result, pgf, sgf
+
+
+def _assert_nothing_moves_after(result, pgf, sgf, t_fault):
+    """After the fault no line is sent and the step pulses stay where they are."""
+    assert not result.done and result.fault == pgf.fault
+    assert all(line.t_sent <= t_fault for line in pgf.sent)
+    held = sgf.pulses_at(t_fault)[0]
+    times = np.linspace(t_fault, t_fault + 60.0, 7)
+    assert np.array_equal(sgf.pulses_at(times), np.tile(held, (7, 1)))
+
+
+@pytest.mark.parametrize(("switch", "name"), [(1, "arm 1 home"), (2, "arm 2 home"), (3, "Z up")])
+def test_a_switch_stuck_closed_fails_homing_naming_it(switch, name):
+    from transplanter.firmware.faults import FaultConfig, FaultKind
+
+    result, pgf, sgf = _run_with_faults(FaultConfig(switch_stuck_closed=switch))
+    reply = pgf.sent[-1].reply
+    assert pgf.sent[-1].phase == LinePhase.HOME and reply.startswith("error:68 homing failed: ")
+    assert f"limit switch {switch} ({name}) still closed after the" in reply
+    assert "(it was already closed when homing began)" in reply
+    assert "stuck closed or its wiring is shorted" in reply
+    assert pgf.fault_kind == FaultKind.SWITCH_STUCK_CLOSED
+    _assert_nothing_moves_after(result, pgf, sgf, pgf.sent[-1].t_reply)
+
+
+def test_switch_4_stuck_closed_refuses_the_first_move_down():
+    from transplanter.firmware.faults import FaultConfig, FaultKind
+
+    result, pgf, sgf = _run_with_faults(FaultConfig(switch_stuck_closed=4))
+    last = pgf.sent[-1]
+    assert last.phase == LinePhase.TO_START
+    assert last.reply.startswith("error:70 limit switch 4 (Z down) reads closed at Z 159.000 mm")
+    assert pgf.fault_kind == FaultKind.SWITCH_STUCK_CLOSED
+    _assert_nothing_moves_after(result, pgf, sgf, last.t_reply)
+
+
+@pytest.mark.parametrize(("switch", "travel"), [(1, "4800 steps (180.0 deg)"),
+                                               (2, "4800 steps (180.0 deg)"),
+                                               (3, "80000 steps (200.0 mm)")])  # fmt: skip
+def test_a_dead_switch_fails_homing_naming_it_and_the_travel(switch, travel):
+    from transplanter.firmware.faults import FaultConfig, FaultKind
+
+    result, pgf, sgf = _run_with_faults(FaultConfig(switch_dead=switch))
+    reply = pgf.sent[-1].reply
+    assert reply.startswith(f"error:69 homing failed: limit switch {switch} (")
+    assert f"not found: motor {switch} travelled {travel} towards it" in reply
+    assert "dead or unplugged" in reply and "axis is blocked" in reply
+    assert pgf.fault_kind == FaultKind.SWITCH_NOT_FOUND
+    _assert_nothing_moves_after(result, pgf, sgf, pgf.sent[-1].t_reply)
+
+
+def test_a_lost_reply_ends_the_run_with_a_bus_timeout():
+    """The SGF's ok to line 5 (the first approach) is lost on the wire: the SGF did the move,
+    the PGF hears nothing for reply_timeout_s and stops; nothing moves after."""
+    from transplanter.firmware.faults import FaultConfig, FaultKind, LostReplyTransport
+
+    bus = LostReplyTransport(ComBus(), 5)
+    result, pgf, sgf = _run_with_faults(FaultConfig(lost_reply_line=5), bus=bus)
+    line = pgf.sent[-1]
+    assert len(pgf.sent) == 5 and line.reply is None and line.phase == LinePhase.APPROACH
+    assert [reply for _, reply in bus.lost] == ["ok"]
+    assert result.fault == (
+        f"bus timeout: no reply to line 5 {line.text!r} (approach) within 30 s; check the "
+        "serial cable and that the SGF is powered and running"
+    )
+    assert pgf.fault_kind == FaultKind.BUS_TIMEOUT
+    assert result.end_time_s == pytest.approx(line.t_sent + 30.0)
+    _assert_nothing_moves_after(result, pgf, sgf, result.end_time_s)
+    assert not sgf.busy
+
+
+def test_firmware_link_schedules_the_reply_timeout():
+    """With the reply lost nothing is in flight but the PGF's deadline: the link says when."""
+    from transplanter.firmware.faults import LostReplyTransport
+
+    config = SGFConfig()
+    pgf = PGF(taught_image(), PGFConfig(seedlings=1, reply_timeout_s=12.0))
+    bus, sgf = LostReplyTransport(ComBus(), 2), SGF(config)
+    link = FirmwareLink(pgf, bus, sgf)
+    link.exchange(0.0)  # G28 sent: its reply is not lost
+    assert pgf.next_event_time() == 12.0
+    assert link.next_event_time(0.0, 1e-3) == bus.next_delivery_time()

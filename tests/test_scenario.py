@@ -206,3 +206,50 @@ def test_a_pot_friction_below_its_floor_is_refused_not_raised():
         )
     )
     assert config.scene.pot_friction == 0.0 and config.scene.pot_friction_min == 0.0
+
+
+def test_the_paper_scenario_injects_no_faults():
+    from transplanter.firmware.faults import FaultConfig
+
+    s = load_scenario(PAPER)
+    assert s.faults.switch_stuck_closed == s.faults.switch_dead == s.faults.jam_motor == 0
+    assert s.faults.lost_reply_line == 0 and s.faults.jam_torque_nm == 0.0
+    assert s.bus.reply_timeout_s == 30.0
+    config = assemble(s)
+    assert config.faults == FaultConfig() and config.machine.pgf.reply_timeout_s == 30.0
+
+
+@pytest.mark.parametrize(
+    ("overrides", "needle"),
+    [
+        ({"faults.switch_dead": 4}, "limit switch 4 (Z down) is not used in homing"),
+        ({"faults.switch_dead": 5}, "faults.switch_dead: 5 is outside the allowed range [0, 4]"),
+        ({"faults.switch_stuck_closed": 5}, "faults.switch_stuck_closed: 5 is outside"),
+        (
+            {"faults.switch_dead": 2, "faults.switch_stuck_closed": 2},
+            "a switch cannot be dead and stuck closed",
+        ),
+        ({"faults.jam_motor": 1}, "needs faults.jam_torque_nm > 0 and faults.jam_duration_s"),
+        ({"faults.jam_torque_nm": 1.0}, "faults.jam_motor = 0 (no jam): name the motor"),
+        ({"faults.jam_motor": 4}, "faults.jam_motor: 4 is outside"),
+        ({"faults.lost_reply_line": -1}, "faults.lost_reply_line: -1 is outside"),
+    ],
+)
+def test_bad_fault_keys_are_refused_with_the_reason(overrides, needle):
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(PAPER, overrides)
+    assert needle in str(err.value)
+
+
+def test_a_lost_reply_beyond_the_program_and_a_short_reply_timeout_are_refused():
+    with pytest.raises(ScenarioError, match=r"the PGF sends 31 lines for 2 seedlings"):
+        assemble(load_scenario(PAPER, {"scenario.seedlings": 2, "faults.lost_reply_line": 32}))
+    with pytest.raises(ScenarioError) as err:
+        assemble(load_scenario(PAPER, {"bus.reply_timeout_s": 5.0}))
+    assert str(err.value) == (
+        "bus.reply_timeout_s = 5 s is too short: G28 (homing, worst case) can take 9.36 s, and "
+        "the PGF would stop a healthy run with a bus timeout; use at least 10.4 s."
+    )
+    # a conveyor index longer than the timeout is the longest line then
+    with pytest.raises(ScenarioError, match=r"M710 \(conveyor.index_time_s\) can take 40.00 s"):
+        assemble(load_scenario(PAPER, {"conveyor.index_time_s": 40.0}))

@@ -92,7 +92,12 @@ def test_homing_fails_without_switch():
     while not replies and t < 2.0:
         replies = sgf.poll(t, (False, False, False, False))
         t += 1e-3
-    assert replies and replies[0].startswith("error:9 homing failed: limit switch")
+    assert replies == [
+        "error:69 homing failed: limit switch 3 (Z up) not found: motor 3 travelled 400 steps "
+        "(1.0 mm) towards it and it never closed; the switch is dead or unplugged (M119 shows "
+        "it open even when pressed), or the axis is blocked before it; check the switch, its "
+        "wiring and the axis (and homing_dirs)"
+    ]
     assert not sgf.homed
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
 
@@ -364,9 +369,10 @@ def test_homing_fails_when_the_switch_stays_closed_after_the_pull_off():
         replies = sgf.poll(t, (True, True, True, False))  # stuck-closed switches
         t += 1e-3
     assert replies == [
-        "error:9 homing failed: limit switch 3 still closed after the pull-off: a stuck "
-        "switch, or the axis stands beyond it (steps lost since the last homing); check it, "
-        "or raise homing_pulloff_steps"
+        "error:68 homing failed: limit switch 3 (Z up) still closed after the 400-step "
+        "pull-off (it was already closed when homing began): the switch is stuck closed or its "
+        "wiring is shorted (M119 shows it TRIGGERED), or the axis stands beyond it (steps lost "
+        "since the last homing); check the switch and its wiring, or raise homing_pulloff_steps"
     ]
     assert not sgf.homed and sgf.homing_trip_raw is None
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
@@ -385,7 +391,9 @@ def test_homing_locate_fails_when_the_switch_is_lost():
             break
     # Z gives up first: 5 x 400 steps at 800 Hz after its pull-off, 2.6 s in
     assert replies == [
-        "error:9 homing failed: limit switch 3 not found again within 2000 steps of the slow locate"
+        "error:69 homing failed: limit switch 3 (Z up) closed in the seek but not again within "
+        "2000 steps (5.0 mm) of the slow locate: an intermittent switch (a loose wire, a "
+        "bouncing contact); check the switch and its wiring"
     ]
     assert k * 1e-3 == pytest.approx(0.05 + 400 / 8000 + 2000 / 800, abs=2e-3)
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]

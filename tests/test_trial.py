@@ -5,6 +5,7 @@ The 40-seedling paper trial is run once per session (about 10 s) and shared by t
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -183,3 +184,124 @@ def test_conveyors_up_to_the_schema_limit_run_a_trial(rows):
     """conveyor.rows up to the schema's 100 (500 pots) run a 5-seedling paper trial."""
     result = run_trial(paper_config(5, **{"conveyor.rows": rows}))
     assert result.valid and result.successes == 5
+
+
+# -- injected faults ([faults]): each ends the run with its named error, nothing moves after --
+
+
+def _fault_trial(seedlings: int = 1, **overrides):
+    """A short trial with scenario overrides; the result and the twin it ran."""
+    from transplanter.sim import Twin
+
+    twins = []
+
+    def factory(cfg):
+        twins.append(Twin(cfg))
+        return twins[0]
+
+    result = run_trial(paper_config(seedlings, **overrides), twin_factory=factory)
+    return result, twins[0]
+
+
+def _assert_stopped(result, twin, kind: str, t_fault: float) -> None:
+    """The trial ended on the firmware fault of this kind at t_fault, and after it no line
+    was sent and no stepper pulse was issued (the physics ran on for the settle time)."""
+    assert result.valid and result.fault == twin.pgf.fault and result.fault_kind == kind
+    d = result.to_dict()
+    assert d["fault_kind"] == kind and d["fault"] == result.fault
+    assert all(line.t_sent <= t_fault for line in twin.pgf.sent)
+    assert twin.time > t_fault
+    times = np.linspace(t_fault, twin.time, 20)
+    pulses = twin.sgf.pulses_at(times)
+    assert (pulses == pulses[0]).all()
+    from transplanter.report import format_summary
+
+    assert re.search(rf"^fault kind +{kind}$", format_summary(result), re.MULTILINE)
+
+
+def test_paper_without_faults_is_unchanged():
+    """[faults] all off: the same outcomes and cycle times as before the faults existed
+    (seed 1: 3.778 s and 3.366 s), no fault."""
+    result = run_trial(paper_config(2))
+    assert result.fault is None and result.fault_kind is None
+    assert [r.outcome for r in result.per_seedling] == [Outcome.SUCCESS] * 2
+    assert [r.cycle_time_s for r in result.per_seedling] == pytest.approx([3.778, 3.366], abs=1e-9)
+    assert result.to_dict()["fault_kind"] is None
+
+
+def test_a_switch_stuck_closed_stops_homing_with_its_error():
+    result, twin = _fault_trial(**{"faults.switch_stuck_closed": 2})
+    home = twin.pgf.sent[-1]
+    assert home.phase == "home" and home.reply.startswith(
+        "error:68 homing failed: limit switch 2 (arm 2 home) still closed after the 96-step "
+        "pull-off (it was already closed when homing began): the switch is stuck closed or "
+        "its wiring is shorted"
+    )
+    assert result.fault == f"SGF refused 'N1 G28*18' (home): {home.reply}"
+    _assert_stopped(result, twin, "switch_stuck_closed", home.t_reply)
+    assert [r.outcome for r in result.per_seedling] == [Outcome.NOT_RUN]
+
+
+def test_switch_4_stuck_closed_refuses_the_first_move_down():
+    result, twin = _fault_trial(**{"faults.switch_stuck_closed": 4})
+    line = twin.pgf.sent[-1]
+    assert line.phase == "to_start" and line.reply.startswith(
+        "error:70 limit switch 4 (Z down) reads closed at Z 159.000 mm"
+    )
+    _assert_stopped(result, twin, "switch_stuck_closed", line.t_reply)
+
+
+def test_a_dead_switch_is_never_found_and_the_arm_stops():
+    """Switch 1 unplugged: arm 1 seeks its 180 deg, slipping against its hard stop (steps
+    lost, unnoticed without stall detection), and homing fails naming the switch."""
+    result, twin = _fault_trial(**{"faults.switch_dead": 1})
+    home = twin.pgf.sent[-1]
+    assert home.reply.startswith(
+        "error:69 homing failed: limit switch 1 (arm 1 home) not found: motor 1 travelled "
+        "4800 steps (180.0 deg) towards it and it never closed; the switch is dead or unplugged"
+    )
+    assert result.lost_step_events  # the arm pushed against its hard stop
+    _assert_stopped(result, twin, "switch_not_found", home.t_reply)
+
+
+def test_a_lost_reply_ends_the_run_with_a_bus_timeout():
+    result, twin = _fault_trial(**{"faults.lost_reply_line": 10})
+    line = twin.pgf.sent[-1]
+    assert len(twin.pgf.sent) == 10 and line.reply is None and line.phase == "close"
+    assert result.fault == (
+        f"bus timeout: no reply to line 10 {line.text!r} (close) within 30 s; check the "
+        "serial cable and that the SGF is powered and running"
+    )
+    _assert_stopped(result, twin, "bus_timeout", line.t_sent + 30.0)
+    assert [r.outcome for r in result.per_seedling] == [Outcome.NOT_RUN]
+
+
+JAM = {
+    "faults.jam_motor": 1,
+    "faults.jam_at_s": 5.5,  # seedling 0 grips at about 5.3 s: during its lift
+    "faults.jam_duration_s": 100.0,
+    "faults.jam_torque_nm": 0.6,  # more than the motor's 0.45 N m holding torque
+}
+
+
+def test_a_jam_with_stall_detection_stalls_the_motor_and_stops_the_machine():
+    """The physics lets motor 1 lag beyond its pull-out and slip; the driver reports it, the
+    SGF stops with error:67. The PGF re-homes and retries into the jam until it gives the
+    seedling up, and the re-home after that stalls too: the run ends, motor_stalled."""
+    result, twin = _fault_trial(**JAM, **{"recovery.stall_detection": True})
+    last = twin.pgf.sent[-1]
+    assert last.phase == "stall_rehome" and last.reply.startswith("error:67 motor 1 stalled at")
+    assert result.fault == f"SGF refused {last.text!r} (stall_rehome): {last.reply}"
+    assert all(e["detected"] and e["motor"] == 0 for e in result.lost_step_events)
+    assert twin.pgf.abandoned == [0]
+    _assert_stopped(result, twin, "motor_stalled", last.t_reply)
+
+
+def test_a_jam_without_stall_detection_loses_steps_silently():
+    """The paper's open-loop machine: the same jam costs steps, and nothing stops."""
+    result, twin = _fault_trial(2, **JAM)
+    assert result.fault is None and result.fault_kind is None and twin.pgf.done
+    assert result.lost_step_events
+    assert not any(e["detected"] for e in result.lost_step_events)
+    assert result.lost_step_events[0]["motor"] == 0  # the jammed motor slips first
+    assert result.per_seedling[1].outcome == Outcome.POSITION_LOST

@@ -9,17 +9,20 @@ scenario key is a field in `transplanter.scenario` plus one line here.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import zlib
 from dataclasses import dataclass
 from typing import Any
 
-from transplanter.firmware.eeprom import EepromImage, Pickup
-from transplanter.firmware.pgf import PGFConfig
+from transplanter.firmware.eeprom import DATA_SIZE, EepromImage, Pickup
+from transplanter.firmware.faults import FaultConfig
+from transplanter.firmware.pgf import PGFConfig, build_program
 from transplanter.firmware.sgf import SGFConfig
 from transplanter.kinematics import FiveBarGeometry, KinematicLimits
 from transplanter.machine import GRIPPER_SERVO, WRIST_SERVO, Machine, power_on_joints
 from transplanter.motion import MotionConfig
-from transplanter.scenario import Scenario, ScenarioError
+from transplanter.scenario import Scenario, ScenarioError, TaughtPickup, TaughtSection
 from transplanter.scene import SceneConfig
 from transplanter.steppers import StepperDrive
 
@@ -28,8 +31,10 @@ __all__ = [
     "ServoConfig",
     "TwinConfig",
     "assemble",
+    "fault_config",
     "machine_config",
     "scene_config",
+    "with_eeprom",
 ]
 
 # Hard stops of the scene's joints sit this far beyond the motor windows the firmware
@@ -73,6 +78,7 @@ class TwinConfig:
     gripper_servo: ServoConfig
     wrist_servo: ServoConfig
     judge: JudgeConfig
+    faults: FaultConfig = FaultConfig()  # scenario [faults]: none by default
 
 
 def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
@@ -80,10 +86,12 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
     checked first (ScenarioError naming the key)."""
     machine = machine_config(scenario)
     if preflight:
-        from transplanter.preflight import check_machine
+        from transplanter.preflight import check_machine, check_reply_timeout
 
         check_machine(machine)
+        check_reply_timeout(machine)
     s = scenario
+    faults = fault_config(s, machine)
     scene = scene_config(s, machine)
     if preflight:
         from transplanter.preflight import check_timestep
@@ -111,7 +119,33 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
             cell_pitch_m=s.conveyor.cell_pitch_m,
             row_pitch_m=s.conveyor.row_pitch_m,
         ),
+        faults=faults,
     )
+
+
+def fault_config(s: Scenario, machine: Machine) -> FaultConfig:
+    """The faults a scenario injects ([faults]); a lost reply beyond the PGF's program (it
+    would never happen) is a ScenarioError."""
+    f = s.faults
+    lines = len(build_program(machine.eeprom, machine.pgf))
+    if f.lost_reply_line > lines:
+        raise ScenarioError(
+            f"faults.lost_reply_line = {f.lost_reply_line}: the PGF sends {lines} lines for "
+            f"{machine.pgf.seedlings} seedlings (more only after stall recoveries), so that "
+            f"reply is never lost; choose 1-{lines}, or 0 for none."
+        )
+    try:
+        return FaultConfig(
+            switch_stuck_closed=f.switch_stuck_closed,
+            switch_dead=f.switch_dead,
+            jam_motor=f.jam_motor,
+            jam_at_s=f.jam_at_s,
+            jam_duration_s=f.jam_duration_s,
+            jam_torque_nm=f.jam_torque_nm,
+            lost_reply_line=f.lost_reply_line,
+        )
+    except ValueError as exc:
+        raise ScenarioError(f"the scenario's [faults]: {exc}") from None
 
 
 def machine_config(s: Scenario) -> Machine:
@@ -193,6 +227,7 @@ def _machine(s: Scenario) -> Machine:
         stall_recovery=s.recovery.stall_detection,
         stall_retries=s.recovery.stall_retries,
         stall_settle_s=s.recovery.stall_settle_s,
+        reply_timeout_s=s.bus.reply_timeout_s,
     )
     taught = s.taught
     taught_image = EepromImage(
@@ -215,6 +250,56 @@ def _machine(s: Scenario) -> Machine:
     eeprom = EepromImage.from_bytes(taught_image.to_bytes())
     return Machine(
         geometry, limits, arm.working_mode, drives, motion, sgf, pgf, eeprom, s.bus.baud_bps
+    )
+
+
+EEPROM_OVERRIDE = "eeprom"
+"""The overrides entry (and so the results' "overrides") of a run from an EEPROM image."""
+
+
+def with_eeprom(scenario: Scenario, image: EepromImage, source: str) -> Scenario:
+    """The scenario with its [taught] section replaced by an EEPROM image's taught data (as
+    `transplanter hmi` writes it; `trial --eeprom`), the rest unchanged. The image is recorded
+    in the overrides as ``eeprom = "<source> (M_pp N, CRC-32 0x...)"``. ScenarioError if
+    --set also sets a taught key, or the image's Z levels break the scenario's rules (inside
+    limits.z_min_mm..z_max_mm, Z_up above Z_low); reach is the preflight's to check."""
+    clash = sorted(k for k, _ in scenario.overrides if k.startswith("taught."))
+    if clash:
+        raise ScenarioError(
+            f"{', '.join(clash)} and the EEPROM image {source} both set the taught data; "
+            "drop the --set or re-teach the image"
+        )
+    lim = scenario.limits
+    for name, value in (("Z_up", image.z_up_m), ("Z_low", image.z_low_m)):
+        if not lim.z_min_m <= value <= lim.z_max_m:
+            raise ScenarioError(
+                f"EEPROM image {source}: {name} = {value * 1e3:g} mm is outside "
+                f"[limits.z_min_mm, limits.z_max_mm] = [{lim.z_min_m * 1e3:g}, "
+                f"{lim.z_max_m * 1e3:g}] mm"
+            )
+    if image.z_up_m <= image.z_low_m:
+        raise ScenarioError(
+            f"EEPROM image {source}: Z_up = {image.z_up_m * 1e3:g} mm must be above Z_low = "
+            f"{image.z_low_m * 1e3:g} mm"
+        )
+    taught = TaughtSection(
+        z_up_m=image.z_up_m,
+        z_low_m=image.z_low_m,
+        s_low_m_s=image.s_low_m_s,
+        s_high_m_s=image.s_high_m_s,
+        drop_m=image.drop_xy_m,
+        drop_wrist_rad=math.radians(image.drop_elbow_deg),
+        pickup=tuple(
+            TaughtPickup(
+                approach_m=p.approach_xy_m, grip_m=p.grip_xy_m, wrist_rad=math.radians(p.elbow_deg)
+            )
+            for p in image.pickups
+        ),
+    )
+    crc = zlib.crc32(image.to_bytes()[:DATA_SIZE])
+    record = f"{source} (M_pp {image.m_pp}, CRC-32 0x{crc:08x})"
+    return dataclasses.replace(
+        scenario, taught=taught, overrides=(*scenario.overrides, (EEPROM_OVERRIDE, record))
     )
 
 

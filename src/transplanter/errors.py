@@ -29,6 +29,9 @@ grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line fr
 | 65 | CHECKSUM_WITHOUT_LINE_NUMBER | ``*<checksum>`` on a line with no ``N<n>`` |
 | 66 | RX_BUFFER_OVERFLOW | command queue and receive buffer full: the line was dropped |
 | 67 | MOTOR_STALLED | a driver reported a stall: motion stopped, queue flushed, home with G28 |
+| 68 | HOMING_SWITCH_STUCK | homing failed: a switch still closed after the pull-off (ALARM:8) |
+| 69 | HOMING_SWITCH_NOT_FOUND | homing failed: a limit switch never closed (grbl's ALARM:9) |
+| 70 | LIMIT_SWITCH_CLOSED | a move towards a limit switch that reads closed (a hard limit) |
 """
 
 from __future__ import annotations
@@ -64,6 +67,9 @@ class ErrorCode(IntEnum):
     CHECKSUM_WITHOUT_LINE_NUMBER = 65
     RX_BUFFER_OVERFLOW = 66
     MOTOR_STALLED = 67
+    HOMING_SWITCH_STUCK = 68
+    HOMING_SWITCH_NOT_FOUND = 69
+    LIMIT_SWITCH_CLOSED = 70
 
     def reply(self, message: str) -> str:
         """The firmware's answer for this code: ``error:<code> <message>``."""

@@ -81,6 +81,9 @@ class Judge:
                 self._start(rec, t)
             return
         if line.reply is not None and line.reply.startswith("error"):
+            if line.phase == LinePhase.HOST:  # a remote host's own line: no seedling's
+                self._emit(t, EventKind.FAILURE, f"refused {line.text}: {line.reply}", None)
+                return
             if self.twin.pgf.fault is None:  # a stall the PGF recovers from: re-home, retry
                 self._emit(t, EventKind.STALL, f"{line.phase}: {line.reply}", line.seedling)
                 if rec is not None:

@@ -15,7 +15,18 @@ from transplanter.motion import plan_line
 from transplanter.scenario import ScenarioError
 from transplanter.units import M_PER_MM
 
-__all__ = ["check_machine", "check_timestep", "MAX_OMEGA_DT"]
+__all__ = [
+    "check_machine",
+    "check_reply_timeout",
+    "check_timestep",
+    "longest_line_s",
+    "MAX_OMEGA_DT",
+    "REPLY_TIMEOUT_MARGIN_S",
+]
+
+# The PGF's reply timeout must exceed the longest line by this much (s): the line's and its
+# reply's time on the wire and the SGF's planning before the first step.
+REPLY_TIMEOUT_MARGIN_S = 1.0
 
 # The stepper servos are stiff explicit springs: a timestep at which a motor's natural
 # frequency times the step exceeds this rings and loses steps. The study in
@@ -100,6 +111,62 @@ def _check_line(machine, a, b) -> None:
         machine.motion,
         mode=machine.mode,
     )
+
+
+def longest_line_s(machine: Machine) -> tuple[float, str]:
+    """The longest time (s) the SGF may take over one line of the PGF's program, and what
+    that line is: a homing that finds each switch at the end of its seek and locate, the
+    longest taught move at its speed, a dwell or a conveyor index."""
+    sgf, pgf, taught = machine.sgf, machine.pgf, machine.eeprom
+    seek, locate = np.asarray(sgf.homing_rate_hz), np.asarray(sgf.homing_locate_rate_hz)
+    pulloff, longest = np.asarray(sgf.homing_pulloff_steps), np.asarray(sgf.homing_max_steps)
+    per_motor = (
+        longest / seek + 2 * pulloff / seek + np.ceil(sgf.homing_locate_scalar * pulloff) / locate
+    )
+    cycles = [[2], [0, 1]] if sgf.homing_z_first else [[0, 1, 2]]
+    candidates = [(float(sum(per_motor[c].max() for c in cycles)), "G28 (homing, worst case)")]
+    z_low, z_up = taught.z_low_m, taught.z_up_m
+    drop = (*taught.drop_xy_m, z_up)
+    s_low, s_high = taught.s_low_m_s, taught.s_high_m_s
+    moves = [(_homed_xyz(machine), drop, s_high)]
+    for p in taught.pickups:
+        approach_low, grip_low = (*p.approach_xy_m, z_low), (*p.grip_xy_m, z_low)
+        grip_up, approach_up = (*p.grip_xy_m, z_up), (*p.approach_xy_m, z_up)
+        moves += [
+            (drop, approach_low, s_high), (approach_low, grip_low, s_low),
+            (grip_low, grip_up, s_low), (grip_up, approach_up, s_high),
+            (approach_up, drop, s_high),
+        ]  # fmt: skip
+    for a, b, speed in moves:
+        start = np.asarray(a, dtype=float)
+        steps = sgf.kinematics.steps_of_point(start, machine.drives)
+        move = plan_line(
+            steps, start, np.asarray(b, dtype=float), speed, machine.geometry, machine.limits,
+            machine.drives, machine.motion, mode=machine.mode,
+        )  # fmt: skip
+        candidates.append((move.duration_s, f"the move {_mm(a)} to {_mm(b)} mm"))
+    candidates += [
+        (pgf.open_dwell_s, "the open dwell (gripper.open_dwell_ms)"),
+        (pgf.close_dwell_s, "the close dwell (gripper.close_dwell_ms)"),
+        (pgf.release_dwell_s, "the release dwell (gripper.release_dwell_ms)"),
+        (sgf.conveyor_index_s, "M710 (conveyor.index_time_s)"),
+    ]
+    if pgf.stall_recovery:
+        candidates.append((pgf.stall_settle_s, "the dwell after a stall (stall_settle_ms)"))
+    return max(candidates)
+
+
+def check_reply_timeout(machine: Machine) -> None:
+    """ScenarioError when bus.reply_timeout_s is not longer than the longest line the PGF
+    sends (plus REPLY_TIMEOUT_MARGIN_S): the PGF would stop a healthy run with a timeout."""
+    timeout = machine.pgf.reply_timeout_s
+    duration, what = longest_line_s(machine)
+    if timeout < duration + REPLY_TIMEOUT_MARGIN_S:
+        raise ScenarioError(
+            f"bus.reply_timeout_s = {timeout:g} s is too short: {what} can take {duration:.2f} "
+            f"s, and the PGF would stop a healthy run with a bus timeout; use at least "
+            f"{duration + REPLY_TIMEOUT_MARGIN_S:.1f} s."
+        )
 
 
 def _mm(p) -> str:

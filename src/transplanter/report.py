@@ -64,6 +64,7 @@ def format_summary(result: TrialResult) -> str:
         )
     if d["fault"]:
         rows.append(("firmware fault", printable(d["fault"])))
+        rows.append(("fault kind", str(d["fault_kind"])))
     if d["interrupted"]:
         rows.append(("interrupted", f"yes, after {result.judged} seedlings"))
     if result.recording_error:

@@ -9,9 +9,12 @@ from typing import Any
 
 import numpy as np
 
+from transplanter.firmware.faults import FaultKind
+
 __all__ = [
     "FAILURE_KINDS",
     "EventKind",
+    "FaultKind",
     "Outcome",
     "SeedlingRecord",
     "TrialResult",
@@ -101,6 +104,7 @@ class TrialResult:
     valid: bool = True
     invalid_reason: str | None = None
     fault: str | None = None
+    fault_kind: FaultKind | None = None  # why the firmware stopped (firmware.faults.FaultKind)
     interrupted: bool = False  # stopped by the user: seedlings not yet judged are not_run
     recording_error: str | None = None  # the recording failed; the results stand
     lost_step_events: list[dict[str, Any]] = field(default_factory=list)
@@ -163,6 +167,7 @@ class TrialResult:
             "valid": self.valid,
             "invalid_reason": self.invalid_reason,
             "fault": self.fault,
+            "fault_kind": None if self.fault_kind is None else str(self.fault_kind),
             "interrupted": self.interrupted,
             "seedlings": self.seedlings,
             "successes": self.successes,

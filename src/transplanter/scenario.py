@@ -205,6 +205,13 @@ class BusSection:
 
     baud_bps: float = key("float", 300, 1e7)
     line_numbers: bool = key("bool", doc="Marlin N<n> ... *<checksum> framing")
+    reply_timeout_s: float = key(
+        "float",
+        0.1,
+        3600,
+        doc="the PGF stops with a bus timeout when nothing comes back for this long while a "
+        "line is outstanding; longer than the longest line (preflight checks it)",
+    )
 
 
 @dataclass(frozen=True)
@@ -317,6 +324,36 @@ class RecoverySection:
 
 
 @dataclass(frozen=True)
+class FaultsSection:
+    """[faults]: faults injected into a trial (all 0: none, the paper's run)."""
+
+    switch_stuck_closed: int = key(
+        "int", lo=0, hi=4, doc="limit switch 1-4 that always reads closed (0: none)"
+    )
+    switch_dead: int = key(
+        "int", lo=0, hi=4, doc="homing limit switch 1-3 that never closes, unplugged (0: none)"
+    )
+    jam_motor: int = key(
+        "int", lo=0, hi=3, doc="motor 1-3 (arm 1, arm 2, Z) whose joint jams (0: none)"
+    )
+    jam_at_s: float = key("float", lo=0, hi=1e6, doc="when the jam starts (simulated s)")
+    jam_duration_s: float = key("float", lo=0, hi=1e6, doc="how long the jam lasts")
+    jam_torque_nm: float = key(
+        "float",
+        lo=0,
+        hi=100,
+        doc="the jam's resisting torque at the motor shaft, a friction brake through the "
+        "drive (compare drives.holding_torque_nm)",
+    )
+    lost_reply_line: int = key(
+        "int",
+        lo=0,
+        hi=10**9,
+        doc="the SGF's reply to the n-th line it receives is lost on the wire (0: none)",
+    )
+
+
+@dataclass(frozen=True)
 class TaughtPickup:
     """One [[taught.pickup]]: approach (via) point M_pd, grip point M_pgd, wrist angle M_pep."""
 
@@ -364,6 +401,7 @@ SECTIONS: dict[str, type] = {
     "metrics": MetricsSection,
     "physics": PhysicsSection,
     "recovery": RecoverySection,
+    "faults": FaultsSection,
     "taught": TaughtSection,
 }
 
@@ -410,6 +448,7 @@ class Scenario:
     metrics: MetricsSection
     physics: PhysicsSection
     recovery: RecoverySection
+    faults: FaultsSection
     taught: TaughtSection
     overrides: tuple[tuple[str, Any], ...] = ()
     """The 'section.key' = value overrides applied on top of the file, as given."""
@@ -711,6 +750,32 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     grip = v["gripper"]
     if grip["close_rad"] >= grip["open_rad"]:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
+    _check_faults(v["faults"])
+
+
+def _check_faults(f: dict[str, Any]) -> None:
+    if f["switch_dead"] == 4:
+        raise ScenarioError(
+            "faults.switch_dead = 4: limit switch 4 (Z down) is not used in homing, so a dead "
+            "switch 4 would change nothing; choose a homing switch 1-3, or 0 for none (a stuck "
+            "closed switch 4 is faults.switch_stuck_closed = 4)."
+        )
+    if f["switch_dead"] and f["switch_dead"] == f["switch_stuck_closed"]:
+        raise ScenarioError(
+            f"faults.switch_dead and faults.switch_stuck_closed both name limit switch "
+            f"{f['switch_dead']}: a switch cannot be dead and stuck closed; set one to 0."
+        )
+    jam = (f["jam_torque_nm"], f["jam_duration_s"])
+    if f["jam_motor"] and not all(v > 0 for v in jam):
+        raise ScenarioError(
+            f"faults.jam_motor = {f['jam_motor']} needs faults.jam_torque_nm > 0 and "
+            "faults.jam_duration_s > 0 to jam anything; give both, or set jam_motor = 0."
+        )
+    if not f["jam_motor"] and any(v > 0 for v in jam):
+        raise ScenarioError(
+            "faults.jam_torque_nm or faults.jam_duration_s is set but faults.jam_motor = 0 "
+            "(no jam): name the motor that jams (1 arm 1, 2 arm 2, 3 Z) or set both to 0."
+        )
 
 
 def packaged_scenarios() -> list[str]:

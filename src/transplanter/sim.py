@@ -15,12 +15,14 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from transplanter.config import TwinConfig
 from transplanter.firmware.bus import ComBus
+from transplanter.firmware.faults import LostReplyTransport
 from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.rig import FirmwareLink
 from transplanter.firmware.sgf import SGF
@@ -116,6 +118,9 @@ class Twin:
     """One machine: scene, firmware and bus, stepped together on the simulated clock."""
 
     config: TwinConfig
+    remote: Any = None
+    """An external host (``transplanter.serve.RemoteHost``): its ``attach(twin)`` returns the
+    PGF's stand-in and the device layer in front of the SGF; None: the twin's own PGF."""
     machine: Machine = field(init=False)
     scene: Scene = field(init=False)
 
@@ -128,8 +133,15 @@ class Twin:
         self.dt = float(self.model.opt.timestep)
         self.sgf = SGF(self.machine.sgf)
         self.bus = ComBus(baud_bps=self.machine.baud_bps)
-        self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
-        self.link = FirmwareLink(self.pgf, self.bus, self.sgf)
+        self.faults = cfg.faults  # scenario [faults]: switches, a jam, a lost reply
+        if self.faults.lost_reply_line:
+            self.bus = LostReplyTransport(self.bus, self.faults.lost_reply_line)
+        if self.remote is None:
+            self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
+            self.link = FirmwareLink(self.pgf, self.bus, self.sgf)
+        else:  # an external host on a serial line takes the PGF's place
+            self.pgf, device = self.remote.attach(self)
+            self.link = FirmwareLink(self.pgf, self.bus, self.sgf, device=device)
         self._max_opening = cfg.gripper_servo.max_opening_m
         self._open_m_per_deg = self._max_opening / SERVO_MAX_DEG
         # Servos hold their power-on pose (the keyframe's) until an M280 moves them.
@@ -171,6 +183,19 @@ class Twin:
         # steps is computed: an observer may read the state or apply external forces.
         self.exchange_listeners: list[Callable[[Twin], None]] = []
         self.block: _Block | None = None
+        # A jam (faults.jam_motor): a friction brake on the motor's joint while it lasts, the
+        # jam torque at the motor shaft passed to the joint through the drive's gear.
+        self._jam_dof, self._jam_frictionloss = -1, (0.0, 0.0)
+        if self.faults.jam_motor:
+            motor = self.faults.jam_motor - 1
+            joint = self.model.actuator_trnid[self.scene.motor_actuators[motor], 0]
+            self._jam_dof = int(self.model.jnt_dofadr[joint])
+            free = float(self.model.dof_frictionloss[self._jam_dof])
+            brake = float(self.scene.motor_gears[motor]) * self.faults.jam_torque_nm
+            self._jam_frictionloss = (free, free + brake)
+            # the hardest friction constraint MuJoCo allows: a brake that holds, where the
+            # default impedance lets the light joint creep through it like a weak damper
+            self.model.dof_solimp[self._jam_dof, :2] = mujoco.mjMAXIMP
 
     # -- time -------------------------------------------------------------------------
     @property
@@ -183,7 +208,11 @@ class Twin:
     # -- firmware exchange ------------------------------------------------------------
     def _exchange(self, t: float) -> None:
         """Deliver bus traffic due at t, advance SGF and PGF, start servos and conveyor."""
-        sent_now = self.link.exchange(t, self.scene.limit_switches(self.data))
+        if self._jam_dof >= 0:
+            jammed = self.faults.jam_active(t)
+            self.model.dof_frictionloss[self._jam_dof] = self._jam_frictionloss[jammed]
+        switches = self.faults.switches(self.scene.limit_switches(self.data))
+        sent_now = self.link.exchange(t, switches)
         for ts, index, deg in self.sgf.drain_servo_commands():
             servo = self.gripper if index == GRIPPER_SERVO else self.wrist
             servo.command(ts, deg)
@@ -195,8 +224,8 @@ class Twin:
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
             self._notify(LineEvent(sent[self._done_index], t, LineEventKind.DONE))
             self._done_index += 1
-        for line in sent_now:
-            self._notify(LineEvent(line, t, LineEventKind.SENT))
+        for line in sent_now:  # a remote host's line is reported once the device took it
+            self._notify(LineEvent(line, line.t_sent, LineEventKind.SENT))
         for listener in self.exchange_listeners:
             listener(self)
 
@@ -206,6 +235,9 @@ class Twin:
 
     def _next_exchange_time(self, t: float) -> float:
         t_next = self.link.next_event_time(t, self.dt)
+        jam = self.faults.next_jam_change(t)  # the jam starts or ends at an exchange
+        if jam is not None and (t_next is None or jam < t_next):
+            t_next = jam
         return t + self.dt if t_next is None else t_next
 
     # -- command blocks -----------------------------------------------------------------

@@ -77,11 +77,14 @@ def run_trial(
     progress: Progress | None = None,
     twin_factory: Callable[[TwinConfig], Twin] = Twin,
     observers: Sequence[TrialObserver] = (),
+    horizon_s: float | None = None,
 ) -> TrialResult:
     """Run the configured seedlings through the whole twin and measure what happens.
 
     `twin_factory` builds the Twin (a subclass may add observers or disturbances);
-    `observers` watch every physics step without changing the physics (TrialObserver)."""
+    `observers` watch every physics step without changing the physics (TrialObserver);
+    `horizon_s` replaces the simulated time the program must finish in (FIRMWARE_HORIZON_S;
+    `math.inf` for a remote host's session)."""
     t_wall = time.perf_counter()
     twin = twin_factory(config)
     m_pp = twin.machine.eeprom.m_pp
@@ -106,6 +109,8 @@ def run_trial(
     valid, reason, interrupted = True, None, False
     try:
         horizon = FIRMWARE_HORIZON_S[0] + FIRMWARE_HORIZON_S[1] * len(records)
+        if horizon_s is not None:  # a remote host decides how long it runs
+            horizon = horizon_s
         while not (twin.pgf.done or twin.pgf.fault) and twin.time < horizon:
             twin.step_until(min(twin.time + 1.0, horizon), monitor=monitor, monitor_every=every)
             if progress is not None:
@@ -146,7 +151,8 @@ def run_trial(
         wall_time_s=time.perf_counter() - t_wall,
         valid=valid,
         invalid_reason=reason,
-        fault=twin.pgf.fault,
+        fault=twin.pgf.fault or getattr(twin.pgf, "machine_fault", None),  # a remote host's
+        fault_kind=getattr(twin.pgf, "fault_kind", None),  # an external host's may have none
         interrupted=interrupted,
         recording_error=recording_error,
         lost_step_events=[dataclasses.asdict(e) for e in twin.lost_step_events],

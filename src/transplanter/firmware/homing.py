@@ -6,9 +6,17 @@ closed, pull off ``homing_pulloff_steps``, then locate it again slowly at
 ``homing_locate_rate_hz`` (the switch must read open first). The fast seek trips late (the
 motor lags its command, the switch is read once per poll); the slow locate cuts that error
 about tenfold. At the locate trip the SGF sets the logical counter to the switch position;
-then the final pull-off. Homing fails if a switch is not found (seek beyond
-``homing_max_steps``, locate beyond ``homing_locate_scalar`` pull-offs) or stays closed after
-the pull-off.
+then the final pull-off. Homing fails, stopping every motor where it is, with a message
+naming the switch and the likely cause (``Homing.failure_code`` is the reply's code):
+
+- ``HOMING_SWITCH_NOT_FOUND`` (error:69, grbl's ALARM:9): the seek travelled
+  ``homing_max_steps`` without the switch closing (a dead or unplugged switch, or the axis
+  blocked before it), or a switch that closed in the seek never closed again in the slow
+  locate (an intermittent switch);
+- ``HOMING_SWITCH_STUCK`` (error:68, grbl's ALARM:8): the switch still reads closed after the
+  pull-off (a switch stuck closed or shorted wiring; also named when it was already closed
+  as homing began), checked until the locate has travelled its ``homing_locate_scalar``
+  pull-offs.
 
 The SGF reads the switches at each poll and hands them to :meth:`Homing.update`; the raw
 pulses of every motor at any time come from :meth:`Homing.pulses`, in closed form.
@@ -21,6 +29,9 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from transplanter.errors import ErrorCode
+from transplanter.firmware.faults import SWITCH_NAMES
 
 if TYPE_CHECKING:
     from transplanter.firmware.sgf import SGFConfig
@@ -100,7 +111,15 @@ class Homing:
         self.cleared = np.zeros(3, dtype=bool)  # switch read open since the locate began
         self.t_end = np.full(3, np.inf)
         self.trip_raw = np.zeros(3, dtype=np.int64)
+        self.seek_steps = np.zeros(3, dtype=np.int64)  # steps each seek travelled to its trip
         self.failed = False
+        self.failure_code: ErrorCode | None = None
+        self._travel = [
+            (math.degrees(d.unit_per_step), "deg")
+            if not d.linear
+            else (d.unit_per_step * 1e3, "mm")
+            for d in config.drives
+        ]
 
     def _motor(self, motor: int, t: np.ndarray) -> np.ndarray:
         t_start, raw_start, direction, rate, count = (
@@ -153,7 +172,9 @@ class Homing:
             direction = int(self.dirs[motor])
             if self.phase[motor] == 0:
                 if closed:
+                    seek_start = self.legs[motor][-1][1]
                     raw = self._pull_off(motor, now)
+                    self.seek_steps[motor] = abs(raw - seek_start)
                     self.t_locate[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
                     self.legs[motor].append(
                         (
@@ -166,10 +187,15 @@ class Homing:
                     )
                     self.phase[motor] = 1
                 elif self._exhausted(motor, now):
+                    steps = int(self.max_steps[motor])
                     return self._fail(
                         now,
-                        f"limit switch {motor + 1} not found within "
-                        f"{int(self.max_steps[motor])} steps; check the switch and homing_dirs",
+                        ErrorCode.HOMING_SWITCH_NOT_FOUND,
+                        f"{self._switch(motor)} not found: motor {motor + 1} travelled {steps} "
+                        f"steps ({self._distance(motor, steps)}) towards it and it never "
+                        "closed; the switch is dead or unplugged (M119 shows it open even "
+                        "when pressed), or the axis is blocked before it; check the switch, "
+                        "its wiring and the axis (and homing_dirs)",
                     )
             elif self.phase[motor] == 1 and now >= self.t_locate[motor]:
                 if endstops is not None and not closed:
@@ -182,19 +208,43 @@ class Homing:
                 if self._exhausted(motor, now):
                     steps = int(self.locate_max_steps[motor])
                     if self.cleared[motor]:
-                        why = f"not found again within {steps} steps of the slow locate"
-                    else:
-                        why = (
-                            "still closed after the pull-off: a stuck switch, or the axis "
-                            "stands beyond it (steps lost since the last homing); check it, "
-                            "or raise homing_pulloff_steps"
+                        return self._fail(
+                            now,
+                            ErrorCode.HOMING_SWITCH_NOT_FOUND,
+                            f"{self._switch(motor)} closed in the seek but not again within "
+                            f"{steps} steps ({self._distance(motor, steps)}) of the slow "
+                            "locate: an intermittent switch (a loose wire, a bouncing "
+                            "contact); check the switch and its wiring",
                         )
-                    return self._fail(now, f"limit switch {motor + 1} {why}")
+                    pulloff = int(self.pulloff[motor])
+                    already = (
+                        " (it was already closed when homing began)"
+                        if self.seek_steps[motor] == 0
+                        else ""
+                    )
+                    return self._fail(
+                        now,
+                        ErrorCode.HOMING_SWITCH_STUCK,
+                        f"{self._switch(motor)} still closed after the {pulloff}-step pull-off"
+                        f"{already}: the switch is stuck closed or its wiring is shorted (M119 "
+                        "shows it TRIGGERED), or the axis stands beyond it (steps lost since "
+                        "the last homing); check the switch and its wiring, or raise "
+                        "homing_pulloff_steps",
+                    )
         return None
 
-    def _fail(self, now: float, message: str) -> str:
+    @staticmethod
+    def _switch(motor: int) -> str:
+        return f"limit switch {motor + 1} ({SWITCH_NAMES[motor]})"
+
+    def _distance(self, motor: int, steps: int) -> str:
+        per_step, unit = self._travel[motor]
+        return f"{steps * per_step:.1f} {unit}"
+
+    def _fail(self, now: float, code: ErrorCode, message: str) -> str:
         """Stop the motors still seeking or locating where they are."""
         self.failed = True
+        self.failure_code = code
         for motor in np.flatnonzero(self.phase < 2):
             self.legs[motor].append((now, self._raw(int(motor), now), 1, 0.0, 0))
             self.t_end[motor] = now

@@ -35,7 +35,15 @@ approach; with the gripper closed (the pot may be in the jaws), from ``drop_elbo
 it to the tube and release); otherwise the refused line again. A seedling that stalls
 more than ``stall_retries`` times is given up (``abandoned``): after the re-home the PGF
 goes on with its conveyor index, if any, and the next seedling. A stall outside any
-seedling's cycle beyond the retries stops the PGF with a fault.
+seedling's cycle beyond the retries, or one more stall of a seedling already given up (the
+machine cannot even re-home: a jam), stops the PGF with a fault.
+
+Reply timeout (``PGFConfig.reply_timeout_s``): every line the PGF sends or receives restarts
+a timer; when it runs out with a line outstanding (its reply was lost on the wire, or the
+SGF is dead) the PGF stops with the fault ``bus timeout: no reply to line <n> ...``.
+``next_event_time`` tells the caller when that is due. ``fault_kind`` names why the PGF
+stopped (``firmware.faults.FaultKind``): from the code of the refused line's reply, or
+``bus_timeout``.
 """
 
 from __future__ import annotations
@@ -47,6 +55,7 @@ from enum import StrEnum
 
 from transplanter.errors import ErrorCode
 from transplanter.firmware.eeprom import EepromImage
+from transplanter.firmware.faults import FaultKind, kind_of_reply
 from transplanter.gcode import SERVO_INDICES, SERVO_MAX_DEG, format_line, valid_servo_angle
 from transplanter.units import M_PER_MM, S_PER_MS
 
@@ -77,6 +86,10 @@ class PGFConfig:
     stall_settle_s: float = 0.3
     """Dwell before the re-home after a stall: the arm, knocked off position, comes to rest
     against the holding motors first (a re-home into a swinging arm stalls again)."""
+    reply_timeout_s: float = 30.0
+    """The PGF stops with a bus timeout when nothing comes back from the SGF for this long
+    while a line is outstanding; longer than the longest line (a worst-case homing, the
+    longest move, dwell or conveyor index: checked by ``preflight.check_machine``)."""
 
     def __post_init__(self):
         for name in ("gripper_servo", "wrist_servo"):
@@ -90,6 +103,8 @@ class PGFConfig:
                 raise ValueError(
                     f"{name} = {value} is outside the servo range 0-{SERVO_MAX_DEG:g} deg"
                 )
+        if not (math.isfinite(self.reply_timeout_s) and self.reply_timeout_s > 0):
+            raise ValueError(f"reply_timeout_s = {self.reply_timeout_s} s must be > 0")
         for name in ("open_dwell_s", "close_dwell_s", "release_dwell_s", "stall_settle_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
@@ -143,6 +158,7 @@ class LinePhase(StrEnum):
     STALL_REHOME = "stall_rehome"  # recovery: G28 after a stall (PGFConfig.stall_recovery)
     STALL_TO_START = "stall_to_start"  # back to the drop point after it
     FINISH = "finish"
+    HOST = "host"  # a line from an external host that is not the taught program's next line
 
 
 @dataclass(frozen=True)
@@ -260,6 +276,8 @@ class PGF:
         self.abandoned: list[int] = []
         """Seedlings given up after ``stall_retries`` recoveries (their cycle was skipped)."""
         self._fault: str | None = None
+        self._fault_kind: FaultKind | None = None
+        self._deadline = math.inf  # the reply timeout of the outstanding line
         self._outstanding = False
         self._cursor = 0  # next program line
         self._detour: list[ProgramLine] = []  # recovery lines to send before it
@@ -271,6 +289,20 @@ class PGF:
     def fault(self) -> str | None:
         """Why the PGF stopped, or None."""
         return self._fault
+
+    @property
+    def fault_kind(self) -> FaultKind | None:
+        """What stopped the PGF (``FaultKind``), or None."""
+        return self._fault_kind
+
+    def _stop(self, kind: FaultKind, message: str) -> None:
+        self._fault, self._fault_kind = message, kind
+
+    def next_event_time(self) -> float | None:
+        """When the outstanding line's reply times out; None with no line outstanding."""
+        if self._fault is not None or not self._outstanding:
+            return None
+        return self._deadline
 
     @property
     def current(self) -> SentLine | None:
@@ -297,7 +329,7 @@ class PGF:
         count = self._stalls_per_seedling.get(line.seedling, 0) + 1
         self._stalls_per_seedling[line.seedling] = count
         give_up = count > self.config.stall_retries
-        if give_up and line.seedling is None:
+        if give_up and (line.seedling is None or line.seedling in self.abandoned):
             return False
         self.stalls.append((now, line))
         index = self._outstanding_index
@@ -354,6 +386,8 @@ class PGF:
 
     def poll(self, now: float, replies: list[str]) -> list[str]:
         """Take the SGF's replies received by ``now``; return the lines to transmit now."""
+        if replies:  # anything from the SGF shows the link is alive
+            self._deadline = now + self.config.reply_timeout_s
         for raw in replies:
             reply = raw.strip()
             if self._fault is not None:
@@ -361,7 +395,7 @@ class PGF:
                 continue
             if reply == "ok" or reply.startswith("ok "):
                 if not self._outstanding:
-                    self._fault = f"unexpected {reply!r} with no line outstanding"
+                    self._stop(FaultKind.PROTOCOL, f"unexpected {reply!r} with no line outstanding")
                     continue
                 self._close_current(now, reply)
             elif reply.lower().startswith("error"):
@@ -370,11 +404,22 @@ class PGF:
                     self._close_current(now, reply)
                     stalled = ErrorCode.of_reply(reply) is ErrorCode.MOTOR_STALLED
                     if not (stalled and self.config.stall_recovery and self._recover(now, reply)):
-                        self._fault = f"SGF refused {line.text!r} ({line.phase}): {reply}"
+                        message = f"SGF refused {line.text!r} ({line.phase}): {reply}"
+                        self._stop(kind_of_reply(reply), message)
                 else:
-                    self._fault = f"SGF reported {reply!r} with no line outstanding"
+                    self._stop(
+                        FaultKind.PROTOCOL, f"SGF reported {reply!r} with no line outstanding"
+                    )
             else:
                 self.info.append((now, reply))
+        if self._fault is None and self._outstanding and now >= self._deadline:
+            line = self.sent[-1]
+            self._stop(
+                FaultKind.BUS_TIMEOUT,
+                f"bus timeout: no reply to line {len(self.sent)} {line.text!r} ({line.phase}) "
+                f"within {self.config.reply_timeout_s:g} s; check the serial cable and that "
+                "the SGF is powered and running",
+            )
         if self._fault is not None or self._outstanding or self.done:
             return []
         if self._detour:
@@ -387,4 +432,5 @@ class PGF:
             text = format_line(line.command, line.words, line_number=len(self.sent) + 1)
         self.sent.append(SentLine(line.seedling, line.phase, text, t_sent=now))
         self._outstanding = True
+        self._deadline = now + self.config.reply_timeout_s
         return [text]

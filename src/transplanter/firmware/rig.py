@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from transplanter.firmware.bus import LineTransport
+from transplanter.firmware.faults import FaultConfig
 from transplanter.firmware.pgf import PGF, SentLine
 from transplanter.firmware.sgf import SGF, SGFConfig
 
@@ -29,7 +30,8 @@ class SimulatedEndstops:
 
     Switches 1, 2, 3 trip where the SGF's homing expects them (home position, approached in
     ``homing_dirs``); switch 4 (Z down) trips at or below ``z_down_trip_m`` (default: the
-    config's ``z_min_m``, where the machine's switch 4 sits).
+    config's ``z_min_m``, where the machine's switch 4 sits). ``faults`` (a
+    ``firmware.faults.FaultConfig``) makes a switch read stuck closed or dead.
     """
 
     def __init__(
@@ -37,8 +39,10 @@ class SimulatedEndstops:
         sgf_config: SGFConfig,
         initial_joint_positions: Sequence[float],
         z_down_trip_m: float | None = None,
+        faults: FaultConfig | None = None,
     ):
         self.config = sgf_config
+        self.faults = faults
         self.initial = np.asarray(initial_joint_positions, dtype=np.float64)
         if self.initial.shape != (3,) or not np.isfinite(self.initial).all():
             raise ValueError("initial_joint_positions must be (theta1 rad, theta2 rad, z m)")
@@ -66,7 +70,8 @@ class SimulatedEndstops:
         raw = np.asarray(raw_pulses, dtype=np.int64)
         closed = (raw - self.trip_pulses()) * self.dirs.astype(np.int64) >= 0
         z = self.joint_positions(raw)[2]
-        return (bool(closed[0]), bool(closed[1]), bool(closed[2]), bool(z <= self.z_down_trip_m))
+        states = (bool(closed[0]), bool(closed[1]), bool(closed[2]), bool(z <= self.z_down_trip_m))
+        return states if self.faults is None else self.faults.switches(states)
 
 
 class FirmwareLink:
@@ -77,10 +82,18 @@ class FirmwareLink:
     """
 
     def __init__(
-        self, pgf: PGF, bus: LineTransport, sgf: SGF, log: list[tuple[float, str]] | None = None
+        self,
+        pgf: PGF,
+        bus: LineTransport,
+        sgf: SGF,
+        log: list[tuple[float, str]] | None = None,
+        device=None,
     ):
         self.pgf, self.bus, self.sgf = pgf, bus, sgf
         self.log = log
+        # what receives the host's lines and answers them: the SGF itself, or a dialect layer
+        # in front of it with the same receive/poll (firmware.marlin.MarlinDevice)
+        self.device = sgf if device is None else device
 
     def _note(self, t: float, text: str) -> None:
         if self.log is not None:
@@ -90,11 +103,11 @@ class FirmwareLink:
         """At time t: bus -> SGF, SGF poll with the switches read at t (None: not read),
         replies -> bus, bus -> PGF, PGF poll, its line -> bus. Returns the lines the PGF
         sent at t."""
-        pgf, bus, sgf = self.pgf, self.bus, self.sgf
+        pgf, bus, device = self.pgf, self.bus, self.device
         for line in bus.device_receive(t):
             self._note(t, f"sgf< {line}")
-            sgf.receive(line, t)
-        for reply in sgf.poll(t, endstops):
+            device.receive(line, t)
+        for reply in device.poll(t, endstops):
             self._note(t, f"sgf> {reply}")
             bus.device_send(reply, t)
         replies = bus.host_receive(t)
@@ -107,11 +120,15 @@ class FirmwareLink:
         return pgf.sent[n_sent:]
 
     def next_event_time(self, t: float, dt_homing_s: float) -> float | None:
-        """When the next exchange is due: the next bus delivery or SGF event, at the latest
-        t + dt_homing_s while the SGF homes (it must read its switches); None when nothing
-        is in flight."""
+        """When the next exchange is due: the next bus delivery, SGF event or the PGF's reply
+        timeout, at the latest t + dt_homing_s while the SGF homes (it must read its
+        switches); None when nothing is in flight."""
+        # a host without a reply timeout of its own (an external host's stand-in) has none
+        host_deadline = getattr(self.pgf, "next_event_time", lambda: None)()
         candidates = [
-            x for x in (self.bus.next_delivery_time(), self.sgf.next_event_time()) if x is not None
+            x
+            for x in (self.bus.next_delivery_time(), self.sgf.next_event_time(), host_deadline)
+            if x is not None
         ]
         if self.sgf.homing:
             candidates.append(t + dt_homing_s)

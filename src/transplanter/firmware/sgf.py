@@ -20,8 +20,12 @@ its reply when it is done, so replies come back in line order:
   sequence). A host that waits for ``ok`` before each line (the PGF) never fills them.
   A line over ``gcode.MAX_LINE_CHARS`` (256) characters gets ``error:11`` (line overflow).
 - ``G28``: two-pass homing like grbl's (:class:`transplanter.firmware.homing.Homing`): seek,
-  pull off, slow locate, pull off; ``ok`` once done, ``error:9`` if a switch is not found.
-  Moves before homing are refused (error 9, like grbl's alarm lock).
+  pull off, slow locate, pull off; ``ok`` once done, ``error:69`` if a switch never closes,
+  ``error:68`` if one stays closed after the pull-off (each naming the switch and the likely
+  cause), every motor stopped where it is. Moves before homing are refused (error 9, like
+  grbl's alarm lock).
+- Limit switch 4 (Z down) is a hard limit: a move that would lower Z while it reads closed is
+  refused with ``error:70`` (a stuck or shorted switch, or Z lost steps downwards).
 - Stall (``stall()``, a driver's stall output such as Trinamic StallGuard's DIAG pin, wired
   only when ``stall_detection``): every motor stops where it is, the running line and
   every queued or buffered line are answered ``error:67``, and the position is unknown
@@ -272,6 +276,13 @@ class SGF:
         return self._raw.copy()
 
     # -- input -----------------------------------------------------------------------
+    def room_for(self, line: str) -> bool:
+        """Whether ``receive`` would keep ``line`` (a free command-queue slot, or room in the
+        receive buffer) rather than drop it with ``error:66``."""
+        if len(self._queue) < self.config.command_queue_lines and not self._rx:
+            return True
+        return len(line) + 1 <= self.config.rx_buffer_bytes - self._rx_bytes
+
     def receive(self, line: str, now: float) -> None:
         """A line has arrived: parse it now (for line numbering), execute it in turn.
 
@@ -284,10 +295,9 @@ class SGF:
         if len(self._queue) < self.config.command_queue_lines and not self._rx:
             self._enqueue(line, now)
             return
-        size = len(line) + 1  # and its newline
-        if size <= self.config.rx_buffer_bytes - self._rx_bytes:
+        if self.room_for(line):
             self._rx.append((line, now))
-            self._rx_bytes += size
+            self._rx_bytes += len(line) + 1  # and its newline
             return
         self.rx_dropped += 1
         self._replies.append(
@@ -507,6 +517,16 @@ class SGF:
                 f"Z {show(z / M_PER_MM)} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
                 f"{self.config.z_max_m / M_PER_MM:.3f}] mm",
             )
+        switches = self._endstops or ()
+        if z < self._position[2] and len(switches) > 3 and switches[3]:
+            raise GcodeError(
+                ErrorCode.LIMIT_SWITCH_CLOSED,
+                f"limit switch 4 (Z down) reads closed at Z {self._position[2] / M_PER_MM:.3f} "
+                f"mm, above its trip point at {self.config.z_min_m / M_PER_MM:.3f} mm: the "
+                "switch is stuck closed or its wiring is shorted (M119 shows it TRIGGERED), or "
+                "Z lost steps downwards; Z will not move down. Check the switch and its "
+                "wiring, then home with G28",
+            )
         config = self.config
         try:
             move = plan_line(
@@ -543,7 +563,7 @@ class SGF:
             return
         failure = homing.update(now, endstops)
         if failure is not None:
-            job.replies = [ErrorCode.SYSTEM_LOCKED.reply(f"homing failed: {failure}")]
+            job.replies = [homing.failure_code.reply(f"homing failed: {failure}")]
             self.homed = False
             self._position[:] = np.nan
             self._machine_events.append((now, "homing_failed"))
