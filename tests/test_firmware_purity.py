@@ -14,12 +14,16 @@ PURE_MODULES = [
     "transplanter.units",
     "transplanter.errors",
     "transplanter.planner",
+    "transplanter.hmi",
     "transplanter.firmware",
     "transplanter.firmware.bus",
     "transplanter.firmware.eeprom",
+    "transplanter.firmware.faults",
     "transplanter.firmware.homing",
+    "transplanter.firmware.marlin",
     "transplanter.firmware.pgf",
     "transplanter.firmware.rig",
+    "transplanter.firmware.serial_host",
     "transplanter.firmware.sgf",
 ]
 

@@ -1,0 +1,222 @@
+"""`transplanter serve` behind a pty: driven by `transplanter pgf` and by Printrun's printcore.
+
+Each test starts `serve` as its own process (as a user would), connects a host to the
+printed pty path and reads the results JSON serve writes when the host hangs up.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from transplanter.config import assemble
+from transplanter.firmware.pgf import PGF
+from transplanter.firmware.serial_host import SerialPGF
+from transplanter.scenario import load_scenario
+from transplanter.trial import run_trial
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "scenarios" / "example.gcode"
+
+pytestmark = pytest.mark.slow
+
+
+def start_serve(tmp_path: Path, *args: str) -> tuple[subprocess.Popen, str, Path]:
+    out = tmp_path / "serve.json"
+    cmd = [sys.executable, "-m", "transplanter.cli", "serve", "paper", "--json", str(out), *args]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = proc.stdout.readline()
+    match = re.search(r" on (/dev/\S+) ", first)
+    assert match, f"serve printed {first!r}; stderr: {proc.stderr.read() if proc.poll() else ''}"
+    return proc, match.group(1), out
+
+
+def finish_serve(proc: subprocess.Popen, out: Path, status: int = 0) -> dict:
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == status, stdout + stderr
+    return json.loads(out.read_text())
+
+
+def test_pgf_over_a_pty_reproduces_the_trial(tmp_path):
+    scenario = load_scenario("paper", {"scenario.seedlings": 3})
+    expected = run_trial(assemble(scenario)).to_dict()
+    proc, device, out = start_serve(tmp_path, "--seedlings", "3")
+    import serial
+
+    port = serial.Serial(device, 115200, timeout=0)
+    machine = assemble(scenario).machine
+    run = SerialPGF(PGF(machine.eeprom, machine.pgf), port, name=device).run()
+    port.close()
+    assert run.done and run.fault is None and run.resends == 0
+    got = finish_serve(proc, out)
+    assert got["serial"]["program_lines_done"] == got["serial"]["program_lines"] == run.lines_sent
+    assert got["serial"]["host_lines"] == 0
+    for key in ("successes", "cycle_time_s", "failures", "sim_time_s"):
+        assert got[key] == expected[key], key
+    drop = ("wall_time_s",)
+    for mine, theirs in zip(got["per_seedling"], expected["per_seedling"], strict=True):
+        assert {k: v for k, v in mine.items() if k not in drop} == {
+            k: v for k, v in theirs.items() if k not in drop
+        }
+
+
+def test_a_dead_switch_stops_the_machine_with_its_error_on_the_line(tmp_path):
+    proc, device, out = start_serve(tmp_path, "--seedlings", "1", "--set", "faults.switch_dead=2")
+    import serial
+
+    port = serial.Serial(device, 115200, timeout=0)
+    machine = assemble(load_scenario("paper", {"scenario.seedlings": 1})).machine
+    run = SerialPGF(PGF(machine.eeprom, machine.pgf), port, name=device).run()
+    port.close()
+    assert not run.done and "error:69" in run.fault and "limit switch 2" in run.fault
+    assert run.lines_sent == 1  # the PGF stopped at G28: nothing after it was sent
+    got = finish_serve(proc, out, status=4)
+    assert got["fault_kind"] == "switch_not_found"
+    assert "error:69" in got["fault"]
+    assert got["serial"]["executed"] == ["G28"]
+    assert got["failures"]["not_run"] == 1
+
+
+def _program_lines(path: Path) -> list[str]:
+    lines = []
+    for raw in path.read_text().splitlines():
+        text = raw.split(";", 1)[0].strip()
+        if text:
+            lines.append(text)
+    return lines
+
+
+def _printcore_session(device: str, lines: list[str], timeout_s: float = 240.0):
+    from printrun import gcoder
+    from printrun.printcore import printcore
+
+    received: list[str] = []
+    core = printcore()
+    core.recvcb = received.append
+    core.connect(device, 115200)
+    deadline = time.monotonic() + 30
+    while not core.online:
+        assert time.monotonic() < deadline, f"printcore never came online: {received}"
+        time.sleep(0.05)
+    core.startprint(gcoder.LightGCode(lines))
+    deadline = time.monotonic() + timeout_s
+    while core.printing:
+        assert time.monotonic() < deadline, "printcore did not finish"
+        time.sleep(0.05)
+    oks = sum(r.startswith("ok") for r in received)
+    time.sleep(0.5)  # the M110 printcore sends when it finishes gets its ok
+    core.send_now("M114")
+    deadline = time.monotonic() + 10
+    while not any(r.startswith("X:") for r in received):
+        assert time.monotonic() < deadline, "no M114 report"
+        time.sleep(0.05)
+    core.disconnect()
+    return received, oks, core
+
+
+def test_printcore_streams_the_example_program(tmp_path):
+    lines = _program_lines(EXAMPLE)
+    proc, device, out = start_serve(tmp_path, "--seedlings", "1")
+    received, oks, core = _printcore_session(device, lines)
+    got = finish_serve(proc, out)
+    serial = got["serial"]
+    assert serial["resends"] == 0
+    executed = [c for c in serial["executed"] if not c.startswith(("M110", "M105"))]
+    assert executed == lines + ["M114"]
+    # every line printcore sent (M105 probe, M110s, the program) got its ok
+    assert oks >= len(lines) + 2
+    report = next(r for r in received if r.startswith("X:"))
+    assert report.split()[:3] == ["X:0.000", "Y:140.000", "Z:60.000"]  # the file's last move
+    assert serial["final_position_mm"] == [0.0, 140.0, 60.0]
+    assert any(r.startswith("start") for r in received) or oks  # greeted or answered
+
+
+def test_printcore_with_byte_errors_completes_through_resend(tmp_path):
+    """1,000 lines, 1 % of them hit by a flipped bit or a dropped byte: every line runs
+    exactly once, in order, and the arm ends where the file ends."""
+    lines = ["G28", "G90"]
+    for i in range(998):
+        x = -20.0 + (i % 41)
+        y = 160.0 + (i % 7)
+        lines.append(f"G1 X{x:g} Y{y:g} Z60 S100" if i % 3 else f"M280 P0 S{90 + i % 60}")
+    proc, device, out = start_serve(
+        tmp_path, "--seedlings", "1", "--inject-errors", "0.01", "--inject-seed", "7"
+    )
+    received, _, _ = _printcore_session(device, lines)
+    got = finish_serve(proc, out)
+    serial = got["serial"]
+    assert serial["corrupted_by_noise"] >= 5  # about 10 expected
+    assert serial["resends"] >= serial["corrupted_by_noise"]
+    executed = [c for c in serial["executed"] if not c.startswith(("M110", "M105"))]
+    assert executed == lines + ["M114"]
+    last = (
+        lines[-1]
+        if lines[-1].startswith("G1")
+        else next(ln for ln in reversed(lines) if ln.startswith("G1"))
+    )
+    x, y = (float(w[1:]) for w in last.split()[1:3])
+    assert serial["final_position_mm"][:2] == [x, y]
+    assert any(r.startswith("Resend:") for r in received)
+
+
+class ScriptedEndpoint:
+    """Lines a host 'writes' after given wall-clock delays; records what it is sent."""
+
+    path = "scripted"
+
+    def __init__(self, script: list[tuple[float, str]]) -> None:
+        self.script = list(script)
+        self.t0 = time.monotonic()
+        self.closed = False
+        self.written: list[str] = []
+
+    def read_lines(self, timeout_s: float) -> list[bytes]:
+        if not self.script:
+            self.closed = True
+            return []
+        due, line = self.script[0]
+        wait = self.t0 + due - time.monotonic()
+        if wait > timeout_s:
+            time.sleep(timeout_s)
+            return []
+        time.sleep(max(wait, 0.0))
+        self.script.pop(0)
+        return [line.encode()]
+
+    def write_lines(self, lines: list[str]) -> None:
+        self.written += lines
+
+
+def _bare_host(endpoint, **kwargs):
+    from types import SimpleNamespace
+
+    from transplanter.firmware.bus import ComBus
+    from transplanter.firmware.sgf import SGF
+    from transplanter.serve import RemoteHost
+
+    machine = assemble(load_scenario("paper", {"scenario.seedlings": 1})).machine
+    host = RemoteHost(endpoint, machine, **kwargs)
+    host.attach(SimpleNamespace(sgf=SGF(machine.sgf), bus=ComBus()))
+    return host
+
+
+def test_idle_machine_waits_for_the_host_without_simulated_time_passing():
+    endpoint = ScriptedEndpoint([(0.3, "M105")])
+    host = _bare_host(endpoint)
+    assert endpoint.written[0] == "start"  # the boot greeting, before any host line
+    assert host.poll(0.0, []) == ["M105"]  # blocked until the host wrote, at t = 0
+    assert time.monotonic() - endpoint.t0 >= 0.3
+
+
+def test_realtime_paces_simulated_time_to_the_wall_clock():
+    endpoint = ScriptedEndpoint([(5.0, "M105")])
+    host = _bare_host(endpoint, realtime=True)
+    t0 = time.monotonic()
+    assert host.poll(0.0, []) == []
+    assert host.poll(0.4, []) == []  # nothing from the host yet: no wait beyond the pacing
+    assert 0.38 <= time.monotonic() - t0 < 1.0
