@@ -206,3 +206,120 @@ def test_trial_seeds_says_when_a_trials_failures_cluster(tmp_path, capsys):
     assert re.search(r"seed +3: 0/3 \(0\.0 %\), failures cluster", out)
     assert "position_lost" in out
     assert "pooled over 1 trial: 0.0 % (0/3)" in out
+
+
+# -- hmi and trial --eeprom ------------------------------------------------------------------
+
+TEACH_PAPER_KEYS = ROOT / "tests" / "hmi" / "teach_paper.keys"
+
+
+def _teach_paper(tmp_path, capsys):
+    out = tmp_path / "paper.eeprom"
+    assert main(["hmi", "paper", "--out", str(out), "--keys-file", str(TEACH_PAPER_KEYS)]) == 0
+    return out, capsys.readouterr().out
+
+
+def test_hmi_keys_file_writes_the_paper_image_and_prints_the_lcd(tmp_path, capsys):
+    from transplanter.config import machine_config
+    from transplanter.scenario import load_scenario
+
+    out, printed = _teach_paper(tmp_path, capsys)
+    assert out.read_bytes() == machine_config(load_scenario("paper")).eeprom.to_bytes()
+    assert "|WRITE EEPROM        |" in printed and "|Written CRC " in printed
+    assert f"transplanter trial paper --eeprom {out}" in printed
+
+
+def test_hmi_show_screens_prints_every_screen(tmp_path, capsys):
+    out = tmp_path / "x.eeprom"
+    assert main(["hmi", "paper", "--out", str(out), "--keys", "1 0", "--show-screens"]) == 1
+    captured = capsys.readouterr()
+    assert "power-on (homed at t = " in captured.out
+    assert "key 1: 1\n+----" in captured.out and "key 2: 0\n+----" in captured.out
+    assert "|Pickups M_pp        |" in captured.out
+    assert "ended without writing the EEPROM image" in captured.err
+    assert not out.exists()
+
+
+def test_hmi_prints_the_full_reason_of_a_refused_jog(tmp_path, capsys):
+    assert main(["hmi", "paper", "--out", str(tmp_path / "x.eeprom"), "--keys", "2 1 4"]) == 1
+    out = capsys.readouterr().out
+    assert "|NO elbow B 14.98<15 |" in out
+    assert "refused: elbow angle at B 14.98 deg outside [15, 165] deg" in out
+
+
+def test_hmi_refuses_bad_keys_and_options(tmp_path, capsys):
+    out = str(tmp_path / "x.eeprom")
+    assert main(["hmi", "paper", "--out", out, "--keys", "1 0 5# 6!"]) == 2
+    err = capsys.readouterr().err
+    assert "--keys: '!' at position 9 is not a key" in err and "0-9 A B C D * #" in err
+    keys_file = tmp_path / "k.keys"
+    keys_file.write_text("1 0 5#\n; fine\n 6 q\n")
+    assert main(["hmi", "paper", "--out", out, "--keys-file", str(keys_file)]) == 2
+    assert f"{keys_file}: 'q' at line 3, column 4 is not a key" in capsys.readouterr().err
+    assert main(["hmi", "paper", "--out", out, "--keys", "1", "--keys-file", str(keys_file)]) == 2
+    assert "not both" in capsys.readouterr().err
+    assert main(["hmi", "paper", "--out", str(tmp_path / "x.bin"), "--keys", "1"]) == 2
+    assert "must end in .eeprom" in capsys.readouterr().err
+    assert main(["hmi", "paper", "--out", out, "--from", str(keys_file), "--keys", "1"]) == 2
+    assert "--from refused" in capsys.readouterr().err
+
+
+def test_hmi_without_keys_needs_a_terminal(tmp_path):
+    out = str(tmp_path / "x.eeprom")
+    done = subprocess.run(
+        [sys.executable, "-m", "transplanter.cli", "hmi", "paper", "--out", out],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 2
+    assert "no terminal for the interactive keypad" in done.stderr
+
+
+def test_trial_refuses_a_corrupt_or_missing_eeprom_image(tmp_path, capsys):
+    out, _ = _teach_paper(tmp_path, capsys)
+    corrupt = tmp_path / "corrupt.eeprom"
+    data = bytearray(out.read_bytes())
+    data[40] ^= 0x01
+    corrupt.write_bytes(bytes(data))
+    assert main(["trial", "paper", "--eeprom", str(corrupt)]) == 2
+    err = capsys.readouterr().err
+    assert "--eeprom refused" in err and "CRC mismatch" in err
+    assert main(["trial", "paper", "--eeprom", str(tmp_path / "none.eeprom")]) == 2
+    assert "cannot open EEPROM image" in capsys.readouterr().err
+    args = ["trial", "paper", "--eeprom", str(out), "--set", "taught.z_low_mm=30"]
+    assert main(args) == 2
+    assert "both set the taught data" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_trial_from_the_taught_image_gives_the_paper_results(tmp_path, capsys):
+    out, _ = _teach_paper(tmp_path, capsys)
+    results = {}
+    for name, extra in (("paper", []), ("image", ["--eeprom", str(out)])):
+        path = tmp_path / f"{name}.json"
+        args = ["trial", "paper", "--seedlings", "5", "--quiet", "--json", str(path), *extra]
+        assert main(args) == 0
+        results[name] = json.loads(path.read_text())
+    capsys.readouterr()
+    paper, image = results["paper"], results["image"]
+    assert image["overrides"]["eeprom"].startswith(f"{out} (M_pp 5, CRC-32 0x")
+    assert "eeprom" not in paper["overrides"]
+    assert image["per_seedling"] == paper["per_seedling"]
+    for key in ("successes", "failures", "cycle_time_s", "sim_time_s", "lost_step_events"):
+        assert image[key] == paper[key], key
+
+
+def test_serve_and_pgf_refuse_bad_options_before_opening_anything(tmp_path, capsys):
+    assert main(["serve", "paper", "--inject-errors", "1.5"]) == 2
+    assert "--inject-errors is the share of lines" in capsys.readouterr().err
+    assert main(["serve", "paper", "--keepalive-s", "-1"]) == 2
+    assert "--keepalive-s must be >= 0" in capsys.readouterr().err
+    assert main(["serve", "paper", "--set", "taught.z_low_mm=2"]) == 2
+    assert "scenario refused" in capsys.readouterr().err
+    missing = tmp_path / "ttyUSB9"
+    assert main(["serve", "paper", "--port", str(missing)]) == 2
+    assert f"cannot open {missing}" in capsys.readouterr().err
+    assert main(["pgf", "paper", "--port", str(missing)]) == 2
+    assert f"cannot open {missing}" in capsys.readouterr().err

@@ -155,7 +155,7 @@ def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter import fileio
     from transplanter.config import assemble
     from transplanter.report import format_summary, progress_bar
-    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.scenario import ScenarioError
     from transplanter.stats import parse_seeds
     from transplanter.trial import TrialInterrupted, run_trial
     from transplanter.video import GLUnavailable, RenderRefused
@@ -179,6 +179,8 @@ def cmd_trial(args: argparse.Namespace) -> int:
             except fileio.FileRefused as exc:
                 _err(f"{option}: {exc}")
                 return EXIT_REFUSED
+    if not _read_eeprom(args):
+        return EXIT_REFUSED
     try:
         overrides = _overrides(args)
     except ScenarioError as exc:
@@ -199,7 +201,7 @@ def cmd_trial(args: argparse.Namespace) -> int:
             return EXIT_REFUSED
         return _pooled_trials(args, overrides, seeds, targets["--json"])
     try:
-        config = assemble(load_scenario(args.scenario, overrides), preflight=not args.no_preflight)
+        config = assemble(_trial_scenario(args, overrides), preflight=not args.no_preflight)
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
@@ -253,6 +255,35 @@ def cmd_trial(args: argparse.Namespace) -> int:
     if not result.valid:
         return EXIT_INVALID_PHYSICS
     return EXIT_FIRMWARE_FAULT if result.fault else EXIT_OK
+
+
+def _read_eeprom(args: argparse.Namespace) -> bool:
+    """Read `trial --eeprom FILE` (CRC checked) into args.eeprom_image (None without the
+    option); False after saying why the image was refused."""
+    from transplanter.firmware.eeprom import EepromError, EepromImage
+
+    args.eeprom_image = None
+    if getattr(args, "eeprom", None) is None:
+        return True
+    try:
+        args.eeprom_image = EepromImage.load(args.eeprom)
+    except EepromError as exc:
+        _err(f"--eeprom refused: {exc}")
+        return False
+    return True
+
+
+def _trial_scenario(args: argparse.Namespace, overrides: dict[str, Any]):
+    """The trial's scenario with its overrides and, with --eeprom, the image's taught data
+    in place of its [taught] section (config.with_eeprom); ScenarioError when refused."""
+    from transplanter.config import with_eeprom
+    from transplanter.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario, overrides)
+    image = getattr(args, "eeprom_image", None)
+    if image is not None:
+        scenario = with_eeprom(scenario, image, str(args.eeprom))
+    return scenario
 
 
 def _failure_clips(args: argparse.Namespace):
@@ -424,14 +455,14 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
     """One trial per seed, each line printed as it finishes, then the pooled rate."""
     from transplanter import fileio
     from transplanter.config import assemble
-    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.scenario import ScenarioError
     from transplanter.stats import pooled_rate
     from transplanter.trial import TrialInterrupted, run_trial
 
     try:
         configs = [
             assemble(
-                load_scenario(args.scenario, {**overrides, "scenario.seed": seed}),
+                _trial_scenario(args, {**overrides, "scenario.seed": seed}),
                 preflight=not args.no_preflight,
             )
             for seed in seeds
@@ -658,10 +689,199 @@ def cmd_export(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_hmi(args: argparse.Namespace) -> int:
+    from transplanter import fileio
+    from transplanter.firmware.eeprom import EepromError, EepromImage
+    from transplanter.hmi import (
+        MAX_KEY_SCRIPT_BYTES,
+        Hmi,
+        KeyScriptError,
+        parse_keys,
+        run_keys,
+        run_terminal,
+    )
+
+    if args.keys is not None and args.keys_file is not None:
+        _err("give the keys either with --keys or with --keys-file, not both")
+        return EXIT_REFUSED
+    try:
+        target = fileio.check_output(args.out, ".eeprom")
+    except fileio.FileRefused as exc:
+        _err(f"--out: {exc}")
+        return EXIT_REFUSED
+    try:
+        if args.keys is not None:
+            keys = parse_keys(args.keys, "--keys")
+        elif args.keys_file is not None:
+            text = fileio.read_text_input(args.keys_file, MAX_KEY_SCRIPT_BYTES, "key script")
+            keys = parse_keys(text, str(args.keys_file))
+        else:
+            keys = None
+    except (KeyScriptError, fileio.FileRefused) as exc:
+        _err(f"hmi refused: {exc}")
+        return EXIT_REFUSED
+    if keys is None and not (sys.stdin.isatty() and sys.stdout.isatty()):
+        _err(
+            "hmi: no terminal for the interactive keypad; give the keys with --keys '...' or "
+            "--keys-file FILE"
+        )
+        return EXIT_REFUSED
+    image = None
+    if args.start_from is not None:
+        try:
+            image = EepromImage.load(args.start_from)
+        except EepromError as exc:
+            _err(f"--from refused: {exc}")
+            return EXIT_REFUSED
+    machine = _machine(args)
+    if machine is None:
+        return EXIT_REFUSED
+    hmi = Hmi(machine, target, image)
+    if keys is None:
+        run_terminal(hmi)
+    else:
+        if args.show_screens:
+            print(f"power-on (homed at t = {hmi.port.t:.2f} s)\n{hmi.lcd_text()}")
+
+        def show(i: int, key: str, h: Hmi) -> None:
+            print(f"key {i + 1}: {key}\n{h.lcd_text()}")
+
+        run_keys(hmi, keys, show if args.show_screens else None)
+        if not args.show_screens:
+            print(hmi.lcd_text())
+    if hmi.refused:
+        print(f"refused: {_show(hmi.last_refusal)}")
+    if hmi.writes:
+        print(
+            f"EEPROM image written to {_show(args.out)} (M_pp {hmi.data.m_pp}); run it with: "
+            f"transplanter trial {_show(args.scenario)} --eeprom {_show(args.out)}"
+        )
+        return EXIT_OK
+    if keys is not None:
+        _err(
+            "the key sequence ended without writing the EEPROM image (menu 6 Write EEPROM, then #)"
+        )
+        return 1
+    print("no EEPROM image written")
+    return EXIT_OK
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from transplanter.playback import replay
 
     return replay(args.file)
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    from transplanter import fileio
+    from transplanter.firmware.marlin import LineNoise
+    from transplanter.report import format_summary
+    from transplanter.scenario import ScenarioError
+    from transplanter.serve import PtyEndpoint, RemoteHost, SerialEndpoint, format_stats
+    from transplanter.sim import Twin
+    from transplanter.trial import TrialInterrupted, run_trial
+
+    if not (0 <= args.inject_errors <= 1):
+        _err(f"--inject-errors is the share of lines with a byte error, 0..1: {args.inject_errors}")
+        return EXIT_REFUSED
+    if not (math.isfinite(args.keepalive_s) and args.keepalive_s >= 0):
+        _err(f"--keepalive-s must be >= 0 s (0: none), got {args.keepalive_s}")
+        return EXIT_REFUSED
+    targets: dict[str, Path | None] = {"--json": None, "--record": None}
+    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
+        if path is not None:
+            try:
+                targets[option] = fileio.check_output(path, suffix)
+            except fileio.FileRefused as exc:
+                _err(f"{option}: {exc}")
+                return EXIT_REFUSED
+    try:
+        config = _single_trial_config(args)
+    except ScenarioError as exc:
+        _err(f"scenario refused: {exc}")
+        return EXIT_REFUSED
+    try:
+        endpoint = PtyEndpoint() if args.port is None else SerialEndpoint(args.port, args.baud)
+    except Exception as exc:  # pyserial's SerialException, or no pty on this system
+        _err(f"cannot open {args.port or 'a pseudo-terminal'}: {exc}")
+        return EXIT_REFUSED
+    noise = LineNoise(args.inject_errors, args.inject_seed) if args.inject_errors > 0 else None
+    host = RemoteHost(
+        endpoint, config.machine, realtime=args.realtime, until_done=args.until_done,
+        keepalive_s=args.keepalive_s, noise=noise,
+    )  # fmt: skip
+    mode = "real time" if args.realtime else "as fast as the handshake allows"
+    print(f"serving {config.name} on {endpoint.path} ({mode}); connect a host there", flush=True)
+    interrupted = False
+    try:
+        result = run_trial(
+            config, record_path=targets["--record"], record_rate_hz=args.record_rate,
+            twin_factory=lambda c: Twin(c, remote=host), horizon_s=math.inf,
+        )  # fmt: skip
+    except TrialInterrupted as stop:
+        result, interrupted = stop.result, True
+    finally:
+        endpoint.close()
+    stats = host.stats()
+    print(format_summary(result))
+    print(format_stats(stats))
+    status = EXIT_OK
+    if targets["--json"] is not None:
+        payload = result.to_dict()
+        payload["serial"] = stats.to_dict()
+        try:
+            fileio.write_json_atomic(targets["--json"], payload)
+            print(f"results written to {_show(args.json)}")
+        except OSError as exc:
+            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
+            status = EXIT_OUTPUT_FAILED
+    if result.recording_error is not None:
+        _err(f"--record: {result.recording_error}")
+        status = EXIT_OUTPUT_FAILED
+    if interrupted:
+        return EXIT_INTERRUPTED
+    if status != EXIT_OK:
+        return status
+    return _trial_status(result)  # 4: the machine stopped (a stall, a homing failure)
+
+
+def cmd_pgf(args: argparse.Namespace) -> int:
+    from transplanter.config import machine_config
+    from transplanter.firmware.pgf import PGF
+    from transplanter.firmware.serial_host import SerialPGF
+    from transplanter.scenario import ScenarioError, load_scenario
+
+    try:
+        overrides = _overrides(args)
+        if args.seedlings is not None:
+            overrides["scenario.seedlings"] = args.seedlings
+        machine = machine_config(load_scenario(args.scenario, overrides))
+    except ScenarioError as exc:
+        _err(f"scenario refused: {exc}")
+        return EXIT_REFUSED
+    try:
+        import serial
+
+        port = serial.Serial(args.port, baudrate=args.baud, timeout=0)
+    except Exception as exc:  # SerialException: no such device, busy, no permission
+        _err(f"cannot open {args.port}: {exc}")
+        return EXIT_REFUSED
+    pgf = PGF(machine.eeprom, machine.pgf)
+    total = len(pgf.program)
+    print(f"streaming {total} lines of the taught cycle to {args.port}", flush=True)
+    try:
+        run = SerialPGF(pgf, port, name=args.port).run()
+    finally:
+        port.close()
+    print(
+        f"{run.lines_sent} lines sent, {run.resends} resent after line errors, "
+        f"{run.wall_time_s:.1f} s"
+    )
+    if run.fault is not None:
+        _err(f"PGF stopped: {run.fault}")
+        return EXIT_FIRMWARE_FAULT
+    print("done: every line acknowledged")
+    return EXIT_OK
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -711,6 +931,15 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="skip the check of every taught point and move before the trial: the SGF then "
         "refuses an unreachable move itself (exit status 4), as the real firmware would",
+    )
+    p.add_argument(
+        "--eeprom",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="run from an EEPROM image (as `transplanter hmi` writes it; CRC checked): its "
+        "taught data replace the scenario's [taught] section, and the results' overrides "
+        "name the image",
     )
     p.add_argument(
         "--clips-of-failures",
@@ -798,6 +1027,42 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser(
+        "hmi",
+        help="teach the machine on an emulated 20x4 LCD and 4x4 keypad; write the EEPROM image",
+        description="The paper's teach mode (docs/hmi.md): jog the arm (a real SGF, homed "
+        "at power-on) with the keys, store the pickups' approach and grip points and the "
+        "drop point, enter M_pp, the elbow angles, Z_up/Z_low and the speeds, and write the "
+        "EEPROM image with its CRC to --out (menu 6). With --keys or --keys-file the keys "
+        "are pressed in order and the final LCD is printed; without, on a terminal, the "
+        "keypad is interactive (curses; q quits). Key map: menus A up, B down, # select, * "
+        "back, a digit picks its item; values: digits, D point, C delete, # save; jog: 4/6 "
+        "X, 8/2 Y, 9/3 Z, 5 step 10/1/0.1 mm, # store.",
+        epilog="exit status: 0 the image was written (or an interactive session ended), "
+        "1 the key sequence ended without writing it, 2 refused (options, scenario, a bad "
+        "key in the script, --from image, --out path)",
+    )
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    p.add_argument("--out", type=Path, required=True, help="the EEPROM image to write (.eeprom)")
+    p.add_argument(
+        "--keys",
+        default=None,
+        help="keys to press, e.g. '1 0 5#' (0-9 A-D * #; spaces ignored, ';' to the end of "
+        "the line is a comment)",
+    )
+    p.add_argument("--keys-file", type=Path, default=None, help="a file of keys to press")
+    p.add_argument(
+        "--from",
+        dest="start_from",
+        type=Path,
+        default=None,
+        metavar="IMAGE",
+        help="start from this EEPROM image's data (to change some of it) instead of a blank one",
+    )
+    p.add_argument("--show-screens", action="store_true", help="print the LCD after every key")
+    _set_arg(p)
+    p.set_defaults(func=cmd_hmi)
+
+    p = sub.add_parser(
         "sweep",
         help="run a grid of settings x seeds in parallel; tables and plots in --out",
         description="One trial per (setting, seed), judged as `transplanter trial` judges it. "
@@ -881,6 +1146,65 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _set_arg(p)
     p.set_defaults(func=cmd_tune)
+
+    p = sub.add_parser(
+        "serve",
+        help="the SGF and the physics behind a pseudo-terminal or serial port (Marlin dialect)",
+        epilog="one host session: it ends when the host closes the pty (or, with --until-done, "
+        "when the taught program is done); exit status 0 done, 2 refused, 3 physics not "
+        "valid, 4 the machine stopped on a fault (a stall, a homing failure), 5 a result "
+        "file could not be written, 130 interrupted",
+    )
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    _set_arg(p)
+    p.add_argument("--seedlings", type=ascii_int, default=None, help="override scenario.seedlings")
+    p.add_argument("--seed", type=ascii_int, default=None, help="override scenario.seed")
+    p.add_argument("--port", default=None, help="a serial port (pyserial) instead of a new pty")
+    p.add_argument("--baud", type=ascii_int, default=115200, help="baud rate of --port")
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="pace the physics to the wall clock (default: as fast as the handshake allows)",
+    )
+    p.add_argument(
+        "--until-done",
+        action="store_true",
+        help="end once the scenario's taught program has been answered (default: when the "
+        "host closes the port)",
+    )
+    p.add_argument(
+        "--keepalive-s",
+        type=ascii_float,
+        default=2.0,
+        help="'busy: processing' every this many s while a line runs (Marlin: 2; 0: none)",
+    )
+    p.add_argument(
+        "--inject-errors",
+        type=ascii_float,
+        default=0.0,
+        metavar="RATE",
+        help="share of received lines given one byte error (a flipped bit or a dropped byte)",
+    )
+    p.add_argument("--inject-seed", type=ascii_int, default=0, help="seed of --inject-errors")
+    p.add_argument("--json", type=Path, default=None, help="write results to this JSON file")
+    p.add_argument("--record", type=Path, default=None, help="write a rerun .rrd recording")
+    p.add_argument(
+        "--record-rate", type=ascii_float, default=60.0, help="recording rate in Hz (> 0)"
+    )
+    p.set_defaults(func=cmd_serve)
+
+    p = sub.add_parser(
+        "pgf",
+        help="stream the taught cycle (the PGF) to a serial SGF: `serve`, or a board",
+        epilog="exit status 0 every line acknowledged, 2 refused, 4 the PGF stopped (a line "
+        "refused, or no reply within the bus timeout)",
+    )
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    _set_arg(p)
+    p.add_argument("--seedlings", type=ascii_int, default=None, help="override scenario.seedlings")
+    p.add_argument("--port", required=True, help="serial device of the SGF, e.g. /dev/ttyUSB0")
+    p.add_argument("--baud", type=ascii_int, default=115200, help="baud rate (115200)")
+    p.set_defaults(func=cmd_pgf)
 
     p = sub.add_parser("replay", help="open a recorded trial in the rerun viewer")
     p.add_argument("file", type=Path)
