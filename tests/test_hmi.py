@@ -352,3 +352,52 @@ def test_with_eeprom_refuses_taught_overrides_and_bad_z_levels(machine):
     equal = dataclasses.replace(machine.eeprom, z_up_m=0.034)
     with pytest.raises(ScenarioError, match="must be above Z_low"):
         with_eeprom(paper_scenario(), equal, "x")
+
+
+@pytest.mark.slow
+def test_the_interactive_keypad_runs_in_a_terminal(tmp_path):
+    """`transplanter hmi` without --keys on a terminal: the curses UI draws the LCD, takes
+    keys and quits on q (a pty stands in for the terminal)."""
+    import fcntl
+    import os
+    import select
+    import struct
+    import subprocess
+    import sys
+    import termios
+    import time
+
+    master, slave = os.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
+    out = tmp_path / "taught.eeprom"
+    env = {**os.environ, "TERM": "xterm"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "transplanter.cli", "hmi", "paper", "--out", str(out)],
+        stdin=slave, stdout=slave, stderr=slave, env=env, close_fds=True,
+    )  # fmt: skip
+    os.close(slave)
+    screen = b""
+
+    def read_for(seconds: float) -> None:
+        nonlocal screen
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            ready, _, _ = select.select([master], [], [], 0.05)
+            if ready:
+                try:
+                    screen += os.read(master, 65536)
+                except OSError:
+                    return
+
+    read_for(3.0)
+    assert b"Keypad:" in screen and b"Homed X0 Y79 Z159" in screen
+    os.write(master, b"1")  # the pickups menu
+    read_for(1.0)
+    assert b"PICKUPS" in screen.upper()
+    os.write(master, b"q")
+    read_for(1.0)
+    assert proc.wait(timeout=10) == 0  # quitting is fine; it says nothing was written
+    read_for(0.5)
+    assert b"no EEPROM image written" in screen
+    assert not out.exists()
+    os.close(master)

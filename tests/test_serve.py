@@ -125,9 +125,11 @@ def _printcore_session(device: str, lines: list[str], timeout_s: float = 240.0):
 
 def test_printcore_streams_the_example_program(tmp_path):
     lines = _program_lines(EXAMPLE)
-    proc, device, out = start_serve(tmp_path, "--seedlings", "1")
+    rrd = tmp_path / "serve.rrd"
+    proc, device, out = start_serve(tmp_path, "--seedlings", "1", "--record", str(rrd))
     received, oks, core = _printcore_session(device, lines)
     got = finish_serve(proc, out)
+    assert rrd.stat().st_size > 10_000  # the session's recording, as trial --record writes
     serial = got["serial"]
     assert serial["resends"] == 0
     executed = [c for c in serial["executed"] if not c.startswith(("M110", "M105"))]
