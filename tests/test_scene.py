@@ -485,3 +485,49 @@ def test_the_conveyor_drive_holds_the_carriage_between_indexes():
 def model_hold(scene):
     m, dof = scene.model, scene.conveyor_dof_adr
     return float(m.jnt_stiffness[m.dof_jntid[dof]]), float(m.dof_damping[dof])
+
+
+def test_bonded_pots_get_an_adhesion_pad_that_touches_only_the_belt_and_still_sleep():
+    import dataclasses
+
+    cfg = dataclasses.replace(
+        SceneConfig(), pot_bond_share=0.5, pot_bond_force=5.0, pot_bond_sd_log=0.5
+    )
+    scene = build_scene(cfg, seed=3)
+    m = scene.model
+    bonded = np.flatnonzero(scene.pots.bond_force > 0)
+    assert 5 < bonded.size < 35  # about half of 40
+    assert m.nu == 5 + bonded.size
+    assert sorted(scene.bond_pots) == list(bonded)
+    np.testing.assert_allclose(
+        m.actuator_gainprm[scene.bond_actuators, 0], scene.pots.bond_force[scene.bond_pots]
+    )
+    assert (m.actuator_trntype[scene.bond_actuators] == mujoco.mjtTrn.mjTRN_BODY).all()
+    pad = m.geom(f"pot_base_{bonded[0] // 5}_{bonded[0] % 5}").id
+    belt = m.geom("belt_table").id
+    # the pad collides with the belt, and sits inside the pot's footprint at its base, where
+    # nothing but the belt can touch it (the jaws grip the pot's side)
+    assert m.geom_contype[pad] & m.geom_conaffinity[belt]
+    assert m.geom_conaffinity[pad] == 0
+    pot = m.geom(f"pot_{bonded[0] // 5}_{bonded[0] % 5}").id
+    assert m.geom_size[pad, 0] < 0.8 * m.geom_size[pot, 0]
+    base_z = m.body_pos[m.geom_bodyid[pad], 2] - m.geom_size[pad, 1]
+    assert base_z == pytest.approx(-m.geom_size[pot, 1])  # flush with the pot's bottom
+    data = scene.make_data()
+    assert (data.ctrl[scene.bond_actuators] == 0).all()  # on only while the jaws pull
+    for _ in range(2000):
+        mujoco.mj_step(m, data)
+    assert data.ntree_awake == 1  # the arm; every pot asleep, bonded or not
+
+
+def test_bond_draws_leave_the_other_pot_draws_unchanged():
+    import dataclasses
+
+    plain = PotBatch.draw(SceneConfig(), 5)
+    bonded = PotBatch.draw(
+        dataclasses.replace(SceneConfig(), pot_bond_share=0.3, pot_bond_force=4.0), 5
+    )
+    for name in ("diameter", "height", "mass", "friction", "offset", "stem_length"):
+        np.testing.assert_array_equal(getattr(plain, name), getattr(bonded, name))
+    assert (plain.bond_force == 0).all()
+    assert set(np.unique(bonded.bond_force)) >= {0.0, 4.0}  # sd_log 0: every bond 4 N

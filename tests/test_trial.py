@@ -305,3 +305,28 @@ def test_a_jam_without_stall_detection_loses_steps_silently():
     assert not any(e["detected"] for e in result.lost_step_events)
     assert result.lost_step_events[0]["motor"] == 0  # the jammed motor slips first
     assert result.per_seedling[1].outcome == Outcome.POSITION_LOST
+
+
+@pytest.mark.slow
+def test_a_bond_stronger_than_the_grip_keeps_the_pot_on_the_belt():
+    """Every pot bonded: 30 N holds the pot down against the jaws' grip (6 N per jaw,
+    friction 0.6), 1 N is torn off by the lift."""
+    strong = run_trial(
+        paper_config(1, **{"pots.bond_share": 1.0, "pots.bond_force_n": 30.0})
+    ).per_seedling[0]
+    assert strong.outcome == "stuck_to_belt" and strong.stuck_to_belt
+    assert strong.bond_force_n == pytest.approx(30.0)
+    assert strong.peak_grip_force_n > 5.0  # it was gripped, and still did not rise
+    weak = run_trial(paper_config(2, **{"pots.bond_share": 1.0, "pots.bond_force_n": 1.0}))
+    assert [r.outcome for r in weak.per_seedling] == ["success", "success"]
+    assert all(r.bond_force_n == pytest.approx(1.0) for r in weak.per_seedling)
+
+
+@pytest.mark.slow
+def test_an_index_error_leaves_the_row_off_until_the_next_index_takes_it_back():
+    base = run_trial(paper_config(11))
+    off = run_trial(paper_config(11, **{"conveyor.index_error_sd_mm": 2.0}))
+    assert [r["offset_mm"] for r in base.belt_realignments][1] == pytest.approx(0.0, abs=0.01)
+    taken_back = off.belt_realignments[1]["offset_mm"]  # the first index's error
+    assert 0.05 < abs(taken_back) < 8.0
+    assert off.successes == base.successes == 11  # 2 mm along the approach: still gripped

@@ -24,6 +24,8 @@ from transplanter.units import M_PER_MM
 __all__ = ["Judge", "EventSink"]
 
 _HOMING = (LinePhase.HOME, LinePhase.REHOME, LinePhase.STALL_REHOME)
+# A pot that rose less than this at the lift still stands on the belt (m).
+_ON_BELT_M = 0.002
 
 # (time s, kind, text, seedling index or None): what the judge reports as it goes.
 EventSink = Callable[[float, EventKind, str, "int | None"], None]
@@ -117,6 +119,8 @@ class Judge:
         elif line.phase == LinePhase.LIFT and rec.pot is not None:
             z = float(d.xpos[self.pot_bodies[rec.pot], 2])
             rec.lifted = z - self.z0 > self.config.lifted_fraction * self.lift_m
+            # a bonded pot still down on the belt: its bond held it against the jaws' grip
+            rec.stuck_to_belt = not rec.lifted and rec.bond_force_n > 0 and z - self.z0 < _ON_BELT_M
         elif line.phase == LinePhase.TO_DROP and rec.pot is not None:
             rec.in_gripper_at_drop = self._between_jaws(rec.pot)
         elif line.phase == LinePhase.RELEASE:
@@ -143,6 +147,8 @@ class Judge:
             rec.outcome = Outcome.NO_POT
             return
         rec.pot, offset, tilt = self._target_pot(grip_xy)
+        if rec.pot is not None:
+            rec.bond_force_n = float(self.twin.scene.pots.bond_force[rec.pot])
         rec.knocked_before = (
             offset > self.config.knocked_offset_m or tilt > self.config.knocked_tilt_rad
         )
@@ -217,7 +223,7 @@ class Judge:
         if rec.microsteps_lost:
             return Outcome.LOST_STEPS
         if not rec.lifted:
-            return Outcome.NOT_GRIPPED
+            return Outcome.STUCK_TO_BELT if rec.stuck_to_belt else Outcome.NOT_GRIPPED
         if not rec.in_gripper_at_drop:
             return Outcome.SLIPPED
         return Outcome.DROPPED_OUTSIDE

@@ -28,6 +28,7 @@ class Outcome(StrEnum):
     PENDING = "pending"  # its cycle has not been judged yet
     SUCCESS = "success"  # its pot is in the drop tube
     NOT_GRIPPED = "not_gripped"  # the pot did not rise with the jaws
+    STUCK_TO_BELT = "stuck_to_belt"  # a pot bonded to the belt stayed on it as the jaws rose
     SLIPPED = "slipped"  # lifted, but no longer between the jaws over the drop tube
     DROPPED_OUTSIDE = "dropped_outside"  # released over the tube, but it did not land inside
     KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
@@ -76,9 +77,11 @@ class SeedlingRecord:
     knocked_before: bool = False
     lifted: bool | None = None
     in_gripper_at_drop: bool | None = None
+    stuck_to_belt: bool = False  # bonded, and still on the belt after the lift
     rejected_line: str | None = None
     stall_recoveries: int = 0  # stalls in this cycle the PGF re-homed and went on from
     max_belt_displacement_mm: float = 0.0  # largest carriage offset from its held position
+    bond_force_n: float = 0.0  # strength of its pot's bond to the belt (pots.bond_*; 0: none)
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:

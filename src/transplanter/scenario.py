@@ -239,6 +239,9 @@ class ConveyorSection:
     row_pitch_m: float = key("float", 1, 1000)
     pickup_row_y_m: float = key("float", -1000, 1000)
     index_time_s: float = key("float", 0.01, 60)
+    index_error_sd_m: float = key(
+        "float", 0, 20, doc="where an index leaves the row: belt stretch and rib play (sd)"
+    )
 
 
 @dataclass(frozen=True)
@@ -260,6 +263,13 @@ class PotsSection:
     placement_max_m: float = key("float", 0, 100, doc="largest offset the cell allows")
     mass_min_kg: float = key("float", 0.1, 10000, doc="masses are clipped to [min, max]")
     mass_max_kg: float = key("float", 0.1, 10000)
+    bond_share: float = key(
+        "float", 0, 1, doc="share of pots whose roots or wet paper bond them to the belt"
+    )
+    bond_force_n: float = key("float", 0, 100, doc="median strength of a pot's bond (N)")
+    bond_force_sd_log: float = key(
+        "float", 0, 3, doc="spread of bond strengths: sd of their natural log"
+    )
 
 
 @dataclass(frozen=True)

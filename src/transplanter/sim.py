@@ -40,6 +40,8 @@ SLIP_CHECK_STEPS = 5
 # A motor counts as being stepped (its driver can sense a stall) when it got a pulse in this
 # long (s): about 3 full steps/s at 16 microsteps, StallGuard's lower speed range.
 STALL_WINDOW_S = 0.02
+# The random stream of the conveyor's index errors (with the trial's seed).
+_INDEX_ERROR_STREAM = 0x1DE7
 # Wrist servo angle at which the jaws point along passive link 1 (the wrist joint's zero).
 WRIST_SERVO_ZERO_DEG = 90.0
 
@@ -150,6 +152,9 @@ class Twin:
         self.gripper = _ServoRamp(cfg.gripper_servo.speed_deg_s, gripper_deg)
         self.wrist = _ServoRamp(cfg.wrist_servo.speed_deg_s, wrist_deg)
         self.conveyor = ConveyorDrive(self.scene)  # its state lives in self.data.userdata
+        # where each index leaves the row (belt stretch, rib play): its own seeded stream
+        self._index_error_sd = cfg.scene.conveyor_index_error_sd
+        self._index_rng = np.random.default_rng((cfg.seed, _INDEX_ERROR_STREAM))
         # Stepper positions are relative to where each motor was at power-on: the SGF's raw
         # pulse counters start at zero there, and homing only changes its logical counters.
         self.q_power_on = self.scene.joint_positions(self.data).copy()
@@ -218,8 +223,11 @@ class Twin:
             servo.command(ts, deg)
         for t_event, name in self.sgf.drain_machine_events():
             if name == "conveyor_index":
-                self.belt_realignments.append((t_event, self.conveyor.displacement(self.data)))
-                self.conveyor.start(self.data, t_event, self.machine.sgf.conveyor_index_s)
+                self.belt_realignments.append((t_event, self.conveyor.grid_offset(self.data)))
+                error = self._index_error_sd * self._index_rng.standard_normal()
+                self.conveyor.start(
+                    self.data, t_event, self.machine.sgf.conveyor_index_s, error_m=error
+                )
         sent = self.pgf.sent
         while self._done_index < len(sent) and sent[self._done_index].reply is not None:
             self._notify(LineEvent(sent[self._done_index], t, LineEventKind.DONE))
@@ -251,6 +259,10 @@ class Twin:
         ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
         ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - WRIST_SERVO_ZERO_DEG)
+        bonds = self.scene.bond_actuators
+        if bonds.size:  # a bond carries load while the jaws pull on its pot (build._add_bond)
+            touching = self.scene.pots_touching_jaws(self.data)
+            ctrl[:, bonds] = np.isin(self.scene.bond_pots, touching)
         return _Block(ctrl, pulses, self.conveyor.armed(self.data))
 
     # -- stepping ------------------------------------------------------------------------

@@ -57,6 +57,8 @@ ARM_BODIES = (
     "platform", "link1", "passive1", "gripper", "jaw_left", "jaw_right", "link2", "passive2",
 )  # fmt: skip
 # Quaternion turning a capsule's axis (local z) onto local x.
+BOND_PAD_HALF_THICKNESS = 0.0005  # m: the bonding pad at a bonded pot's base
+BOND_PAD_RADIUS_SHARE = 0.7  # of the pot's radius: the pad stays inside the pot's footprint
 _CAPSULE_Z_TO_X = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
 
 
@@ -137,7 +139,8 @@ def compile_with_home(spec: mujoco.MjSpec, cfg: SceneConfig) -> mujoco.MjModel:
         qpos[model0.joint(joint_name).qposadr[0]] = value
     key = spec.key("home")
     key.qpos = qpos
-    key.ctrl = home_ctrl(cfg)
+    bonds = model0.nu - len(home_ctrl(cfg))  # adhesion of bonded pots: off until loaded
+    key.ctrl = home_ctrl(cfg) + [0.0] * bonds
     return spec.compile()
 
 
@@ -355,6 +358,39 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch) -> None:
         vis.material = "paper"
         _add_seedling(body, cfg, r, c, h / 2, pots.stem_length[i], pots.n_leaves[i],
                       pots.leaf_yaw0[i])  # fmt: skip
+        if pots.bond_force[i] > 0:
+            _add_bond(spec, cfg, body, r, c, radius, h, pots.bond_force[i])
+
+
+def _add_bond(spec: mujoco.MjSpec, cfg: SceneConfig, body, r, c, radius, h, force) -> None:
+    """The pot's bond to the belt: MuJoCo adhesion on a thin pad flush with the pot's base
+    (a child body without a joint: part of the pot) that touches only the belt, so the bond
+    pulls the pot onto the belt, never onto the jaws, and acts only while the base touches
+    it. A bond carries load only when something pulls the pot, and only the jaws do: the
+    twin switches the adhesion on while the jaws touch the pot (`Scene.bond_actuators`;
+    switched on at rest, MuJoCo's stiff adhesion against the soft contact keeps the pot
+    rocking and awake). The pot's tree may sleep (an actuated tree never would by default)."""
+    body.sleep = mujoco.mjtSleepPolicy.mjSLEEP_ALLOWED
+    base = body.add_body()
+    base.name = f"pot_base_{r}_{c}"
+    base.pos = [0, 0, -h / 2 + BOND_PAD_HALF_THICKNESS]
+    pad = base.add_geom()
+    pad.name = f"pot_base_{r}_{c}"
+    pad.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+    pad.size = [BOND_PAD_RADIUS_SHARE * radius, BOND_PAD_HALF_THICKNESS, 0]
+    pad.contype = BIT_POT
+    pad.conaffinity = 0
+    pad.mass = 0
+    pad.group = 3
+    pad.rgba = list(POT_COLLISION_RGBA)
+    pad.solref, pad.solimp = list(cfg.contact_solref), list(cfg.contact_solimp)  # as the pot's
+    act = spec.add_actuator()
+    act.name = f"bond_{r}_{c}"
+    act.set_to_adhesion(gain=float(force))
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    act.ctrlrange = [0.0, 1.0]
+    act.trntype = mujoco.mjtTrn.mjTRN_BODY
+    act.target = base.name
 
 
 def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0) -> None:

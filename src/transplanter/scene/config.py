@@ -181,6 +181,15 @@ class SceneConfig:
     pot_friction: float = 0.6
     pot_friction_sd: float = 0.05
     pot_friction_min: float = 0.05
+    # Pots bonded to the belt (roots through the drainage hole, wet paper): the share of pots
+    # with a bond, its median strength (N) and the spread (sd of ln strength, log-normal).
+    # A bond is MuJoCo adhesion at the pot's base, acting on its contact with the belt only.
+    pot_bond_share: float = 0.0
+    pot_bond_force: float = 0.0
+    pot_bond_sd_log: float = 0.0
+    # Where an index leaves the row along the belt: normal sd (m) of the error of each index
+    # (belt stretch, rib play); the next index's ribs take it back.
+    conveyor_index_error_sd: float = 0.0
     # Seedling: stem length above the pot (m, uniform range), leaves per seedling (range),
     # seedling mass (kg) added to the pot.
     stem_length_range: tuple[float, float] = (0.035, 0.045)
@@ -238,6 +247,13 @@ class SceneConfig:
                 "pots do not fit their cells: pot_diameter + 2*pot_offset_max + rib_thickness "
                 "must be below cell_pitch and row_pitch"
             )
+        if not 0 <= self.pot_bond_share <= 1:
+            raise ValueError(
+                f"SceneConfig.pot_bond_share must be in [0, 1], got {self.pot_bond_share}"
+            )
+        for name in ("pot_bond_force", "pot_bond_sd_log", "conveyor_index_error_sd"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"SceneConfig.{name} must be >= 0, got {getattr(self, name)}")
         if not 0 < self.conveyor_push_share < 1:
             raise ValueError(
                 f"SceneConfig.conveyor_push_share must be in (0, 1), got {self.conveyor_push_share}"

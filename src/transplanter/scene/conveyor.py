@@ -43,8 +43,8 @@ from transplanter.scene.config import RIB_RGBA, row_bit
 if TYPE_CHECKING:
     from transplanter.scene.handles import Scene
 
-USERDATA_CONVEYOR = 5
-_U_ACTIVE, _U_T0, _U_PROFILE, _U_END, _U_Q0 = range(USERDATA_CONVEYOR)
+USERDATA_CONVEYOR = 6
+_U_ACTIVE, _U_T0, _U_PROFILE, _U_END, _U_Q0, _U_ERR = range(USERDATA_CONVEYOR)
 
 
 def conveyor_armed(data: mujoco.MjData) -> bool:
@@ -88,8 +88,10 @@ class ConveyorDrive:
         settle = min(self.config.conveyor_settle_s, 0.25 * total_s)
         return total_s - settle, settle
 
-    def start(self, data: mujoco.MjData, now: float, total_s: float) -> None:
-        """Index the conveyor by one row (towards -y), done by `now + total_s`.
+    def start(self, data: mujoco.MjData, now: float, total_s: float, error_m: float = 0.0) -> None:
+        """Index the conveyor by one row (towards -y), done by `now + total_s`; the index
+        leaves the row `error_m` beyond its nominal place (belt stretch, rib play), where
+        the drive then holds it until the next index takes the error back.
 
         total_s is the whole index time (the scenario's index time, after which the SGF
         acknowledges M710): the carriage follows the push-and-return profile, is held while
@@ -112,12 +114,13 @@ class ConveyorDrive:
         self.model.jnt_stiffness[self._joint] = 0.0
         self.model.dof_damping[self.dof_adr] = 0.0
         self._set_rows_past_the_edge(q0 - pitch)
-        u[_U_ACTIVE], u[_U_T0], u[_U_PROFILE], u[_U_END], u[_U_Q0] = (
+        u[_U_ACTIVE], u[_U_T0], u[_U_PROFILE], u[_U_END], u[_U_Q0], u[_U_ERR] = (
             1.0,
             now,
             profile_s,
             now + total_s,
             q0,
+            error_m,
         )
 
     def armed(self, data: mujoco.MjData) -> bool:
@@ -144,7 +147,7 @@ class ConveyorDrive:
         push_share = cfg.conveyor_push_share
         t = min(max(now - t0, 0.0), duration)
         overshoot = cfg.index_overshoot
-        travel = cfg.row_pitch + overshoot
+        travel = cfg.row_pitch + u[_U_ERR] + overshoot
         if t < push_share * duration:
             T = push_share * duration
             s, ds = _min_jerk(t / T)
@@ -180,7 +183,8 @@ class ConveyorDrive:
         # An exact 0.0 lets the carriage's tree fall asleep again.
         data.qfrc_applied[self.dof_adr] = 0.0
         data.userdata[_U_ACTIVE] = 0.0
-        self.model.qpos_spring[self.qpos_adr] = data.userdata[_U_Q0] - self.config.row_pitch
+        u = data.userdata
+        self.model.qpos_spring[self.qpos_adr] = u[_U_Q0] - self.config.row_pitch - u[_U_ERR]
         self.model.jnt_stiffness[self._joint], self.model.dof_damping[self.dof_adr] = self._hold
 
     def hold_position(self) -> float:
@@ -192,6 +196,13 @@ class ConveyorDrive:
         if conveyor_armed(data):
             return 0.0
         return float(data.qpos[self.qpos_adr] - self.model.qpos_spring[self.qpos_adr])
+
+    def grid_offset(self, data: mujoco.MjData) -> float:
+        """How far (m) the carriage is off its nominal row grid (whole row pitches): what
+        the next index takes back (the hold's own error and any index error)."""
+        pitch = self.config.row_pitch
+        q = float(data.qpos[self.qpos_adr])
+        return q - round(q / pitch) * pitch
 
     def _set_rows_past_the_edge(self, q_after: float) -> None:
         """Rows whose cells leave the belt's top run at this index go round the front drum:

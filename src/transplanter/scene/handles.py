@@ -50,6 +50,16 @@ class Scene:
         self.conveyor_qpos_adr = int(m.jnt_qposadr[conveyor_joint])
         self.conveyor_dof_adr = int(m.jnt_dofadr[conveyor_joint])
         self.home_key = name(mujoco.mjtObj.mjOBJ_KEY, "home")
+        # bonded pots' adhesion (build._add_bond): actuator ids and their pots' flat indices
+        bonds = [a for a in range(m.nu) if (m.actuator(a).name or "").startswith("bond_")]
+        self.bond_actuators = np.array(bonds, dtype=int)
+        self.bond_pots = np.array(
+            [
+                int(r) * config.cols + int(c)
+                for r, c in (m.actuator(a).name.split("_")[1:3] for a in bonds)
+            ],
+            dtype=int,
+        )
 
         trip_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_trip")]
         sense_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_sense")]

@@ -2,7 +2,7 @@
 
 `PotBatch.draw(config, seed)` draws every random number of a scene from
 `np.random.default_rng(seed)`, always in the same order (diameter, height, mass, friction,
-offset, stem length, leaf count, leaf yaw), so a seed gives the same pots on every run and
+offset, stem length, leaf count, leaf yaw, bond), so a seed gives the same pots on every run and
 every machine. Pots are indexed row-major: pot i sits in row i // cols, column i % cols.
 """
 
@@ -23,7 +23,8 @@ class PotBatch:
     diameter, height (m), mass (kg, without the seedling), friction (sliding, paper on jaws
     and belt), offset (n, 2: placement offset from the cell centre, m), cell_xy (n, 2: cell
     centre at conveyor position 0, m), stem_length (m above the pot's top), n_leaves (int),
-    leaf_yaw0 (rad, yaw of leaf 0; the others follow evenly around the stem).
+    leaf_yaw0 (rad, yaw of leaf 0; the others follow evenly around the stem), bond_force (N,
+    strength of the pot's bond to the belt; 0: none).
     """
 
     diameter: np.ndarray
@@ -35,6 +36,7 @@ class PotBatch:
     stem_length: np.ndarray
     n_leaves: np.ndarray
     leaf_yaw0: np.ndarray
+    bond_force: np.ndarray
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -64,6 +66,9 @@ class PotBatch:
         stem_length = rng.uniform(*cfg.stem_length_range, n)
         n_leaves = rng.integers(cfg.leaves_range[0], cfg.leaves_range[1] + 1, n)
         leaf_yaw0 = rng.uniform(0, 2 * np.pi, n)
+        bonded = rng.random(n) < cfg.pot_bond_share
+        strength = cfg.pot_bond_force * np.exp(cfg.pot_bond_sd_log * rng.standard_normal(n))
+        bond_force = np.where(bonded, strength, 0.0)
         return cls(
             diameter=diameter,
             height=height,
@@ -74,6 +79,7 @@ class PotBatch:
             stem_length=stem_length,
             n_leaves=n_leaves,
             leaf_yaw0=leaf_yaw0,
+            bond_force=bond_force,
         )
 
     def __len__(self) -> int:
