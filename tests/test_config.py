@@ -1,6 +1,7 @@
 """Assembly: each scenario key reaches the part of the twin that uses it, once."""
 
 import math
+import re
 
 import pytest
 
@@ -41,3 +42,21 @@ def test_a_scene_the_builder_refuses_is_a_scenario_error():
     machine = machine_config(s)
     with pytest.raises(ScenarioError, match="pots do not fit their cells"):
         scene_config(s, machine)
+
+
+def test_a_taught_value_finer_than_the_eeprom_is_refused_not_rounded():
+    from transplanter.config import key_quantum
+    from transplanter.scenario import ScenarioError, load_scenario
+
+    for key, value, quantum in (
+        ("taught.z_low_mm", 34.0004, "1 um"),
+        ("taught.s_high_mm_s", 150.04, "0.1 mm/s"),
+        ("taught.drop_wrist_deg", 135.005, "0.01 deg"),
+    ):
+        with pytest.raises(ScenarioError, match=rf"{re.escape(key)} = .* \({re.escape(quantum)}\)"):
+            assemble(load_scenario("paper", {key: value}))
+    assemble(load_scenario("paper", {"taught.z_low_mm": 34.001, "taught.s_high_mm_s": 150.1}))
+    assert key_quantum("taught.z_low_mm") == 0.001
+    assert key_quantum("taught.s_low_mm_s") == 0.1
+    assert key_quantum("taught.pickup[2].wrist_deg") == 0.01
+    assert key_quantum("pots.friction") is None

@@ -194,18 +194,15 @@ def test_check_value_and_key_spec_name_the_key():
     assert parse_value("[0, 140]") == [0, 140] and parse_value("true") is True
 
 
-def test_a_pot_friction_below_its_floor_is_refused_not_raised():
-    """pots.friction = 0 used to be raised to 0.05 in silence; now the floor is a key, and a
-    mean below it is refused with the reason. With friction_min = 0, 0 is used as given."""
-    with pytest.raises(ScenarioError, match=r"pots.friction = 0 is below pots.friction_min"):
-        load_scenario("paper", {"pots.friction": 0.0})
-    config = assemble(
-        load_scenario(
-            "paper",
-            {"pots.friction": 0.0, "pots.friction_sd": 0.0, "pots.friction_min": 0.0},
-        )
-    )
-    assert config.scene.pot_friction == 0.0 and config.scene.pot_friction_min == 0.0
+def test_friction_zero_means_no_friction_and_the_old_floor_key_is_refused_with_why():
+    """pots.friction = 0 was once raised to 0.05 in silence, then refused below a floor key;
+    now frictions are gamma-distributed (never below 0, no floor) and 0 means 0."""
+    config = assemble(load_scenario("paper", {"pots.friction": 0.0, "pots.friction_sd": 0.0}))
+    assert config.scene.pot_friction == 0.0
+    with pytest.raises(ScenarioError, match="a mean of 0 has no spread"):
+        load_scenario("paper", {"pots.friction": 0.0})  # the paper's sd 0.08 with mean 0
+    with pytest.raises(ScenarioError, match="pots.friction_min was removed: frictions are drawn"):
+        load_scenario("paper", {"pots.friction_min": 0.05})
 
 
 def test_the_paper_scenario_injects_no_faults():

@@ -102,3 +102,15 @@ def test_spec_expands_the_grid_first_key_outermost():
         _spec(**{"taught.z_low_mm": 30})
     with pytest.raises(SweepRefused, match="varied twice"):
         SweepSpec("paper", (REFUSED, REFUSED), (1,), 2)
+
+
+def test_a_taught_range_is_on_the_eeprom_grid():
+    from transplanter.sweep_grid import SweepRefused, parse_param_range
+
+    assert parse_param_range("taught.z_low_mm=28..40.5")[2:] == (28.0, 40.5)
+    with pytest.raises(SweepRefused, match="steps of 0.001"):
+        parse_param_range("taught.z_low_mm=28.0005..40")
+    from transplanter.tune import Param
+
+    dist = Param("taught.s_high_mm_s", "float", 120.0, 250.0).distribution()
+    assert dist.step == 0.1

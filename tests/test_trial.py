@@ -330,3 +330,11 @@ def test_an_index_error_leaves_the_row_off_until_the_next_index_takes_it_back():
     taken_back = off.belt_realignments[1]["offset_mm"]  # the first index's error
     assert 0.05 < abs(taken_back) < 8.0
     assert off.successes == base.successes == 11  # 2 mm along the approach: still gripped
+
+
+@pytest.mark.slow
+def test_frictionless_pots_are_never_carried():
+    result = run_trial(paper_config(3, **{"pots.friction": 0.0, "pots.friction_sd": 0.0}))
+    assert result.successes == 0
+    assert {r.outcome for r in result.per_seedling} <= {"not_gripped", "knocked_over"}
+    assert any(r.outcome == "not_gripped" for r in result.per_seedling)

@@ -248,9 +248,54 @@ def _machine(s: Scenario) -> Machine:
     )
     # The PGF works from the EEPROM's bytes, as on the machine: quantised and CRC-checked.
     eeprom = EepromImage.from_bytes(taught_image.to_bytes())
+    _check_quantised(taught_image, eeprom)
     return Machine(
         geometry, limits, arm.working_mode, drives, motion, sgf, pgf, eeprom, s.bus.baud_bps
     )
+
+
+TAUGHT_QUANTA = {"_mm": 0.001, "_mm_s": 0.1, "_deg": 0.01}
+"""What the EEPROM stores of a taught key, in the key's file unit, by its unit suffix."""
+
+
+def key_quantum(key: str) -> float | None:
+    """The step a scenario key's value must be a whole multiple of ('section.key' in file
+    units): the taught keys' EEPROM resolution; None for any other key."""
+    if not key.startswith("taught."):
+        return None
+    for suffix in ("_mm_s", "_mm", "_deg"):  # the longest suffix first
+        if key.rsplit(".", 1)[-1].split("[")[0].endswith(suffix):
+            return TAUGHT_QUANTA[suffix]
+    return None
+
+
+def _check_quantised(given: EepromImage, stored: EepromImage) -> None:
+    """ScenarioError naming the first taught value the EEPROM cannot hold as given (it stores
+    micrometres, centidegrees and 0.1 mm/s): the physics must run on the user's value."""
+    pairs = [
+        ("taught.z_up_mm", given.z_up_m, stored.z_up_m, 1e3, "1 um", 3),
+        ("taught.z_low_mm", given.z_low_m, stored.z_low_m, 1e3, "1 um", 3),
+        ("taught.s_low_mm_s", given.s_low_m_s, stored.s_low_m_s, 1e3, "0.1 mm/s", 1),
+        ("taught.s_high_mm_s", given.s_high_m_s, stored.s_high_m_s, 1e3, "0.1 mm/s", 1),
+        ("taught.drop_wrist_deg", given.drop_elbow_deg, stored.drop_elbow_deg, 1, "0.01 deg", 2),
+    ]
+    for axis, (a, b) in enumerate(zip(given.drop_xy_m, stored.drop_xy_m, strict=True)):
+        pairs.append((f"taught.drop_mm[{axis}]", a, b, 1e3, "1 um", 3))
+    for k, (p, q) in enumerate(zip(given.pickups, stored.pickups, strict=True)):
+        for name, xy, xy_stored in (
+            ("approach_mm", p.approach_xy_m, q.approach_xy_m),
+            ("grip_mm", p.grip_xy_m, q.grip_xy_m),
+        ):
+            for axis in (0, 1):
+                key = f"taught.pickup[{k}].{name}[{axis}]"
+                pairs.append((key, xy[axis], xy_stored[axis], 1e3, "1 um", 3))
+        pairs.append((f"taught.pickup[{k}].wrist_deg", p.elbow_deg, q.elbow_deg, 1, "0.01 deg", 2))
+    for key, value, kept, scale, quantum, places in pairs:
+        if not math.isclose(value, kept, rel_tol=1e-9, abs_tol=1e-12):
+            raise ScenarioError(
+                f"{key} = {value * scale:.10g} is finer than the EEPROM stores ({quantum}): it "
+                f"would run as {kept * scale:.{places}f}; give it with at most {places} decimals"
+            )
 
 
 EEPROM_OVERRIDE = "eeprom"
@@ -351,7 +396,6 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             pot_mass_sd=pots.mass_sd_kg,
             pot_friction=pots.friction,
             pot_friction_sd=pots.friction_sd,
-            pot_friction_min=pots.friction_min,
             pot_offset_sd=pots.placement_sd_m,
             pot_offset_max=pots.placement_max_m,
             pot_mass_range=(pots.mass_min_kg, pots.mass_max_kg),

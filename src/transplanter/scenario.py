@@ -255,13 +255,12 @@ class PotsSection:
     mass_kg: float = key("float", 0.1, 10000)
     mass_sd_kg: float = key("float", 0, 10000)
     friction: float = key("float", 0, 10, doc="sliding friction coefficient pot-jaw")
-    friction_sd: float = key("float", 0, 10)
-    friction_min: float = key(
-        "float", 0, 10, doc="drawn frictions are clipped to >= this (friction must be >= it)"
-    )
+    friction_sd: float = key("float", 0, 10, doc="spread of a gamma distribution (never < 0)")
     placement_sd_m: float = key("float", 0, 100, doc="pot offset from its cell centre")
     placement_max_m: float = key("float", 0, 100, doc="largest offset the cell allows")
-    mass_min_kg: float = key("float", 0.1, 10000, doc="masses are clipped to [min, max]")
+    mass_min_kg: float = key(
+        "float", 0.1, 10000, doc="masses are a normal truncated to [min, max] (no clipping)"
+    )
     mass_max_kg: float = key("float", 0.1, 10000)
     bond_share: float = key(
         "float", 0, 1, doc="share of pots whose roots or wet paper bond them to the belt"
@@ -480,7 +479,16 @@ class Scenario:
         return self.meta.seed
 
 
+REMOVED_KEYS = {
+    "pots.friction_min": "frictions are drawn from a gamma distribution with pots.friction "
+    "as mean and pots.friction_sd as sd, never below 0, so no floor is needed; delete the key",
+}
+"""Keys that were in the schema once, with what to do instead."""
+
+
 def _unknown_key_error(where: str, key: str, known: Mapping[str, Key]) -> ScenarioError:
+    if f"{where}.{key}" in REMOVED_KEYS:
+        return ScenarioError(f"{where}.{key} was removed: {REMOVED_KEYS[f'{where}.{key}']}.")
     stem = _stem(key)
     same_stem = [k for k in known if _stem(k) == stem and k != key]
     if same_stem:
@@ -742,11 +750,11 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     pots = v["pots"]
     if pots["mass_min_kg"] > pots["mass_kg"] or pots["mass_kg"] > pots["mass_max_kg"]:
         raise ScenarioError("pots.mass_g must lie within [pots.mass_min_g, pots.mass_max_g].")
-    if pots["friction"] < pots["friction_min"]:
+    if pots["friction"] == 0 and pots["friction_sd"] > 0:
         raise ScenarioError(
-            f"pots.friction = {pots['friction']:g} is below pots.friction_min = "
-            f"{pots['friction_min']:g}, the least friction a pot is given: lower friction_min "
-            "(0 allows frictionless pots) or raise friction."
+            "pots.friction_sd > 0 with pots.friction = 0: frictions are drawn from a gamma "
+            "distribution (never below 0) with that mean and sd; a mean of 0 has no spread. "
+            "Set friction_sd = 0 (frictionless pots) or raise friction."
         )
     conv = v["conveyor"]
     cells = conv["rows"] * conv["cols"]

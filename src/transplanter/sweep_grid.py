@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from typing import Any
 
+from transplanter.config import key_quantum
 from transplanter.scenario import ScenarioError, check_value, key_spec, load_scenario, parse_value
 
 MAX_GRID_VALUES = 10000  # values of one --vary key; more is a typo, not a sweep
@@ -149,6 +150,12 @@ def parse_param_range(text: str) -> tuple[str, str, Any, Any]:
         ends: tuple[Any, Any] = (int(lo), int(hi))
     else:
         ends = (float(lo), float(hi))
+        step = key_quantum(key)
+        if step is not None and any(v % Decimal(str(step)) for v in (lo, hi)):
+            raise SweepRefused(
+                f"{where}: the EEPROM stores {key} in steps of {step:g}; give LO and HI as "
+                "whole multiples of it"
+            )
     for v in ends:
         try:
             check_value(key, v)

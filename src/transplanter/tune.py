@@ -47,9 +47,13 @@ class Param:
     def distribution(self):
         import optuna
 
+        from transplanter.config import key_quantum
+
         if self.kind == "int":
             return optuna.distributions.IntDistribution(int(self.lo), int(self.hi))
-        return optuna.distributions.FloatDistribution(float(self.lo), float(self.hi))
+        # a taught key on the EEPROM's grid (a finer value would be refused, not rounded)
+        step = key_quantum(self.key)
+        return optuna.distributions.FloatDistribution(float(self.lo), float(self.hi), step=step)
 
 
 @dataclass(frozen=True)

@@ -167,8 +167,8 @@ class SceneConfig:
     conveyor_hold_damping_ratio: float = 0.5
 
     # --- paper pots: nominal size (m), mass (kg) and their spreads (normal sd, clipped),
-    # placement offset sd in the cell (m, clipped to +-pot_offset_max), friction of the
-    # paper against jaws and belt (mean, sd, clipped to >= pot_friction_min).
+    # placement offset sd in the cell (m, a normal truncated to +-pot_offset_max), friction
+    # of the paper against jaws and belt (mean and sd of a gamma distribution: never < 0).
     pot_diameter: float = 0.035
     pot_diameter_sd: float = 0.0003
     pot_height: float = 0.052
@@ -180,7 +180,6 @@ class SceneConfig:
     pot_offset_max: float = 0.003
     pot_friction: float = 0.6
     pot_friction_sd: float = 0.05
-    pot_friction_min: float = 0.05
     # Pots bonded to the belt (roots through the drainage hole, wet paper): the share of pots
     # with a bond, its median strength (N) and the spread (sd of ln strength, log-normal).
     # A bond is MuJoCo adhesion at the pot's base, acting on its contact with the belt only.

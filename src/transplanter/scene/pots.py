@@ -11,9 +11,30 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
+from scipy.special import gammaincinv, ndtr, ndtri
 
 from transplanter.scene.config import SceneConfig
 from transplanter.scene.geometry import cell_centres
+
+
+def truncated_normal(z: np.ndarray, mean: float, sd: float, lo: float, hi: float) -> np.ndarray:
+    """Normal(mean, sd) truncated to [lo, hi], one value per standard normal draw z (its
+    quantile mapped into the truncated range: nothing piles up at the bounds, nothing is
+    clipped)."""
+    if sd == 0:
+        return np.full(np.shape(z), float(mean))
+    a, b = ndtr((lo - mean) / sd), ndtr((hi - mean) / sd)
+    u = a + ndtr(np.asarray(z)) * (b - a)
+    return np.clip(mean + sd * ndtri(u), lo, hi)  # only float rounding at the very ends
+
+
+def gamma_of(z: np.ndarray, mean: float, sd: float) -> np.ndarray:
+    """A gamma distribution with this mean and sd (never negative: a friction coefficient),
+    one value per standard normal draw z (its quantile); mean 0 gives exactly 0."""
+    if sd == 0 or mean == 0:
+        return np.full(np.shape(z), float(mean))
+    shape, scale = (mean / sd) ** 2, sd * sd / mean
+    return scale * gammaincinv(shape, ndtr(np.asarray(z)))
 
 
 @dataclass(frozen=True)
@@ -54,15 +75,14 @@ class PotBatch:
         n = cfg.rows * cfg.cols
         diameter = cfg.pot_diameter + cfg.pot_diameter_sd * rng.standard_normal(n)
         height = cfg.pot_height + cfg.pot_height_sd * rng.standard_normal(n)
-        mass = np.clip(cfg.pot_mass + cfg.pot_mass_sd * rng.standard_normal(n), *cfg.pot_mass_range)
-        friction = np.maximum(
-            cfg.pot_friction + cfg.pot_friction_sd * rng.standard_normal(n), cfg.pot_friction_min
+        mass = truncated_normal(
+            rng.standard_normal(n), cfg.pot_mass, cfg.pot_mass_sd, *cfg.pot_mass_range
         )
-        offset = np.clip(
-            cfg.pot_offset_sd * rng.standard_normal((n, 2)),
-            -cfg.pot_offset_max,
+        friction = gamma_of(rng.standard_normal(n), cfg.pot_friction, cfg.pot_friction_sd)
+        offset = truncated_normal(
+            rng.standard_normal((n, 2)), 0.0, cfg.pot_offset_sd, -cfg.pot_offset_max,
             cfg.pot_offset_max,
-        )
+        )  # fmt: skip
         stem_length = rng.uniform(*cfg.stem_length_range, n)
         n_leaves = rng.integers(cfg.leaves_range[0], cfg.leaves_range[1] + 1, n)
         leaf_yaw0 = rng.uniform(0, 2 * np.pi, n)
