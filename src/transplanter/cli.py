@@ -657,6 +657,67 @@ def cmd_tune(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from transplanter.calibrate import (
+        CalibrationSpec,
+        Observation,
+        format_summary,
+        parse_observed,
+        run_calibrate,
+    )
+    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.stats import parse_seeds
+    from transplanter.sweep import SweepRefused, check_backend, parse_param_range
+    from transplanter.tune import Param, TuneSpec
+
+    try:
+        seeds = parse_seeds(args.seeds)
+    except ValueError as exc:
+        _err(f"--seeds: {exc}")
+        return EXIT_REFUSED
+    try:
+        if not args.fit:
+            raise SweepRefused("give at least one --fit KEY=LO..HI (the keys to fit)")
+        observed = Observation(
+            *parse_observed(args.observed), cycle_s=args.cycle_s, cycle_tol_s=args.cycle_tol_s
+        )
+        overrides = _overrides(args)
+        params = tuple(Param(*parse_param_range(p, "--fit")) for p in args.fit)
+        seedlings = args.seedlings
+        if seedlings is None:
+            seedlings = load_scenario(args.scenario, overrides).meta.seedlings
+        search = TuneSpec(
+            args.scenario, params, tuple(seeds), seedlings, overrides, args.sampler_seed, "--fit"
+        )
+        search.check()
+        check_backend(args.backend, args.workers, args.address)
+        spec = CalibrationSpec(search, observed)
+        report = run_calibrate(
+            spec, args.trials, args.out, storage=args.storage, study_name=args.study,
+            workers=args.workers, backend=args.backend, address=args.address,
+            progress=not args.quiet and sys.stderr.isatty(),
+        )  # fmt: skip
+    except (ScenarioError, SweepRefused) as exc:
+        _err(f"calibrate refused: {exc}")
+        return EXIT_REFUSED
+    except OSError as exc:
+        _err(f"the results could not be written: {exc}")
+        return EXIT_OUTPUT_FAILED
+    print(f"study {_show(args.study)}: {report.finished} trials ({report.ran} run now)")
+    print(format_summary(report))
+    print("files: " + ", ".join(_show(p) for p in report.files))
+    if report.best is not None:
+        print(
+            "run the calibrated twin with: transplanter trial "
+            f"{_show(Path(args.out) / 'calibrated.toml')}"
+        )
+    if report.interrupted:
+        resume = "; rerun the same command to go on" if args.storage is not None else ""
+        _err(f"interrupted; the files hold the trials that finished{resume}")
+        return EXIT_INTERRUPTED
+    return EXIT_OK
+
+
 def _show(path) -> str:
     from transplanter.report import printable
 
@@ -1146,6 +1207,71 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _set_arg(p)
     p.set_defaults(func=cmd_tune)
+
+    p = sub.add_parser(
+        "calibrate",
+        help="fit uncertain scenario keys to your machine's observed success (and cycle)",
+        description="Fits the --fit keys so that the twin's success rate, pooled over --seeds, "
+        "matches the observed K/N (and, with --cycle-s, the mean cycle time): an Optuna "
+        "study minimising the binomial deviance of twin against observation (plus the cycle "
+        "mismatch beyond --cycle-tol-s). Reports the fitted point and, per key, the range of "
+        "evaluated values whose twin rate lies inside the observation's Wilson 95 % interval. "
+        "Writes calibration.csv, calibration.json and calibrated.toml (base = the scenario, "
+        "only the fitted and --set keys) into --out. Needs pip install 'transplanter[tune]'.",
+        epilog="exit status: 0 done, 2 refused before any trial, 5 a result file could not be "
+        "written, 130 interrupted (the files hold the trials that finished)",
+    )
+    p.add_argument("scenario", help="scenario file, or a packaged scenario's name (paper)")
+    p.add_argument(
+        "--observed",
+        required=True,
+        metavar="K/N",
+        help="successes K of N seedlings over your machine's trials, e.g. 112/120",
+    )
+    p.add_argument(
+        "--fit",
+        action="append",
+        default=[],
+        metavar="KEY=LO..HI",
+        help="a key to fit within [LO, HI] in its file unit, e.g. taught.z_low_mm=18..40; "
+        "repeatable",
+    )
+    p.add_argument(
+        "--cycle-s", type=ascii_float, default=None, help="observed mean cycle time in s"
+    )
+    p.add_argument(
+        "--cycle-tol-s",
+        type=ascii_float,
+        default=0.1,
+        help="a twin cycle within this of --cycle-s matches (0.1 s)",
+    )
+    p.add_argument("--trials", type=ascii_int, default=20, help="points to evaluate (20)")
+    p.add_argument("--seeds", default="1-3", help="seeds each point is run on ('1-3')")
+    p.add_argument(
+        "--seedlings", type=ascii_int, default=None, help="seedlings per trial (the scenario's)"
+    )
+    p.add_argument(
+        "--storage",
+        type=Path,
+        default=None,
+        help="SQLite file to keep the study in (the same command resumes it); default: memory",
+    )
+    p.add_argument("--study", default="calibrate", help="study name in the storage (calibrate)")
+    p.add_argument("--out", type=Path, default=Path("results/calibrate"), help="output directory")
+    p.add_argument(
+        "--workers", type=_workers, default=1, help="seeds run in parallel (a number or auto)"
+    )
+    p.add_argument(
+        "--backend",
+        choices=("process", "ray", "inline"),
+        default="process",
+        help="process: a pool of processes (default); ray: a Ray cluster; inline: this process",
+    )
+    p.add_argument("--address", default=None, help="Ray cluster address (with --backend ray)")
+    p.add_argument("--sampler-seed", type=ascii_int, default=0, help="seed of the TPE sampler (0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _set_arg(p)
+    p.set_defaults(func=cmd_calibrate)
 
     p = sub.add_parser(
         "serve",

@@ -126,12 +126,13 @@ def _grid_range(key: str, kind: str, spec: str, where: str) -> list[Any]:
     return [float(v) for v in exact]
 
 
-def parse_param_range(text: str) -> tuple[str, str, Any, Any]:
-    """`KEY=LO..HI` for tuning -> (key, kind 'float' or 'int', lo, hi), both ends checked
-    with the schema; SweepRefused naming the problem."""
+def parse_param_range(text: str, option: str = "--param") -> tuple[str, str, Any, Any]:
+    """`KEY=LO..HI` for tuning (`--param`) or calibration (`--fit`) -> (key, kind 'float' or
+    'int', lo, hi), both ends checked with the schema; SweepRefused naming the problem (and
+    `option`)."""
     key, eq, spec = text.partition("=")
     key = key.strip()
-    where = f"--param {text!r}"
+    where = f"{option} {text!r}"
     lo_text, dots, hi_text = spec.partition("..")
     if not eq or not dots:
         raise SweepRefused(f"{where}: write KEY=LO..HI (e.g. taught.z_low_mm=28..40)")
@@ -160,7 +161,7 @@ def parse_param_range(text: str) -> tuple[str, str, Any, Any]:
         try:
             check_value(key, v)
         except ScenarioError as exc:
-            raise SweepRefused(f"--param {key}: {exc}") from None
+            raise SweepRefused(f"{option} {key}: {exc}") from None
     return key, kind, ends[0], ends[1]
 
 

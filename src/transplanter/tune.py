@@ -30,7 +30,16 @@ from transplanter.scenario import ScenarioError, load_scenario, resolve_scenario
 from transplanter.sweep import SweepRefused, backend_of, pool_runs, write_csv_atomic
 from transplanter.sweep_grid import task
 
-__all__ = ["Param", "TuneReport", "TuneSpec", "run_tune", "tuned_toml"]
+__all__ = [
+    "Param",
+    "TuneReport",
+    "TuneSpec",
+    "drive_study",
+    "open_study",
+    "run_tune",
+    "scenario_toml",
+    "tuned_toml",
+]
 
 MAX_TRIALS = 100000
 
@@ -67,16 +76,19 @@ class TuneSpec:
     seedlings: int
     overrides: Mapping[str, Any] = field(default_factory=dict)
     sampler_seed: int = 0
+    option: str = "--param"  # the command-line option of the params, for messages
 
     def __post_init__(self) -> None:
         keys = [p.key for p in self.params]
+        opt = self.option
+        verb = "tuned" if opt == "--param" else "fitted"
         if not keys:
-            raise SweepRefused("tuning needs at least one --param KEY=LO..HI")
+            raise SweepRefused(f"give at least one {opt} KEY=LO..HI (the keys to search)")
         if len(set(keys)) != len(keys):
-            raise SweepRefused("--param: a key is given twice")
+            raise SweepRefused(f"{opt}: a key is given twice")
         for k in keys:
             if k in self.overrides:
-                raise SweepRefused(f"{k} is both set (--set) and tuned (--param); drop one")
+                raise SweepRefused(f"{k} is both set (--set) and {verb} ({opt}); drop one")
         if not self.seeds:
             raise SweepRefused("--seeds: give at least one seed")
 
@@ -111,12 +123,12 @@ class TuneReport:
     interrupted: bool = False
 
 
-def _import_optuna():
+def _import_optuna(command: str = "tune"):
     try:
         import optuna
     except ImportError:
         raise SweepRefused(
-            "transplanter tune needs Optuna: pip install 'transplanter[tune]'"
+            f"transplanter {command} needs Optuna: pip install 'transplanter[tune]'"
         ) from None
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     return optuna
@@ -162,24 +174,11 @@ def _counts(trial, optuna) -> bool:
     )
 
 
-def run_tune(
-    spec: TuneSpec,
-    trials: int,
-    storage: str | os.PathLike,
-    study_name: str,
-    out: str | os.PathLike,
-    workers: int = 1,
-    backend: str = "process",
-    progress: bool = False,
-) -> TuneReport:
-    """Run the study until `trials` trials count (a rerun resumes), then write the files."""
+def scenario_digest(scenario) -> str:
+    """A digest of a loaded scenario's validated sections (what a resumed study must share)."""
     import hashlib
 
-    optuna = _import_optuna()
-    if not 1 <= trials <= MAX_TRIALS:
-        raise SweepRefused(f"--trials must be 1..{MAX_TRIALS}, got {trials}")
-    scenario = spec.check()
-    digest = hashlib.sha256(
+    return hashlib.sha256(
         repr(
             [
                 getattr(scenario, f)
@@ -201,31 +200,64 @@ def run_tune(
             ]
         ).encode()  # fmt: skip
     ).hexdigest()
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise SweepRefused(f"--out {out} is a file; give a directory")
-    storage = Path(storage)
-    if storage.exists() and not storage.is_file():
-        raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
-    storage.parent.mkdir(parents=True, exist_ok=True)
-    out.mkdir(parents=True, exist_ok=True)
-    url = f"sqlite:///{storage.resolve()}"
-    study = optuna.create_study(
-        study_name=study_name,
-        storage=url,
-        directions=["maximize", "minimize"],
-        load_if_exists=True,
-    )
-    identity = spec.identity(digest)
-    held = study.user_attrs.get("tune")
+
+
+def open_study(
+    optuna,
+    storage: str | os.PathLike | None,
+    study_name: str,
+    directions: Sequence[str],
+    attr: str,
+    identity: Mapping[str, Any],
+):
+    """The study in SQLite `storage` (created, or loaded to resume; in memory when None),
+    holding `identity` under the user attribute `attr`; SweepRefused if it was made by a
+    different command. Returns (study, storage URL)."""
+    if storage is None:
+        url = "in memory"
+        study = optuna.create_study(study_name=study_name, directions=list(directions))
+    else:
+        storage = Path(storage)
+        if storage.exists() and not storage.is_file():
+            raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
+        storage.parent.mkdir(parents=True, exist_ok=True)
+        url = f"sqlite:///{storage.resolve()}"
+        study = optuna.create_study(
+            study_name=study_name,
+            storage=url,
+            directions=list(directions),
+            load_if_exists=True,
+        )
+    held = study.user_attrs.get(attr)
+    plain = json.loads(json.dumps(identity))
     if held is None:
-        study.set_user_attr("tune", identity)
-    elif held != json.loads(json.dumps(identity)):
-        differs = [k for k in identity if held.get(k) != json.loads(json.dumps(identity[k]))]
+        study.set_user_attr(attr, plain)
+    elif held != plain:
+        differs = [k for k in plain if held.get(k) != plain[k]]
         raise SweepRefused(
             f"study {study_name!r} in {storage} was made by a different command (it differs "
             f"in: {', '.join(differs)}); use another --study or --storage"
         )
+    return study, url
+
+
+def drive_study(
+    optuna,
+    study,
+    spec: TuneSpec,
+    trials: int,
+    objective,
+    workers: int = 1,
+    backend: str = "process",
+    address: str | None = None,
+    progress: bool = False,
+    describe=None,
+) -> tuple[int, int, bool]:
+    """Ask, evaluate and tell until `trials` trials count (finished ones included): each
+    point is judged with `evaluate` on every seed on the backend, its results kept as the
+    trial's user attributes, and `objective(scored)` told (None: the trial FAILs). The
+    sampler is a TPESampler seeded `spec.sampler_seed + trial number`. Returns (finished,
+    ran now, interrupted by Ctrl-C)."""
     dists = {p.key: p.distribution() for p in spec.params}
     finished = sum(_counts(t, optuna) for t in study.get_trials(deepcopy=False))
     ran, interrupted = 0, False
@@ -235,7 +267,7 @@ def run_tune(
 
         bar = tqdm(total=trials, initial=finished, unit="trial", dynamic_ncols=True)
     try:
-        with backend_of(backend, workers) as runner:
+        with backend_of(backend, workers, address) as runner:
             while finished < trials:
                 number = len(study.get_trials(deepcopy=False))
                 study.sampler = optuna.samplers.TPESampler(seed=spec.sampler_seed + number)
@@ -247,20 +279,61 @@ def run_tune(
                     raise
                 for k, v in scored.items():
                     trial.set_user_attr(k, v)
-                if scored["ci95_low"] is None or scored["cycle_time_s"] is None:
+                values = objective(scored)
+                if values is None:
                     study.tell(trial, state=optuna.trial.TrialState.FAIL)
                 else:
-                    study.tell(trial, [scored["ci95_low"], scored["cycle_time_s"]])
+                    study.tell(trial, values)
                 finished += 1
                 ran += 1
                 if bar is not None:
-                    bar.set_postfix_str(_best_text(study), refresh=False)
+                    if describe is not None:
+                        bar.set_postfix_str(describe(study), refresh=False)
                     bar.update(1)
     except KeyboardInterrupt:
         interrupted = True
     finally:
         if bar is not None:
             bar.close()
+    return finished, ran, interrupted
+
+
+def run_tune(
+    spec: TuneSpec,
+    trials: int,
+    storage: str | os.PathLike,
+    study_name: str,
+    out: str | os.PathLike,
+    workers: int = 1,
+    backend: str = "process",
+    progress: bool = False,
+) -> TuneReport:
+    """Run the study until `trials` trials count (a rerun resumes), then write the files."""
+    optuna = _import_optuna()
+    if not 1 <= trials <= MAX_TRIALS:
+        raise SweepRefused(f"--trials must be 1..{MAX_TRIALS}, got {trials}")
+    scenario = spec.check()
+    digest = scenario_digest(scenario)
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise SweepRefused(f"--out {out} is a file; give a directory")
+    storage = Path(storage)
+    if storage.exists() and not storage.is_file():
+        raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
+    out.mkdir(parents=True, exist_ok=True)
+    study, url = open_study(
+        optuna, storage, study_name, ["maximize", "minimize"], "tune", spec.identity(digest)
+    )
+
+    def objective(scored):
+        if scored["ci95_low"] is None or scored["cycle_time_s"] is None:
+            return None
+        return [scored["ci95_low"], scored["cycle_time_s"]]
+
+    finished, ran, interrupted = drive_study(
+        optuna, study, spec, trials, objective, workers=workers, backend=backend,
+        progress=progress, describe=_best_text,
+    )  # fmt: skip
     return _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted)
 
 
@@ -364,20 +437,29 @@ def tuned_toml(
 ) -> str:
     """A scenario file: `base = ` the original, the tuned keys (and the --set keys the study
     held fixed) in their sections."""
-    tables: dict[str, dict[str, Any]] = {"scenario": {"base": base_reference(spec.scenario, out)}}
-    for dotted, v in {**spec.overrides, **values}.items():
-        section, _, key = dotted.partition(".")
-        tables.setdefault(section, {})[key] = v
-    lines = ["# written by `transplanter tune`"]
+    lines = ["written by `transplanter tune`"]
     if chosen is not None:
         lines.append(
-            f"# study {study_name!r}, trial {chosen['trial']}: pooled success "
+            f"study {study_name!r}, trial {chosen['trial']}: pooled success "
             f"{100 * chosen['success_rate']:.1f} % ({chosen['successes']}/{chosen['seedlings']}"
             f"), lower 95 % bound {100 * chosen['ci95_low']:.1f} %, mean cycle "
             f"{chosen['cycle_time_s']:.3f} s over seeds {', '.join(map(str, spec.seeds))}"
         )
     if spec.overrides:
-        lines.append("# held fixed with --set: " + ", ".join(spec.overrides))
+        lines.append("held fixed with --set: " + ", ".join(spec.overrides))
+    return scenario_toml(spec, values, out, lines)
+
+
+def scenario_toml(
+    spec: TuneSpec, values: Mapping[str, Any], out: Path, comments: Sequence[str] = ()
+) -> str:
+    """A scenario file for `out`: the `comments` (one '# ' line each), `base = ` the original,
+    then the --set keys and `values` in their sections."""
+    tables: dict[str, dict[str, Any]] = {"scenario": {"base": base_reference(spec.scenario, out)}}
+    for dotted, v in {**spec.overrides, **values}.items():
+        section, _, key = dotted.partition(".")
+        tables.setdefault(section, {})[key] = v
+    lines = [f"# {c}".rstrip() for text in comments for c in text.splitlines() or [""]]
     for section, table in tables.items():
         lines.append(f"\n[{section}]")
         lines += [f"{k} = {_toml_value(v)}" for k, v in table.items()]
