@@ -59,6 +59,7 @@ ARM_BODIES = (
 # Quaternion turning a capsule's axis (local z) onto local x.
 BOND_PAD_HALF_THICKNESS = 0.0005  # m: the bonding pad at a bonded pot's base
 BOND_PAD_RADIUS_SHARE = 0.7  # of the pot's radius: the pad stays inside the pot's footprint
+BOND_REACH = 0.001  # m: how far a bond stretches before it tears (estimate: paper fibres, roots)
 _CAPSULE_Z_TO_X = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
 
 
@@ -384,6 +385,9 @@ def _add_bond(spec: mujoco.MjSpec, cfg: SceneConfig, body, r, c, radius, h, forc
     pad.group = 3
     pad.rgba = list(POT_COLLISION_RGBA)
     pad.solref, pad.solimp = list(cfg.contact_solref), list(cfg.contact_solimp)  # as the pot's
+    # contacts are kept (inactive) up to BOND_REACH above the belt, so the adhesion keeps
+    # pulling while the bond stretches; beyond it the bond has torn
+    pad.margin = pad.gap = BOND_REACH
     act = spec.add_actuator()
     act.name = f"bond_{r}_{c}"
     act.set_to_adhesion(gain=float(force))
