@@ -73,17 +73,16 @@ MAX_OBSERVED = 10**9  # seedlings of an observation; more is a typo
 EDGE_SHARE = 0.05  # a consistent range this close to a search bound (share of the span) touches it
 _OBSERVED_RE = re.compile(r"\s*(\d+)\s*/\s*(\d+)\s*")
 
-RESULT_FIELDS = (
+JUDGED_FIELDS = (
     "successes",
     "seedlings",
     "success_rate",
     "ci95_low",
     "ci95_high",
     "cycle_time_s",
-    "loss",
-    "consistent",
-    "error",
 )
+"""What a point's runs measured, pooled over the seeds (kept in the trial's user attrs)."""
+RESULT_FIELDS = (*JUDGED_FIELDS, "loss", "consistent", "error")
 
 
 def parse_observed(text: str) -> tuple[int, int]:
@@ -433,14 +432,7 @@ def _rows(spec: CalibrationSpec, study) -> list[dict[str, Any]]:
             continue
         row: dict[str, Any] = {"trial": t.number, "state": t.state.name}
         row.update({k: _on_grid(k, t.params.get(k)) for k in keys})
-        for k in (
-            "successes",
-            "seedlings",
-            "success_rate",
-            "ci95_low",
-            "ci95_high",
-            "cycle_time_s",
-        ):
+        for k in JUDGED_FIELDS:
             row[k] = attrs.get(k)
         errors = list(attrs.get("errors") or [])
         if t.state == optuna.trial.TrialState.COMPLETE:

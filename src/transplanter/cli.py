@@ -151,6 +151,22 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _output_targets(args: argparse.Namespace) -> dict[str, Path | None] | None:
+    """The checked --json and --record paths (None where not given), or None after saying
+    why one is refused (trial and serve)."""
+    from transplanter import fileio
+
+    targets: dict[str, Path | None] = {"--json": None, "--record": None}
+    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
+        if path is not None:
+            try:
+                targets[option] = fileio.check_output(path, suffix)
+            except fileio.FileRefused as exc:
+                _err(f"{option}: {exc}")
+                return None
+    return targets
+
+
 def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter import fileio
     from transplanter.config import assemble
@@ -171,14 +187,9 @@ def cmd_trial(args: argparse.Namespace) -> int:
         clips = _failure_clips(args)
         if clips is None:
             return EXIT_REFUSED
-    targets: dict[str, Path | None] = {"--json": None, "--record": None}
-    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
-        if path is not None:
-            try:
-                targets[option] = fileio.check_output(path, suffix)
-            except fileio.FileRefused as exc:
-                _err(f"{option}: {exc}")
-                return EXIT_REFUSED
+    targets = _output_targets(args)
+    if targets is None:
+        return EXIT_REFUSED
     if not _read_eeprom(args):
         return EXIT_REFUSED
     try:
@@ -600,11 +611,31 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _search_spec(args: argparse.Namespace, seeds: list[int], ranges: list[str], option: str):
+    """The checked TuneSpec of `tune` (--param) and `calibrate` (--fit): the scenario with
+    --set, the KEY=LO..HI ranges, the seeds and seedlings (default: the scenario's);
+    ScenarioError or SweepRefused when refused."""
+    from transplanter.scenario import load_scenario
+    from transplanter.sweep import parse_param_range
+    from transplanter.tune import Param, TuneSpec
+
+    overrides = _overrides(args)
+    params = tuple(Param(*parse_param_range(text, option)) for text in ranges)
+    seedlings = args.seedlings
+    if seedlings is None:
+        seedlings = load_scenario(args.scenario, overrides).meta.seedlings
+    spec = TuneSpec(
+        args.scenario, params, tuple(seeds), seedlings, overrides, args.sampler_seed, option
+    )
+    spec.check()
+    return spec
+
+
 def cmd_tune(args: argparse.Namespace) -> int:
-    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.scenario import ScenarioError
     from transplanter.stats import parse_seeds
-    from transplanter.sweep import SweepRefused, format_value, parse_param_range
-    from transplanter.tune import Param, TuneSpec, run_tune
+    from transplanter.sweep import SweepRefused, format_value
+    from transplanter.tune import run_tune
 
     try:
         seeds = parse_seeds(args.seeds)
@@ -615,15 +646,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
         _err(f"--trials must be at least 1, got {args.trials}")
         return EXIT_REFUSED
     try:
-        overrides = _overrides(args)
-        params = tuple(Param(*parse_param_range(p)) for p in args.param)
-        seedlings = args.seedlings
-        if seedlings is None:
-            seedlings = load_scenario(args.scenario, overrides).meta.seedlings
-        spec = TuneSpec(
-            args.scenario, params, tuple(seeds), seedlings, overrides, args.sampler_seed
-        )
-        spec.check()
+        spec = _search_spec(args, seeds, args.param, "--param")
         report = run_tune(
             spec, args.trials, args.storage, args.study, args.out, workers=args.workers,
             progress=not args.quiet and sys.stderr.isatty(),
@@ -638,7 +661,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
         f"study {_show(args.study)}: {report.finished} trials ({report.ran} run now), "
         f"{len(report.front)} on the Pareto front"
     )
-    keys = [p.key for p in params]
+    keys = [p.key for p in spec.params]
     for row in report.front:
         values = " ".join(f"{k}={format_value(row[k])}" for k in keys)
         print(
@@ -665,10 +688,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         parse_observed,
         run_calibrate,
     )
-    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.scenario import ScenarioError
     from transplanter.stats import parse_seeds
-    from transplanter.sweep import SweepRefused, check_backend, parse_param_range
-    from transplanter.tune import Param, TuneSpec
+    from transplanter.sweep import SweepRefused, check_backend
 
     try:
         seeds = parse_seeds(args.seeds)
@@ -681,15 +703,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         observed = Observation(
             *parse_observed(args.observed), cycle_s=args.cycle_s, cycle_tol_s=args.cycle_tol_s
         )
-        overrides = _overrides(args)
-        params = tuple(Param(*parse_param_range(p, "--fit")) for p in args.fit)
-        seedlings = args.seedlings
-        if seedlings is None:
-            seedlings = load_scenario(args.scenario, overrides).meta.seedlings
-        search = TuneSpec(
-            args.scenario, params, tuple(seeds), seedlings, overrides, args.sampler_seed, "--fit"
-        )
-        search.check()
+        search = _search_spec(args, seeds, args.fit, "--fit")
         check_backend(args.backend, args.workers, args.address)
         spec = CalibrationSpec(search, observed)
         report = run_calibrate(
@@ -848,14 +862,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.keepalive_s) and args.keepalive_s >= 0):
         _err(f"--keepalive-s must be >= 0 s (0: none), got {args.keepalive_s}")
         return EXIT_REFUSED
-    targets: dict[str, Path | None] = {"--json": None, "--record": None}
-    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
-        if path is not None:
-            try:
-                targets[option] = fileio.check_output(path, suffix)
-            except fileio.FileRefused as exc:
-                _err(f"{option}: {exc}")
-                return EXIT_REFUSED
+    targets = _output_targets(args)
+    if targets is None:
+        return EXIT_REFUSED
     try:
         config = _single_trial_config(args)
     except ScenarioError as exc:

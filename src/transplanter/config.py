@@ -15,7 +15,14 @@ import zlib
 from dataclasses import dataclass
 from typing import Any
 
-from transplanter.firmware.eeprom import DATA_SIZE, EepromImage, Pickup
+from transplanter.firmware.eeprom import (
+    ANGLE_COUNTS_PER_DEG,
+    DATA_SIZE,
+    POSITION_COUNTS_PER_M,
+    SPEED_COUNTS_PER_M_S,
+    EepromImage,
+    Pickup,
+)
 from transplanter.firmware.faults import FaultConfig
 from transplanter.firmware.pgf import PGFConfig, build_program
 from transplanter.firmware.sgf import SGFConfig
@@ -25,6 +32,7 @@ from transplanter.motion import MotionConfig
 from transplanter.scenario import Scenario, ScenarioError, TaughtPickup, TaughtSection
 from transplanter.scene import SceneConfig
 from transplanter.steppers import StepperDrive
+from transplanter.units import M_PER_MM
 
 __all__ = [
     "JudgeConfig",
@@ -254,7 +262,11 @@ def _machine(s: Scenario) -> Machine:
     )
 
 
-TAUGHT_QUANTA = {"_mm": 0.001, "_mm_s": 0.1, "_deg": 0.01}
+TAUGHT_QUANTA = {
+    "_mm": 1 / (POSITION_COUNTS_PER_M * M_PER_MM),  # 0.001 mm
+    "_mm_s": 1 / (SPEED_COUNTS_PER_M_S * M_PER_MM),  # 0.1 mm/s
+    "_deg": 1 / ANGLE_COUNTS_PER_DEG,  # 0.01 deg
+}
 """What the EEPROM stores of a taught key, in the key's file unit, by its unit suffix."""
 
 

@@ -222,8 +222,6 @@ class RemoteHost:
         self.idle_wait_s = idle_wait_s
         self.sent: list[SentLine] = []
         self.abandoned: list[int] = []
-        self.stalls: list = []
-        self.info: list[tuple[float, str]] = []
         self.fault: str | None = None
         self._host_lines: list[str] = []  # every line the host sent, as sent
         self._host_send_t: list[float] = []
@@ -243,10 +241,6 @@ class RemoteHost:
         return self, self.device
 
     @property
-    def current(self) -> SentLine | None:
-        return self.sent[self._open[0]] if self._open else None
-
-    @property
     def done(self) -> bool:
         if self.until_done and self.follower.finished and not self._open:
             return True
@@ -260,7 +254,6 @@ class RemoteHost:
         if replies:
             self.endpoint.write_lines(replies)
             self._reply_t.extend([now] * len(replies))
-            self.info.extend((now, r) for r in replies if not r.startswith("ok"))
         self._sync()
         if self.endpoint.closed:
             return []
@@ -311,6 +304,7 @@ class RemoteHost:
             )  # fmt: skip
 
     def next_event_time(self) -> float | None:
+        """No reply timeout here: the host on the other end keeps its own."""
         return None
 
     @property

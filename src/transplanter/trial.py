@@ -152,7 +152,7 @@ def run_trial(
         valid=valid,
         invalid_reason=reason,
         fault=twin.pgf.fault or getattr(twin.pgf, "machine_fault", None),  # a remote host's
-        fault_kind=getattr(twin.pgf, "fault_kind", None),  # an external host's may have none
+        fault_kind=twin.pgf.fault_kind,
         interrupted=interrupted,
         recording_error=recording_error,
         lost_step_events=[dataclasses.asdict(e) for e in twin.lost_step_events],

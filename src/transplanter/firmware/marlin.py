@@ -225,9 +225,6 @@ class MarlinDevice:
     def _busy_since(self) -> float:
         return self._waiting[0].t_received if self._waiting else math.inf
 
-    def next_event_time(self) -> float | None:
-        return self.sgf.next_event_time()
-
     def _translate(self, reply: str) -> None:
         is_final = reply == "ok" or reply.startswith("error:")
         if not is_final:

@@ -123,8 +123,7 @@ class FirmwareLink:
         """When the next exchange is due: the next bus delivery, SGF event or the PGF's reply
         timeout, at the latest t + dt_homing_s while the SGF homes (it must read its
         switches); None when nothing is in flight."""
-        # a host without a reply timeout of its own (an external host's stand-in) has none
-        host_deadline = getattr(self.pgf, "next_event_time", lambda: None)()
+        host_deadline = self.pgf.next_event_time()  # its reply timeout (None: none running)
         candidates = [
             x
             for x in (self.bus.next_delivery_time(), self.sgf.next_event_time(), host_deadline)
