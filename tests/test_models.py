@@ -211,20 +211,22 @@ def test_limit_switches_trip_at_the_homing_positions():
 
 def test_exported_scene_is_the_scene_a_trial_builds(tmp_path):
     """transplanter export: one MJCF with its meshes beside it that compiles to the same
-    bodies, geoms and joints as the in-memory scene, and rolls out the same for 1 s."""
+    bodies, geoms and joints as the in-memory scene's decorated model (the physics model
+    without the pots' decor), and rolls out as the physics model does for 1 s."""
     from transplanter.cli import main
 
     assert main(["export", "paper", str(tmp_path / "scene.xml"), "--seed", "3"]) == 0
     exported = mujoco.MjModel.from_xml_path(str(tmp_path / "scene.xml"))
     cfg = paper_config(**{"scenario.seed": 3}).scene
-    built = build_scene(cfg, seed=3).model
+    scene = build_scene(cfg, seed=3)
+    built = scene.render_model
     for n in ("nbody", "ngeom", "njnt", "nq", "nv", "nu", "nmesh", "ncam", "nkey", "neq"):
         assert getattr(exported, n) == getattr(built, n), n
     # MuJoCo's XML writer keeps 6 significant digits: the numbers agree to that
     np.testing.assert_allclose(exported.geom_size, built.geom_size, rtol=5e-6)
     np.testing.assert_allclose(exported.body_mass, built.body_mass, rtol=5e-6)
     runs = []
-    for model in (exported, built):
+    for model in (exported, scene.model):
         data = mujoco.MjData(model)
         mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
         for _ in range(1000):

@@ -231,8 +231,23 @@ class _FakeHandle:
         self.closed = True
 
 
+class _FakeScene:
+    """Counts the mirrors of the physics state onto the decorated model the viewer draws."""
+
+    def __init__(self) -> None:
+        self.mirrored = 0
+
+    def render_data(self, data):
+        self.mirrored += 1
+        return data
+
+
 class _FakeTwin:
     time = 0.0
+    data = None
+
+    def __init__(self) -> None:
+        self.scene = _FakeScene()
 
 
 def test_live_viewer_paces_shows_the_verdicts_and_stops_when_closed(monkeypatch):
@@ -254,6 +269,7 @@ def test_live_viewer_paces_shows_the_verdicts_and_stops_when_closed(monkeypatch)
     assert "last verdict" in left and "0: not_gripped" in right and "1 / 2" in right
     twin.time = 2.0
     viewer.step(twin)
+    assert twin.scene.mirrored == viewer.handle.synced == 2  # mirrored before each sync
     with pytest.raises(KeyboardInterrupt):  # the window was closed: the trial stops
         twin.time = 3.0
         viewer.step(twin)

@@ -229,6 +229,38 @@ def test_leaf_proxies_report_hits_without_force():
     assert scene.leaf_hit_pots(data).tolist() == [0]
 
 
+def test_physics_model_leaves_out_the_decor_and_the_render_model_mirrors_it():
+    """The physics model has only collision geoms on the pots; the decorated model has the
+    same bodies, joints and actuators, and its leaf proxies sit where Scene.leaves puts
+    them for the physics state it mirrors."""
+    scene = build_scene(SceneConfig(rows=2, cols=3), seed=4)
+    m, decor = scene.model, scene.render_model
+    for n in ("nbody", "njnt", "nq", "nv", "nu", "neq", "nkey"):
+        assert getattr(m, n) == getattr(decor, n), n
+    pot_geoms = [g for g in range(m.ngeom) if m.geom(g).name.startswith("pot_")]
+    assert len(pot_geoms) == 6  # one collision cylinder per pot, nothing else on a pot
+    # pot mesh, stem, and a mesh and a proxy per leaf
+    assert m.ngeom == decor.ngeom - sum(2 + 2 * int(k) for k in scene.pots.n_leaves)
+    np.testing.assert_array_equal(m.body_mass, decor.body_mass)
+    data = scene.make_data()
+    adr = scene.pot_qpos_adr[4]
+    data.qpos[adr : adr + 7] = [0.01, 0.2, 0.05, 0.9, 0.1, -0.3, 0.2]  # a tilted pot
+    data.qpos[adr + 3 : adr + 7] /= np.linalg.norm(data.qpos[adr + 3 : adr + 7])
+    mujoco.mj_forward(m, data)
+    mirror = scene.render_data(data)
+    np.testing.assert_array_equal(mirror.xpos, data.xpos)
+    rows = np.flatnonzero(scene.leaves.pot == 4)
+    body = scene.pot_bodies.ravel()[4]
+    rot = data.xmat[body].reshape(3, 3)
+    for k, row in enumerate(rows):
+        g = decor.geom(f"leaf_1_1_{k}").id
+        expected = data.xpos[body] + rot @ scene.leaves.centre[row]
+        np.testing.assert_allclose(mirror.geom_xpos[g], expected, atol=1e-12)
+        np.testing.assert_allclose(
+            mirror.geom_xmat[g].reshape(3, 3)[:, 2], rot @ scene.leaves.axis[row], atol=1e-12
+        )
+
+
 def test_bad_config_is_rejected():
     with pytest.raises(ValueError, match="pot_diameter"):
         SceneConfig(pot_diameter=0.044)
@@ -380,8 +412,10 @@ def test_pot_batch_is_what_the_scene_is_built_from_and_is_read_only():
         assert body.mass[0] == pots.mass[i] + cfg.seedling_mass
         assert geom.size[:2].tolist() == [pots.diameter[i] / 2, pots.height[i] / 2]
         assert geom.friction[0] == pots.friction[i]
-        leaves = [g for g in range(m.ngeom) if m.geom(g).name.startswith(f"leaf_{i // 3}_{i % 3}_")]
-        assert len(leaves) == pots.n_leaves[i]
+        decor = scene.render_model
+        prefix = f"leaf_{i // 3}_{i % 3}_"
+        leaves = [g for g in range(decor.ngeom) if decor.geom(g).name.startswith(prefix)]
+        assert len(leaves) == pots.n_leaves[i] == (scene.leaves.pot == i).sum()
     with pytest.raises(ValueError, match="read-only"):
         pots.mass[0] = 1.0
     with pytest.raises(AttributeError):

@@ -47,7 +47,10 @@ class LiveViewer:
         self.records = records
         try:
             self.handle = mujoco.viewer.launch_passive(
-                twin.model, twin.data, show_left_ui=False, show_right_ui=False
+                twin.scene.render_model,
+                twin.scene.render_data(twin.data),
+                show_left_ui=False,
+                show_right_ui=False,
             )
         except Exception as exc:
             raise ViewerUnavailable(f"MuJoCo's viewer could not open a window: {exc}") from None
@@ -86,6 +89,7 @@ class LiveViewer:
             handle.set_texts(
                 (mujoco.mjtFontScale.mjFONTSCALE_150, mujoco.mjtGridPos.mjGRID_TOPLEFT, left, right)
             )
+            twin.scene.render_data(twin.data)  # the decorated model the viewer draws
             handle.sync()  # waits for the viewer's render loop (slow with software GL)
             self.syncs += 1
             done = time.perf_counter()
@@ -102,6 +106,7 @@ class LiveViewer:
             self.handle.set_texts(
                 (None, None, left + "\ntrial", right + "\nfinished (close the window)")
             )
+            twin.scene.render_data(twin.data)
             self.handle.sync()
             while self.handle.is_running():  # leave the last state up until closed
                 time.sleep(0.1)

@@ -94,7 +94,10 @@ def run_trial(
         from transplanter.recording import TrialRecorder
 
         recorder = TrialRecorder(
-            twin.model, record_path, rate_hz=record_rate_hz, scalar_names=channels.channel_names()
+            twin.scene.render_model,
+            record_path,
+            rate_hz=record_rate_hz,
+            scalar_names=channels.channel_names(),
         )
     judge = Judge(twin, config.judge, records, recorder.event if recorder is not None else None)
     twin.line_listeners.append(judge.on_line)

@@ -330,7 +330,7 @@ class VideoObserver:
     def attach(self, twin: Any, records: list[SeedlingRecord]) -> None:
         check_frames(*self.size, self.fps, twin.dt)
         self.records = records
-        self.grabber = FrameGrabber(twin.model, *self.size, self.camera, self.shadows)
+        self.grabber = FrameGrabber(twin.scene.render_model, *self.size, self.camera, self.shadows)
         self.writer = Mp4Writer(self.target, self.size, self.fps, self.ffmpeg)
         twin.line_listeners.append(self._on_line)
         self.step(twin)  # the power-on state at t = 0
@@ -367,7 +367,7 @@ class VideoObserver:
 
         t0 = time.perf_counter()
         try:
-            frame = annotate(self.grabber.grab(twin.data), self._caption(t))
+            frame = annotate(self.grabber.grab(twin.scene.render_data(twin.data)), self._caption(t))
             self.writer.append(frame)
         except Exception as exc:  # an encoder that died (disk full): the trial goes on
             self.error = f"the video could not be encoded: {exc}"
@@ -444,7 +444,7 @@ class FailureClips:
     def attach(self, twin: Any, records: list[SeedlingRecord]) -> None:
         check_frames(*self.size, self.fps, twin.dt)
         self.records = records
-        self.grabber = FrameGrabber(twin.model, *self.size, self.camera)
+        self.grabber = FrameGrabber(twin.scene.render_model, *self.size, self.camera)
         twin.line_listeners.append(self._on_line)
 
     def _on_line(self, event: Any) -> None:
@@ -467,7 +467,7 @@ class FailureClips:
         import time
 
         t0 = time.perf_counter()
-        frame = self.grabber.grab(twin.data)
+        frame = self.grabber.grab(twin.scene.render_data(twin.data))
         for s in wanted:
             buf = self.buffers.setdefault(s, deque(maxlen=self.maxlen))
             if len(buf) == buf.maxlen:

@@ -48,7 +48,7 @@ from transplanter.scene.geometry import (
     rib_boxes,
     row_y,
 )
-from transplanter.scene.handles import Scene
+from transplanter.scene.handles import LeafProxies, Scene
 from transplanter.scene.pots import PotBatch
 
 # Bodies whose inertial is derived from their geoms (masses and shapes follow the config);
@@ -69,18 +69,29 @@ def models_dir() -> Path:
 
 
 def build_scene(config: SceneConfig | None = None, seed: int = 0) -> Scene:
-    """Build and compile the full scene: machine, conveyor with ribs, pots, drop tube."""
+    """Build and compile the full scene: machine, conveyor with ribs, pots, drop tube.
+
+    The physics model leaves out the pots' decor (paper mesh, stem, leaves and the leaf
+    proxies: massless geoms outside collision detection) because MuJoCo's broadphase walks
+    every geom of every body at every step, sleeping or not; the scene builds the decorated
+    model, with the same bodies and joints, only when something draws it
+    (`Scene.render_model`)."""
     cfg = config if config is not None else SceneConfig()
-    spec, pots = full_spec(cfg, seed)
-    return Scene(compile_with_home(spec, cfg), cfg, pots)
+    spec, pots = full_spec(cfg, seed, decor=False)
+
+    def decorated() -> mujoco.MjModel:
+        return compile_with_home(full_spec(cfg, seed, decor=True)[0], cfg)
+
+    return Scene(compile_with_home(spec, cfg), cfg, pots, leaf_proxies(cfg, pots), decorated)
 
 
-def full_spec(cfg: SceneConfig, seed: int) -> tuple[mujoco.MjSpec, PotBatch]:
-    """The whole scene's MjSpec (before the home keyframe is set) and its pots."""
+def full_spec(cfg: SceneConfig, seed: int, decor: bool = True) -> tuple[mujoco.MjSpec, PotBatch]:
+    """The whole scene's MjSpec (before the home keyframe is set) and its pots; without
+    `decor`, the pots carry only their collision geoms (same bodies, joints, masses)."""
     spec = scene_spec(cfg)
     pots = PotBatch.draw(cfg, seed)
     add_ribs(spec, cfg)
-    add_pots(spec, cfg, pots)
+    add_pots(spec, cfg, pots, decor)
     return spec, pots
 
 
@@ -93,7 +104,7 @@ def export_scene(cfg: SceneConfig, seed: int, out: str | Path) -> Path:
     from transplanter import fileio
 
     target = fileio.check_output(out, ".xml")
-    spec, _ = full_spec(cfg, seed)
+    spec, _ = full_spec(cfg, seed, decor=True)
     compile_with_home(spec, cfg)
     xml = spec.to_xml()
     assets = target.parent / spec.meshdir
@@ -321,8 +332,9 @@ def add_ribs(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
             g.rgba = list(RIB_RGBA)
 
 
-def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch) -> None:
-    """A free body per pot: collision cylinder, visual mesh, stem, leaves and leaf proxies."""
+def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool = True) -> None:
+    """A free body per pot: collision cylinder and (decor) visual mesh, stem, leaves and
+    leaf proxies."""
     xs, ys = cell_columns_x(cfg), row_y(cfg)
     for i in range(len(pots)):
         r, c = divmod(i, cfg.cols)
@@ -349,16 +361,17 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch) -> None:
         g.solimp = list(cfg.contact_solimp)
         g.group = 3
         g.rgba = list(POT_COLLISION_RGBA)
-        vis = body.add_geom()
-        vis.type = mujoco.mjtGeom.mjGEOM_MESH
-        vis.meshname = "paper_pot"
-        vis.pos = [0, 0, -h / 2]
-        vis.contype = vis.conaffinity = 0
-        vis.group = 2
-        vis.mass = 0
-        vis.material = "paper"
-        _add_seedling(body, cfg, r, c, h / 2, pots.stem_length[i], pots.n_leaves[i],
-                      pots.leaf_yaw0[i])  # fmt: skip
+        if decor:
+            vis = body.add_geom()
+            vis.type = mujoco.mjtGeom.mjGEOM_MESH
+            vis.meshname = "paper_pot"
+            vis.pos = [0, 0, -h / 2]
+            vis.contype = vis.conaffinity = 0
+            vis.group = 2
+            vis.mass = 0
+            vis.material = "paper"
+            _add_seedling(body, cfg, r, c, h / 2, pots.stem_length[i], pots.n_leaves[i],
+                          pots.leaf_yaw0[i])  # fmt: skip
         if pots.bond_force[i] > 0:
             _add_bond(spec, cfg, body, r, c, radius, h, pots.bond_force[i])
 
@@ -407,11 +420,7 @@ def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0) 
     stem_geom.group = 2
     stem_geom.mass = 0
     stem_geom.material = "leaf"
-    for k in range(n_leaves):
-        yaw = leaf_yaw0 + 2 * np.pi * k / n_leaves
-        base = np.array([0, 0, top + stem * (LEAF_BASE_LOW + LEAF_BASE_STEP * (k % 2))])
-        quat = np.zeros(4)
-        mujoco.mju_euler2Quat(quat, np.array([0.0, LEAF_PITCH_RAD, yaw]), "xyz")
+    for k, (base, quat, centre, along_x) in enumerate(_leaf_frames(top, stem, n_leaves, leaf_yaw0)):
         leaf_vis = body.add_geom()
         leaf_vis.type = mujoco.mjtGeom.mjGEOM_MESH
         leaf_vis.meshname = "seedling_leaf"
@@ -421,9 +430,6 @@ def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0) 
         leaf_vis.group = 2
         leaf_vis.mass = 0
         leaf_vis.material = "leaf"
-        rot = np.zeros(9)
-        mujoco.mju_quat2Mat(rot, quat)
-        centre = base + rot.reshape(3, 3) @ np.array(LEAF_PROXY_CENTRE)
         proxy = body.add_geom()
         proxy.name = f"leaf_{r}_{c}_{k}"
         # A capsule along the leaf's length: capsule-box contacts with the gripper are
@@ -431,10 +437,46 @@ def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0) 
         proxy.type = mujoco.mjtGeom.mjGEOM_CAPSULE
         proxy.size = [cfg.leaf_radius, cfg.leaf_half_length, 0]
         proxy.pos = centre
-        along_x = np.zeros(4)
-        mujoco.mju_mulQuat(along_x, quat, _CAPSULE_Z_TO_X)
         proxy.quat = along_x
         proxy.contype = proxy.conaffinity = 0  # tested geometrically: leaf_hit_pots
         proxy.group = 4
         proxy.mass = 0
         proxy.rgba = list(LEAF_PROXY_RGBA)
+
+
+def _leaf_frames(top: float, stem: float, n_leaves: int, leaf_yaw0: float):
+    """Per leaf of a seedling, in its pot's frame: the leaf mesh's base and quaternion and
+    its capsule proxy's centre and quaternion (capsule axis along the leaf)."""
+    for k in range(int(n_leaves)):
+        yaw = leaf_yaw0 + 2 * np.pi * k / n_leaves
+        base = np.array([0, 0, top + stem * (LEAF_BASE_LOW + LEAF_BASE_STEP * (k % 2))])
+        quat = np.zeros(4)
+        mujoco.mju_euler2Quat(quat, np.array([0.0, LEAF_PITCH_RAD, yaw]), "xyz")
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, quat)
+        centre = base + rot.reshape(3, 3) @ np.array(LEAF_PROXY_CENTRE)
+        along_x = np.zeros(4)
+        mujoco.mju_mulQuat(along_x, quat, _CAPSULE_Z_TO_X)
+        yield base, quat, centre, along_x
+
+
+def leaf_proxies(cfg: SceneConfig, pots: PotBatch) -> LeafProxies:
+    """Every leaf's capsule proxy in its pot's frame, as the decorated model places it."""
+    pot, centre, axis = [], [], []
+    for i in range(len(pots)):
+        frames = _leaf_frames(
+            pots.height[i] / 2, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i]
+        )
+        for _, _, c, along_x in frames:
+            rot = np.zeros(9)
+            mujoco.mju_quat2Mat(rot, along_x)
+            pot.append(i)
+            centre.append(c)
+            axis.append(rot.reshape(3, 3)[:, 2])
+    return LeafProxies(
+        pot=np.array(pot, dtype=int),
+        centre=np.array(centre, dtype=float).reshape(-1, 3),
+        axis=np.array(axis, dtype=float).reshape(-1, 3),
+        radius=cfg.leaf_radius,
+        half_length=cfg.leaf_half_length,
+    )

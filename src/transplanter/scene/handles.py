@@ -5,13 +5,19 @@ accessors on an MjData: motor targets and positions, gripper and wrist, limit sw
 pot positions, jaw contacts and grip force, seedling leaf hits. The conveyor's drive is a
 separate controller (transplanter.scene.conveyor.ConveyorDrive).
 
-Leaves: a capsule proxy per leaf on each pot body, outside collision detection (leaves are
+Leaves: a capsule proxy per leaf in each pot's frame, outside the physics model (leaves are
 a few grams of soft tissue: they must not push the gripper, and colliding them every step
 tripled the narrowphase). `leaf_hit_pots` tests them against the gripper's boxes
 geometrically, only for the pots near the gripper, when the trial asks.
+
+Drawing: the physics model has no pot decor (build_scene); `render_model` is the decorated
+model with the same bodies and joints, `render_data` mirrors a physics state onto it.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -24,13 +30,36 @@ LEAF_SAMPLES = 5  # points along each leaf capsule's axis tested against the gri
 LEAF_NEAR_M = 0.09  # only pots this close (xy) to the grip centre can touch the gripper
 
 
+@dataclass(frozen=True)
+class LeafProxies:
+    """Every seedling leaf as a capsule in its pot's frame: pot (flat index), centre (n, 3)
+    and axis (n, 3, unit) in the pot body's frame, radius and half length (m)."""
+
+    pot: np.ndarray
+    centre: np.ndarray
+    axis: np.ndarray
+    radius: float
+    half_length: float
+
+
 class Scene:
     """A compiled scene with precomputed index arrays and per-step helpers."""
 
-    def __init__(self, model: mujoco.MjModel, config: SceneConfig, pots: PotBatch):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        config: SceneConfig,
+        pots: PotBatch,
+        leaves: LeafProxies,
+        decorated: Callable[[], mujoco.MjModel] | None = None,
+    ):
         self.model = model
         self.config = config
         self.pots = pots  # the PotBatch the scene was built with
+        self.leaves = leaves
+        self._decorated = decorated
+        self._render_model: mujoco.MjModel | None = None
+        self._render_data: mujoco.MjData | None = None
         m = model
         name = lambda kind, n: mujoco.mj_name2id(m, kind, n)  # noqa: E731
         self.motor_actuators = np.array(
@@ -102,16 +131,9 @@ class Scene:
             self._is_gripper & (m.geom_type == mujoco.mjtGeom.mjGEOM_BOX)
         )
         self._gripper_half = m.geom_size[self._gripper_boxes].copy()
-        self._leaf_geoms = np.array(
-            [g for g in range(ngeom) if (m.geom(g).name or "").startswith("leaf_")], dtype=int
-        )
-        body_to_pot = np.full(m.nbody, -1)
-        body_to_pot[flat] = np.arange(flat.size)
-        self._leaf_pot = body_to_pot[m.geom_bodyid[self._leaf_geoms]]
-        self._leaf_radius = m.geom_size[self._leaf_geoms, 0].copy()
-        self._leaf_axis_t = (
-            np.linspace(-1.0, 1.0, LEAF_SAMPLES)[None, :, None]
-            * (m.geom_size[self._leaf_geoms, 1][:, None, None])
+        self._leaf_body = flat[leaves.pot]
+        self._leaf_axis_t = np.linspace(-1.0, 1.0, LEAF_SAMPLES)[None, :, None] * (
+            leaves.half_length
         )
 
         tube_x, tube_y = config.drop_tube_xy
@@ -126,6 +148,34 @@ class Scene:
         mujoco.mj_resetDataKeyframe(self.model, data, self.home_key)
         mujoco.mj_forward(self.model, data)
         return data
+
+    # ----- drawing -----
+    @property
+    def render_model(self) -> mujoco.MjModel:
+        """The decorated model (pot meshes, stems, leaves, leaf proxies in group 4) with the
+        physics model's bodies, joints and actuators, built on first use; the physics model
+        itself when the scene was made without one."""
+        if self._render_model is None:
+            self._render_model = self.model if self._decorated is None else self._decorated()
+        return self._render_model
+
+    def render_data(self, data: mujoco.MjData) -> mujoco.MjData:
+        """The physics state `data` on the render model: poses, cameras and lights (one
+        reused MjData; contacts and forces are not carried)."""
+        model = self.render_model
+        if model is self.model:
+            return data
+        if self._render_data is None:
+            self._render_data = mujoco.MjData(model)
+        mirror = self._render_data
+        mirror.time = data.time
+        mirror.qpos[:] = data.qpos
+        mirror.qvel[:] = data.qvel
+        mirror.ctrl[:] = data.ctrl
+        mujoco.mj_kinematics(model, mirror)
+        mujoco.mj_comPos(model, mirror)
+        mujoco.mj_camlight(model, mirror)
+        return mirror
 
     # ----- drives -----
     def set_motor_targets(self, data: mujoco.MjData, joint_positions) -> None:
@@ -201,19 +251,22 @@ class Scene:
         grip = data.site_xpos[self.grip_site, :2]
         pot_xy = data.xpos[self.pot_bodies.ravel(), :2]
         near = np.hypot(*(pot_xy - grip).T) < LEAF_NEAR_M
-        leaves = np.flatnonzero(near[self._leaf_pot])
+        pot = self.leaves.pot
+        leaves = np.flatnonzero(near[pot])
         if leaves.size == 0:
             return np.zeros(0, dtype=int)
-        geoms = self._leaf_geoms[leaves]
-        axis = data.geom_xmat[geoms].reshape(-1, 3, 3)[:, :, 2]
-        points = data.geom_xpos[geoms][:, None, :] + self._leaf_axis_t[leaves] * axis[:, None, :]
+        bodies = self._leaf_body[leaves]
+        rot = data.xmat[bodies].reshape(-1, 3, 3)
+        centre = data.xpos[bodies] + np.einsum("nij,nj->ni", rot, self.leaves.centre[leaves])
+        axis = np.einsum("nij,nj->ni", rot, self.leaves.axis[leaves])
+        points = centre[:, None, :] + self._leaf_axis_t * axis[:, None, :]
         hit = np.zeros(leaves.size, dtype=bool)
         for box, half in zip(self._gripper_boxes, self._gripper_half, strict=True):
             local = (points - data.geom_xpos[box]) @ data.geom_xmat[box].reshape(3, 3)
             outside = np.maximum(np.abs(local) - half, 0.0)
             dist = np.sqrt((outside * outside).sum(axis=2)).min(axis=1)
-            hit |= dist < self._leaf_radius[leaves]
-        return np.unique(self._leaf_pot[leaves[hit]])
+            hit |= dist < self.leaves.radius
+        return np.unique(pot[leaves[hit]])
 
     def leaf_hits(self, data: mujoco.MjData) -> bool:
         """True when the gripper touches any seedling's leaves (its own pot's included)."""
