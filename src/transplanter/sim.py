@@ -171,6 +171,16 @@ class Twin:
         # next stable position, four full steps (one electrical cycle) further: the steps
         # are lost for good, the firmware never learns of it.
         self.electrical_cycle = 4.0 * self.full_step_joint
+        self._slip_terms = [
+            (int(a), float(g), int(q), float(c))
+            for a, g, q, c in zip(
+                self.scene.motor_actuators,
+                self.scene.motor_gears,
+                self.scene.motor_qpos_adr,
+                self.electrical_cycle,
+                strict=True,
+            )
+        ]
         self.microsteps_per_full_step = np.array([d.microsteps for d in self.machine.drives])
         self.slip_offset = np.zeros(3)  # joint units the motors have lost so far
         self.microsteps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
@@ -218,6 +228,9 @@ class Twin:
             self.model.dof_frictionloss[self._jam_dof] = self._jam_frictionloss[jammed]
         switches = self.faults.switches(self.scene.limit_switches(self.data))
         sent_now = self.link.exchange(t, switches)
+        # nothing asks for pulses older than a stall window (`_stall_flags`): keep the
+        # SGF's motion history short, or every `pulses_at` searches the whole trial's
+        self.sgf.forget_before(t - STALL_WINDOW_S)
         for ts, index, deg in self.sgf.drain_servo_commands():
             servo = self.gripper if index == GRIPPER_SERVO else self.wrist
             servo.command(ts, deg)
@@ -300,6 +313,14 @@ class Twin:
     def _slip(self, rows: np.ndarray, i: int) -> bool:
         """Let every motor lagging more than two full steps slip by whole electrical cycles;
         True when the drivers reported it to the SGF (stall detection), which stopped."""
+        ctrl, qpos = self.data.ctrl, self.data.qpos
+        # the common case in scalars (the same IEEE operations as the arrays below): no
+        # motor is half an electrical cycle off, rint would give 0 for all
+        for act, gear, adr, cycle in self._slip_terms:
+            if abs((ctrl[act] / gear - qpos[adr]) / cycle) > 0.5:
+                break
+        else:
+            return False
         lag = self.commanded_joints() - self.scene.joint_positions(self.data)
         cycles = np.rint(lag / self.electrical_cycle)
         if not cycles.any():
