@@ -102,6 +102,51 @@ def test_homing_fails_without_switch():
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
 
 
+def _home_on_grid(sgf: SGF, read, watched: bool, dt: float = 1e-3):
+    """G28 on a grid of physics steps, the switches read by `read(pulses)` at every step.
+    Polled at every step, or (`watched`) only when a switch changes and when the SGF asks
+    (homing_poll_time, next_event_time), as the twin does. Returns the reply, its step and
+    the number of polls."""
+    k, polls = 0, 1
+    sgf.receive("G28", 0.0)
+    switches = read(sgf.pulses_at(0.0)[0])
+    replies = sgf.poll(0.0, switches)
+    while not replies:
+        due = [x for x in (sgf.homing_poll_time(k * dt, dt), sgf.next_event_time()) if x]
+        target = min(due) if watched else (k + 1) * dt
+        while True:
+            k += 1
+            now = read(sgf.pulses_at(k * dt)[0])
+            if now != switches or k * dt >= target - 1e-12:
+                break
+        switches = now
+        replies = sgf.poll(k * dt, switches)
+        polls += 1
+    return replies, k, polls
+
+
+@pytest.mark.parametrize("switches_work", [True, False])
+def test_homing_polled_at_its_own_times_and_switch_changes_is_homing_polled_every_step(
+    switches_work,
+):
+    """The twin reads the switches at every physics step but exchanges with the SGF only
+    when one changes or when the homing asks (a locate begins, a leg runs out): the same
+    homing, to the step, with a fraction of the polls; also when a switch never closes."""
+    config = SGFConfig() if switches_work else SGFConfig(homing_max_steps=(200, 200, 400))
+    runs = []
+    for watched in (False, True):
+        sgf = SGF(config)
+        endstops = SimulatedEndstops(config, START)
+        read = endstops.read if switches_work else (lambda pulses: (False,) * 4)
+        replies, k, polls = _home_on_grid(sgf, read, watched)
+        trip = sgf.homing_trip_raw  # None when homing failed
+        pulses = sgf.pulses_at((k + 1) * 1e-3)[0].tolist()
+        runs.append((replies, k, pulses, None if trip is None else trip.tolist(), polls))
+    assert runs[0][:4] == runs[1][:4]
+    assert (runs[0][0] == ["ok"]) == switches_work
+    assert runs[1][4] < runs[0][4] / 10, (runs[0][4], runs[1][4])
+
+
 def test_move_before_homing_is_refused():
     sgf = SGF(SGFConfig())
     sgf.receive("G1 X0 Y180 Z50", 0.0)

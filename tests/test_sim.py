@@ -161,3 +161,48 @@ def test_servos_hold_their_power_on_pose_until_commanded(scenario):
         assert d.qpos[scene.wrist_qpos_adr] == pytest.approx(wrist0, abs=0.01)  # servo compliance
     assert first_servo is not None
     assert twin.gripper_opening_cmd(np.array([0.0, first_servo]))[0] == pytest.approx(opening0)
+
+
+class _ExchangeEveryStep(Twin):
+    """The twin exchanging with the firmware at every physics step while the SGF homes
+    and while nothing is in flight (as it did before it watched the switches itself)."""
+
+    def _next_exchange_time(self, t: float, idle_until: float) -> float:
+        t_next = super()._next_exchange_time(t, t + self.dt)
+        return min(t_next, t + self.dt) if self.sgf.homing else t_next
+
+
+def _counting(cls, built: list):
+    """A twin factory: `cls` counting its exchanges, each twin it builds kept in `built`."""
+
+    def factory(config):
+        twin = cls(config)
+        twin.exchanges = 0
+
+        def count(_twin):
+            twin.exchanges += 1
+
+        twin.exchange_listeners.append(count)
+        built.append(twin)
+        return twin
+
+    return factory
+
+
+def test_exchanging_only_when_the_firmware_needs_it_changes_no_result():
+    """Homing exchanges at switch changes and at the homing's own times, and the settle
+    after the program in one block: the same trial, bit for bit, with far fewer
+    exchanges."""
+    from transplanter.trial import run_trial
+
+    config = paper_config(2)
+    results, exchanges = [], []
+    for cls in (_ExchangeEveryStep, Twin):
+        built: list = []
+        result = run_trial(config, twin_factory=_counting(cls, built)).to_dict()
+        for key in ("wall_time_s", "real_time_factor"):
+            result.pop(key)
+        results.append(result)
+        exchanges.append(built[0].exchanges)
+    assert results[0] == results[1]
+    assert exchanges[1] < exchanges[0] / 10, exchanges  # 116 against 1626 here

@@ -268,7 +268,7 @@ class Judge:
         belt = abs(twin.conveyor.displacement(d)) / M_PER_MM
         if belt > rec.max_belt_displacement_mm:
             rec.max_belt_displacement_mm = belt
-        lag = float(twin.motor_lag_full_steps().max())
+        lag = twin.max_motor_lag_full_steps()
         if lag > rec.max_lag_full_steps:
             rec.max_lag_full_steps = lag
 

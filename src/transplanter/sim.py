@@ -171,6 +171,7 @@ class Twin:
         # next stable position, four full steps (one electrical cycle) further: the steps
         # are lost for good, the firmware never learns of it.
         self.electrical_cycle = 4.0 * self.full_step_joint
+        self._full_step_list = [float(f) for f in self.full_step_joint]
         self._slip_terms = [
             (int(a), float(g), int(q), float(c))
             for a, g, q, c in zip(
@@ -226,8 +227,7 @@ class Twin:
         if self._jam_dof >= 0:
             jammed = self.faults.jam_active(t)
             self.model.dof_frictionloss[self._jam_dof] = self._jam_frictionloss[jammed]
-        switches = self.faults.switches(self.scene.limit_switches(self.data))
-        sent_now = self.link.exchange(t, switches)
+        sent_now = self.link.exchange(t, self._switches())
         # nothing asks for pulses older than a stall window (`_stall_flags`): keep the
         # SGF's motion history short, or every `pulses_at` searches the whole trial's
         self.sgf.forget_before(t - STALL_WINDOW_S)
@@ -250,16 +250,21 @@ class Twin:
         for listener in self.exchange_listeners:
             listener(self)
 
+    def _switches(self) -> tuple[bool, ...]:
+        """The limit switches as the firmware reads them now (with any switch fault)."""
+        return self.faults.switches(self.scene.limit_switches(self.data))
+
     def _notify(self, event: LineEvent) -> None:
         for listener in self.line_listeners:
             listener(event)
 
-    def _next_exchange_time(self, t: float) -> float:
-        t_next = self.link.next_event_time(t, self.dt)
+    def _next_exchange_time(self, t: float, idle_until: float) -> float:
+        """The next exchange; `idle_until` when nothing is in flight."""
+        t_next = self.link.next_event_time(t, self.dt, switches_watched=True)
         jam = self.faults.next_jam_change(t)  # the jam starts or ends at an exchange
         if jam is not None and (t_next is None or jam < t_next):
             t_next = jam
-        return t + self.dt if t_next is None else t_next
+        return idle_until if t_next is None else t_next
 
     # -- command blocks -----------------------------------------------------------------
     def _block(self, t_next: float) -> _Block:
@@ -290,10 +295,18 @@ class Twin:
         faults when stop_when_done (else the physics runs on with the firmware idle)."""
         m, d = self.model, self.data
         ctrl = d.ctrl
+        # With nothing in flight the firmware has nothing to say until t_end, unless the
+        # caller stops when the program is done (it then looks after every step, as ever)
+        # or an external host may write at any time.
+        idle_to_end = not stop_when_done and self.remote is None
         while self.time < t_end - 1e-12:
             t = self.time
             self._exchange(t)
-            block = self.block = self._block(min(self._next_exchange_time(t), t_end))
+            idle_until = t_end if idle_to_end else t + self.dt
+            block = self.block = self._block(min(self._next_exchange_time(t, idle_until), t_end))
+            # While it homes the SGF reads its switches: a change of them ends the block
+            # (step_until's exchange reads them; see FirmwareLink.next_event_time).
+            switches = self._switches() if self.sgf.homing else None
             rows = block.ctrl
             for i in range(rows.shape[0]):
                 ctrl[:] = rows[i]
@@ -305,6 +318,8 @@ class Twin:
                 if monitor is not None and self.k % monitor_every == 0:
                     monitor(self, i)
                 if stalled:  # the SGF stopped: the rest of this block's commands are void
+                    break
+                if switches is not None and self._switches() != switches:
                     break
             self._check_valid()
             if stop_when_done and (self.pgf.done or self.pgf.fault):
@@ -393,3 +408,14 @@ class Twin:
         """|commanded - actual| per motor, in full motor steps (a stepper slips past ~2)."""
         lag = np.abs(self.commanded_joints() - self.scene.joint_positions(self.data))
         return lag / self.full_step_joint
+
+    def max_motor_lag_full_steps(self) -> float:
+        """The largest of motor_lag_full_steps() (the same numbers, in scalars: the judge
+        asks every few steps)."""
+        ctrl, qpos = self.data.ctrl, self.data.qpos
+        return max(
+            abs(ctrl[act] / gear - qpos[adr]) / full_step
+            for (act, gear, adr, _), full_step in zip(
+                self._slip_terms, self._full_step_list, strict=True
+            )
+        )

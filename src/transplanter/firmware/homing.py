@@ -114,6 +114,7 @@ class Homing:
         self.seek_steps = np.zeros(3, dtype=np.int64)  # steps each seek travelled to its trip
         self.failed = False
         self.failure_code: ErrorCode | None = None
+        self._changed = True  # the last update changed the plan: poll again next step
         self._travel = [
             (math.degrees(d.unit_per_step), "deg")
             if not d.linear
@@ -151,6 +152,39 @@ class Homing:
 
     def update(self, now: float, endstops: Sequence[bool] | None) -> str | None:
         """Act on the switches read at ``now``; a failure message if homing failed."""
+        before = (self.phase.copy(), self.cleared.copy(), [len(leg) for leg in self.legs])
+        try:
+            return self._update(now, endstops)
+        finally:
+            self._changed = not (
+                np.array_equal(before[0], self.phase)
+                and np.array_equal(before[1], self.cleared)
+                and before[2] == [len(leg) for leg in self.legs]
+            )
+
+    def next_poll_time(self, now: float, dt: float) -> float:
+        """When the switches must be read again if they read as they did at ``now`` (a
+        caller that sees every change of them polls then, or at the change): the next
+        step after any change of state, every step within two steps of a time-based
+        condition (the slow locate begins, a leg runs out of steps), otherwise a step
+        before it; inf once every switch is found."""
+        if self.done_seeking:
+            return math.inf
+        if self._changed:
+            return now + dt
+        events = [math.inf]
+        for motor in range(3):
+            if self.phase[motor] not in (0, 1):
+                continue
+            t_start, _, _, rate, count = self.legs[motor][-1]
+            if rate > 0:
+                events.append(t_start + count / rate)  # `_exhausted` from then on
+            if self.phase[motor] == 1 and now < self.t_locate[motor]:
+                events.append(float(self.t_locate[motor]))
+        t_event = min(events)
+        return now + dt if t_event - now <= 2 * dt else t_event - dt
+
+    def _update(self, now: float, endstops: Sequence[bool] | None) -> str | None:
         waiting = np.flatnonzero(self.phase == -1)
         if waiting.size and np.all(self.phase[self.first_cycle] == 2):
             t_start = float(np.max(self.t_end[self.first_cycle]))

@@ -119,10 +119,13 @@ class FirmwareLink:
             bus.host_send(line, t)
         return pgf.sent[n_sent:]
 
-    def next_event_time(self, t: float, dt_homing_s: float) -> float | None:
+    def next_event_time(
+        self, t: float, dt_homing_s: float, switches_watched: bool = False
+    ) -> float | None:
         """When the next exchange is due: the next bus delivery, SGF event or the PGF's reply
         timeout, at the latest t + dt_homing_s while the SGF homes (it must read its
-        switches); None when nothing is in flight."""
+        switches); None when nothing is in flight. A caller that exchanges as soon as a
+        switch changes (`switches_watched`) is told the homing's own next poll instead."""
         host_deadline = self.pgf.next_event_time()  # its reply timeout (None: none running)
         candidates = [
             x
@@ -130,7 +133,8 @@ class FirmwareLink:
             if x is not None
         ]
         if self.sgf.homing:
-            candidates.append(t + dt_homing_s)
+            poll = self.sgf.homing_poll_time(t, dt_homing_s) if switches_watched else None
+            candidates.append(t + dt_homing_s if poll is None else poll)
         return min(candidates) if candidates else None
 
 

@@ -258,8 +258,16 @@ class SGF:
 
     @property
     def homing(self) -> bool:
-        """True while a G28 is running (the simulator must poll every physics step)."""
+        """True while a G28 is running (the simulator must poll every physics step, or
+        at `homing_poll_time` and whenever a switch changes)."""
         return self._current is not None and self._current.homing is not None
+
+    def homing_poll_time(self, now: float, dt: float) -> float | None:
+        """While homing, when the switches must be read next if none changes (at most one
+        step of dt after any change of the homing's state); None when not homing."""
+        if not self.homing:
+            return None
+        return self._current.homing.next_poll_time(now, dt)
 
     @property
     def position_xyz(self) -> np.ndarray:

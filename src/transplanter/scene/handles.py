@@ -213,28 +213,34 @@ class Scene:
         radial = np.hypot(p[:, 0] - self._tube_xy[0], p[:, 1] - self._tube_xy[1])
         return (radial < self._tube_inner_radius) & (p[:, 2] < self._throat_z)
 
-    def _contact_pairs(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+    def _jaw_pot_contacts(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         n = data.ncon
         if n == 0:
             empty = np.zeros(0, int)
             return empty, empty
-        return data.contact.geom1[:n], data.contact.geom2[:n]
-
-    def _jaw_pot_contacts(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
-        g1, g2 = self._contact_pairs(data)
-        p1, p2 = self._pot_of_geom[g1], self._pot_of_geom[g2]
-        mask = (self._is_jaw[g1] & (p2 >= 0)) | (self._is_jaw[g2] & (p1 >= 0))
+        geom = data.contact.geom[:n]
+        pot, jaw = self._pot_of_geom[geom], self._is_jaw[geom]
+        mask = (jaw[:, 0] & (pot[:, 1] >= 0)) | (jaw[:, 1] & (pot[:, 0] >= 0))
         idx = np.flatnonzero(mask)
-        return idx, np.maximum(p1, p2)[idx]
+        return idx, pot.max(axis=1)[idx]
 
     def grip_force(self, data: mujoco.MjData) -> float:
-        """Sum of the normal forces between the jaws and any pot (N)."""
+        """Sum of the normal forces between the jaws and any pot (N), as mj_contactForce
+        reports them (the solver's normal force less any adhesion)."""
         idx, _ = self._jaw_pot_contacts(data)
         total = 0.0
-        wrench = np.zeros(6)
-        for i in idx:
-            mujoco.mj_contactForce(self.model, data, int(i), wrench)
-            total += wrench[0]
+        if self.model.opt.cone != mujoco.mjtCone.mjCONE_ELLIPTIC:
+            wrench = np.zeros(6)
+            for i in idx:
+                mujoco.mj_contactForce(self.model, data, int(i), wrench)
+                total += wrench[0]
+            return total
+        # elliptic cones: a contact's normal force is its first constraint row
+        contact, efc_force = data.contact, data.efc_force
+        rows, adhesion = contact.efc_address[idx].tolist(), contact.adhesion[idx].tolist()
+        for row, pull in zip(rows, adhesion, strict=True):
+            if row >= 0:
+                total += efc_force[row] - pull
         return total
 
     def pots_touching_jaws(self, data: mujoco.MjData) -> np.ndarray:
@@ -260,12 +266,13 @@ class Scene:
         centre = data.xpos[bodies] + np.einsum("nij,nj->ni", rot, self.leaves.centre[leaves])
         axis = np.einsum("nij,nj->ni", rot, self.leaves.axis[leaves])
         points = centre[:, None, :] + self._leaf_axis_t * axis[:, None, :]
-        hit = np.zeros(leaves.size, dtype=bool)
-        for box, half in zip(self._gripper_boxes, self._gripper_half, strict=True):
-            local = (points - data.geom_xpos[box]) @ data.geom_xmat[box].reshape(3, 3)
-            outside = np.maximum(np.abs(local) - half, 0.0)
-            dist = np.sqrt((outside * outside).sum(axis=2)).min(axis=1)
-            hit |= dist < self.leaves.radius
+        boxes = self._gripper_boxes
+        # every sample point in every gripper box's frame: (boxes, leaves, samples, 3)
+        rel = points[None, :, :, :] - data.geom_xpos[boxes][:, None, None, :]
+        local = rel @ data.geom_xmat[boxes].reshape(-1, 1, 3, 3)
+        outside = np.maximum(np.abs(local) - self._gripper_half[:, None, None, :], 0.0)
+        dist = np.sqrt((outside * outside).sum(axis=3)).min(axis=2)
+        hit = (dist < self.leaves.radius).any(axis=0)
         return np.unique(pot[leaves[hit]])
 
     def leaf_hits(self, data: mujoco.MjData) -> bool:
