@@ -122,6 +122,8 @@ class Scene:
         self._is_jaw[self.jaw_geoms] = True
         self._pot_of_geom = np.full(ngeom, -1)
         self._pot_of_geom[self.pot_geoms] = np.arange(flat.size)
+        self._pot_of_geom_list = self._pot_of_geom.tolist()
+        self._is_jaw_list = self._is_jaw.tolist()
         gripper_body = name(mujoco.mjtObj.mjOBJ_BODY, "gripper")
         gripper_bodies = {gripper_body} | {
             b for b in range(m.nbody) if m.body_parentid[b] == gripper_body
@@ -132,6 +134,17 @@ class Scene:
         )
         self._gripper_half = m.geom_size[self._gripper_boxes].copy()
         self._leaf_body = flat[leaves.pot]
+        self._pot_bodies_flat = flat
+        # a pot's leaves lie within this of its centre; a gripper box within its half
+        # diagonal of its own (m): a leaf can touch a box only if the spheres overlap
+        reach = np.zeros(flat.size)
+        np.maximum.at(
+            reach,
+            leaves.pot,
+            np.linalg.norm(leaves.centre, axis=1) + leaves.half_length + leaves.radius,
+        )
+        box_radius = np.linalg.norm(self._gripper_half, axis=1)
+        self._leaf_reach_sq = (reach[:, None] + box_radius[None, :]) ** 2
         self._leaf_axis_t = np.linspace(-1.0, 1.0, LEAF_SAMPLES)[None, :, None] * (
             leaves.half_length
         )
@@ -215,14 +228,14 @@ class Scene:
 
     def _jaw_pot_contacts(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         n = data.ncon
-        if n == 0:
-            empty = np.zeros(0, int)
-            return empty, empty
-        geom = data.contact.geom[:n]
-        pot, jaw = self._pot_of_geom[geom], self._is_jaw[geom]
-        mask = (jaw[:, 0] & (pot[:, 1] >= 0)) | (jaw[:, 1] & (pot[:, 0] >= 0))
-        idx = np.flatnonzero(mask)
-        return idx, pot.max(axis=1)[idx]
+        idx, pots = [], []
+        if n:  # a handful of contacts: plain Python beats numpy's per-call cost here
+            pot_of, is_jaw = self._pot_of_geom_list, self._is_jaw_list
+            for i, (g1, g2) in enumerate(data.contact.geom[:n].tolist()):
+                if (is_jaw[g1] and pot_of[g2] >= 0) or (is_jaw[g2] and pot_of[g1] >= 0):
+                    idx.append(i)
+                    pots.append(max(pot_of[g1], pot_of[g2]))
+        return np.array(idx, dtype=int), np.array(pots, dtype=int)
 
     def grip_force(self, data: mujoco.MjData) -> float:
         """Sum of the normal forces between the jaws and any pot (N), as mj_contactForce
@@ -255,8 +268,12 @@ class Scene:
         the palm or a jaw (LEAF_SAMPLES points per leaf, so accurate to a few mm).
         """
         grip = data.site_xpos[self.grip_site, :2]
-        pot_xy = data.xpos[self.pot_bodies.ravel(), :2]
-        near = np.hypot(*(pot_xy - grip).T) < LEAF_NEAR_M
+        pot_xyz = data.xpos[self._pot_bodies_flat]
+        near = np.hypot(*(pot_xyz[:, :2] - grip).T) < LEAF_NEAR_M
+        # only pots whose leaves' bounding sphere reaches a gripper box's (the gripper
+        # passes high above most pots): the same hits, most calls stop here
+        gap = pot_xyz[:, None, :] - data.geom_xpos[self._gripper_boxes][None, :, :]
+        near &= ((gap * gap).sum(axis=2) <= self._leaf_reach_sq).any(axis=1)
         pot = self.leaves.pot
         leaves = np.flatnonzero(near[pot])
         if leaves.size == 0:
