@@ -261,6 +261,61 @@ def test_physics_model_leaves_out_the_decor_and_the_render_model_mirrors_it():
         )
 
 
+def _pose_with_leaf_in_the_left_jaw(scene) -> np.ndarray:
+    """Pot 0's free-joint pose (upright) that puts its leaf proxy 0 at the left jaw's centre."""
+    m, data = scene.model, scene.make_data()
+    pot = scene.pot_bodies.ravel()[0]
+    offset = data.geom_xpos[m.geom("leaf_0_0_0").id] - data.xpos[pot]  # pot frame = world's
+    return np.r_[data.geom_xpos[m.geom("jaw_left").id] - offset, 1.0, 0.0, 0.0, 0.0]
+
+
+def test_canopy_contact_lets_the_leaves_touch_the_jaws_and_nothing_else():
+    """With canopy_contact each leaf proxy is in the physics model, collides with the two
+    jaws only (soft, its own friction), and a jaw pressing a leaf pushes the pot; without it
+    the physics model has no leaves at all."""
+    off = build_scene(SceneConfig(rows=1, cols=1), seed=2)
+    assert not any(off.model.geom(g).name.startswith("leaf_") for g in range(off.model.ngeom))
+    cfg = SceneConfig(rows=1, cols=1, canopy_contact=True, canopy_timeconst=0.1)
+    scene = build_scene(cfg, seed=2)
+    m = scene.model
+    leaves = [g for g in range(m.ngeom) if m.geom(g).name.startswith("leaf_")]
+    assert len(leaves) == scene.pots.n_leaves[0]
+    for g in leaves:
+        partners = {
+            m.geom(o).name
+            for o in range(m.ngeom)
+            if (m.geom_contype[g] & m.geom_conaffinity[o])
+            or (m.geom_contype[o] & m.geom_conaffinity[g])
+        }
+        assert partners == {"jaw_left", "jaw_right"}, partners
+        assert m.geom_solref[g].tolist() == [0.1, 1.0]
+        assert m.geom_friction[g, 0] == cfg.canopy_friction
+    pose = _pose_with_leaf_in_the_left_jaw(scene)
+    sideways = []
+    for built in (off, scene):
+        data = built.make_data()
+        adr = built.pot_qpos_adr[0]
+        data.qpos[adr : adr + 7] = pose  # the same pose in both scenes
+        mujoco.mj_forward(built.model, data)
+        names = {
+            tuple(sorted(built.model.geom(g).name for g in c.geom))
+            for c in data.contact[: data.ncon]
+        }
+        assert (("jaw_left", "leaf_0_0_0") in names) == (built is scene), names
+        pot = built.pot_bodies.ravel()[0]
+        start = data.xpos[pot].copy()
+        for _ in range(200):
+            mujoco.mj_step(built.model, data)
+        sideways.append(float(np.linalg.norm(data.xpos[pot, :2] - start[:2])))
+    assert sideways[0] < 0.0005 < 0.002 < sideways[1], sideways  # only the leaf pushes it
+
+
+def test_canopy_softness_below_two_timesteps_is_refused():
+    with pytest.raises(ValueError, match="canopy_timeconst must be at least twice the timestep"):
+        SceneConfig(canopy_contact=True, canopy_timeconst=0.0015)
+    SceneConfig(canopy_contact=False, canopy_timeconst=0.0015)  # unused: not checked
+
+
 def test_bad_config_is_rejected():
     with pytest.raises(ValueError, match="pot_diameter"):
         SceneConfig(pot_diameter=0.044)

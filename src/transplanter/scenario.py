@@ -269,6 +269,13 @@ class PotsSection:
     bond_force_sd_log: float = key(
         "float", 0, 3, doc="spread of bond strengths: sd of their natural log"
     )
+    canopy_contact: bool = key(
+        "bool", doc="the leaves' capsule proxies touch the jaws (soft): they push and drag the pot"
+    )
+    canopy_timeconst_s: float = key(
+        "float", 0, 1000, doc="contact time constant of a leaf on a jaw: larger is softer"
+    )
+    canopy_friction: float = key("float", 0, 10, doc="sliding friction of a leaf on a jaw")
 
 
 @dataclass(frozen=True)
@@ -392,7 +399,7 @@ _FILE_KEY_OVERRIDES = {
     "mass_max_kg": "mass_max_g", "open_dwell_s": "open_dwell_ms",
     "close_dwell_s": "close_dwell_ms", "release_dwell_s": "release_dwell_ms",
     "compute_time_per_point_s": "compute_time_per_point_us", "timestep_s": "timestep_ms",
-    "stall_settle_s": "stall_settle_ms",
+    "stall_settle_s": "stall_settle_ms", "canopy_timeconst_s": "canopy_timeconst_ms",
 }  # fmt: skip
 _FILE_SUFFIX = {"_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm", "_rad": "_deg"}
 

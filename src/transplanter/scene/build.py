@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from transplanter.scene.config import (
+    BIT_CANOPY,
     BIT_GRIPPER,
     BIT_POT,
     BIT_WORLD,
@@ -92,6 +93,9 @@ def full_spec(cfg: SceneConfig, seed: int, decor: bool = True) -> tuple[mujoco.M
     pots = PotBatch.draw(cfg, seed)
     add_ribs(spec, cfg)
     add_pots(spec, cfg, pots, decor)
+    if cfg.canopy_contact:
+        for jaw in ("jaw_left", "jaw_right"):
+            spec.geom(jaw).conaffinity |= BIT_CANOPY
     return spec, pots
 
 
@@ -372,6 +376,10 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool 
             vis.material = "paper"
             _add_seedling(body, cfg, r, c, h / 2, pots.stem_length[i], pots.n_leaves[i],
                           pots.leaf_yaw0[i])  # fmt: skip
+        elif cfg.canopy_contact:  # the physics keeps the proxies that touch the jaws
+            frames = _leaf_frames(h / 2, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i])
+            for k, (_, _, centre, along_x) in enumerate(frames):
+                _add_leaf_proxy(body, cfg, f"leaf_{r}_{c}_{k}", centre, along_x)
         if pots.bond_force[i] > 0:
             _add_bond(spec, cfg, body, r, c, radius, h, pots.bond_force[i])
 
@@ -430,18 +438,30 @@ def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0) 
         leaf_vis.group = 2
         leaf_vis.mass = 0
         leaf_vis.material = "leaf"
-        proxy = body.add_geom()
-        proxy.name = f"leaf_{r}_{c}_{k}"
-        # A capsule along the leaf's length: capsule-box contacts with the gripper are
-        # analytic, ellipsoids would take the general convex solver (3x the narrowphase).
-        proxy.type = mujoco.mjtGeom.mjGEOM_CAPSULE
-        proxy.size = [cfg.leaf_radius, cfg.leaf_half_length, 0]
-        proxy.pos = centre
-        proxy.quat = along_x
-        proxy.contype = proxy.conaffinity = 0  # tested geometrically: leaf_hit_pots
-        proxy.group = 4
-        proxy.mass = 0
-        proxy.rgba = list(LEAF_PROXY_RGBA)
+        _add_leaf_proxy(body, cfg, f"leaf_{r}_{c}_{k}", centre, along_x)
+
+
+def _add_leaf_proxy(body, cfg: SceneConfig, name: str, centre, along_x) -> None:
+    """A leaf's capsule proxy: tested geometrically (leaf_hit_pots) and, with
+    cfg.canopy_contact, a soft contact with the jaws and nothing else."""
+    proxy = body.add_geom()
+    proxy.name = name
+    # A capsule along the leaf's length: capsule-box contacts with the gripper are
+    # analytic, ellipsoids would take the general convex solver (3x the narrowphase).
+    proxy.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+    proxy.size = [cfg.leaf_radius, cfg.leaf_half_length, 0]
+    proxy.pos = centre
+    proxy.quat = along_x
+    proxy.contype = proxy.conaffinity = 0
+    if cfg.canopy_contact:  # touches the jaws (their conaffinity has the bit), nothing else
+        proxy.contype = BIT_CANOPY
+        proxy.condim = 3
+        proxy.priority = 3  # the leaf's softness and friction decide the contact
+        proxy.friction = [cfg.canopy_friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
+        proxy.solref = [cfg.canopy_timeconst, 1.0]
+    proxy.group = 4
+    proxy.mass = 0
+    proxy.rgba = list(LEAF_PROXY_RGBA)
 
 
 def _leaf_frames(top: float, stem: float, n_leaves: int, leaf_yaw0: float):

@@ -20,6 +20,7 @@ from transplanter.kinematics import FiveBarGeometry, FiveBarKinematics
 BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
+BIT_CANOPY = 8  # leaf proxies (with SceneConfig.canopy_contact): they touch the jaws only
 ROW_BIT_FIRST = 8
 ROW_BITS = 23
 
@@ -186,6 +187,13 @@ class SceneConfig:
     pot_bond_share: float = 0.0
     pot_bond_force: float = 0.0
     pot_bond_sd_log: float = 0.0
+    # Seedling canopies touching the jaws: each leaf's capsule proxy collides with the jaws
+    # only (nothing else), with a soft contact (time constant, s: leaves bend away) and its
+    # own friction; a push or a drag on a leaf moves its pot. Off: leaves are only tested
+    # geometrically (leaf_hit_pots). Estimates, no source.
+    canopy_contact: bool = False
+    canopy_timeconst: float = 0.8
+    canopy_friction: float = 0.5
     # Where an index leaves the row along the belt: normal sd (m) of the error of each index
     # (belt stretch, rib play); the next index's ribs take it back.
     conveyor_index_error_sd: float = 0.0
@@ -253,6 +261,16 @@ class SceneConfig:
         for name in ("pot_bond_force", "pot_bond_sd_log", "conveyor_index_error_sd"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"SceneConfig.{name} must be >= 0, got {getattr(self, name)}")
+        if self.canopy_contact and not self.canopy_timeconst >= 2 * self.timestep:
+            raise ValueError(
+                f"SceneConfig.canopy_timeconst must be at least twice the timestep "
+                f"({2 * self.timestep} s; MuJoCo would silently stiffen a shorter one), got "
+                f"{self.canopy_timeconst}"
+            )
+        if not self.canopy_friction >= 0:
+            raise ValueError(
+                f"SceneConfig.canopy_friction must be >= 0, got {self.canopy_friction}"
+            )
         if not 0 < self.conveyor_push_share < 1:
             raise ValueError(
                 f"SceneConfig.conveyor_push_share must be in (0, 1), got {self.conveyor_push_share}"
