@@ -65,6 +65,8 @@ class Judge:
         self.events_at_homing = 0
         self.events_reported = 0
         self.z0 = 0.0
+        # pots whose leaves a jaw has pushed so far (pots.canopy_contact)
+        self.canopy_pushed = np.zeros(self.pot_bodies.size, dtype=bool)
 
     def _emit(self, t: float, kind: EventKind, text: str, seedling: int | None) -> None:
         if self.on_event is not None:
@@ -152,6 +154,7 @@ class Judge:
         rec.knocked_before = (
             offset > self.config.knocked_offset_m or tilt > self.config.knocked_tilt_rad
         )
+        rec.canopy_pushed = rec.pot is not None and bool(self.canopy_pushed[rec.pot])
         if rec.pot is not None:
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
 
@@ -217,7 +220,7 @@ class Judge:
     def failure_kind(rec: SeedlingRecord) -> Outcome:
         """The first check a seedling whose pot is not in the tube failed."""
         if rec.knocked_before:
-            return Outcome.KNOCKED_OVER
+            return Outcome.KNOCKED_BY_CANOPY if rec.canopy_pushed else Outcome.KNOCKED_OVER
         if rec.position_error_microsteps:  # off position from the start: the earlier strike
             return Outcome.POSITION_LOST
         if rec.microsteps_lost:
@@ -254,10 +257,13 @@ class Judge:
             seedling = self.current.index if self.current is not None else None
             self._emit(e.t_s, EventKind.LOST_STEPS, text, seedling)
             self.events_reported += 1
+        scene, d = twin.scene, twin.data
+        if scene.has_canopy_contact and d.ncon:
+            for pot in scene.pots_with_leaves_on_jaws(d):
+                self.canopy_pushed[pot] = True
         rec = self.current
         if rec is None:
             return
-        scene, d = twin.scene, twin.data
         if self.gripping and d.ncon:  # the clamping force while the gripper holds the pot
             force = 0.5 * scene.grip_force(d)  # each jaw's share of the total normal force
             if force > rec.peak_grip_force_n:

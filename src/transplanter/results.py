@@ -32,6 +32,8 @@ class Outcome(StrEnum):
     SLIPPED = "slipped"  # lifted, but no longer between the jaws over the drop tube
     DROPPED_OUTSIDE = "dropped_outside"  # released over the tube, but it did not land inside
     KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
+    # ... after the jaws had pushed its leaves (pots.canopy_contact): the canopy did it
+    KNOCKED_BY_CANOPY = "knocked_by_canopy"
     NO_POT = "no_pot"  # the cell the pickup points at holds no pot
     LOST_STEPS = "lost_steps"  # a motor slipped during this cycle (the strike itself)
     POSITION_LOST = "position_lost"  # an earlier lost-step event left the arm off position
@@ -75,6 +77,7 @@ class SeedlingRecord:
     lost_step_event: int | None = None  # index in lost_step_events of the strike behind it
     max_lag_full_steps: float = 0.0
     knocked_before: bool = False
+    canopy_pushed: bool = False  # before its approach a jaw had pushed its pot's leaves
     lifted: bool | None = None
     in_gripper_at_drop: bool | None = None
     stuck_to_belt: bool = False  # bonded, and still on the belt after the lift

@@ -123,6 +123,15 @@ class Scene:
         self._pot_of_geom = np.full(ngeom, -1)
         self._pot_of_geom[self.pot_geoms] = np.arange(flat.size)
         self._pot_of_geom_list = self._pot_of_geom.tolist()
+        # leaf proxies in the physics model (pots.canopy_contact): their pot, else -1
+        leaf_pot = np.full(ngeom, -1)
+        for g in range(ngeom):
+            geom_name = m.geom(g).name or ""
+            if geom_name.startswith("leaf_"):
+                r, c = (int(x) for x in geom_name.split("_")[1:3])
+                leaf_pot[g] = r * config.cols + c
+        self.has_canopy_contact = bool((leaf_pot >= 0).any())
+        self._leaf_pot_of_geom_list = leaf_pot.tolist()
         self._is_jaw_list = self._is_jaw.tolist()
         gripper_body = name(mujoco.mjtObj.mjOBJ_BODY, "gripper")
         gripper_bodies = {gripper_body} | {
@@ -255,6 +264,19 @@ class Scene:
             if row >= 0:
                 total += efc_force[row] - pull
         return total
+
+    def pots_with_leaves_on_jaws(self, data: mujoco.MjData) -> list[int]:
+        """Pots (flat indices) whose leaf proxies touch a jaw now (only with canopy contact)."""
+        if not self.has_canopy_contact:
+            return []
+        leaf_pot, is_jaw = self._leaf_pot_of_geom_list, self._is_jaw_list
+        out = []
+        for g1, g2 in data.contact.geom[: data.ncon].tolist():
+            if is_jaw[g1] and leaf_pot[g2] >= 0:
+                out.append(leaf_pot[g2])
+            elif is_jaw[g2] and leaf_pot[g1] >= 0:
+                out.append(leaf_pot[g1])
+        return out
 
     def pots_touching_jaws(self, data: mujoco.MjData) -> np.ndarray:
         """Flat indices (row-major) of the pots in contact with a jaw, sorted."""
