@@ -64,7 +64,7 @@ def test_failure_kind_takes_the_first_failed_check():
     rec = SeedlingRecord(0, 0, knocked_before=True, microsteps_lost=64, lifted=False)
     assert Judge.failure_kind(rec) == Outcome.KNOCKED_OVER
     rec.canopy_pushed = True  # a jaw had pushed its leaves before: the canopy did it
-    assert Judge.failure_kind(rec) == Outcome.KNOCKED_BY_CANOPY
+    assert Judge.failure_kind(rec) == Outcome.TIPPED_BY_LEAF
     rec.knocked_before = False
     rec.position_error_microsteps = 64  # it started off position: the earlier strike
     assert Judge.failure_kind(rec) == Outcome.POSITION_LOST

@@ -61,3 +61,18 @@ def test_a_timestep_too_coarse_for_the_stepper_servos_is_refused():
     # without the preflight the user takes the step as given
     config = assemble(load_scenario("paper", {"physics.timestep_ms": 2.0}), preflight=False)
     assert config.scene.timestep == 0.002
+
+
+def test_a_taught_speed_the_sgf_cannot_reach_is_refused():
+    """The SGF solves the kinematics of each 0.1 mm point in 198 us: no move exceeds
+    505 mm/s, so a faster taught speed would silently run slower; it is refused, naming the
+    key and the limit, and a faster controller raises the limit."""
+    assemble(load_scenario("paper", {"taught.s_high_mm_s": 500.0}))
+    with pytest.raises(
+        ScenarioError, match=r"taught.s_high_mm_s = 600 is faster .* no move exceeds 505 mm/s"
+    ):
+        assemble(load_scenario("paper", {"taught.s_high_mm_s": 600.0}))
+    with pytest.raises(ScenarioError, match=r"taught.s_low_mm_s = 510 is faster"):
+        assemble(load_scenario("paper", {"taught.s_low_mm_s": 510.0}))
+    faster = {"taught.s_high_mm_s": 600.0, "motion.compute_time_per_point_us": 100.0}
+    assemble(load_scenario("paper", faster))  # 1,000 mm/s allowed

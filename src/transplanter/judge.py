@@ -220,7 +220,7 @@ class Judge:
     def failure_kind(rec: SeedlingRecord) -> Outcome:
         """The first check a seedling whose pot is not in the tube failed."""
         if rec.knocked_before:
-            return Outcome.KNOCKED_BY_CANOPY if rec.canopy_pushed else Outcome.KNOCKED_OVER
+            return Outcome.TIPPED_BY_LEAF if rec.canopy_pushed else Outcome.KNOCKED_OVER
         if rec.position_error_microsteps:  # off position from the start: the earlier strike
             return Outcome.POSITION_LOST
         if rec.microsteps_lost:

@@ -17,6 +17,7 @@ from transplanter.units import M_PER_MM
 
 __all__ = [
     "check_machine",
+    "check_taught_speeds",
     "check_reply_timeout",
     "check_timestep",
     "longest_line_s",
@@ -37,8 +38,9 @@ MAX_OMEGA_DT = 1.0
 
 def check_machine(machine: Machine) -> None:
     """Raise ScenarioError naming the scenario key of the first taught point (as stored in
-    the EEPROM image) or move that fails."""
+    the EEPROM image), speed or move that fails."""
     taught = machine.eeprom
+    check_taught_speeds(machine)
     points: list[tuple[str, tuple[float, float]]] = [("taught.drop_mm", taught.drop_xy_m)]
     for i, p in enumerate(taught.pickups):
         points.append((f"taught.pickup[{i}].approach_mm", p.approach_xy_m))
@@ -75,6 +77,29 @@ def check_machine(machine: Machine) -> None:
                 b,
                 f"taught.pickup[{i}]: the move from",
                 "Move the approach or grip point.",
+            )
+
+
+def check_taught_speeds(machine: Machine) -> None:
+    """ScenarioError for a taught speed the SGF can never move at: it solves the kinematics
+    of one Bresenham point at a time (motion.compute_time_per_point_us), so no move is
+    faster than resolution / compute time (505 mm/s for the paper's ESP32). The firmware
+    would run such a program at its own top speed, not the taught one."""
+    motion = machine.motion
+    cap = motion.resolution_m / motion.compute_time_per_point_s
+    taught = machine.eeprom
+    for key, speed in (
+        ("taught.s_low_mm_s", taught.s_low_m_s),
+        ("taught.s_high_mm_s", taught.s_high_m_s),
+    ):
+        if speed > cap:
+            raise ScenarioError(
+                f"{key} = {speed / M_PER_MM:g} is faster than the SGF can move: it solves the "
+                f"kinematics of each {motion.resolution_m / M_PER_MM:g} mm point in "
+                f"{motion.compute_time_per_point_s * 1e6:g} us "
+                "(motion.resolution_mm, motion.compute_time_per_point_us), so no move exceeds "
+                f"{cap / M_PER_MM:.0f} mm/s. Teach at most that, or change those two keys "
+                "(a faster controller, a coarser grid)."
             )
 
 

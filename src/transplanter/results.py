@@ -33,7 +33,7 @@ class Outcome(StrEnum):
     DROPPED_OUTSIDE = "dropped_outside"  # released over the tube, but it did not land inside
     KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
     # ... after the jaws had pushed its leaves (pots.canopy_contact): the canopy did it
-    KNOCKED_BY_CANOPY = "knocked_by_canopy"
+    TIPPED_BY_LEAF = "tipped_by_leaf"
     NO_POT = "no_pot"  # the cell the pickup points at holds no pot
     LOST_STEPS = "lost_steps"  # a motor slipped during this cycle (the strike itself)
     POSITION_LOST = "position_lost"  # an earlier lost-step event left the arm off position
