@@ -198,16 +198,21 @@ def test_speed_caps():
     # commanded speed rules when it is low
     slow = motion.plan_line(counters, start, end, 0.05, GEOM, LIMITS, DRIVES, CONFIG)
     assert slow.peak_speed_m_s == pytest.approx(0.05)
+    assert slow.speed_limit == "" and slow.cruise_speed_m_s == 0.05
     # the point-rate cap: resolution / compute time (Arduino Mega: 0.1 mm / 4027 us)
     mega = motion.MotionConfig(compute_time_per_point_s=4027e-6)
     capped = motion.plan_line(counters, start, end, 1.0, GEOM, LIMITS, DRIVES, mega)
     assert capped.peak_speed_m_s == pytest.approx(1e-4 / 4027e-6)
     _check_move(capped, 1.0, mega, counters)
+    # every cap says why the move is slower than asked
+    assert capped.speed_limit.startswith("the kinematics take 4027 us per 0.1 mm point")
+    assert capped.cruise_speed_m_s == pytest.approx(1e-4 / 4027e-6)
     # the step-rate cap: a slow Z motor limits a vertical move
     slow_z = (DRIVES[0], DRIVES[1], steppers.z_drive(max_step_rate_hz=4000.0))
     up = np.array([-0.05, 0.15, 0.09])
     move = motion.plan_line(counters, start, up, 1.0, GEOM, LIMITS, slow_z, CONFIG)
     assert move.peak_speed_m_s == pytest.approx(4000.0 / 400_000.0)  # 10 mm/s
+    assert move.speed_limit.startswith("motor 3 reaches its top step rate, 4000 steps/s")
     assert np.diff(move.step_times[2]).min() >= 1 / 4000.0 * (1 - 1e-9)
 
 

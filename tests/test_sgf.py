@@ -659,3 +659,18 @@ def test_stalls_while_stopped_or_before_homing_change_nothing():
     assert replies == ["ok"]
     with pytest.raises(ValueError, match="motor must be 0, 1 or 2"):
         sgf.stall(0.8, 3)
+
+
+def test_moves_slower_than_their_feed_are_reported(homed):
+    """The SGF obeys its limits without a word (as grbl does), but keeps count: a vertical
+    move at 60 mm/s cruises at Z's 50 mm/s (400 microsteps/mm at 20,000 steps/s); a move
+    within every limit adds nothing."""
+    sgf, _, t = homed
+    x, y, z = (v / 1e-3 for v in sgf.position_xyz)
+    _, t = run_line(sgf, f"G01 X{x:.3f} Y{y:.3f} Z{z - 10:.3f} F{60 * 60:g}", t)
+    _, t = run_line(sgf, f"G01 X{x:.3f} Y{y:.3f} Z{z - 20:.3f} F{60 * 60:g}", t)
+    _, t = run_line(sgf, f"G01 X{x:.3f} Y{y:.3f} Z{z - 25:.3f} F{20 * 60:g}", t)
+    assert sgf.speed_warnings() == [
+        "2 moves asked for 60 mm/s cruised at 50.0 mm/s or less: motor 3 reaches its top "
+        "step rate, 20000 steps/s (drives.max_step_rate_hz)"
+    ]

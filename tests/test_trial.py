@@ -419,3 +419,16 @@ def test_fast_moves_at_2_g_slide_the_slippery_pots_out_of_the_jaws():
     assert failures["slipped"] >= 3  # 7 when written (30/40)
     assert result.successes <= 34
     assert result.to_dict()["cycle_time_s"] < 2.7  # 2.661 s against the paper's 3.496 s
+
+
+@pytest.mark.slow
+def test_paper_trial_reports_the_moves_z_slowed(paper_result):
+    """The paper's S_l (60 mm/s) is above what Z's motor can step (50 mm/s at 20,000
+    steps/s), and moves with a Z part at S_h are held to Z's rate too: the firmware obeys,
+    and the results say so (summary and JSON), nothing is clipped silently."""
+    warnings = paper_result.to_dict()["warnings"]
+    assert any(w.startswith("40 moves asked for 60 mm/s cruised at 50.0 mm/s") for w in warnings)
+    assert all("motor 3 reaches its top step rate" in w for w in warnings), warnings
+    from transplanter.report import format_summary
+
+    assert "warning " in format_summary(paper_result)

@@ -125,6 +125,11 @@ class PlannedMove:
     peak_speed_m_s: float
     path_m: np.ndarray | None = None
     """(N,) m, distance along the straight line from the start at each point."""
+    speed_limit: str = ""
+    """Why the move cruises slower than it was asked to (a motor's top step rate, the IK's
+    compute time per point); empty when it cruises at the requested speed."""
+    cruise_speed_m_s: float = math.nan
+    """The speed the move cruises at where it is long enough to reach it (m/s)."""
 
     _counts: tuple[np.ndarray, ...] | None = field(
         default=None, init=False, repr=False, compare=False
@@ -379,6 +384,19 @@ def plan_line(
     with np.errstate(divide="ignore"):
         step_speed_caps = np.where(steps_per_m > 0, rates / steps_per_m, np.inf)
     v_cruise = min(float(speed_m_s), float(step_speed_caps.min()), config.point_rate_speed_cap_m_s)
+    limit = ""
+    if v_cruise < speed_m_s:
+        busiest = int(np.argmin(step_speed_caps))
+        if step_speed_caps[busiest] <= config.point_rate_speed_cap_m_s:
+            limit = (
+                f"motor {busiest + 1} reaches its top step rate, "
+                f"{rates[busiest]:g} steps/s (drives.max_step_rate_hz)"
+            )
+        else:
+            limit = (
+                f"the kinematics take {config.compute_time_per_point_s * 1e6:g} us per "
+                f"{config.resolution_m * 1e3:g} mm point (motion.compute_time_per_point_us)"
+            )
     v_edge = min(config.min_speed_m_s, v_cruise)
     arc = line_param * float(np.linalg.norm(end - start))
     t, v_peak = _profile_times(arc, v_edge, v_cruise, config)
@@ -402,4 +420,6 @@ def plan_line(
         duration_s=float(t[-1]),
         peak_speed_m_s=float(v_peak),
         path_m=arc,
+        speed_limit=limit,
+        cruise_speed_m_s=v_cruise,
     )

@@ -69,6 +69,7 @@ def format_summary(result: TrialResult) -> str:
         rows.append(("interrupted", f"yes, after {result.judged} seedlings"))
     if result.recording_error:
         rows.append(("recording", f"FAILED: {printable(result.recording_error)}"))
+    rows += [("warning", printable(w)) for w in d["warnings"]]
     width = max(len(k) for k, _ in rows)
     return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
 

@@ -115,6 +115,9 @@ class TrialResult:
     recording_error: str | None = None  # the recording failed; the results stand
     lost_step_events: list[dict[str, Any]] = field(default_factory=list)
     overrides: dict[str, Any] = field(default_factory=dict)  # scenario keys set on the file
+    # what the machine did other than it was told, without failing (the SGF's moves that
+    # cruised slower than their F: a motor's top step rate, the IK's compute time)
+    warnings: list[str] = field(default_factory=list)
     belt_realignments: list[dict[str, float]] = field(default_factory=list)  # at each index
 
     @property
@@ -185,6 +188,7 @@ class TrialResult:
                 (r.max_belt_displacement_mm for r in self.per_seedling), default=0.0
             ),
             "belt_realignments": self.belt_realignments,
+            "warnings": list(self.warnings),
             "failures": self.failures(),
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,
             "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,

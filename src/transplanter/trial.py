@@ -163,6 +163,7 @@ def run_trial(
             {"t_s": t, "offset_mm": offset / M_PER_MM} for t, offset in twin.belt_realignments
         ],
         overrides=dict(config.overrides),
+        warnings=twin.sgf.speed_warnings(),
     )
     if interrupted:
         raise TrialInterrupted(result)

@@ -247,6 +247,8 @@ class SGF:
         self._segments: list = []
         self._pending_stall: str | None = None  # a stall reply for the next line
         self.stalls: list[tuple[float, int]] = []
+        # moves that cruised slower than their F asked: (asked m/s, why) -> [count, slowest]
+        self._slowed: dict[tuple[float, str], list] = {}
         """(t, motor) of every stall that stopped the SGF."""
         self.homing_trip_raw: np.ndarray | None = None
         """Raw pulse counts at which each switch was read closed by the last homing's locate."""
@@ -261,6 +263,15 @@ class SGF:
         """True while a G28 is running (the simulator must poll every physics step, or
         at `homing_poll_time` and whenever a switch changes)."""
         return self._current is not None and self._current.homing is not None
+
+    def speed_warnings(self) -> list[str]:
+        """The moves that cruised slower than their F asked (the firmware obeys its limits
+        without a word, as grbl does; a trial reports them): one line per speed and reason."""
+        return [
+            f"{count} move{'s' if count > 1 else ''} asked for {asked / M_PER_MM:g} mm/s "
+            f"cruised at {slowest / M_PER_MM:.1f} mm/s or less: {why}"
+            for (asked, why), (count, slowest) in sorted(self._slowed.items())
+        ]
 
     def homing_poll_time(self, now: float, dt: float) -> float | None:
         """While homing, when the switches must be read next if none changes (at most one
@@ -551,6 +562,10 @@ class SGF:
         except ValueError as error:
             raise GcodeError(ErrorCode.INVALID_TARGET, f"move refused: {error}") from None
         self._speed_m_s = speed_m_s
+        if move.speed_limit:
+            seen = self._slowed.setdefault((speed_m_s, move.speed_limit), [0, math.inf])
+            seen[0] += 1
+            seen[1] = min(seen[1], move.cruise_speed_m_s)
         job.move = move
         job.target_xyz = target
         job.t_done = job.t_start + move.duration_s
