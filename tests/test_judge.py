@@ -72,6 +72,9 @@ def test_failure_kind_takes_the_first_failed_check():
     assert Judge.failure_kind(rec) == Outcome.LOST_STEPS
     rec.microsteps_lost = 0
     assert Judge.failure_kind(rec) == Outcome.NOT_GRIPPED
+    rec.soft = True  # a soaked pot that did not rise: its wall gave under the jaws
+    assert Judge.failure_kind(rec) == Outcome.SOFT_POT
+    rec.soft = False
     rec.lifted, rec.in_gripper_at_drop = True, False
     assert Judge.failure_kind(rec) == Outcome.SLIPPED
     rec.in_gripper_at_drop = True

@@ -310,6 +310,24 @@ def test_canopy_contact_lets_the_leaves_touch_the_jaws_and_nothing_else():
     assert sideways[0] < 0.0005 < 0.002 < sideways[1], sideways  # only the leaf pushes it
 
 
+def test_soaked_pots_are_drawn_last_and_get_a_wall_that_gives():
+    """pots.soft_share: a share of the pots soaked, drawn after everything else (a seed's
+    other draws do not change), their contacts giving over pot_soft_wall (solimp width)."""
+    firm = PotBatch.draw(SceneConfig(rows=4, cols=5), seed=3)
+    cfg = SceneConfig(rows=4, cols=5, pot_soft_share=0.5, pot_soft_wall=0.03)
+    soaked = PotBatch.draw(cfg, seed=3)
+    for name in ("diameter", "mass", "friction", "offset", "bond_force", "leaf_yaw0"):
+        np.testing.assert_array_equal(getattr(firm, name), getattr(soaked, name))
+    assert not firm.soft.any() and 5 <= soaked.soft.sum() <= 15
+    scene = build_scene(cfg, seed=3)
+    m = scene.model
+    for i, geom in enumerate(scene.pot_geoms):
+        width = m.geom_solimp[geom, 2]
+        assert width == (0.03 if soaked.soft[i] else cfg.contact_solimp[2])
+    with pytest.raises(ValueError, match="pot_soft_share"):
+        SceneConfig(pot_soft_share=1.5)
+
+
 def test_canopy_softness_below_two_timesteps_is_refused():
     with pytest.raises(ValueError, match="canopy_timeconst must be at least twice the timestep"):
         SceneConfig(canopy_contact=True, canopy_timeconst=0.0015)

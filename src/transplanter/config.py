@@ -414,6 +414,8 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             pot_bond_share=pots.bond_share,
             pot_bond_force=pots.bond_force_n,
             pot_bond_sd_log=pots.bond_force_sd_log,
+            pot_soft_share=pots.soft_share,
+            pot_soft_wall=pots.soft_wall_m,
             canopy_contact=pots.canopy_contact,
             canopy_timeconst=pots.canopy_timeconst_s,
             canopy_friction=pots.canopy_friction,

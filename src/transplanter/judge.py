@@ -155,6 +155,7 @@ class Judge:
             offset > self.config.knocked_offset_m or tilt > self.config.knocked_tilt_rad
         )
         rec.canopy_pushed = rec.pot is not None and bool(self.canopy_pushed[rec.pot])
+        rec.soft = rec.pot is not None and bool(self.twin.scene.pots.soft[rec.pot])
         if rec.pot is not None:
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
 
@@ -226,7 +227,9 @@ class Judge:
         if rec.microsteps_lost:
             return Outcome.LOST_STEPS
         if not rec.lifted:
-            return Outcome.STUCK_TO_BELT if rec.stuck_to_belt else Outcome.NOT_GRIPPED
+            if rec.stuck_to_belt:
+                return Outcome.STUCK_TO_BELT
+            return Outcome.SOFT_POT if rec.soft else Outcome.NOT_GRIPPED
         if not rec.in_gripper_at_drop:
             return Outcome.SLIPPED
         return Outcome.DROPPED_OUTSIDE

@@ -29,6 +29,7 @@ class Outcome(StrEnum):
     SUCCESS = "success"  # its pot is in the drop tube
     NOT_GRIPPED = "not_gripped"  # the pot did not rise with the jaws
     STUCK_TO_BELT = "stuck_to_belt"  # a pot bonded to the belt stayed on it as the jaws rose
+    SOFT_POT = "soft_pot"  # a soaked pot gave under the jaws and did not rise with them
     SLIPPED = "slipped"  # lifted, but no longer between the jaws over the drop tube
     DROPPED_OUTSIDE = "dropped_outside"  # released over the tube, but it did not land inside
     KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
@@ -78,6 +79,7 @@ class SeedlingRecord:
     max_lag_full_steps: float = 0.0
     knocked_before: bool = False
     canopy_pushed: bool = False  # before its approach a jaw had pushed its pot's leaves
+    soft: bool = False  # its pot is soaked (pots.soft_share): the wall gives under the jaws
     lifted: bool | None = None
     in_gripper_at_drop: bool | None = None
     stuck_to_belt: bool = False  # bonded, and still on the belt after the lift

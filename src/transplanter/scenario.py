@@ -269,6 +269,12 @@ class PotsSection:
     bond_force_sd_log: float = key(
         "float", 0, 3, doc="spread of bond strengths: sd of their natural log"
     )
+    soft_share: float = key(
+        "float", 0, 1, doc="share of soaked pots whose wall gives under the jaws"
+    )
+    soft_wall_m: float = key(
+        "float", 0.01, 100, doc="how deep a soaked pot's wall gives before it resists fully"
+    )
     canopy_contact: bool = key(
         "bool", doc="the leaves' capsule proxies touch the jaws (soft): they push and drag the pot"
     )

@@ -35,6 +35,7 @@ from transplanter.scene.config import (
     POT_COLLISION_RGBA,
     RIB_RGBA,
     ROLLING_FRICTION,
+    SOFT_WALL_IMPEDANCE,
     STATIC_COLLISION_RGBA,
     TORSIONAL_FRICTION,
     SceneConfig,
@@ -363,6 +364,8 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool 
         g.friction = [pots.friction[i], TORSIONAL_FRICTION, ROLLING_FRICTION]
         g.solref = list(cfg.contact_solref)
         g.solimp = list(cfg.contact_solimp)
+        if pots.soft[i]:  # soaked: the wall gives over pot_soft_wall before it resists
+            g.solimp = [*SOFT_WALL_IMPEDANCE, cfg.pot_soft_wall, *cfg.contact_solimp[3:]]
         g.group = 3
         g.rgba = list(POT_COLLISION_RGBA)
         if decor:

@@ -21,6 +21,10 @@ BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
 BIT_CANOPY = 8  # leaf proxies (with SceneConfig.canopy_contact): they touch the jaws only
+
+# A soaked pot's contact impedance at no penetration and once it has given
+# SceneConfig.pot_soft_wall (MuJoCo solimp d0, dwidth; midpoint and power as the firm pots').
+SOFT_WALL_IMPEDANCE = (0.05, 0.95)
 ROW_BIT_FIRST = 8
 ROW_BITS = 23
 
@@ -187,6 +191,14 @@ class SceneConfig:
     pot_bond_share: float = 0.0
     pot_bond_force: float = 0.0
     pot_bond_sd_log: float = 0.0
+    # Soaked pots: a share of the pots whose wall gives under the jaws: their contacts are
+    # MuJoCo soft contacts whose impedance rises from SOFT_WALL_IMPEDANCE[0] to [1] over
+    # pot_soft_wall of penetration (m; solimp width) instead of the firm pots' 0.5 mm. The
+    # jaws close towards their commanded opening (25 mm) into such a pot, and once the
+    # servo is near it the squeeze falls: a pot that gives more than the jaws' travel is
+    # barely held. Estimates, no source.
+    pot_soft_share: float = 0.0
+    pot_soft_wall: float = 0.02
     # Seedling canopies touching the jaws: each leaf's capsule proxy collides with the jaws
     # only (nothing else), with a soft contact (time constant, s: leaves bend away) and its
     # own friction; a push or a drag on a leaf moves its pot. Off: leaves are only tested
@@ -261,6 +273,12 @@ class SceneConfig:
         for name in ("pot_bond_force", "pot_bond_sd_log", "conveyor_index_error_sd"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"SceneConfig.{name} must be >= 0, got {getattr(self, name)}")
+        if not 0 <= self.pot_soft_share <= 1:
+            raise ValueError(
+                f"SceneConfig.pot_soft_share must be in [0, 1], got {self.pot_soft_share}"
+            )
+        if not self.pot_soft_wall > 0:
+            raise ValueError(f"SceneConfig.pot_soft_wall must be > 0 m, got {self.pot_soft_wall}")
         if self.canopy_contact and not self.canopy_timeconst >= 2 * self.timestep:
             raise ValueError(
                 f"SceneConfig.canopy_timeconst must be at least twice the timestep "

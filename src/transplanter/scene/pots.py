@@ -2,8 +2,8 @@
 
 `PotBatch.draw(config, seed)` draws every random number of a scene from
 `np.random.default_rng(seed)`, always in the same order (diameter, height, mass, friction,
-offset, stem length, leaf count, leaf yaw, bond), so a seed gives the same pots on every run and
-every machine. Pots are indexed row-major: pot i sits in row i // cols, column i % cols.
+offset, stem length, leaf count, leaf yaw, bond, soft), so a seed gives the same pots on every
+run and every machine. Pots are indexed row-major: pot i sits in row i // cols, column i % cols.
 """
 
 from __future__ import annotations
@@ -45,7 +45,8 @@ class PotBatch:
     and belt), offset (n, 2: placement offset from the cell centre, m), cell_xy (n, 2: cell
     centre at conveyor position 0, m), stem_length (m above the pot's top), n_leaves (int),
     leaf_yaw0 (rad, yaw of leaf 0; the others follow evenly around the stem), bond_force (N,
-    strength of the pot's bond to the belt; 0: none).
+    strength of the pot's bond to the belt; 0: none), soft (bool: a soaked pot whose wall
+    gives under the jaws).
     """
 
     diameter: np.ndarray
@@ -58,6 +59,7 @@ class PotBatch:
     n_leaves: np.ndarray
     leaf_yaw0: np.ndarray
     bond_force: np.ndarray
+    soft: np.ndarray
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -89,6 +91,7 @@ class PotBatch:
         bonded = rng.random(n) < cfg.pot_bond_share
         strength = cfg.pot_bond_force * np.exp(cfg.pot_bond_sd_log * rng.standard_normal(n))
         bond_force = np.where(bonded, strength, 0.0)
+        soft = rng.random(n) < cfg.pot_soft_share
         return cls(
             diameter=diameter,
             height=height,
@@ -100,6 +103,7 @@ class PotBatch:
             n_leaves=n_leaves,
             leaf_yaw0=leaf_yaw0,
             bond_force=bond_force,
+            soft=soft,
         )
 
     def __len__(self) -> int:
