@@ -81,6 +81,26 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def _seeds(args: argparse.Namespace) -> list[int] | None:
+    """The --seeds list, or None after saying why it was refused."""
+    from transplanter.stats import parse_seeds
+
+    try:
+        return parse_seeds(args.seeds)
+    except ValueError as exc:
+        _err(f"--seeds: {exc}")
+        return None
+
+
+def _seedlings(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
+    """--seedlings, or the scenario's (with the --set overrides) when not given."""
+    if args.seedlings is not None:
+        return args.seedlings
+    from transplanter.scenario import load_scenario
+
+    return load_scenario(args.scenario, overrides).meta.seedlings
+
+
 def _machine(args: argparse.Namespace):
     """The machine of a scenario, or None after saying why it was refused."""
     from transplanter.config import machine_config
@@ -172,7 +192,6 @@ def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter.config import assemble
     from transplanter.report import format_summary, progress_bar
     from transplanter.scenario import ScenarioError
-    from transplanter.stats import parse_seeds
     from transplanter.trial import TrialInterrupted, run_trial
     from transplanter.video import GLUnavailable, RenderRefused
 
@@ -205,10 +224,8 @@ def cmd_trial(args: argparse.Namespace) -> int:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
             return EXIT_REFUSED
-        try:
-            seeds = parse_seeds(args.seeds)
-        except ValueError as exc:
-            _err(f"--seeds: {exc}")
+        seeds = _seeds(args)
+        if seeds is None:
             return EXIT_REFUSED
         return _pooled_trials(args, overrides, seeds, targets["--json"])
     try:
@@ -534,7 +551,6 @@ def _workers(text: str) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from transplanter.scenario import ScenarioError
-    from transplanter.stats import parse_seeds
     from transplanter.sweep import (
         SweepRefused,
         SweepSpec,
@@ -544,19 +560,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         run_sweep,
     )
 
-    try:
-        seeds = parse_seeds(args.seeds)
-    except ValueError as exc:
-        _err(f"--seeds: {exc}")
+    seeds = _seeds(args)
+    if seeds is None:
         return EXIT_REFUSED
     try:
         overrides = _overrides(args)
         axes = tuple(parse_vary(v) for v in args.vary)
-        seedlings = args.seedlings
-        if seedlings is None:
-            from transplanter.scenario import load_scenario
-
-            seedlings = load_scenario(args.scenario, overrides).meta.seedlings
+        seedlings = _seedlings(args, overrides)
         spec = SweepSpec(args.scenario, axes, tuple(seeds), seedlings, overrides)
         spec.check()
         check_backend(args.backend, args.workers, args.address)
@@ -615,15 +625,12 @@ def _search_spec(args: argparse.Namespace, seeds: list[int], ranges: list[str], 
     """The checked TuneSpec of `tune` (--param) and `calibrate` (--fit): the scenario with
     --set, the KEY=LO..HI ranges, the seeds and seedlings (default: the scenario's);
     ScenarioError or SweepRefused when refused."""
-    from transplanter.scenario import load_scenario
     from transplanter.sweep import parse_param_range
     from transplanter.tune import Param, TuneSpec
 
     overrides = _overrides(args)
     params = tuple(Param(*parse_param_range(text, option)) for text in ranges)
-    seedlings = args.seedlings
-    if seedlings is None:
-        seedlings = load_scenario(args.scenario, overrides).meta.seedlings
+    seedlings = _seedlings(args, overrides)
     spec = TuneSpec(
         args.scenario, params, tuple(seeds), seedlings, overrides, args.sampler_seed, option
     )
@@ -633,14 +640,11 @@ def _search_spec(args: argparse.Namespace, seeds: list[int], ranges: list[str], 
 
 def cmd_tune(args: argparse.Namespace) -> int:
     from transplanter.scenario import ScenarioError
-    from transplanter.stats import parse_seeds
     from transplanter.sweep import SweepRefused, format_value
     from transplanter.tune import run_tune
 
-    try:
-        seeds = parse_seeds(args.seeds)
-    except ValueError as exc:
-        _err(f"--seeds: {exc}")
+    seeds = _seeds(args)
+    if seeds is None:
         return EXIT_REFUSED
     if args.trials < 1:
         _err(f"--trials must be at least 1, got {args.trials}")
@@ -689,13 +693,10 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         run_calibrate,
     )
     from transplanter.scenario import ScenarioError
-    from transplanter.stats import parse_seeds
     from transplanter.sweep import SweepRefused, check_backend
 
-    try:
-        seeds = parse_seeds(args.seeds)
-    except ValueError as exc:
-        _err(f"--seeds: {exc}")
+    seeds = _seeds(args)
+    if seeds is None:
         return EXIT_REFUSED
     try:
         if not args.fit:

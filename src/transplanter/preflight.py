@@ -86,7 +86,7 @@ def check_taught_speeds(machine: Machine) -> None:
     faster than resolution / compute time (505 mm/s for the paper's ESP32). The firmware
     would run such a program at its own top speed, not the taught one."""
     motion = machine.motion
-    cap = motion.resolution_m / motion.compute_time_per_point_s
+    cap = motion.point_rate_speed_cap_m_s
     taught = machine.eeprom
     for key, speed in (
         ("taught.s_low_mm_s", taught.s_low_m_s),

@@ -171,13 +171,15 @@ class Twin:
         # next stable position, four full steps (one electrical cycle) further: the steps
         # are lost for good, the firmware never learns of it.
         self.electrical_cycle = 4.0 * self.full_step_joint
-        self._full_step_list = [float(f) for f in self.full_step_joint]
-        self._slip_terms = [
-            (int(a), float(g), int(q), float(c))
-            for a, g, q, c in zip(
+        # per motor, as Python numbers for the checks made every few steps: actuator,
+        # gear, qpos address, full step and electrical cycle (joint units)
+        self._motor_terms = [
+            (int(a), float(g), int(q), float(f), float(c))
+            for a, g, q, f, c in zip(
                 self.scene.motor_actuators,
                 self.scene.motor_gears,
                 self.scene.motor_qpos_adr,
+                self.full_step_joint,
                 self.electrical_cycle,
                 strict=True,
             )
@@ -331,7 +333,7 @@ class Twin:
         ctrl, qpos = self.data.ctrl, self.data.qpos
         # the common case in scalars (the same IEEE operations as the arrays below): no
         # motor is half an electrical cycle off, rint would give 0 for all
-        for act, gear, adr, cycle in self._slip_terms:
+        for act, gear, adr, _, cycle in self._motor_terms:
             if abs((ctrl[act] / gear - qpos[adr]) / cycle) > 0.5:
                 break
         else:
@@ -404,18 +406,11 @@ class Twin:
     def commanded_joints(self) -> np.ndarray:
         return self.data.ctrl[self.scene.motor_actuators] / self.scene.motor_gears
 
-    def motor_lag_full_steps(self) -> np.ndarray:
-        """|commanded - actual| per motor, in full motor steps (a stepper slips past ~2)."""
-        lag = np.abs(self.commanded_joints() - self.scene.joint_positions(self.data))
-        return lag / self.full_step_joint
-
     def max_motor_lag_full_steps(self) -> float:
-        """The largest of motor_lag_full_steps() (the same numbers, in scalars: the judge
-        asks every few steps)."""
+        """The largest |commanded - actual| of the motors, in full motor steps (a stepper
+        slips past ~2); in scalars: the judge asks every few steps."""
         ctrl, qpos = self.data.ctrl, self.data.qpos
         return max(
             abs(ctrl[act] / gear - qpos[adr]) / full_step
-            for (act, gear, adr, _), full_step in zip(
-                self._slip_terms, self._full_step_list, strict=True
-            )
+            for act, gear, adr, full_step, _ in self._motor_terms
         )
