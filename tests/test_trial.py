@@ -450,3 +450,33 @@ def test_a_soaked_pot_gives_under_the_jaws_and_is_not_held():
     for rec in firm:
         assert rec.outcome == Outcome.SUCCESS
         assert rec.peak_grip_force_n == pytest.approx(6.0, rel=0.05)
+
+
+@pytest.mark.slow
+def test_paper_seedlings_are_not_damaged(paper_result):
+    """At the paper's speeds a shoot sways a few degrees in the jaws (about 6 deg when
+    written, one of 11 deg), far from metrics.damage_bend_deg (45): no seedling is damaged,
+    as the paper saw ("without any damage")."""
+    bends = [r.peak_stem_bend_deg for r in paper_result.per_seedling]
+    assert all(0.5 < b < 20.0 for b in bends), bends
+    assert paper_result.failures()["damaged"] == 0
+    assert paper_result.to_dict()["max_stem_bend_deg"] == max(bends)
+
+
+@pytest.mark.slow
+def test_fast_moves_whip_soft_shoots_past_their_damage_limit():
+    """Shoots that sway at 2 Hz (soft, tall seedlings): at 500 mm/s and 2 g each start and
+    stop kicks them past 45 deg and every pot lands in the tube with a damaged seedling
+    (`damaged`, a failure); at the paper's speeds the same shoots bend under 20 deg."""
+    soft = {"pots.stem_sway_hz": 2.0}
+    fast = run_trial(
+        paper_config(8, **soft, **{"taught.s_high_mm_s": 500.0, "motion.accel_mm_s2": 20000.0})
+    )
+    assert fast.successes == 0
+    for rec in fast.per_seedling:
+        assert rec.outcome == Outcome.DAMAGED  # in the tube: lifted, carried and dropped
+        assert rec.lifted and rec.in_gripper_at_drop
+        assert rec.peak_stem_bend_deg > 50.0  # 64-70 deg when written
+    slow = run_trial(paper_config(8, **soft))
+    assert slow.successes == 8
+    assert max(r.peak_stem_bend_deg for r in slow.per_seedling) < 20.0  # 16 deg when written

@@ -68,6 +68,7 @@ class JudgeConfig:
     lifted_fraction: float
     between_jaws_m: float
     settle_s: float
+    damage_bend_rad: float  # a shoot bent further than this from its pot's axis is damaged
     pot_height_m: float
     cell_pitch_m: float
     row_pitch_m: float
@@ -123,6 +124,7 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
             lifted_fraction=s.metrics.lifted_fraction,
             between_jaws_m=s.metrics.between_jaws_m,
             settle_s=s.metrics.settle_s,
+            damage_bend_rad=s.metrics.damage_bend_rad,
             pot_height_m=s.pots.height_m,
             cell_pitch_m=s.conveyor.cell_pitch_m,
             row_pitch_m=s.conveyor.row_pitch_m,
@@ -419,6 +421,9 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             canopy_contact=pots.canopy_contact,
             canopy_timeconst=pots.canopy_timeconst_s,
             canopy_friction=pots.canopy_friction,
+            seedling_mass=pots.shoot_mass_kg,
+            stem_sway_hz=pots.stem_sway_hz,
+            stem_damping_ratio=pots.stem_damping_ratio,
             conveyor_index_error_sd=conv.index_error_sd_m,
             drop_tube_xy=(tube.x_m, tube.y_m),
             funnel_top_diameter=tube.funnel_top_diameter_m,

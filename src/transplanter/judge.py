@@ -18,6 +18,8 @@ import numpy as np
 from transplanter.config import JudgeConfig
 from transplanter.firmware.pgf import LinePhase
 from transplanter.results import EventKind, Outcome, SeedlingRecord
+from transplanter.scene.config import SHOOT_COM_SHARE, SHOOT_SPREAD
+from transplanter.shoot import ShootSway, shoot_params
 from transplanter.sim import LineEvent, LineEventKind, Twin
 from transplanter.units import M_PER_MM
 
@@ -54,6 +56,9 @@ class Judge:
         self.pot_cells = np.asarray(scene.pots.cell_xy, dtype=float)
         self.pot_qadr = scene.pot_qpos_adr
         self.pot_dadr = scene.pot_dof_adr
+        self.damage_bend_deg = math.degrees(config.damage_bend_rad)
+        # seedlings whose shoot's sway is followed, from the approach until judged
+        self.shoot_watch: list[tuple[SeedlingRecord, ShootSway, int, int]] = []
         planes = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)
         self.floor_z = float(model.geom_pos[planes, 2].min()) if planes.size else -1.0
         self.lift_m = self.taught.z_up_m - self.taught.z_low_m
@@ -158,6 +163,29 @@ class Judge:
         rec.soft = rec.pot is not None and bool(self.twin.scene.pots.soft[rec.pot])
         if rec.pot is not None:
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
+            self.shoot_watch.append(
+                (
+                    rec,
+                    self._shoot(rec.pot),
+                    int(self.pot_qadr[rec.pot]),
+                    int(self.pot_dadr[rec.pot]),
+                )
+            )
+
+    def _shoot(self, pot: int) -> ShootSway:
+        """The sway of a pot's shoot, at rest on its pot (transplanter.shoot)."""
+        cfg, pots = self.twin.scene.config, self.twin.scene.pots
+        g = -float(self.twin.model.opt.gravity[2])
+        params = shoot_params(
+            mass=cfg.seedling_mass,
+            com_height=SHOOT_COM_SHARE * float(pots.stem_length[pot]),
+            spread=SHOOT_SPREAD,
+            sway_hz=cfg.stem_sway_hz,
+            damping_ratio=cfg.stem_damping_ratio,
+            hinge_height=float(pots.height[pot]) / 2,
+            gravity=g,
+        )
+        return ShootSway(params, gravity=g)
 
     def _cell_had_a_pot(self, grip_xy: np.ndarray) -> bool:
         """Whether a pot was placed, at the start, in the cell that the conveyor has since
@@ -210,12 +238,18 @@ class Judge:
         for rec in self.pending_outcome:
             if rec.outcome == Outcome.PENDING:
                 ok = rec.pot is not None and bool(in_tube[rec.pot])
-                rec.outcome = Outcome.SUCCESS if ok else self.failure_kind(rec)
+                if not ok:
+                    rec.outcome = self.failure_kind(rec)
+                elif rec.peak_stem_bend_deg > self.damage_bend_deg:
+                    rec.outcome = Outcome.DAMAGED  # in the tube, its stem bent past the limit
+                else:
+                    rec.outcome = Outcome.SUCCESS
                 if ok:
                     self._park(rec.pot)
             kind = EventKind.SUCCESS if rec.outcome == Outcome.SUCCESS else EventKind.FAILURE
             self._emit(t, kind, f"seedling {rec.index}: {rec.outcome}", rec.index)
         self.pending_outcome.clear()
+        self.shoot_watch = [w for w in self.shoot_watch if w[0] is self.current]
 
     @staticmethod
     def failure_kind(rec: SeedlingRecord) -> Outcome:
@@ -264,6 +298,11 @@ class Judge:
         if scene.has_canopy_contact and d.ncon:
             for pot in scene.pots_with_leaves_on_jaws(d):
                 self.canopy_pushed[pot] = True
+        if self.shoot_watch:
+            qpos, qvel, t = d.qpos, d.qvel, d.time
+            for watched, sway, a, v in self.shoot_watch:
+                sway.update(t, qpos[a + 3 : a + 7], qvel[v : v + 3], qvel[v + 3 : v + 6])
+                watched.peak_stem_bend_deg = math.degrees(sway.peak_rad)
         rec = self.current
         if rec is None:
             return

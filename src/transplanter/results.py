@@ -32,6 +32,9 @@ class Outcome(StrEnum):
     SOFT_POT = "soft_pot"  # a soaked pot gave under the jaws and did not rise with them
     SLIPPED = "slipped"  # lifted, but no longer between the jaws over the drop tube
     DROPPED_OUTSIDE = "dropped_outside"  # released over the tube, but it did not land inside
+    # in the tube, but its stem bent past metrics.damage_bend_deg on the way: the paper
+    # counts a success only "without any damage"
+    DAMAGED = "damaged"
     KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
     # ... after the jaws had pushed its leaves (pots.canopy_contact): the canopy did it
     TIPPED_BY_LEAF = "tipped_by_leaf"
@@ -77,6 +80,9 @@ class SeedlingRecord:
     position_error_microsteps: int = 0  # lost since the last homing, at the cycle's start
     lost_step_event: int | None = None  # index in lost_step_events of the strike behind it
     max_lag_full_steps: float = 0.0
+    peak_stem_bend_deg: float = (
+        0.0  # the shoot's largest bend from its pot's axis, approach to landing
+    )
     knocked_before: bool = False
     canopy_pushed: bool = False  # before its approach a jaw had pushed its pot's leaves
     soft: bool = False  # its pot is soaked (pots.soft_share): the wall gives under the jaws
@@ -190,6 +196,9 @@ class TrialResult:
                 (r.max_belt_displacement_mm for r in self.per_seedling), default=0.0
             ),
             "belt_realignments": self.belt_realignments,
+            "max_stem_bend_deg": max(
+                (r.peak_stem_bend_deg for r in self.per_seedling), default=0.0
+            ),
             "warnings": list(self.warnings),
             "failures": self.failures(),
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,

@@ -282,6 +282,11 @@ class PotsSection:
         "float", 0, 1000, doc="contact time constant of a leaf on a jaw: larger is softer"
     )
     canopy_friction: float = key("float", 0, 10, doc="sliding friction of a leaf on a jaw")
+    shoot_mass_kg: float = key("float", 0.01, 1000, doc="the seedling's shoot above the pot")
+    stem_sway_hz: float = key(
+        "float", 0.01, 1000, doc="natural frequency of the shoot swaying on its stem"
+    )
+    stem_damping_ratio: float = key("float", 0, 10, doc="damping ratio of that sway")
 
 
 @dataclass(frozen=True)
@@ -309,6 +314,9 @@ class MetricsSection:
         "float", 1, 100, doc="pot centre within this (xy) of the grip centre at the drop"
     )
     settle_s: float = key("float", 0.0, 60, doc="physics kept running after the last line")
+    damage_bend_rad: float = key(
+        "float", 1, 180, doc="a shoot bent further than this from its pot's axis is damaged"
+    )
 
 
 @dataclass(frozen=True)
@@ -406,6 +414,7 @@ _FILE_KEY_OVERRIDES = {
     "close_dwell_s": "close_dwell_ms", "release_dwell_s": "release_dwell_ms",
     "compute_time_per_point_s": "compute_time_per_point_us", "timestep_s": "timestep_ms",
     "stall_settle_s": "stall_settle_ms", "canopy_timeconst_s": "canopy_timeconst_ms",
+    "shoot_mass_kg": "shoot_mass_g",
 }  # fmt: skip
 _FILE_SUFFIX = {"_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm", "_rad": "_deg"}
 

@@ -65,6 +65,11 @@ LEAF_BASE_LOW = 0.7
 LEAF_BASE_STEP = 0.3
 LEAF_PITCH_RAD = -0.35
 LEAF_PROXY_CENTRE = (0.0225, 0.0, 0.004)
+# The shoot's centre of mass sits at this share of the stem's height (the leaves' bases lie
+# at 0.7 and 1.0 of it); its leaves spread over a disc of SHOOT_SPREAD diameter (m; two 45 mm
+# blades tip to tip, tipped up by LEAF_PITCH_RAD).
+SHOOT_COM_SHARE = 0.85
+SHOOT_SPREAD = 0.085
 
 
 @dataclass(frozen=True)
@@ -210,10 +215,16 @@ class SceneConfig:
     # (belt stretch, rib play); the next index's ribs take it back.
     conveyor_index_error_sd: float = 0.0
     # Seedling: stem length above the pot (m, uniform range), leaves per seedling (range),
-    # seedling mass (kg) added to the pot.
+    # the shoot's mass (kg; on top of the pot's).
     stem_length_range: tuple[float, float] = (0.035, 0.045)
     leaves_range: tuple[int, int] = (2, 3)
     seedling_mass: float = 0.003
+    # The shoot sways on its stem (transplanter.shoot: a hinge at the centre of the pot's
+    # top) at this natural frequency (Hz, upright, gravity included) with this damping
+    # ratio. Estimates: a 40 mm shoot flicked sideways swings a few times a second and stops
+    # within a few swings.
+    stem_sway_hz: float = 4.0
+    stem_damping_ratio: float = 0.2
     # Stem radius (m; visual), and the capsule proxy of each leaf (radius, half length of
     # its axis, m) that leaf_hit_pots tests against the gripper.
     stem_radius: float = 0.0015
@@ -285,6 +296,13 @@ class SceneConfig:
                 f"({2 * self.timestep} s; MuJoCo would silently stiffen a shorter one), got "
                 f"{self.canopy_timeconst}"
             )
+        if not self.seedling_mass > 0 or not self.stem_damping_ratio >= 0:
+            raise ValueError(
+                "SceneConfig.seedling_mass must be > 0 kg and stem_damping_ratio >= 0, got "
+                f"{self.seedling_mass} and {self.stem_damping_ratio}"
+            )
+        if not self.stem_sway_hz > 0:
+            raise ValueError(f"SceneConfig.stem_sway_hz must be > 0 Hz, got {self.stem_sway_hz}")
         if not self.canopy_friction >= 0:
             raise ValueError(
                 f"SceneConfig.canopy_friction must be >= 0, got {self.canopy_friction}"

@@ -1,0 +1,139 @@
+"""A seedling's shoot swaying on its stem while its pot is carried, dropped and lands.
+
+The shoot (stem and leaves above the pot) is a rigid body on a two-axis hinge at the
+centre of the pot's top, sprung and damped so that it sways at a given natural frequency
+and damping ratio. It is driven by its pot's motion as the physics computes it: the
+acceleration of the hinge point and the pot's angular acceleration, in the pot's frame,
+with gravity. Its reaction on the pot is left out (a few grams on a 40-80 g pot), so the
+shoot needs no bodies in the MuJoCo model and costs nothing while its pot rests: the judge
+follows the shoots of the pots it watches (`ShootSway.update` with the pot's qpos and qvel).
+
+The bend is linear in the angles (two small-angle hinges, gravity's tipping term included):
+within a few per cent of the full hinged body up to about 30 degrees (tests/test_shoot.py
+compares it with one), an estimate beyond. Pure Python and math, no MuJoCo.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["ShootParams", "ShootSway", "shoot_params"]
+
+GRAVITY_M_S2 = 9.81
+
+
+@dataclass(frozen=True)
+class ShootParams:
+    """A shoot on its hinge: mass (kg), centre of mass above the hinge (m), inertia about
+    the hinge's axes (kg m^2), stiffness (N m/rad) and damping (N m s/rad), and where the
+    hinge sits above the pot's centre (m)."""
+
+    mass: float
+    com_height: float
+    inertia: float
+    stiffness: float
+    damping: float
+    hinge_height: float
+    sway_hz: float
+
+
+def shoot_params(
+    mass: float,
+    com_height: float,
+    spread: float,
+    sway_hz: float,
+    damping_ratio: float,
+    hinge_height: float,
+    gravity: float = GRAVITY_M_S2,
+) -> ShootParams:
+    """The hinge that makes a shoot of `mass` (leaves as a disc of diameter `spread` at
+    `com_height` above the hinge) sway upright at `sway_hz` with `damping_ratio`. Gravity
+    tips an upright shoot over, so the stiffness carries m*g*h on top of the sway's I*w^2."""
+    inertia = mass * (spread / 2) ** 2 / 4 + mass * com_height**2
+    omega = 2 * math.pi * sway_hz
+    return ShootParams(
+        mass=mass,
+        com_height=com_height,
+        inertia=inertia,
+        stiffness=inertia * omega**2 + mass * gravity * com_height,
+        damping=2 * damping_ratio * omega * inertia,
+        hinge_height=hinge_height,
+        sway_hz=sway_hz,
+    )
+
+
+class ShootSway:
+    """The bend of one shoot, advanced from its pot's state (semi-implicit Euler over the
+    interval since the last update; the pot's velocity change over it acts as an impulse,
+    so a landing shorter than the interval still delivers its whole kick)."""
+
+    def __init__(self, params: ShootParams, gravity: float = GRAVITY_M_S2) -> None:
+        self.p = params
+        self.g = gravity
+        self.max_substep = 1.0 / (20.0 * params.sway_hz)
+        self.theta_x = self.theta_y = 0.0  # about the pot's x and y axes (rad)
+        self.rate_x = self.rate_y = 0.0
+        self.peak_rad = 0.0  # largest bend from the pot's axis so far
+        self._last: tuple[float, tuple[float, float, float], tuple[float, float, float]] | None
+        self._last = None  # time, hinge velocity (world), pot angular velocity (pot frame)
+
+    @property
+    def bend_rad(self) -> float:
+        """Angle between the shoot and its pot's axis."""
+        return math.acos(math.cos(self.theta_x) * math.cos(self.theta_y))
+
+    def update(self, t: float, quat, vel, omega_local) -> None:
+        """Advance to time `t` given the pot's orientation (w, x, y, z), the velocity of its
+        centre (world, m/s) and its angular velocity (pot frame, rad/s): a free joint's
+        qpos[3:7], qvel[0:3] and qvel[3:6]."""
+        w, x, y, z = quat
+        # the pot's frame: columns of its rotation matrix
+        r00, r01, r02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
+        r10, r11, r12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
+        r20, r21, r22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+        ox, oy, oz = omega_local
+        h = self.p.hinge_height
+        # hinge point velocity: the centre's plus omega x (0, 0, h) in the pot frame
+        lx, ly = oy * h, -ox * h
+        vx = vel[0] + r00 * lx + r01 * ly
+        vy = vel[1] + r10 * lx + r11 * ly
+        vz = vel[2] + r20 * lx + r21 * ly
+        last = self._last
+        self._last = (t, (vx, vy, vz), (ox, oy, oz))
+        if last is None:
+            return
+        dt = t - last[0]
+        if dt <= 0.0:
+            return
+        (pvx, pvy, pvz), (pox, poy, _) = last[1], last[2]
+        # velocity change of the hinge (world -> pot frame) and of the pot's rotation
+        dvx, dvy, dvz = vx - pvx, vy - pvy, vz - pvz
+        ax = (r00 * dvx + r10 * dvy + r20 * dvz) / dt
+        ay = (r01 * dvx + r11 * dvy + r21 * dvz) / dt
+        az = (r02 * dvx + r12 * dvy + r22 * dvz) / dt
+        alpha_x, alpha_y = (ox - pox) / dt, (oy - poy) / dt
+        # gravity less the hinge's acceleration, in the pot frame: what the shoot feels
+        gx = -self.g * r20 - ax
+        gy = -self.g * r21 - ay
+        gz = -self.g * r22 - az
+        p = self.p
+        ml, k, c, inertia = p.mass * p.com_height, p.stiffness, p.damping, p.inertia
+        # the felt acceleration is taken as constant over the interval, cut into substeps
+        # of at most a twentieth of a sway
+        n = max(1, math.ceil(dt / self.max_substep))
+        step = dt / n
+        for _ in range(n):
+            # torque of the felt gravity at the centre of mass r = h_c (th_y, -th_x, 1):
+            # about x: r_y F_z - r_z F_y; about y: r_z F_x - r_x F_z
+            tx = ml * (-self.theta_x * gz - gy)
+            ty = ml * (gx - self.theta_y * gz)
+            acc_x = (tx - k * self.theta_x - c * self.rate_x) / inertia - alpha_x
+            acc_y = (ty - k * self.theta_y - c * self.rate_y) / inertia - alpha_y
+            self.rate_x += step * acc_x
+            self.rate_y += step * acc_y
+            self.theta_x += step * self.rate_x
+            self.theta_y += step * self.rate_y
+            bend = self.bend_rad
+            if bend > self.peak_rad:
+                self.peak_rad = bend

@@ -1,0 +1,112 @@
+"""The shoot's sway (transplanter.shoot): its frequency, damping and droop as set, and the
+same bend as a MuJoCo body on two sprung hinges carried through the same motion."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from transplanter.shoot import ShootSway, shoot_params
+
+UPRIGHT = (1.0, 0.0, 0.0, 0.0)
+STILL = (0.0, 0.0, 0.0)
+
+
+def params(sway_hz=4.0, damping_ratio=0.2):
+    return shoot_params(
+        mass=0.003, com_height=0.034, spread=0.085, sway_hz=sway_hz,
+        damping_ratio=damping_ratio, hinge_height=0.026,
+    )  # fmt: skip
+
+
+def test_a_kicked_shoot_sways_at_its_frequency_and_dies_out_at_its_damping_ratio():
+    sway = ShootSway(params(4.0, 0.2))
+    sway.update(0.0, UPRIGHT, STILL, STILL)
+    sway.update(0.01, UPRIGHT, (0.15, 0.0, 0.0), STILL)  # a 150 mm/s kick of the pot along x
+    t, theta = [], []
+    for k in range(2, 300):
+        sway.update(0.01 * k, UPRIGHT, (0.15, 0.0, 0.0), STILL)
+        t.append(0.01 * k)
+        theta.append(sway.theta_y)
+    theta = np.array(theta)
+    assert np.all(np.abs(sway.theta_x) < 1e-12)  # a kick along x bends about y only
+    assert theta[0] < 0  # the shoot lags its pot: it bends back, against the kick
+    up = np.flatnonzero((theta[:-1] < 0) & (theta[1:] >= 0))
+    period = np.diff(np.array(t)[up]).mean()
+    assert 1 / period == pytest.approx(4.0 * math.sqrt(1 - 0.2**2), rel=0.03)
+    peaks = [np.abs(theta[a:b]).max() for a, b in zip(up[:-1], up[1:], strict=True)]
+    decrement = math.exp(-2 * math.pi * 0.2 / math.sqrt(1 - 0.2**2))
+    assert peaks[1] / peaks[0] == pytest.approx(decrement, rel=0.1)
+    # a kick of dv swings a shoot of inertia I by about m*h*dv/(I*w)
+    p = params()
+    expect = p.mass * p.com_height * 0.15 / (p.inertia * 2 * math.pi * 4.0)
+    assert sway.peak_rad == pytest.approx(expect, rel=0.25)
+
+
+def test_a_shoot_on_a_pot_lying_on_its_side_droops_by_its_weight():
+    p = params(4.0, 0.5)
+    sway = ShootSway(p)
+    side = (math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0)  # pot axis along +x
+    for k in range(400):
+        sway.update(0.01 * k, side, STILL, STILL)
+    # the pot's x axis points down: the shoot droops towards it, about the pot's y axis
+    assert sway.theta_y == pytest.approx(p.mass * 9.81 * p.com_height / p.stiffness, rel=1e-3)
+    assert sway.theta_x == 0.0
+
+
+def test_a_stiff_shoot_is_advanced_in_substeps_and_stays_stable():
+    sway = ShootSway(params(sway_hz=60.0))  # a period of 17 ms, updates every 10 ms
+    sway.update(0.0, UPRIGHT, STILL, STILL)
+    sway.update(0.01, UPRIGHT, (0.1, 0.0, 0.0), STILL)
+    for k in range(2, 200):
+        sway.update(0.01 * k, UPRIGHT, (0.1, 0.0, 0.0), STILL)
+    assert sway.peak_rad < 0.2 and abs(sway.theta_y) < 1e-6
+
+
+def _mujoco_bend(p, accel_profile, dt=0.001):
+    """Peak bend of a MuJoCo shoot on two sprung hinges atop a 100 kg carriage pushed
+    through the acceleration profile, and the carriage's velocities every 10 ms."""
+    spring = f'stiffness="{p.stiffness}" damping="{p.damping}"'
+    i_cm = p.inertia - p.mass * p.com_height**2
+    xml = f"""
+    <mujoco><option timestep="{dt}" integrator="implicitfast"/>
+      <worldbody><body name="base">
+        <joint name="bx" type="slide" axis="1 0 0"/><joint name="by" type="slide" axis="0 1 0"/>
+        <inertial pos="0 0 0" mass="100" diaginertia="1 1 1"/>
+        <body name="shoot" pos="0 0 {p.hinge_height}">
+          <joint name="hx" type="hinge" axis="1 0 0" {spring}/>
+          <joint name="hy" type="hinge" axis="0 1 0" {spring}/>
+          <inertial pos="0 0 {p.com_height}" mass="{p.mass}"
+            diaginertia="{i_cm} {i_cm} 1e-7"/>
+        </body></body></worldbody></mujoco>"""
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    peak, samples = 0.0, []
+    for k in range(int(round(1.2 / dt))):
+        a = accel_profile(k * dt)
+        d.qfrc_applied[:2] = 100.0 * np.asarray(a)
+        mujoco.mj_step(m, d)
+        peak = max(peak, math.acos(math.cos(d.qpos[2]) * math.cos(d.qpos[3])))
+        if (k + 1) % 10 == 0:
+            samples.append((d.time, (d.qvel[0], d.qvel[1], 0.0)))
+    return peak, samples
+
+
+@pytest.mark.parametrize("accel", [1.5, 20.0])
+def test_the_sway_bends_as_a_mujoco_shoot_on_sprung_hinges(accel):
+    """A move of 150 mm/s along a diagonal at the paper's 1,500 mm/s^2 and at 2 g."""
+    p = params()
+    ramp = 0.15 / accel
+
+    def profile(t):
+        a = accel if t < ramp else -accel if 0.3 <= t < 0.3 + ramp else 0.0
+        return (a * 0.8, a * 0.6)
+
+    peak_mj, samples = _mujoco_bend(p, profile)
+    sway = ShootSway(p)
+    sway.update(0.0, UPRIGHT, STILL, STILL)
+    for t, v in samples:
+        sway.update(t, UPRIGHT, v, STILL)
+    assert peak_mj > math.radians(3)
+    assert sway.peak_rad == pytest.approx(peak_mj, rel=0.1)
