@@ -460,7 +460,7 @@ def test_paper_seedlings_are_not_damaged(paper_result):
     bends = [r.peak_stem_bend_deg for r in paper_result.per_seedling]
     assert all(0.5 < b < 20.0 for b in bends), bends
     assert paper_result.failures()["damaged"] == 0
-    assert paper_result.to_dict()["max_stem_bend_deg"] == max(bends)
+    assert paper_result.to_dict()["max_stem_bend_deg"] == max(bends)  # all 40 in the tube
 
 
 @pytest.mark.slow

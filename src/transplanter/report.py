@@ -51,13 +51,14 @@ def format_summary(result: TrialResult) -> str:
             f"{realign:.3f} mm at most taken back by an index",
         )
     )
-    bends = [r.peak_stem_bend_deg for r in result.per_seedling if r.pot is not None]
+    landed = ("success", "damaged")
+    bends = [r.peak_stem_bend_deg for r in result.per_seedling if r.outcome in landed]
     if bends:
         rows.append(
             (
                 "shoot bend",
-                f"{max(bends):.1f} deg at most, {sum(bends) / len(bends):.1f} deg mean "
-                "(a shoot's largest sway from its pot's axis, approach to landing)",
+                f"{max(bends):.1f} deg at most, {sum(bends) / len(bends):.1f} deg mean over "
+                "the pots in the tube (largest sway from the pot's axis, approach to landing)",
             )
         )
     for i, e in enumerate(d["lost_step_events"]):

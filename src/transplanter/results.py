@@ -160,6 +160,16 @@ class TrialResult:
     def cycle_times(self) -> np.ndarray:
         return np.array([r.cycle_time_s for r in self.per_seedling if r.cycle_time_s is not None])
 
+    @property
+    def max_stem_bend_deg(self) -> float:
+        """The largest shoot bend among the pots that reached the tube (success or damaged;
+        a pot left behind or dropped may lie on its side, its shoot drooping)."""
+        landed = (Outcome.SUCCESS, Outcome.DAMAGED)
+        return max(
+            (r.peak_stem_bend_deg for r in self.per_seedling if r.outcome in landed),
+            default=0.0,
+        )
+
     def failures(self) -> dict[str, int]:
         return {str(k): sum(r.outcome == k for r in self.per_seedling) for k in FAILURE_KINDS}
 
@@ -196,9 +206,7 @@ class TrialResult:
                 (r.max_belt_displacement_mm for r in self.per_seedling), default=0.0
             ),
             "belt_realignments": self.belt_realignments,
-            "max_stem_bend_deg": max(
-                (r.peak_stem_bend_deg for r in self.per_seedling), default=0.0
-            ),
+            "max_stem_bend_deg": self.max_stem_bend_deg,
             "warnings": list(self.warnings),
             "failures": self.failures(),
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,
