@@ -328,6 +328,22 @@ def test_soaked_pots_are_drawn_last_and_get_a_wall_that_gives():
         SceneConfig(pot_soft_share=1.5)
 
 
+def test_shoot_sway_frequencies_are_drawn_last_from_a_gamma():
+    """pots.stem_sway_sd_hz: each seedling's sway frequency from a gamma distribution (never
+    <= 0), drawn after every other draw, so a seed keeps its pots when the spread changes."""
+    same = PotBatch.draw(SceneConfig(rows=8, cols=5), seed=4)
+    assert (same.sway_hz == 4.0).all()
+    spread = PotBatch.draw(SceneConfig(rows=8, cols=5, stem_sway_sd_hz=1.0), seed=4)
+    for name in ("diameter", "mass", "friction", "offset", "stem_length", "soft"):
+        np.testing.assert_array_equal(getattr(same, name), getattr(spread, name))
+    big = PotBatch.draw(SceneConfig(rows=100, cols=20, stem_sway_sd_hz=1.0), seed=4)
+    assert big.sway_hz.mean() == pytest.approx(4.0, abs=0.05)
+    assert big.sway_hz.std() == pytest.approx(1.0, abs=0.05)
+    assert big.sway_hz.min() > 0
+    with pytest.raises(ValueError, match="stem_sway_hz must be > 0 Hz"):
+        SceneConfig(stem_sway_hz=0.0)
+
+
 def test_canopy_softness_below_two_timesteps_is_refused():
     with pytest.raises(ValueError, match="canopy_timeconst must be at least twice the timestep"):
         SceneConfig(canopy_contact=True, canopy_timeconst=0.0015)

@@ -423,6 +423,7 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             canopy_friction=pots.canopy_friction,
             seedling_mass=pots.shoot_mass_kg,
             stem_sway_hz=pots.stem_sway_hz,
+            stem_sway_sd_hz=pots.stem_sway_sd_hz,
             stem_damping_ratio=pots.stem_damping_ratio,
             conveyor_index_error_sd=conv.index_error_sd_m,
             drop_tube_xy=(tube.x_m, tube.y_m),

@@ -180,7 +180,7 @@ class Judge:
             mass=cfg.seedling_mass,
             com_height=SHOOT_COM_SHARE * float(pots.stem_length[pot]),
             spread=SHOOT_SPREAD,
-            sway_hz=cfg.stem_sway_hz,
+            sway_hz=float(pots.sway_hz[pot]),
             damping_ratio=cfg.stem_damping_ratio,
             hinge_height=float(pots.height[pot]) / 2,
             gravity=g,

@@ -286,6 +286,9 @@ class PotsSection:
     stem_sway_hz: float = key(
         "float", 0.01, 1000, doc="natural frequency of the shoot swaying on its stem"
     )
+    stem_sway_sd_hz: float = key(
+        "float", 0, 1000, doc="spread of the sway frequency between seedlings (gamma)"
+    )
     stem_damping_ratio: float = key("float", 0, 10, doc="damping ratio of that sway")
 
 

@@ -224,6 +224,7 @@ class SceneConfig:
     # ratio. Estimates: a 40 mm shoot flicked sideways swings a few times a second and stops
     # within a few swings.
     stem_sway_hz: float = 4.0
+    stem_sway_sd_hz: float = 0.0  # spread between seedlings (gamma: never <= 0)
     stem_damping_ratio: float = 0.2
     # Stem radius (m; visual), and the capsule proxy of each leaf (radius, half length of
     # its axis, m) that leaf_hit_pots tests against the gripper.
@@ -301,8 +302,11 @@ class SceneConfig:
                 "SceneConfig.seedling_mass must be > 0 kg and stem_damping_ratio >= 0, got "
                 f"{self.seedling_mass} and {self.stem_damping_ratio}"
             )
-        if not self.stem_sway_hz > 0:
-            raise ValueError(f"SceneConfig.stem_sway_hz must be > 0 Hz, got {self.stem_sway_hz}")
+        if not self.stem_sway_hz > 0 or not self.stem_sway_sd_hz >= 0:
+            raise ValueError(
+                "SceneConfig.stem_sway_hz must be > 0 Hz and stem_sway_sd_hz >= 0, got "
+                f"{self.stem_sway_hz} and {self.stem_sway_sd_hz}"
+            )
         if not self.canopy_friction >= 0:
             raise ValueError(
                 f"SceneConfig.canopy_friction must be >= 0, got {self.canopy_friction}"

@@ -2,7 +2,7 @@
 
 `PotBatch.draw(config, seed)` draws every random number of a scene from
 `np.random.default_rng(seed)`, always in the same order (diameter, height, mass, friction,
-offset, stem length, leaf count, leaf yaw, bond, soft), so a seed gives the same pots on every
+offset, stem length, leaf count, leaf yaw, bond, soft, sway), so a seed gives the same pots on every
 run and every machine. Pots are indexed row-major: pot i sits in row i // cols, column i % cols.
 """
 
@@ -46,7 +46,8 @@ class PotBatch:
     centre at conveyor position 0, m), stem_length (m above the pot's top), n_leaves (int),
     leaf_yaw0 (rad, yaw of leaf 0; the others follow evenly around the stem), bond_force (N,
     strength of the pot's bond to the belt; 0: none), soft (bool: a soaked pot whose wall
-    gives under the jaws).
+    gives under the jaws), sway_hz (the natural frequency of its seedling's shoot swaying on
+    its stem, Hz; transplanter.shoot).
     """
 
     diameter: np.ndarray
@@ -60,6 +61,7 @@ class PotBatch:
     leaf_yaw0: np.ndarray
     bond_force: np.ndarray
     soft: np.ndarray
+    sway_hz: np.ndarray
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -92,6 +94,7 @@ class PotBatch:
         strength = cfg.pot_bond_force * np.exp(cfg.pot_bond_sd_log * rng.standard_normal(n))
         bond_force = np.where(bonded, strength, 0.0)
         soft = rng.random(n) < cfg.pot_soft_share
+        sway_hz = gamma_of(rng.standard_normal(n), cfg.stem_sway_hz, cfg.stem_sway_sd_hz)
         return cls(
             diameter=diameter,
             height=height,
@@ -104,6 +107,7 @@ class PotBatch:
             leaf_yaw0=leaf_yaw0,
             bond_force=bond_force,
             soft=soft,
+            sway_hz=sway_hz,
         )
 
     def __len__(self) -> int:
