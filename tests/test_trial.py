@@ -454,8 +454,8 @@ def test_a_soaked_pot_gives_under_the_jaws_and_is_not_held():
 
 @pytest.mark.slow
 def test_paper_seedlings_are_not_damaged(paper_result):
-    """At the paper's speeds a shoot sways a few degrees in the jaws (about 6 deg when
-    written, one of 11 deg), far from metrics.damage_bend_deg (45): no seedling is damaged,
+    """At the paper's speeds a shoot sways a few degrees in the jaws (5.9 deg mean when
+    written, 13.4 at most), far from metrics.damage_bend_deg (45): no seedling is damaged,
     as the paper saw ("without any damage")."""
     bends = [r.peak_stem_bend_deg for r in paper_result.per_seedling]
     assert all(0.5 < b < 20.0 for b in bends), bends
