@@ -301,7 +301,8 @@ class Judge:
         if self.shoot_watch:
             qpos, qvel, t = d.qpos, d.qvel, d.time
             for watched, sway, a, v in self.shoot_watch:
-                sway.update(t, qpos[a + 3 : a + 7], qvel[v : v + 3], qvel[v + 3 : v + 6])
+                vel = qvel[v : v + 6].tolist()  # floats: numpy scalars are slow in scalar math
+                sway.update(t, qpos[a + 3 : a + 7].tolist(), vel[:3], vel[3:])
                 watched.peak_stem_bend_deg = math.degrees(sway.peak_rad)
         rec = self.current
         if rec is None:

@@ -74,9 +74,14 @@ class ShootSway:
         self.max_substep = 1.0 / (20.0 * params.sway_hz)
         self.theta_x = self.theta_y = 0.0  # about the pot's x and y axes (rad)
         self.rate_x = self.rate_y = 0.0
-        self.peak_rad = 0.0  # largest bend from the pot's axis so far
+        self._peak_cos = 1.0  # cosine of the largest bend from the pot's axis so far
         self._last: tuple[float, tuple[float, float, float], tuple[float, float, float]] | None
         self._last = None  # time, hinge velocity (world), pot angular velocity (pot frame)
+
+    @property
+    def peak_rad(self) -> float:
+        """The largest bend from the pot's axis so far."""
+        return math.acos(self._peak_cos)
 
     @property
     def bend_rad(self) -> float:
@@ -134,6 +139,6 @@ class ShootSway:
             self.rate_y += step * acc_y
             self.theta_x += step * self.rate_x
             self.theta_y += step * self.rate_y
-            bend = self.bend_rad
-            if bend > self.peak_rad:
-                self.peak_rad = bend
+            cos_bend = math.cos(self.theta_x) * math.cos(self.theta_y)
+            if cos_bend < self._peak_cos:
+                self._peak_cos = cos_bend
