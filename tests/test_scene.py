@@ -344,6 +344,49 @@ def test_shoot_sway_frequencies_are_drawn_last_from_a_gamma():
         SceneConfig(stem_sway_hz=0.0)
 
 
+def test_crooked_pots_stand_on_their_foot_with_the_wall_and_seedling_leaning():
+    """pots.crooked_share: a share of the pots (drawn last) get a flat foot and a wall that
+    leans by up to pot_crooked_max towards a random side; the pot stands upright on its foot
+    while its wall and its seedling's leaves lean (in the physics and in the decor alike)."""
+    straight = PotBatch.draw(SceneConfig(rows=4, cols=5), seed=5)
+    cfg = SceneConfig(rows=4, cols=5, pot_crooked_share=0.5, pot_crooked_max=0.15)
+    scene = build_scene(cfg, seed=5)
+    pots = scene.pots
+    for name in ("diameter", "mass", "friction", "offset", "stem_length", "sway_hz"):
+        np.testing.assert_array_equal(getattr(straight, name), getattr(pots, name))
+    crooked = np.flatnonzero(pots.crook > 0)
+    assert 5 <= crooked.size <= 15 and pots.crook.max() < 0.15
+    assert not straight.crook.any()
+    m, data = scene.model, scene.make_data()
+    for _ in range(1500):
+        mujoco.mj_step(m, data)
+    bodies = scene.pot_bodies.ravel()
+    assert np.degrees(np.arccos(data.xmat[bodies, 8])).max() < 0.5  # all stand on their feet
+    for i in range(len(pots)):
+        wall = scene.pot_geoms[i]
+        lean = np.arccos(data.geom_xmat[wall, 8])
+        assert lean == pytest.approx(pots.crook[i], abs=0.01)
+        if pots.crook[i] > 0:  # the wall's top leans towards its azimuth
+            top = data.geom_xpos[wall] - data.xpos[bodies[i]]
+            direction = np.arctan2(top[1], top[0])
+            assert np.cos(direction - pots.crook_azimuth[i]) > 0.99
+            foot = m.geom(f"pot_foot_{i // cfg.cols}_{i % cfg.cols}").id
+            assert m.geom_bodyid[foot] == bodies[i] and m.geom_friction[foot, 0] == pots.friction[i]
+    # the leaf proxies the leaf test uses lean with the wall, as the decor draws them
+    mirror = scene.render_data(data)
+    decor = scene.render_model
+    for row, (pot, centre) in enumerate(zip(scene.leaves.pot, scene.leaves.centre, strict=True)):
+        r, c = divmod(int(pot), cfg.cols)
+        k = int((scene.leaves.pot[:row] == pot).sum())
+        g = decor.geom(f"leaf_{r}_{c}_{k}").id
+        rot = data.xmat[bodies[pot]].reshape(3, 3)
+        np.testing.assert_allclose(
+            mirror.geom_xpos[g], data.xpos[bodies[pot]] + rot @ centre, atol=1e-12
+        )
+    with pytest.raises(ValueError, match="pot_crooked_max"):
+        SceneConfig(pot_crooked_max=1.0)
+
+
 def test_canopy_softness_below_two_timesteps_is_refused():
     with pytest.raises(ValueError, match="canopy_timeconst must be at least twice the timestep"):
         SceneConfig(canopy_contact=True, canopy_timeconst=0.0015)

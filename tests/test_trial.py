@@ -480,3 +480,22 @@ def test_fast_moves_whip_soft_shoots_past_their_damage_limit():
     slow = run_trial(paper_config(8, **soft))
     assert slow.successes == 8
     assert max(r.peak_stem_bend_deg for r in slow.per_seedling) < 20.0  # 16 deg when written
+
+
+@pytest.mark.slow
+def test_crooked_pots_are_straightened_by_the_jaws_and_whip_their_seedlings():
+    """pots.crooked_share: a wall leaning 10-20 deg over its foot is pulled upright when the
+    jaws close on it and swings as it is lifted, so its shoot bends far more than on a
+    nearly straight pot (median 33 against 6 deg when written); the record carries the
+    pot's lean."""
+    config = paper_config(10, **{"pots.crooked_share": 1.0, "pots.crooked_max_deg": 20.0})
+    result = run_trial(config)
+    crook = np.array([r.crook_deg for r in result.per_seedling])
+    bend = np.array([r.peak_stem_bend_deg for r in result.per_seedling])
+    pots = np.array([r.pot for r in result.per_seedling])
+    drawn = PotBatch.draw(config.scene, config.seed).crook[pots]
+    np.testing.assert_allclose(crook, np.degrees(drawn), rtol=1e-12)
+    bent, straight = bend[crook > 10.0], bend[crook < 5.0]
+    assert bent.size >= 3 and straight.size >= 2
+    assert np.median(bent) > 20.0
+    assert np.median(bent) > 3 * np.median(straight)

@@ -418,6 +418,8 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             pot_bond_sd_log=pots.bond_force_sd_log,
             pot_soft_share=pots.soft_share,
             pot_soft_wall=pots.soft_wall_m,
+            pot_crooked_share=pots.crooked_share,
+            pot_crooked_max=pots.crooked_max_rad,
             canopy_contact=pots.canopy_contact,
             canopy_timeconst=pots.canopy_timeconst_s,
             canopy_friction=pots.canopy_friction,

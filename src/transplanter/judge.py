@@ -162,6 +162,8 @@ class Judge:
         rec.canopy_pushed = rec.pot is not None and bool(self.canopy_pushed[rec.pot])
         rec.soft = rec.pot is not None and bool(self.twin.scene.pots.soft[rec.pot])
         if rec.pot is not None:
+            rec.crook_deg = math.degrees(float(self.twin.scene.pots.crook[rec.pot]))
+        if rec.pot is not None:
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
             self.shoot_watch.append(
                 (

@@ -86,6 +86,7 @@ class SeedlingRecord:
     knocked_before: bool = False
     canopy_pushed: bool = False  # before its approach a jaw had pushed its pot's leaves
     soft: bool = False  # its pot is soaked (pots.soft_share): the wall gives under the jaws
+    crook_deg: float = 0.0  # how far its pot's wall leans over its foot (pots.crooked_share)
     lifted: bool | None = None
     in_gripper_at_drop: bool | None = None
     stuck_to_belt: bool = False  # bonded, and still on the belt after the lift

@@ -275,6 +275,12 @@ class PotsSection:
     soft_wall_m: float = key(
         "float", 0.01, 100, doc="how deep a soaked pot's wall gives before it resists fully"
     )
+    crooked_share: float = key(
+        "float", 0, 1, doc="share of pots whose wall leans over its flat foot"
+    )
+    crooked_max_rad: float = key(
+        "float", 0.1, 44.9, doc="a crooked pot's wall leans up to this (uniform), to any side"
+    )
     canopy_contact: bool = key(
         "bool", doc="the leaves' capsule proxies touch the jaws (soft): they push and drag the pot"
     )

@@ -106,7 +106,13 @@ class ShootSway:
         vz = vel[2] + r20 * lx + r21 * ly
         last = self._last
         self._last = (t, (vx, vy, vz), (ox, oy, oz))
-        if last is None:
+        p = self.p
+        ml, k, c, inertia = p.mass * p.com_height, p.stiffness, p.damping, p.inertia
+        if last is None:  # start at rest where gravity holds the shoot on a tilted pot
+            gx, gy, gz = -self.g * r20, -self.g * r21, -self.g * r22
+            self.theta_x = -ml * gy / (k + ml * gz)
+            self.theta_y = ml * gx / (k + ml * gz)
+            self._peak_cos = math.cos(self.theta_x) * math.cos(self.theta_y)
             return
         dt = t - last[0]
         if dt <= 0.0:
@@ -122,8 +128,6 @@ class ShootSway:
         gx = -self.g * r20 - ax
         gy = -self.g * r21 - ay
         gz = -self.g * r22 - az
-        p = self.p
-        ml, k, c, inertia = p.mass * p.com_height, p.stiffness, p.damping, p.inertia
         # the felt acceleration is taken as constant over the interval, cut into substeps
         # of at most a twentieth of a sway
         n = max(1, math.ceil(dt / self.max_substep))

@@ -25,6 +25,7 @@ from transplanter.scene.config import (
     BIT_GRIPPER,
     BIT_POT,
     BIT_WORLD,
+    CROOKED_FOOT_HEIGHT,
     JAW_HALF_THICKNESS,
     LEAF_BASE_LOW,
     LEAF_BASE_STEP,
@@ -45,6 +46,7 @@ from transplanter.scene.geometry import (
     belt_table,
     cell_columns_x,
     column_box,
+    crook_frame,
     drop_tube_boxes,
     pot_inertia,
     rib_boxes,
@@ -353,38 +355,77 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool 
         body.ipos = [0, 0, 0]
         body.inertia = pot_inertia(total_mass, radius, h)
         body.explicitinertial = True
-        g = body.add_geom()
-        g.name = f"pot_{r}_{c}"
-        g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
-        g.size = [radius, h / 2, 0]
-        g.contype = BIT_POT | row_bit(r)
-        g.conaffinity = BIT_WORLD | BIT_POT | BIT_GRIPPER
-        g.condim = 4
-        g.priority = 1
-        g.friction = [pots.friction[i], TORSIONAL_FRICTION, ROLLING_FRICTION]
-        g.solref = list(cfg.contact_solref)
-        g.solimp = list(cfg.contact_solimp)
-        if pots.soft[i]:  # soaked: the wall gives over pot_soft_wall before it resists
-            g.solimp = [*SOFT_WALL_IMPEDANCE, cfg.pot_soft_wall, *cfg.contact_solimp[3:]]
-        g.group = 3
-        g.rgba = list(POT_COLLISION_RGBA)
+        crook = _crook(pots, i)
+        if crook is None:
+            _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", [0, 0, 0], h / 2)
+        else:  # a flat foot, the wall leaning over it; the wall's mass leans with it
+            pivot, rot, quat = crook
+            foot = CROOKED_FOOT_HEIGHT
+            _add_pot_geom(body, cfg, pots, i, f"pot_foot_{r}_{c}", pivot - [0, 0, foot / 2],
+                          foot / 2)  # fmt: skip
+            wall_half = (h - foot) / 2
+            centre = pivot + rot @ [0, 0, wall_half]
+            wall = _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", centre, wall_half)
+            wall.quat = quat
+            body.ipos = (h - foot) / h * (centre - (pivot + [0, 0, wall_half]))
         if decor:
             vis = body.add_geom()
             vis.type = mujoco.mjtGeom.mjGEOM_MESH
             vis.meshname = "paper_pot"
-            vis.pos = [0, 0, -h / 2]
+            vis.pos, vis.quat = _crooked([0, 0, -h / 2], [1, 0, 0, 0], crook)
             vis.contype = vis.conaffinity = 0
             vis.group = 2
             vis.mass = 0
             vis.material = "paper"
             _add_seedling(body, cfg, r, c, h / 2, pots.stem_length[i], pots.n_leaves[i],
-                          pots.leaf_yaw0[i])  # fmt: skip
+                          pots.leaf_yaw0[i], crook)  # fmt: skip
         elif cfg.canopy_contact:  # the physics keeps the proxies that touch the jaws
-            frames = _leaf_frames(h / 2, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i])
+            frames = _leaf_frames(
+                h / 2, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i], crook
+            )
             for k, (_, _, centre, along_x) in enumerate(frames):
                 _add_leaf_proxy(body, cfg, f"leaf_{r}_{c}_{k}", centre, along_x)
         if pots.bond_force[i] > 0:
             _add_bond(spec, cfg, body, r, c, radius, h, pots.bond_force[i])
+
+
+def _add_pot_geom(body, cfg: SceneConfig, pots: PotBatch, i: int, name, pos, half_height):
+    """A collision cylinder of pot i (its radius, friction and wall softness)."""
+    r = i // cfg.cols
+    g = body.add_geom()
+    g.name = name
+    g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+    g.size = [pots.diameter[i] / 2, half_height, 0]
+    g.pos = list(pos)
+    g.contype = BIT_POT | row_bit(r)
+    g.conaffinity = BIT_WORLD | BIT_POT | BIT_GRIPPER
+    g.condim = 4
+    g.priority = 1
+    g.friction = [pots.friction[i], TORSIONAL_FRICTION, ROLLING_FRICTION]
+    g.solref = list(cfg.contact_solref)
+    g.solimp = list(cfg.contact_solimp)
+    if pots.soft[i]:  # soaked: the wall gives over pot_soft_wall before it resists
+        g.solimp = [*SOFT_WALL_IMPEDANCE, cfg.pot_soft_wall, *cfg.contact_solimp[3:]]
+    g.group = 3
+    g.rgba = list(POT_COLLISION_RGBA)
+    return g
+
+
+def _crook(pots: PotBatch, i: int):
+    """Pot i's crook_frame (pivot, rotation, quaternion), or None for a straight pot."""
+    if pots.crook[i] == 0:
+        return None
+    return crook_frame(pots.crook[i], pots.crook_azimuth[i], pots.height[i], CROOKED_FOOT_HEIGHT)
+
+
+def _crooked(pos, quat, crook):
+    """A frame (pos, quat) of the straight pot above its foot, on the crooked pot."""
+    if crook is None:
+        return np.asarray(pos, dtype=float), np.asarray(quat, dtype=float)
+    pivot, rot, q = crook
+    out = np.zeros(4)
+    mujoco.mju_mulQuat(out, q, np.asarray(quat, dtype=float))
+    return pivot + rot @ (np.asarray(pos, dtype=float) - pivot), out
 
 
 def _add_bond(spec: mujoco.MjSpec, cfg: SceneConfig, body, r, c, radius, h, force) -> None:
@@ -421,17 +462,20 @@ def _add_bond(spec: mujoco.MjSpec, cfg: SceneConfig, body, r, c, radius, h, forc
     act.target = base.name
 
 
-def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0) -> None:
+def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0, crook) -> None:
     """Stem and leaves (visual) and a capsule proxy per leaf (leaf_hit_pots) on a pot."""
     stem_geom = body.add_geom()
     stem_geom.type = mujoco.mjtGeom.mjGEOM_CAPSULE
-    stem_geom.fromto = [0, 0, top, 0, 0, top + stem]
+    base, _ = _crooked([0, 0, top], [1, 0, 0, 0], crook)
+    tip, _ = _crooked([0, 0, top + stem], [1, 0, 0, 0], crook)
+    stem_geom.fromto = [*base, *tip]
     stem_geom.size = [cfg.stem_radius, 0, 0]
     stem_geom.contype = stem_geom.conaffinity = 0
     stem_geom.group = 2
     stem_geom.mass = 0
     stem_geom.material = "leaf"
-    for k, (base, quat, centre, along_x) in enumerate(_leaf_frames(top, stem, n_leaves, leaf_yaw0)):
+    frames = _leaf_frames(top, stem, n_leaves, leaf_yaw0, crook)
+    for k, (base, quat, centre, along_x) in enumerate(frames):
         leaf_vis = body.add_geom()
         leaf_vis.type = mujoco.mjtGeom.mjGEOM_MESH
         leaf_vis.meshname = "seedling_leaf"
@@ -467,9 +511,10 @@ def _add_leaf_proxy(body, cfg: SceneConfig, name: str, centre, along_x) -> None:
     proxy.rgba = list(LEAF_PROXY_RGBA)
 
 
-def _leaf_frames(top: float, stem: float, n_leaves: int, leaf_yaw0: float):
+def _leaf_frames(top: float, stem: float, n_leaves: int, leaf_yaw0: float, crook=None):
     """Per leaf of a seedling, in its pot's frame: the leaf mesh's base and quaternion and
-    its capsule proxy's centre and quaternion (capsule axis along the leaf)."""
+    its capsule proxy's centre and quaternion (capsule axis along the leaf); on a crooked
+    pot (crook: its crook_frame) they lean with the wall."""
     for k in range(int(n_leaves)):
         yaw = leaf_yaw0 + 2 * np.pi * k / n_leaves
         base = np.array([0, 0, top + stem * (LEAF_BASE_LOW + LEAF_BASE_STEP * (k % 2))])
@@ -480,6 +525,8 @@ def _leaf_frames(top: float, stem: float, n_leaves: int, leaf_yaw0: float):
         centre = base + rot.reshape(3, 3) @ np.array(LEAF_PROXY_CENTRE)
         along_x = np.zeros(4)
         mujoco.mju_mulQuat(along_x, quat, _CAPSULE_Z_TO_X)
+        base, quat = _crooked(base, quat, crook)
+        centre, along_x = _crooked(centre, along_x, crook)
         yield base, quat, centre, along_x
 
 
@@ -488,8 +535,9 @@ def leaf_proxies(cfg: SceneConfig, pots: PotBatch) -> LeafProxies:
     pot, centre, axis = [], [], []
     for i in range(len(pots)):
         frames = _leaf_frames(
-            pots.height[i] / 2, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i]
-        )
+            pots.height[i] / 2, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i],
+            _crook(pots, i),
+        )  # fmt: skip
         for _, _, c, along_x in frames:
             rot = np.zeros(9)
             mujoco.mju_quat2Mat(rot, along_x)

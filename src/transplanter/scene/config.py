@@ -69,6 +69,8 @@ LEAF_PROXY_CENTRE = (0.0225, 0.0, 0.004)
 # at 0.7 and 1.0 of it); its leaves spread over a disc of SHOOT_SPREAD diameter (m; two 45 mm
 # blades tip to tip, tipped up by LEAF_PITCH_RAD).
 SHOOT_COM_SHARE = 0.85
+# A crooked pot's flat foot (m): the wall above it leans (SceneConfig.pot_crooked_share).
+CROOKED_FOOT_HEIGHT = 0.006
 SHOOT_SPREAD = 0.085
 
 
@@ -204,6 +206,12 @@ class SceneConfig:
     # barely held. Estimates, no source.
     pot_soft_share: float = 0.0
     pot_soft_wall: float = 0.02
+    # Crooked pots: a share of the pots whose wall is bent over its foot: the wall leans by
+    # an angle drawn uniformly up to pot_crooked_max (rad) towards a random side, on a flat
+    # foot CROOKED_FOOT_HEIGHT tall (the pot stands flat; its top and seedling lean).
+    # Estimates, no source.
+    pot_crooked_share: float = 0.0
+    pot_crooked_max: float = 0.1
     # Seedling canopies touching the jaws: each leaf's capsule proxy collides with the jaws
     # only (nothing else), with a soft contact (time constant, s: leaves bend away) and its
     # own friction; a push or a drag on a leaf moves its pot. Off: leaves are only tested
@@ -288,6 +296,15 @@ class SceneConfig:
         if not 0 <= self.pot_soft_share <= 1:
             raise ValueError(
                 f"SceneConfig.pot_soft_share must be in [0, 1], got {self.pot_soft_share}"
+            )
+        if not 0 <= self.pot_crooked_share <= 1:
+            raise ValueError(
+                f"SceneConfig.pot_crooked_share must be in [0, 1], got {self.pot_crooked_share}"
+            )
+        if not 0 < self.pot_crooked_max < np.pi / 4:
+            raise ValueError(
+                "SceneConfig.pot_crooked_max must be in (0, pi/4) rad (a wall bent further "
+                f"would not stand), got {self.pot_crooked_max}"
             )
         if not self.pot_soft_wall > 0:
             raise ValueError(f"SceneConfig.pot_soft_wall must be > 0 m, got {self.pot_soft_wall}")

@@ -80,6 +80,21 @@ def pot_inertia(mass: float, radius: float, height: float) -> np.ndarray:
     return np.array([ixx, ixx, mass * radius**2 / 2])
 
 
+def crook_frame(
+    crook: float, azimuth: float, height: float, foot: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A crooked pot's wall in its body frame (origin at the pot's centre): the pivot at the
+    top of its flat foot, the rotation (3x3) and quaternion (w, x, y, z) that lean the wall
+    by `crook` (rad) towards `azimuth` (rad from +x). A point p of the straight pot above
+    the foot sits at pivot + R (p - pivot) on the crooked one."""
+    u = np.array([-np.sin(azimuth), np.cos(azimuth), 0.0])  # z x (cos az, sin az, 0)
+    cross = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    rot = np.eye(3) * np.cos(crook) + np.sin(crook) * cross + (1 - np.cos(crook)) * np.outer(u, u)
+    quat = np.concatenate([[np.cos(crook / 2)], np.sin(crook / 2) * u])
+    pivot = np.array([0.0, 0.0, -height / 2 + foot])
+    return pivot, rot, quat
+
+
 def cell_columns_x(config: SceneConfig) -> np.ndarray:
     """x (m) of the centres of the cols cells of a row, symmetric about x = 0."""
     return (np.arange(config.cols) - (config.cols - 1) / 2) * config.cell_pitch

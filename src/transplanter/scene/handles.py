@@ -122,6 +122,10 @@ class Scene:
         self._is_jaw[self.jaw_geoms] = True
         self._pot_of_geom = np.full(ngeom, -1)
         self._pot_of_geom[self.pot_geoms] = np.arange(flat.size)
+        for g in range(ngeom):  # crooked pots' feet (build.add_pots)
+            if (m.geom(g).name or "").startswith("pot_foot_"):
+                r, c = (int(x) for x in m.geom(g).name.split("_")[2:4])
+                self._pot_of_geom[g] = r * config.cols + c
         self._pot_of_geom_list = self._pot_of_geom.tolist()
         # leaf proxies in the physics model (pots.canopy_contact): their pot, else -1
         leaf_pot = np.full(ngeom, -1)

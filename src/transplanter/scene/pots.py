@@ -2,8 +2,9 @@
 
 `PotBatch.draw(config, seed)` draws every random number of a scene from
 `np.random.default_rng(seed)`, always in the same order (diameter, height, mass, friction,
-offset, stem length, leaf count, leaf yaw, bond, soft, sway), so a seed gives the same pots on every
-run and every machine. Pots are indexed row-major: pot i sits in row i // cols, column i % cols.
+offset, stem length, leaf count, leaf yaw, bond, soft, sway, crook), so a seed gives the same
+pots on every run and every machine. Pots are indexed row-major: pot i sits in row i // cols,
+column i % cols.
 """
 
 from __future__ import annotations
@@ -47,7 +48,8 @@ class PotBatch:
     leaf_yaw0 (rad, yaw of leaf 0; the others follow evenly around the stem), bond_force (N,
     strength of the pot's bond to the belt; 0: none), soft (bool: a soaked pot whose wall
     gives under the jaws), sway_hz (the natural frequency of its seedling's shoot swaying on
-    its stem, Hz; transplanter.shoot).
+    its stem, Hz; transplanter.shoot), crook (rad: how far its wall leans over its foot; 0
+    for a straight pot) and crook_azimuth (rad: towards which side, from +x).
     """
 
     diameter: np.ndarray
@@ -62,6 +64,8 @@ class PotBatch:
     bond_force: np.ndarray
     soft: np.ndarray
     sway_hz: np.ndarray
+    crook: np.ndarray
+    crook_azimuth: np.ndarray
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -95,6 +99,9 @@ class PotBatch:
         bond_force = np.where(bonded, strength, 0.0)
         soft = rng.random(n) < cfg.pot_soft_share
         sway_hz = gamma_of(rng.standard_normal(n), cfg.stem_sway_hz, cfg.stem_sway_sd_hz)
+        crooked = rng.random(n) < cfg.pot_crooked_share
+        crook = np.where(crooked, rng.uniform(0.0, cfg.pot_crooked_max, n), 0.0)
+        crook_azimuth = rng.uniform(0.0, 2 * np.pi, n)
         return cls(
             diameter=diameter,
             height=height,
@@ -108,6 +115,8 @@ class PotBatch:
             bond_force=bond_force,
             soft=soft,
             sway_hz=sway_hz,
+            crook=crook,
+            crook_azimuth=crook_azimuth,
         )
 
     def __len__(self) -> int:
