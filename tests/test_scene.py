@@ -387,6 +387,25 @@ def test_crooked_pots_stand_on_their_foot_with_the_wall_and_seedling_leaning():
         SceneConfig(pot_crooked_max=1.0)
 
 
+def test_an_uneven_fill_lowers_the_pots_mass_and_its_seedling():
+    """pots.fill_gap: each pot's soil lies a drawn gap below its rim (drawn last): the pot's
+    centre of mass sits half the gap lower, its seedling's leaves the whole gap lower."""
+    full = build_scene(SceneConfig(rows=2, cols=5), seed=6)
+    cfg = SceneConfig(rows=2, cols=5, pot_fill_gap=0.008, pot_fill_gap_sd=0.004)
+    uneven = build_scene(cfg, seed=6)
+    gap = uneven.pots.fill_gap
+    assert not full.pots.fill_gap.any() and gap.min() >= 0 and 0.004 < gap.mean() < 0.012
+    for name in ("diameter", "height", "mass", "friction", "offset", "stem_length", "crook"):
+        np.testing.assert_array_equal(getattr(full.pots, name), getattr(uneven.pots, name))
+    bodies = uneven.pot_bodies.ravel()
+    np.testing.assert_allclose(uneven.model.body_ipos[bodies, 2], -gap / 2, rtol=1e-12)
+    np.testing.assert_array_equal(full.model.body_ipos[full.pot_bodies.ravel()], 0.0)
+    drop = full.leaves.centre[:, 2] - uneven.leaves.centre[:, 2]
+    np.testing.assert_allclose(drop, gap[uneven.leaves.pot], rtol=1e-9)
+    with pytest.raises(ValueError, match="pot_fill_gap"):
+        SceneConfig(pot_fill_gap=0.05)
+
+
 def test_canopy_softness_below_two_timesteps_is_refused():
     with pytest.raises(ValueError, match="canopy_timeconst must be at least twice the timestep"):
         SceneConfig(canopy_contact=True, canopy_timeconst=0.0015)

@@ -420,6 +420,8 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             pot_soft_wall=pots.soft_wall_m,
             pot_crooked_share=pots.crooked_share,
             pot_crooked_max=pots.crooked_max_rad,
+            pot_fill_gap=pots.fill_gap_m,
+            pot_fill_gap_sd=pots.fill_gap_sd_m,
             canopy_contact=pots.canopy_contact,
             canopy_timeconst=pots.canopy_timeconst_s,
             canopy_friction=pots.canopy_friction,

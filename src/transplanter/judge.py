@@ -184,7 +184,7 @@ class Judge:
             spread=SHOOT_SPREAD,
             sway_hz=float(pots.sway_hz[pot]),
             damping_ratio=cfg.stem_damping_ratio,
-            hinge_height=float(pots.height[pot]) / 2,
+            hinge_height=float(pots.height[pot]) / 2 - float(pots.fill_gap[pot]),
             gravity=g,
         )
         return ShootSway(params, gravity=g)

@@ -281,6 +281,10 @@ class PotsSection:
     crooked_max_rad: float = key(
         "float", 0.1, 44.9, doc="a crooked pot's wall leans up to this (uniform), to any side"
     )
+    fill_gap_m: float = key(
+        "float", 0, 20, doc="how far below the rim a pot's soil lies (mean; normal, truncated)"
+    )
+    fill_gap_sd_m: float = key("float", 0, 20, doc="spread of the fill gaps between pots")
     canopy_contact: bool = key(
         "bool", doc="the leaves' capsule proxies touch the jaws (soft): they push and drag the pot"
     )

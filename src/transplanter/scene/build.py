@@ -352,10 +352,11 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool 
         body.add_freejoint()
         total_mass = pots.mass[i] + cfg.seedling_mass
         body.mass = total_mass
-        body.ipos = [0, 0, 0]
+        body.ipos = [0, 0, 0.0 - pots.fill_gap[i] / 2]  # the soil sits below the gap
         body.inertia = pot_inertia(total_mass, radius, h)
         body.explicitinertial = True
         crook = _crook(pots, i)
+        soil = h / 2 - pots.fill_gap[i]  # the seedling stands on the soil (pot frame)
         if crook is None:
             _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", [0, 0, 0], h / 2)
         else:  # a flat foot, the wall leaning over it; the wall's mass leans with it
@@ -367,7 +368,7 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool 
             centre = pivot + rot @ [0, 0, wall_half]
             wall = _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", centre, wall_half)
             wall.quat = quat
-            body.ipos = (h - foot) / h * (centre - (pivot + [0, 0, wall_half]))
+            body.ipos += (h - foot) / h * (centre - (pivot + [0, 0, wall_half]))
         if decor:
             vis = body.add_geom()
             vis.type = mujoco.mjtGeom.mjGEOM_MESH
@@ -377,11 +378,11 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool 
             vis.group = 2
             vis.mass = 0
             vis.material = "paper"
-            _add_seedling(body, cfg, r, c, h / 2, pots.stem_length[i], pots.n_leaves[i],
+            _add_seedling(body, cfg, r, c, soil, pots.stem_length[i], pots.n_leaves[i],
                           pots.leaf_yaw0[i], crook)  # fmt: skip
         elif cfg.canopy_contact:  # the physics keeps the proxies that touch the jaws
             frames = _leaf_frames(
-                h / 2, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i], crook
+                soil, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i], crook
             )
             for k, (_, _, centre, along_x) in enumerate(frames):
                 _add_leaf_proxy(body, cfg, f"leaf_{r}_{c}_{k}", centre, along_x)
@@ -535,7 +536,8 @@ def leaf_proxies(cfg: SceneConfig, pots: PotBatch) -> LeafProxies:
     pot, centre, axis = [], [], []
     for i in range(len(pots)):
         frames = _leaf_frames(
-            pots.height[i] / 2, pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i],
+            pots.height[i] / 2 - pots.fill_gap[i], pots.stem_length[i], pots.n_leaves[i],
+            pots.leaf_yaw0[i],
             _crook(pots, i),
         )  # fmt: skip
         for _, _, c, along_x in frames:

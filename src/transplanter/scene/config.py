@@ -71,6 +71,8 @@ LEAF_PROXY_CENTRE = (0.0225, 0.0, 0.004)
 SHOOT_COM_SHARE = 0.85
 # A crooked pot's flat foot (m): the wall above it leans (SceneConfig.pot_crooked_share).
 CROOKED_FOOT_HEIGHT = 0.006
+# The deepest a pot's soil may lie below its rim (m; SceneConfig.pot_fill_gap).
+POT_FILL_GAP_MAX = 0.02
 SHOOT_SPREAD = 0.085
 
 
@@ -212,6 +214,11 @@ class SceneConfig:
     # Estimates, no source.
     pot_crooked_share: float = 0.0
     pot_crooked_max: float = 0.1
+    # Uneven fill: how far below the rim a pot's soil lies (m): a normal truncated to
+    # [0, POT_FILL_GAP_MAX]. The pot's centre of mass sits half of it lower and its seedling
+    # stands on the soil, all of it lower. Estimates, no source.
+    pot_fill_gap: float = 0.0
+    pot_fill_gap_sd: float = 0.0
     # Seedling canopies touching the jaws: each leaf's capsule proxy collides with the jaws
     # only (nothing else), with a soft contact (time constant, s: leaves bend away) and its
     # own friction; a push or a drag on a leaf moves its pot. Off: leaves are only tested
@@ -305,6 +312,11 @@ class SceneConfig:
             raise ValueError(
                 "SceneConfig.pot_crooked_max must be in (0, pi/4) rad (a wall bent further "
                 f"would not stand), got {self.pot_crooked_max}"
+            )
+        if not (0 <= self.pot_fill_gap <= POT_FILL_GAP_MAX and self.pot_fill_gap_sd >= 0):
+            raise ValueError(
+                f"SceneConfig.pot_fill_gap must be in [0, {POT_FILL_GAP_MAX}] m and "
+                f"pot_fill_gap_sd >= 0, got {self.pot_fill_gap} and {self.pot_fill_gap_sd}"
             )
         if not self.pot_soft_wall > 0:
             raise ValueError(f"SceneConfig.pot_soft_wall must be > 0 m, got {self.pot_soft_wall}")

@@ -2,8 +2,8 @@
 
 `PotBatch.draw(config, seed)` draws every random number of a scene from
 `np.random.default_rng(seed)`, always in the same order (diameter, height, mass, friction,
-offset, stem length, leaf count, leaf yaw, bond, soft, sway, crook), so a seed gives the same
-pots on every run and every machine. Pots are indexed row-major: pot i sits in row i // cols,
+offset, stem length, leaf count, leaf yaw, bond, soft, sway, crook, fill), so a seed gives the
+same pots on every run and every machine. Pots are indexed row-major: pot i sits in row i // cols,
 column i % cols.
 """
 
@@ -14,7 +14,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy.special import gammaincinv, ndtr, ndtri
 
-from transplanter.scene.config import SceneConfig
+from transplanter.scene.config import POT_FILL_GAP_MAX, SceneConfig
 from transplanter.scene.geometry import cell_centres
 
 
@@ -49,7 +49,8 @@ class PotBatch:
     strength of the pot's bond to the belt; 0: none), soft (bool: a soaked pot whose wall
     gives under the jaws), sway_hz (the natural frequency of its seedling's shoot swaying on
     its stem, Hz; transplanter.shoot), crook (rad: how far its wall leans over its foot; 0
-    for a straight pot) and crook_azimuth (rad: towards which side, from +x).
+    for a straight pot), crook_azimuth (rad: towards which side, from +x) and fill_gap (m:
+    how far below the rim its soil lies).
     """
 
     diameter: np.ndarray
@@ -66,6 +67,7 @@ class PotBatch:
     sway_hz: np.ndarray
     crook: np.ndarray
     crook_azimuth: np.ndarray
+    fill_gap: np.ndarray
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -102,6 +104,9 @@ class PotBatch:
         crooked = rng.random(n) < cfg.pot_crooked_share
         crook = np.where(crooked, rng.uniform(0.0, cfg.pot_crooked_max, n), 0.0)
         crook_azimuth = rng.uniform(0.0, 2 * np.pi, n)
+        fill_gap = truncated_normal(
+            rng.standard_normal(n), cfg.pot_fill_gap, cfg.pot_fill_gap_sd, 0.0, POT_FILL_GAP_MAX
+        )
         return cls(
             diameter=diameter,
             height=height,
@@ -117,6 +122,7 @@ class PotBatch:
             sway_hz=sway_hz,
             crook=crook,
             crook_azimuth=crook_azimuth,
+            fill_gap=fill_gap,
         )
 
     def __len__(self) -> int:
