@@ -16,7 +16,7 @@ STILL = (0.0, 0.0, 0.0)
 def params(sway_hz=4.0, damping_ratio=0.2):
     return shoot_params(
         mass=0.003, com_height=0.034, spread=0.085, sway_hz=sway_hz,
-        damping_ratio=damping_ratio, hinge_height=0.026,
+        damping_ratio=damping_ratio, hinge=(0.0, 0.0, 0.026),
     )  # fmt: skip
 
 
@@ -58,6 +58,25 @@ def test_a_shoot_on_a_pot_lying_on_its_side_droops_by_its_weight():
     assert sway.theta_x == 0.0
 
 
+def test_a_shoot_on_a_leaning_wall_stands_upright_when_the_wall_is_pulled_upright():
+    """A crooked pot's shoot stands along its wall (`mount`): with the pot upright the wall
+    leans 15 deg and gravity droops the shoot off the wall's axis; tilt the pot back by
+    those 15 deg, so the wall is upright, and the shoot stands straight on it."""
+    phi = math.radians(15.0)
+    mount = [[math.cos(phi), 0, math.sin(phi)], [0, 1, 0], [-math.sin(phi), 0, math.cos(phi)]]
+    leaning = ShootSway(params(), mount=mount)
+    leaning.update(0.0, UPRIGHT, STILL, STILL)
+    p = params()
+    droop = p.mass * 9.81 * p.com_height * math.sin(phi)
+    assert leaning.theta_y == pytest.approx(droop / (p.stiffness - p.mass * 9.81 * p.com_height
+                                                     * math.cos(phi)), rel=1e-9)  # fmt: skip
+    back = (math.cos(-phi / 2), 0.0, math.sin(-phi / 2), 0.0)  # the pot tilted by -15 deg
+    straight = ShootSway(params(), mount=mount)
+    for k in range(100):
+        straight.update(0.01 * k, back, STILL, STILL)
+    assert abs(straight.theta_x) < 1e-12 and abs(straight.theta_y) < 1e-12
+
+
 def test_a_stiff_shoot_is_advanced_in_substeps_and_stays_stable():
     sway = ShootSway(params(sway_hz=60.0))  # a period of 17 ms, updates every 10 ms
     sway.update(0.0, UPRIGHT, STILL, STILL)
@@ -77,7 +96,7 @@ def _mujoco_bend(p, accel_profile, dt=0.001):
       <worldbody><body name="base">
         <joint name="bx" type="slide" axis="1 0 0"/><joint name="by" type="slide" axis="0 1 0"/>
         <inertial pos="0 0 0" mass="100" diaginertia="1 1 1"/>
-        <body name="shoot" pos="0 0 {p.hinge_height}">
+        <body name="shoot" pos="0 0 {p.hinge[2]}">
           <joint name="hx" type="hinge" axis="1 0 0" {spring}/>
           <joint name="hy" type="hinge" axis="0 1 0" {spring}/>
           <inertial pos="0 0 {p.com_height}" mass="{p.mass}"

@@ -18,7 +18,8 @@ import numpy as np
 from transplanter.config import JudgeConfig
 from transplanter.firmware.pgf import LinePhase
 from transplanter.results import EventKind, Outcome, SeedlingRecord
-from transplanter.scene.config import SHOOT_COM_SHARE, SHOOT_SPREAD
+from transplanter.scene.config import CROOKED_FOOT_HEIGHT, SHOOT_COM_SHARE, SHOOT_SPREAD
+from transplanter.scene.geometry import crook_frame
 from transplanter.shoot import ShootSway, shoot_params
 from transplanter.sim import LineEvent, LineEventKind, Twin
 from transplanter.units import M_PER_MM
@@ -175,19 +176,27 @@ class Judge:
             )
 
     def _shoot(self, pot: int) -> ShootSway:
-        """The sway of a pot's shoot, at rest on its pot (transplanter.shoot)."""
+        """The sway of a pot's shoot, at rest on its pot (transplanter.shoot); on a crooked
+        pot it stands on the leaning wall's top."""
         cfg, pots = self.twin.scene.config, self.twin.scene.pots
         g = -float(self.twin.model.opt.gravity[2])
+        hinge = np.array([0.0, 0.0, pots.height[pot] / 2 - pots.fill_gap[pot]])
+        mount = None
+        if pots.crook[pot] > 0:
+            pivot, mount, _ = crook_frame(
+                pots.crook[pot], pots.crook_azimuth[pot], pots.height[pot], CROOKED_FOOT_HEIGHT
+            )
+            hinge = pivot + mount @ (hinge - pivot)
         params = shoot_params(
             mass=cfg.seedling_mass,
             com_height=SHOOT_COM_SHARE * float(pots.stem_length[pot]),
             spread=SHOOT_SPREAD,
             sway_hz=float(pots.sway_hz[pot]),
             damping_ratio=cfg.stem_damping_ratio,
-            hinge_height=float(pots.height[pot]) / 2 - float(pots.fill_gap[pot]),
+            hinge=tuple(hinge),
             gravity=g,
         )
-        return ShootSway(params, gravity=g)
+        return ShootSway(params, gravity=g, mount=mount)
 
     def _cell_had_a_pot(self, grip_xy: np.ndarray) -> bool:
         """Whether a pot was placed, at the start, in the cell that the conveyor has since

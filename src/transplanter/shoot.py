@@ -27,14 +27,14 @@ GRAVITY_M_S2 = 9.81
 class ShootParams:
     """A shoot on its hinge: mass (kg), centre of mass above the hinge (m), inertia about
     the hinge's axes (kg m^2), stiffness (N m/rad) and damping (N m s/rad), and where the
-    hinge sits above the pot's centre (m)."""
+    hinge sits from the pot's centre (m, pot frame)."""
 
     mass: float
     com_height: float
     inertia: float
     stiffness: float
     damping: float
-    hinge_height: float
+    hinge: tuple[float, float, float]
     sway_hz: float
 
 
@@ -44,7 +44,7 @@ def shoot_params(
     spread: float,
     sway_hz: float,
     damping_ratio: float,
-    hinge_height: float,
+    hinge: tuple[float, float, float],
     gravity: float = GRAVITY_M_S2,
 ) -> ShootParams:
     """The hinge that makes a shoot of `mass` (leaves as a disc of diameter `spread` at
@@ -58,7 +58,7 @@ def shoot_params(
         inertia=inertia,
         stiffness=inertia * omega**2 + mass * gravity * com_height,
         damping=2 * damping_ratio * omega * inertia,
-        hinge_height=hinge_height,
+        hinge=(float(hinge[0]), float(hinge[1]), float(hinge[2])),
         sway_hz=sway_hz,
     )
 
@@ -66,11 +66,16 @@ def shoot_params(
 class ShootSway:
     """The bend of one shoot, advanced from its pot's state (semi-implicit Euler over the
     interval since the last update; the pot's velocity change over it acts as an impulse,
-    so a landing shorter than the interval still delivers its whole kick)."""
+    so a landing shorter than the interval still delivers its whole kick).
 
-    def __init__(self, params: ShootParams, gravity: float = GRAVITY_M_S2) -> None:
+    The shoot stands along the pot's axis, or, given `mount` (a rotation matrix, 3x3, from
+    the shoot's base frame to the pot's: a crooked pot's wall), along the mount's z axis;
+    its angles and bend are taken in that frame."""
+
+    def __init__(self, params: ShootParams, gravity: float = GRAVITY_M_S2, mount=None) -> None:
         self.p = params
         self.g = gravity
+        self.mount = None if mount is None else [[float(v) for v in row] for row in mount]
         self.max_substep = 1.0 / (20.0 * params.sway_hz)
         self.theta_x = self.theta_y = 0.0  # about the pot's x and y axes (rad)
         self.rate_x = self.rate_y = 0.0
@@ -98,12 +103,26 @@ class ShootSway:
         r10, r11, r12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
         r20, r21, r22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
         ox, oy, oz = omega_local
-        h = self.p.hinge_height
-        # hinge point velocity: the centre's plus omega x (0, 0, h) in the pot frame
-        lx, ly = oy * h, -ox * h
-        vx = vel[0] + r00 * lx + r01 * ly
-        vy = vel[1] + r10 * lx + r11 * ly
-        vz = vel[2] + r20 * lx + r21 * ly
+        hx, hy, hz = self.p.hinge
+        # hinge point velocity: the centre's plus omega x hinge, in the pot frame
+        lx, ly, lz = oy * hz - oz * hy, oz * hx - ox * hz, ox * hy - oy * hx
+        vx = vel[0] + r00 * lx + r01 * ly + r02 * lz
+        vy = vel[1] + r10 * lx + r11 * ly + r12 * lz
+        vz = vel[2] + r20 * lx + r21 * ly + r22 * lz
+        if self.mount is not None:  # the shoot's base frame: R_pot M, omega in it M^T omega
+            (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self.mount
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = (
+                r00 * m00 + r01 * m10 + r02 * m20, r00 * m01 + r01 * m11 + r02 * m21,
+                r00 * m02 + r01 * m12 + r02 * m22, r10 * m00 + r11 * m10 + r12 * m20,
+                r10 * m01 + r11 * m11 + r12 * m21, r10 * m02 + r11 * m12 + r12 * m22,
+                r20 * m00 + r21 * m10 + r22 * m20, r20 * m01 + r21 * m11 + r22 * m21,
+                r20 * m02 + r21 * m12 + r22 * m22,
+            )  # fmt: skip
+            ox, oy, oz = (
+                m00 * ox + m10 * oy + m20 * oz,
+                m01 * ox + m11 * oy + m21 * oz,
+                m02 * ox + m12 * oy + m22 * oz,
+            )
         last = self._last
         self._last = (t, (vx, vy, vz), (ox, oy, oz))
         p = self.p
