@@ -164,16 +164,9 @@ class Judge:
         rec.soft = rec.pot is not None and bool(self.twin.scene.pots.soft[rec.pot])
         if rec.pot is not None:
             rec.crook_deg = math.degrees(float(self.twin.scene.pots.crook[rec.pot]))
-        if rec.pot is not None:
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
-            self.shoot_watch.append(
-                (
-                    rec,
-                    self._shoot(rec.pot),
-                    int(self.pot_qadr[rec.pot]),
-                    int(self.pot_dadr[rec.pot]),
-                )
-            )
+            a, v = int(self.pot_qadr[rec.pot]), int(self.pot_dadr[rec.pot])
+            self.shoot_watch.append((rec, self._shoot(rec.pot), a, v))
 
     def _shoot(self, pot: int) -> ShootSway:
         """The sway of a pot's shoot, at rest on its pot (transplanter.shoot); on a crooked
