@@ -259,7 +259,9 @@ class Judge:
     def failure_kind(rec: SeedlingRecord) -> Outcome:
         """The first check a seedling whose pot is not in the tube failed."""
         if rec.knocked_before:
-            return Outcome.TIPPED_BY_LEAF if rec.canopy_pushed else Outcome.KNOCKED_OVER
+            if rec.canopy_pushed:
+                return Outcome.TIPPED_BY_LEAF
+            return Outcome.CROOKED_POT if rec.crook_deg > 0 else Outcome.KNOCKED_OVER
         if rec.position_error_microsteps:  # off position from the start: the earlier strike
             return Outcome.POSITION_LOST
         if rec.microsteps_lost:
@@ -267,7 +269,9 @@ class Judge:
         if not rec.lifted:
             if rec.stuck_to_belt:
                 return Outcome.STUCK_TO_BELT
-            return Outcome.SOFT_POT if rec.soft else Outcome.NOT_GRIPPED
+            if rec.soft:
+                return Outcome.SOFT_POT
+            return Outcome.CROOKED_POT if rec.crook_deg > 0 else Outcome.NOT_GRIPPED
         if not rec.in_gripper_at_drop:
             return Outcome.SLIPPED
         return Outcome.DROPPED_OUTSIDE

@@ -38,6 +38,8 @@ class Outcome(StrEnum):
     KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
     # ... after the jaws had pushed its leaves (pots.canopy_contact): the canopy did it
     TIPPED_BY_LEAF = "tipped_by_leaf"
+    # ... or, knocked over or not lifted, its wall leant over its foot (pots.crooked_share)
+    CROOKED_POT = "crooked_pot"
     NO_POT = "no_pot"  # the cell the pickup points at holds no pot
     LOST_STEPS = "lost_steps"  # a motor slipped during this cycle (the strike itself)
     POSITION_LOST = "position_lost"  # an earlier lost-step event left the arm off position
