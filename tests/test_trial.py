@@ -486,7 +486,7 @@ def test_fast_moves_whip_soft_shoots_past_their_damage_limit():
 def test_crooked_pots_are_straightened_by_the_jaws_and_whip_their_seedlings():
     """pots.crooked_share: a wall leaning 10-20 deg over its foot is pulled upright when the
     jaws close on it and swings as it is lifted, so its shoot bends far more than on a
-    nearly straight pot (median 33 against 6 deg when written); the record carries the
+    nearly straight pot (median about 30 against 7 deg when written); the record carries the
     pot's lean."""
     config = paper_config(10, **{"pots.crooked_share": 1.0, "pots.crooked_max_deg": 20.0})
     result = run_trial(config)
