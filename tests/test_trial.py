@@ -107,15 +107,22 @@ def test_raising_s_high_shortens_the_cycle():
 def test_approach_too_low_knocks_the_neighbours():
     """The paper approaches at Z_low = 34 mm. At 22 mm the jaw tips (22.5 mm below the grip
     centre) reach into the belt: they strike it, a motor slips, and the open-loop arm stays
-    off position, so the success rate collapses. (At 26 mm the palm sweeps the 52 mm rims,
-    but the held belt keeps the pots in their cells: a 4-full-step slip, the picks land.)"""
+    off position, so the success rate collapses. At 28 mm the palm comes down on the 52 mm
+    rims: the held belt keeps the pots in their cells and the picks land, but the jaws close
+    on pots the palm has tipped, and a pot dropped tipped tumbles down the tube and whips its
+    seedling past the damage limit (7 of 10 `damaged` when written)."""
     good = run_trial(paper_config(10))
     low = run_trial(paper_config(10, **{"taught.z_low_mm": 22.0}))
     assert good.success_rate == 1.0
+    assert max(r.peak_stem_bend_deg for r in good.per_seedling) < 20.0
     assert low.success_rate <= 0.5
     failures = low.failures()
     struck = ("not_gripped", "knocked_over", "slipped", "lost_steps", "position_lost")
     assert sum(failures[k] for k in struck) >= 4
+    edge = run_trial(paper_config(10, **{"taught.z_low_mm": 28.0}))
+    damaged = [r for r in edge.per_seedling if r.outcome == Outcome.DAMAGED]
+    assert len(damaged) >= 4
+    assert all(r.lifted and r.in_gripper_at_drop and r.microsteps_lost == 0 for r in damaged)
 
 
 def test_rejected_move_is_recorded_and_nothing_after_it_runs(tmp_path):
