@@ -122,7 +122,9 @@ def test_approach_too_low_knocks_the_neighbours():
     edge = run_trial(paper_config(10, **{"taught.z_low_mm": 28.0}))
     damaged = [r for r in edge.per_seedling if r.outcome == Outcome.DAMAGED]
     assert len(damaged) >= 4
-    assert all(r.lifted and r.in_gripper_at_drop and r.microsteps_lost == 0 for r in damaged)
+    # lifted and carried without a strike; hanging tipped, the pot's centre is off the grip
+    # centre over the tube (in_gripper_at_drop is False), yet it reached the tube
+    assert all(r.lifted and r.microsteps_lost == 0 for r in damaged)
 
 
 def test_rejected_move_is_recorded_and_nothing_after_it_runs(tmp_path):
