@@ -63,22 +63,26 @@ def test_a_pot_taken_out_of_its_cell_is_knocked_over():
 def test_failure_kind_takes_the_first_failed_check():
     rec = SeedlingRecord(0, 0, knocked_before=True, microsteps_lost=64, lifted=False)
     assert Judge.failure_kind(rec) == Outcome.KNOCKED_OVER
+    rec.row_off = True  # the last index left the row off its place: the belt did it
+    assert Judge.failure_kind(rec) == Outcome.ROW_OFF
     rec.crook_deg = 6.0  # its wall leant over its foot: the crooked pot fell
     assert Judge.failure_kind(rec) == Outcome.CROOKED_POT
     rec.canopy_pushed = True  # a jaw had pushed its leaves before: the canopy did it
     assert Judge.failure_kind(rec) == Outcome.TIPPED_BY_LEAF
-    rec.knocked_before, rec.crook_deg = False, 0.0
+    rec.knocked_before, rec.crook_deg, rec.row_off = False, 0.0, False
     rec.position_error_microsteps = 64  # it started off position: the earlier strike
     assert Judge.failure_kind(rec) == Outcome.POSITION_LOST
     rec.position_error_microsteps = 0
     assert Judge.failure_kind(rec) == Outcome.LOST_STEPS
     rec.microsteps_lost = 0
     assert Judge.failure_kind(rec) == Outcome.NOT_GRIPPED
+    rec.row_off = True  # the jaws closed where the row should have been
+    assert Judge.failure_kind(rec) == Outcome.ROW_OFF
     rec.crook_deg = 6.0  # a crooked pot that did not rise
     assert Judge.failure_kind(rec) == Outcome.CROOKED_POT
     rec.soft = True  # a soaked pot that did not rise: its wall gave under the jaws
     assert Judge.failure_kind(rec) == Outcome.SOFT_POT
-    rec.soft, rec.crook_deg = False, 0.0
+    rec.soft, rec.crook_deg, rec.row_off = False, 0.0, False
     rec.lifted, rec.in_gripper_at_drop = True, False
     assert Judge.failure_kind(rec) == Outcome.SLIPPED
     rec.in_gripper_at_drop = True

@@ -350,6 +350,20 @@ def test_an_index_error_leaves_the_row_off_until_the_next_index_takes_it_back():
 
 
 @pytest.mark.slow
+def test_a_row_the_index_left_far_off_is_missed_and_named_row_off():
+    """conveyor.index_error_sd_mm = 10: the third row stops 12.5 mm and the fourth 12.9 mm
+    off their places (when written); the jaws close beside their pots, and each of those
+    failures is `row_off` (the belt did it), with the offset in its record."""
+    result = run_trial(paper_config(20, **{"conveyor.index_error_sd_mm": 10.0}))
+    failed = [r for r in result.per_seedling if r.outcome != Outcome.SUCCESS]
+    assert len(failed) >= 5
+    for rec in failed:
+        assert rec.outcome == Outcome.ROW_OFF and rec.row_off
+        assert abs(rec.row_offset_mm) > 4.0
+    assert all(abs(r.row_offset_mm) < 4.0 for r in result.per_seedling[:5])  # row 1: not off
+
+
+@pytest.mark.slow
 def test_frictionless_pots_are_never_carried():
     result = run_trial(paper_config(3, **{"pots.friction": 0.0, "pots.friction_sd": 0.0}))
     assert result.successes == 0

@@ -162,6 +162,8 @@ class Judge:
         )
         rec.canopy_pushed = rec.pot is not None and bool(self.canopy_pushed[rec.pot])
         rec.soft = rec.pot is not None and bool(self.twin.scene.pots.soft[rec.pot])
+        rec.row_offset_mm = self.twin.conveyor.grid_offset(self.twin.data) / M_PER_MM
+        rec.row_off = abs(rec.row_offset_mm) * M_PER_MM > 0.5 * self.config.knocked_offset_m
         if rec.pot is not None:
             rec.crook_deg = math.degrees(float(self.twin.scene.pots.crook[rec.pot]))
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
@@ -261,7 +263,9 @@ class Judge:
         if rec.knocked_before:
             if rec.canopy_pushed:
                 return Outcome.TIPPED_BY_LEAF
-            return Outcome.CROOKED_POT if rec.crook_deg > 0 else Outcome.KNOCKED_OVER
+            if rec.crook_deg > 0:
+                return Outcome.CROOKED_POT
+            return Outcome.ROW_OFF if rec.row_off else Outcome.KNOCKED_OVER
         if rec.position_error_microsteps:  # off position from the start: the earlier strike
             return Outcome.POSITION_LOST
         if rec.microsteps_lost:
@@ -271,7 +275,9 @@ class Judge:
                 return Outcome.STUCK_TO_BELT
             if rec.soft:
                 return Outcome.SOFT_POT
-            return Outcome.CROOKED_POT if rec.crook_deg > 0 else Outcome.NOT_GRIPPED
+            if rec.crook_deg > 0:
+                return Outcome.CROOKED_POT
+            return Outcome.ROW_OFF if rec.row_off else Outcome.NOT_GRIPPED
         if not rec.in_gripper_at_drop:
             return Outcome.SLIPPED
         return Outcome.DROPPED_OUTSIDE

@@ -40,6 +40,8 @@ class Outcome(StrEnum):
     TIPPED_BY_LEAF = "tipped_by_leaf"
     # ... or, knocked over or not lifted, its wall leant over its foot (pots.crooked_share)
     CROOKED_POT = "crooked_pot"
+    # ... or the last index left its row off its place (conveyor.index_error_sd_mm)
+    ROW_OFF = "row_off"
     NO_POT = "no_pot"  # the cell the pickup points at holds no pot
     LOST_STEPS = "lost_steps"  # a motor slipped during this cycle (the strike itself)
     POSITION_LOST = "position_lost"  # an earlier lost-step event left the arm off position
@@ -89,6 +91,8 @@ class SeedlingRecord:
     canopy_pushed: bool = False  # before its approach a jaw had pushed its pot's leaves
     soft: bool = False  # its pot is soaked (pots.soft_share): the wall gives under the jaws
     crook_deg: float = 0.0  # how far its pot's wall leans over its foot (pots.crooked_share)
+    row_offset_mm: float = 0.0  # the belt's offset from its row grid at the approach
+    row_off: bool = False  # ... more than half metrics.knocked_offset_mm: the row is off
     lifted: bool | None = None
     in_gripper_at_drop: bool | None = None
     stuck_to_belt: bool = False  # bonded, and still on the belt after the lift
