@@ -16,7 +16,7 @@ never narrower than Wilson over all picks) must agree within their intervals.
 
     python benchmarks/edge_study.py OUT_DIR [--workers 2] [--tables-only]
 
-About 65 minutes on 2 cores (the sleep-off trials are the slow ones).
+About 30-65 minutes on 2 cores (the sleep-off trials are the slow ones).
 """
 
 from __future__ import annotations

@@ -340,7 +340,7 @@ class PhysicsSection:
     sleep: bool = key(
         "bool",
         doc="let resting bodies sleep: faster; may change a single trial's trajectory near "
-        "the edge, not the pooled rate over seeds (docs/edge_trials.md)",
+        "the edge; the pooled rate over seeds is what to compare (docs/edge_trials.md)",
     )
 
 
