@@ -487,6 +487,35 @@ def test_paper_seedlings_are_not_damaged(paper_result):
 
 
 @pytest.mark.slow
+def test_the_twin_shows_the_followed_shoots_bend_for_the_recording():
+    """Twin.stem_bend_deg (the recording's seedling/stem_bend_deg channel) is the bend of the
+    shoots the judge follows: it rises while a pot is carried and its peak is the record's."""
+
+    class Watch:
+        def __init__(self):
+            self.values = []
+
+        def attach(self, twin, records):
+            pass
+
+        def step(self, twin):
+            self.values.append(twin.stem_bend_deg)
+
+        def finish(self, twin, interrupted):
+            pass
+
+        def abort(self):
+            pass
+
+    watch = Watch()
+    result = run_trial(paper_config(2), observers=[watch])
+    peak = max(r.peak_stem_bend_deg for r in result.per_seedling)
+    assert 1.0 < max(watch.values) <= peak + 1e-9
+    assert max(watch.values) > 0.8 * peak  # sampled every 10 ms, the peak within substeps
+    assert watch.values[0] == 0.0 and watch.values[-1] < 1.0  # nothing followed at the ends
+
+
+@pytest.mark.slow
 def test_fast_moves_whip_soft_shoots_past_their_damage_limit():
     """Shoots that all sway at 2 Hz (soft, tall seedlings): at 500 mm/s and 2 g each start and
     stop kicks them past 45 deg and every pot lands in the tube with a damaged seedling

@@ -64,6 +64,8 @@ CHANNELS: tuple[Channel, ...] = (
     Channel(
         "conveyor/position_mm", lambda twin, rates: twin.scene.conveyor_position(twin.data) * 1e3
     ),
+    # the largest bend of the seedling shoots the judge follows now (transplanter.shoot)
+    Channel("seedling/stem_bend_deg", lambda twin, rates: twin.stem_bend_deg),
 )
 
 

@@ -314,10 +314,15 @@ class Judge:
                 self.canopy_pushed[pot] = True
         if self.shoot_watch:
             qpos, qvel, t = d.qpos, d.qvel, d.time
+            bend = 0.0
             for watched, sway, a, v in self.shoot_watch:
                 vel = qvel[v : v + 6].tolist()  # floats: numpy scalars are slow in scalar math
                 sway.update(t, qpos[a + 3 : a + 7].tolist(), vel[:3], vel[3:])
                 watched.peak_stem_bend_deg = math.degrees(sway.peak_rad)
+                bend = max(bend, sway.bend_rad)
+            twin.stem_bend_deg = math.degrees(bend)
+        else:
+            twin.stem_bend_deg = 0.0
         rec = self.current
         if rec is None:
             return

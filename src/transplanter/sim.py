@@ -188,6 +188,9 @@ class Twin:
         self.slip_offset = np.zeros(3)  # joint units the motors have lost so far
         self.microsteps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
         self.lost_step_events: list[LostStepEvent] = []
+        # the largest bend (deg) of the seedling shoots followed now, written by the trial's
+        # judge (transplanter.shoot: the shoots are not bodies); a recording channel
+        self.stem_bend_deg = 0.0
         self.belt_realignments: list[tuple[float, float]] = []
         """(t, m) at each conveyor index: how far the belt was off its held position, which
         the index's own profile then takes back."""
