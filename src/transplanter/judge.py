@@ -18,8 +18,7 @@ import numpy as np
 from transplanter.config import JudgeConfig
 from transplanter.firmware.pgf import LinePhase
 from transplanter.results import EventKind, Outcome, SeedlingRecord
-from transplanter.scene.config import CROOKED_FOOT_HEIGHT, SHOOT_COM_SHARE, SHOOT_SPREAD
-from transplanter.scene.geometry import crook_frame
+from transplanter.scene.config import SHOOT_COM_SHARE, SHOOT_SPREAD
 from transplanter.shoot import ShootSway, shoot_params
 from transplanter.sim import LineEvent, LineEventKind, Twin
 from transplanter.units import M_PER_MM
@@ -175,12 +174,10 @@ class Judge:
         pot it stands on the leaning wall's top."""
         cfg, pots = self.twin.scene.config, self.twin.scene.pots
         g = -float(self.twin.model.opt.gravity[2])
-        hinge = np.array([0.0, 0.0, pots.height[pot] / 2 - pots.fill_gap[pot]])
-        mount = None
-        if pots.crook[pot] > 0:
-            pivot, mount, _ = crook_frame(
-                pots.crook[pot], pots.crook_azimuth[pot], pots.height[pot], CROOKED_FOOT_HEIGHT
-            )
+        hinge = np.array([0.0, 0.0, pots.soil_z(pot)])
+        mount, wall = None, pots.wall_frame(pot)
+        if wall is not None:
+            pivot, mount, _ = wall
             hinge = pivot + mount @ (hinge - pivot)
         params = shoot_params(
             mass=cfg.seedling_mass,

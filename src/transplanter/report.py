@@ -51,8 +51,7 @@ def format_summary(result: TrialResult) -> str:
             f"{realign:.3f} mm at most taken back by an index",
         )
     )
-    landed = ("success", "damaged")
-    bends = [r.peak_stem_bend_deg for r in result.per_seedling if r.outcome in landed]
+    bends = result.stem_bends_in_tube
     if bends:
         rows.append(
             (

@@ -168,14 +168,16 @@ class TrialResult:
         return np.array([r.cycle_time_s for r in self.per_seedling if r.cycle_time_s is not None])
 
     @property
-    def max_stem_bend_deg(self) -> float:
-        """The largest shoot bend among the pots that reached the tube (success or damaged;
-        a pot left behind or dropped may lie on its side, its shoot drooping)."""
+    def stem_bends_in_tube(self) -> list[float]:
+        """Each shoot's largest bend (deg), for the pots that reached the tube (success or
+        damaged; a pot left behind or dropped may lie on its side, its shoot drooping)."""
         landed = (Outcome.SUCCESS, Outcome.DAMAGED)
-        return max(
-            (r.peak_stem_bend_deg for r in self.per_seedling if r.outcome in landed),
-            default=0.0,
-        )
+        return [r.peak_stem_bend_deg for r in self.per_seedling if r.outcome in landed]
+
+    @property
+    def max_stem_bend_deg(self) -> float:
+        """The largest shoot bend among the pots that reached the tube."""
+        return max(self.stem_bends_in_tube, default=0.0)
 
     def failures(self) -> dict[str, int]:
         return {str(k): sum(r.outcome == k for r in self.per_seedling) for k in FAILURE_KINDS}

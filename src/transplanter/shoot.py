@@ -95,7 +95,9 @@ class ShootSway:
         return math.acos(math.cos(self.theta_x) * math.cos(self.theta_y))
 
     def _torques(self, tx_, ty_, gx, gy, gz) -> tuple[float, float]:
-        """Spring and felt-gravity torque about the two hinges at angles (tx_, ty_)."""
+        """Spring and felt-gravity torque about the two hinges at angles (tx_, ty_): the felt
+        gravity F at the centre of mass, r = h_c Rx(tx_) Ry(ty_) z, about the first hinge (x)
+        and the second (y, turned by the first)."""
         ml, k = self.p.mass * self.p.com_height, self.p.stiffness
         sx, cx, sy, cy = math.sin(tx_), math.cos(tx_), math.sin(ty_), math.cos(ty_)
         return (
@@ -147,8 +149,7 @@ class ShootSway:
             )
         last = self._last
         self._last = (t, (vx, vy, vz), (ox, oy, oz))
-        p = self.p
-        ml, k, c, inertia = p.mass * p.com_height, p.stiffness, p.damping, p.inertia
+        c, inertia = self.p.damping, self.p.inertia
         if last is None:  # start at rest where gravity holds the shoot on a tilted pot
             self.theta_x, self.theta_y = self._rest(-self.g * r20, -self.g * r21, -self.g * r22)
             self._peak_cos = math.cos(self.theta_x) * math.cos(self.theta_y)
@@ -172,14 +173,9 @@ class ShootSway:
         n = max(1, math.ceil(dt / self.max_substep))
         step = dt / n
         for _ in range(n):
-            # torque of the felt gravity F at the centre of mass, r = h_c Rx(th_x) Ry(th_y) z,
-            # about the first hinge (x) and the second (y, turned by the first)
-            sx, cx = math.sin(self.theta_x), math.cos(self.theta_x)
-            sy, cy = math.sin(self.theta_y), math.cos(self.theta_y)
-            tx = -ml * cy * (sx * gz + cx * gy)
-            ty = ml * (cy * gx - sy * (cx * gz - sx * gy))
-            acc_x = (tx - k * self.theta_x - c * self.rate_x) / inertia - alpha_x
-            acc_y = (ty - k * self.theta_y - c * self.rate_y) / inertia - alpha_y
+            tx, ty = self._torques(self.theta_x, self.theta_y, gx, gy, gz)
+            acc_x = (tx - c * self.rate_x) / inertia - alpha_x
+            acc_y = (ty - c * self.rate_y) / inertia - alpha_y
             self.rate_x += step * acc_x
             self.rate_y += step * acc_y
             self.theta_x += step * self.rate_x

@@ -46,7 +46,6 @@ from transplanter.scene.geometry import (
     belt_table,
     cell_columns_x,
     column_box,
-    crook_frame,
     drop_tube_boxes,
     pot_inertia,
     rib_boxes,
@@ -355,8 +354,8 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool 
         body.ipos = [0, 0, 0.0 - pots.fill_gap[i] / 2]  # the soil sits below the gap
         body.inertia = pot_inertia(total_mass, radius, h)
         body.explicitinertial = True
-        crook = _crook(pots, i)
-        soil = h / 2 - pots.fill_gap[i]  # the seedling stands on the soil (pot frame)
+        crook = pots.wall_frame(i)
+        soil = pots.soil_z(i)  # the seedling stands on the soil (pot frame)
         if crook is None:
             _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", [0, 0, 0], h / 2)
         else:  # a flat foot, the wall leaning over it; the wall's mass leans with it
@@ -410,13 +409,6 @@ def _add_pot_geom(body, cfg: SceneConfig, pots: PotBatch, i: int, name, pos, hal
     g.group = 3
     g.rgba = list(POT_COLLISION_RGBA)
     return g
-
-
-def _crook(pots: PotBatch, i: int):
-    """Pot i's crook_frame (pivot, rotation, quaternion), or None for a straight pot."""
-    if pots.crook[i] == 0:
-        return None
-    return crook_frame(pots.crook[i], pots.crook_azimuth[i], pots.height[i], CROOKED_FOOT_HEIGHT)
 
 
 def _crooked(pos, quat, crook):
@@ -536,9 +528,8 @@ def leaf_proxies(cfg: SceneConfig, pots: PotBatch) -> LeafProxies:
     pot, centre, axis = [], [], []
     for i in range(len(pots)):
         frames = _leaf_frames(
-            pots.height[i] / 2 - pots.fill_gap[i], pots.stem_length[i], pots.n_leaves[i],
-            pots.leaf_yaw0[i],
-            _crook(pots, i),
+            pots.soil_z(i), pots.stem_length[i], pots.n_leaves[i], pots.leaf_yaw0[i],
+            pots.wall_frame(i),
         )  # fmt: skip
         for _, _, c, along_x in frames:
             rot = np.zeros(9)

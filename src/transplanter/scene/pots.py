@@ -14,8 +14,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy.special import gammaincinv, ndtr, ndtri
 
-from transplanter.scene.config import POT_FILL_GAP_MAX, SceneConfig
-from transplanter.scene.geometry import cell_centres
+from transplanter.scene.config import CROOKED_FOOT_HEIGHT, POT_FILL_GAP_MAX, SceneConfig
+from transplanter.scene.geometry import cell_centres, crook_frame
 
 
 def truncated_normal(z: np.ndarray, mean: float, sd: float, lo: float, hi: float) -> np.ndarray:
@@ -124,6 +124,17 @@ class PotBatch:
             crook_azimuth=crook_azimuth,
             fill_gap=fill_gap,
         )
+
+    def soil_z(self, i: int) -> float:
+        """Height (m) of pot i's soil above its centre, where its seedling stands."""
+        return float(self.height[i] / 2 - self.fill_gap[i])
+
+    def wall_frame(self, i: int):
+        """Pot i's crook_frame (pivot, rotation, quaternion), or None for a straight pot."""
+        if self.crook[i] == 0:
+            return None
+        foot = CROOKED_FOOT_HEIGHT
+        return crook_frame(self.crook[i], self.crook_azimuth[i], self.height[i], foot)
 
     def __len__(self) -> int:
         return int(self.diameter.size)
