@@ -6,7 +6,13 @@ import pytest
 
 import transplanter.trial
 from transplanter.results import TrialResult
-from transplanter.sweep_backends import BackendMissing, InlineBackend, make_backend, run_one
+from transplanter.sweep_backends import (
+    WARNING_SEPARATOR,
+    BackendMissing,
+    InlineBackend,
+    make_backend,
+    run_one,
+)
 from transplanter.sweep_grid import SweepRefused
 
 
@@ -62,3 +68,18 @@ def test_ray_missing_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "ray", None)
     with pytest.raises(BackendMissing, match=r"pip install 'transplanter\[ray\]'"):
         make_backend("ray", 1)
+
+
+def test_a_row_names_the_fault_by_kind_and_carries_the_warnings():
+    """The row of a trial whose firmware stopped says why by kind (as the trial's JSON), and
+    every row carries the trial summary's warnings in one cell."""
+    dead = run_one({**_task(), "overrides": {"faults.switch_dead": 3}})
+    assert dead["fault_kind"] == "switch_not_found"
+    assert dead["error"].startswith("firmware fault: ") and "error:69" in dead["error"]
+    assert dead["successes"] == 0
+    paper = run_one(_task())
+    assert paper["fault_kind"] is None and paper["error"] is None
+    # the paper's Z moves ask for more than motor 3's top step rate (two warnings)
+    warnings = paper["warnings"].split(WARNING_SEPARATOR)
+    assert len(warnings) == 2
+    assert all("motor 3 reaches its top step rate" in w for w in warnings)

@@ -30,10 +30,16 @@ RESULT_FIELDS = (
     "max_stem_bend_deg",
     "valid",
     "fault",
+    "fault_kind",
     "sim_time_s",
     "wall_time_s",
+    "warnings",
     "error",
 )
+
+
+# The trial's warnings in one cell of a row (none: an empty string).
+WARNING_SEPARATOR = " | "
 
 
 class BackendMissing(SweepRefused):
@@ -83,8 +89,11 @@ def run_one(task: Mapping[str, Any]) -> dict[str, Any]:
         max_stem_bend_deg=d["max_stem_bend_deg"],
         valid=d["valid"],
         fault=d["fault"],
+        fault_kind=d["fault_kind"],  # why the firmware stopped, by kind (FaultKind)
         sim_time_s=d["sim_time_s"],
         wall_time_s=d["wall_time_s"],
+        # what the trial summary warns of (speeds the drives could not reach, ...), one cell
+        warnings=WARNING_SEPARATOR.join(d["warnings"]),
     )
     for kind, count in d["failures"].items():
         row[f"fail_{kind}"] = count
