@@ -104,6 +104,17 @@ def test_raising_s_high_shortens_the_cycle():
 
 
 @pytest.mark.slow
+def test_an_index_too_fast_tips_the_pots_it_pushes():
+    """The paper indexes a row in 0.6 s. In 0.3 s the ribs push the pots across the belt
+    table hard enough to tip them: every pot of the second row is knocked out of its cell
+    before its approach (`knocked_over`), the first row (never pushed) is picked whole."""
+    result = run_trial(paper_config(10, **{"conveyor.index_time_s": 0.3}))
+    first, second = result.per_seedling[:5], result.per_seedling[5:]
+    assert all(r.outcome == Outcome.SUCCESS for r in first)
+    assert all(r.outcome == Outcome.KNOCKED_OVER and r.knocked_before for r in second)
+
+
+@pytest.mark.slow
 def test_approach_too_low_knocks_the_neighbours():
     """The paper approaches at Z_low = 34 mm. At 22 mm the jaw tips (22.5 mm below the grip
     centre) reach into the belt: they strike it, a motor slips, and the open-loop arm stays
