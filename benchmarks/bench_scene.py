@@ -1,5 +1,7 @@
 """Steps per second of the full 40-pot scene: all resting, while the arm works on row 0
-(joint targets from transplanter.kinematics), and during a 0.6 s conveyor index.
+(joint targets from transplanter.kinematics), and during a 0.6 s conveyor index; then the
+floor under them: the arm swinging (one tree awake, no contact) in the robot model alone and
+in the scene built with 1, 4 and 8 rows of pots, best of three runs each.
 
 Run: .venv/bin/python benchmarks/bench_scene.py
 """
@@ -112,6 +114,37 @@ def main() -> None:
         f"conveyor at {conveyor.position(data) * 1000:.2f} mm; "
         f"warnings {data.warning.number.sum()}"
     )
+
+    print("floor, the arm swinging (theta1 +-0.3 rad at the motor), best of 3:")
+    robot = mujoco.MjModel.from_xml_path(str(MODELS / "transplanter.xml"))
+    print(f"  robot alone (models/transplanter.xml): {swinging_rate(robot, None):,.0f} steps/s")
+    for rows in (1, 4, 8):
+        scene = build_scene(SceneConfig(rows=rows), seed=0)
+        ConveyorDrive(scene)  # as a trial: rows past the front drum leave the broadphase
+        rate = swinging_rate(scene.model, scene)
+        print(f"  scene with {rows} row(s) of pots: {rate:,.0f} steps/s")
+
+
+MODELS = Path(__file__).resolve().parent.parent / "models"
+
+
+def swinging_rate(model: mujoco.MjModel, scene, n: int = 20000) -> float:
+    """Steps/s with motor 1 swinging its arm and nothing else moving (the rest asleep)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    motor = 0 if scene is None else int(scene.motor_actuators[0])
+    for _ in range(1500):  # the pots settle and fall asleep
+        mujoco.mj_step(model, data)
+    ctrl0 = data.ctrl.copy()
+    swing = 0.3 * model.actuator_gear[motor, 0] * np.sin(0.002 * np.arange(n))
+    best = 0.0
+    for _ in range(3):
+        start = time.perf_counter()
+        for k in range(n):
+            data.ctrl[motor] = ctrl0[motor] + swing[k]
+            mujoco.mj_step(model, data)
+        best = max(best, n / (time.perf_counter() - start))
+    return best
 
 
 if __name__ == "__main__":
