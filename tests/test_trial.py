@@ -362,15 +362,16 @@ def test_an_index_error_leaves_the_row_off_until_the_next_index_takes_it_back():
 
 @pytest.mark.slow
 def test_a_row_the_index_left_far_off_is_missed_and_named_row_off():
-    """conveyor.index_error_sd_mm = 10: the third row stops 12.5 mm and the fourth 12.9 mm
-    off their places (when written); the jaws close beside their pots, and each of those
-    failures is `row_off` (the belt did it), with the offset in its record."""
-    result = run_trial(paper_config(20, **{"conveyor.index_error_sd_mm": 10.0}))
-    failed = [r for r in result.per_seedling if r.outcome != Outcome.SUCCESS]
-    assert len(failed) >= 5
-    for rec in failed:
-        assert rec.outcome == Outcome.ROW_OFF and rec.row_off
-        assert abs(rec.row_offset_mm) > 4.0
+    """conveyor.index_error_sd_mm = 15: the third row stops 18.8 mm and the fourth 19.3 mm
+    off their places; a jaw comes down on each of their pots, and each of those failures is
+    `row_off` (the belt did it), with the offset in its record. (At sd 10 mm, rows 12.5 and
+    12.9 mm off, a jaw strikes each pot's side, and whether the struck pot still ends in the
+    tube turns on the solver's path: sleep on and off split those ten pots differently
+    between `row_off`, `damaged` and `success`; docs/edge_trials.md.)"""
+    result = run_trial(paper_config(20, **{"conveyor.index_error_sd_mm": 15.0}))
+    off_rows = result.per_seedling[10:20]
+    assert all(r.row_off and abs(r.row_offset_mm) > 15.0 for r in off_rows)
+    assert all(r.outcome == Outcome.ROW_OFF for r in off_rows)
     assert all(abs(r.row_offset_mm) < 4.0 for r in result.per_seedling[:5])  # row 1: not off
 
 
