@@ -161,8 +161,9 @@ class Judge:
         )
         rec.canopy_pushed = rec.pot is not None and bool(self.canopy_pushed[rec.pot])
         rec.soft = rec.pot is not None and bool(self.twin.scene.pots.soft[rec.pot])
-        rec.row_offset_mm = self.twin.conveyor.grid_offset(self.twin.data) / M_PER_MM
-        rec.row_off = abs(rec.row_offset_mm) * M_PER_MM > 0.5 * self.config.knocked_offset_m
+        row_offset = self.twin.conveyor.grid_offset(self.twin.data)
+        rec.row_offset_mm = row_offset / M_PER_MM
+        rec.row_off = abs(row_offset) > 0.5 * self.config.knocked_offset_m
         if rec.pot is not None:
             rec.crook_deg = math.degrees(float(self.twin.scene.pots.crook[rec.pot]))
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])

@@ -84,9 +84,8 @@ class SeedlingRecord:
     position_error_microsteps: int = 0  # lost since the last homing, at the cycle's start
     lost_step_event: int | None = None  # index in lost_step_events of the strike behind it
     max_lag_full_steps: float = 0.0
-    peak_stem_bend_deg: float = (
-        0.0  # the shoot's largest bend from its pot's axis, approach to landing
-    )
+    # the shoot's largest bend from its pot's axis, approach to landing
+    peak_stem_bend_deg: float = 0.0
     knocked_before: bool = False
     canopy_pushed: bool = False  # before its approach a jaw had pushed its pot's leaves
     soft: bool = False  # its pot is soaked (pots.soft_share): the wall gives under the jaws

@@ -247,9 +247,9 @@ class SGF:
         self._segments: list = []
         self._pending_stall: str | None = None  # a stall reply for the next line
         self.stalls: list[tuple[float, int]] = []
+        """(t, motor) of every stall that stopped the SGF."""
         # moves that cruised slower than their F asked: (asked m/s, why) -> [count, slowest]
         self._slowed: dict[tuple[float, str], list] = {}
-        """(t, motor) of every stall that stopped the SGF."""
         self.homing_trip_raw: np.ndarray | None = None
         """Raw pulse counts at which each switch was read closed by the last homing's locate."""
 

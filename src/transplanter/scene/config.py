@@ -21,10 +21,6 @@ BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
 BIT_CANOPY = 8  # leaf proxies (with SceneConfig.canopy_contact): they touch the jaws only
-
-# A soaked pot's contact impedance at no penetration and once it has given
-# SceneConfig.pot_soft_wall (MuJoCo solimp d0, dwidth; midpoint and power as the firm pots').
-SOFT_WALL_IMPEDANCE = (0.05, 0.95)
 ROW_BIT_FIRST = 8
 ROW_BITS = 23
 
@@ -37,6 +33,10 @@ def row_bit(row: int) -> int:
 # Torsional and rolling friction of every contact pair the scene adds (ribs, pots, jaws).
 TORSIONAL_FRICTION = 0.005
 ROLLING_FRICTION = 0.0001
+
+# A soaked pot's contact impedance at no penetration and once it has given
+# SceneConfig.pot_soft_wall (MuJoCo solimp d0, dwidth; midpoint and power as the firm pots').
+SOFT_WALL_IMPEDANCE = (0.05, 0.95)
 
 # Colours (rgba) of the geoms the scene adds: ribs, pot collision cylinders (shown in group
 # 3 with the other collision geoms), leaf proxies (group 4) and drop tube walls.
@@ -69,11 +69,11 @@ LEAF_PROXY_CENTRE = (0.0225, 0.0, 0.004)
 # at 0.7 and 1.0 of it); its leaves spread over a disc of SHOOT_SPREAD diameter (m; two 45 mm
 # blades tip to tip, tipped up by LEAF_PITCH_RAD).
 SHOOT_COM_SHARE = 0.85
+SHOOT_SPREAD = 0.085
 # A crooked pot's flat foot (m): the wall above it leans (SceneConfig.pot_crooked_share).
 CROOKED_FOOT_HEIGHT = 0.006
 # The deepest a pot's soil may lie below its rim (m; SceneConfig.pot_fill_gap).
 POT_FILL_GAP_MAX = 0.02
-SHOOT_SPREAD = 0.085
 
 
 @dataclass(frozen=True)
