@@ -15,15 +15,15 @@ from pathlib import Path
 
 import numpy as np
 
-from transplanter.config import machine_config
-from transplanter.firmware.bus import ComBus
-from transplanter.firmware.pgf import PGF, LinePhase
-from transplanter.firmware.rig import SimulatedEndstops, run_firmware
-from transplanter.firmware.sgf import SGF
-from transplanter.gcode import parse_line
-from transplanter.machine import power_on_joints
-from transplanter.motion import plan_line
-from transplanter.scenario import load_scenario
+from transplanter.machine.bus import ComBus
+from transplanter.machine.config import power_on_joints
+from transplanter.machine.gcode import parse_line
+from transplanter.machine.motion import plan_line
+from transplanter.machine.pgf import PGF, LinePhase
+from transplanter.machine.rig import SimulatedEndstops, run_firmware
+from transplanter.machine.sgf import SGF
+from transplanter.scenario.assemble import machine_config
+from transplanter.scenario.schema import load_scenario
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
 

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from transplanter.config import machine_config
-from transplanter.planner import plan_program
-from transplanter.scenario import load_scenario
+from transplanter.machine.planner import plan_program
+from transplanter.scenario.assemble import machine_config
+from transplanter.scenario.schema import load_scenario
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
 

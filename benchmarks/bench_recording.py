@@ -17,7 +17,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from transplanter.recording import TrialRecorder
+from transplanter.viewing.recording import TrialRecorder
 
 SCALARS = ("motors/theta1", "motors/theta2", "gripper/angle", "conveyor/position")
 

@@ -1,5 +1,5 @@
 """Steps per second of the full 40-pot scene: all resting, while the arm works on row 0
-(joint targets from transplanter.kinematics), and during a 0.6 s conveyor index; then the
+(joint targets from the five-bar kinematics), and during a 0.6 s conveyor index; then the
 floor under them: the arm swinging (one tree awake, no contact) in the robot model alone and
 in the scene built with 1, 4 and 8 rows of pots, best of three runs each.
 
@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
-from transplanter import kinematics  # noqa: E402
+from transplanter.machine.kinematics import fivebar as kinematics  # noqa: E402
 from transplanter.scene import (  # noqa: E402
     ConveyorDrive,
     SceneConfig,

@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from transplanter.sweep import Axis, SweepSpec, comparable, run_sweep
+from transplanter.studies.sweep import Axis, SweepSpec, comparable, run_sweep
 
 
 def main() -> None:

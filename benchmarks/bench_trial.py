@@ -31,11 +31,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from transplanter import judge as judge_module
-from transplanter.config import assemble
-from transplanter.scenario import load_scenario
-from transplanter.sim import Twin
-from transplanter.trial import run_trial
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import load_scenario
+from transplanter.twin import judge as judge_module
+from transplanter.twin.sim import Twin
+from transplanter.twin.trial import run_trial
 
 TARGET_RTF = 60.0  # issue 11: the 40-seedling paper trial at 60x real time on one core
 # MuJoCo's stages, outermost first (mjtTimer), as printed.

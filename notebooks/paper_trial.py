@@ -21,10 +21,10 @@
 # %%
 import os
 
-from transplanter.config import assemble
-from transplanter.report import format_summary
-from transplanter.scenario import load_scenario
-from transplanter.trial import run_trial
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import load_scenario
+from transplanter.twin.report import format_summary
+from transplanter.twin.trial import run_trial
 
 SEEDLINGS = int(os.environ.get("NOTEBOOK_SEEDLINGS", "10"))
 

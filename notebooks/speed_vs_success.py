@@ -32,7 +32,7 @@ import csv
 import os
 from pathlib import Path
 
-from transplanter.tune import Param, TuneSpec, run_tune
+from transplanter.studies.tune import Param, TuneSpec, run_tune
 
 SEEDLINGS = int(os.environ.get("NOTEBOOK_SEEDLINGS", "10"))
 TRIALS = int(os.environ.get("NOTEBOOK_TRIALS", "12"))

@@ -16,7 +16,7 @@
 #
 # The PGF approaches every pot at the grip height Z_low, closes the jaws and lifts to Z_up
 # before it swings to the drop tube. This notebook sweeps both heights with the sweep API
-# (`transplanter.sweep`, the same code as `transplanter sweep`) and looks at which failure
+# (`transplanter.studies.sweep`, the same code as `transplanter sweep`) and looks at which failure
 # kinds appear at each end. The seedlings per trial come from `NOTEBOOK_SEEDLINGS` (the test
 # suite uses 3; use 40 and `--seeds 1-3` for numbers worth quoting), the output directory
 # from `NOTEBOOK_OUT`.
@@ -33,7 +33,7 @@ import csv
 import os
 from pathlib import Path
 
-from transplanter.sweep import Axis, SweepSpec, format_value, run_sweep
+from transplanter.studies.sweep import Axis, SweepSpec, format_value, run_sweep
 
 SEEDLINGS = int(os.environ.get("NOTEBOOK_SEEDLINGS", "10"))
 OUT = Path(os.environ.get("NOTEBOOK_OUT", "results")) / f"via_point_heights_{SEEDLINGS}"

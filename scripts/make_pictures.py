@@ -3,7 +3,7 @@
 Run: .venv/bin/python scripts/make_pictures.py   (needs pip install -e ".[video]")
 
 One paper trial of one seedling (seed 1) runs with the firmware driving the physics, and a
-trial observer (transplanter.video) films the `overview` camera:
+trial observer (transplanter.viewing.video) films the `overview` camera:
 - docs/img/machine.png: a still at 640x480 with shadows, mid-pick: the moment the lift
   line is acknowledged (homed, the pot gripped and raised to Z_up);
 - docs/img/cycle.gif: the seedling's whole cycle (first line to the release dwell's end plus
@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-from transplanter import video
+from transplanter.viewing import video
 
 video.prepare_gl()  # before MuJoCo is imported
 
@@ -27,11 +27,11 @@ import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from transplanter import fileio  # noqa: E402
-from transplanter.config import assemble  # noqa: E402
-from transplanter.firmware.pgf import LinePhase  # noqa: E402
-from transplanter.scenario import load_scenario  # noqa: E402
-from transplanter.sim import LineEventKind  # noqa: E402
-from transplanter.trial import run_trial  # noqa: E402
+from transplanter.machine.pgf import LinePhase  # noqa: E402
+from transplanter.scenario.assemble import assemble  # noqa: E402
+from transplanter.scenario.schema import load_scenario  # noqa: E402
+from transplanter.twin.sim import LineEventKind  # noqa: E402
+from transplanter.twin.trial import run_trial  # noqa: E402
 
 IMG = Path(__file__).resolve().parent.parent / "docs" / "img"
 STILL_SIZE = (640, 480)

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from transplanter import kinematics
-from transplanter.config import TwinConfig, assemble
-from transplanter.scenario import Scenario, load_scenario
+from transplanter.machine.kinematics import fivebar as kinematics
+from transplanter.scenario.assemble import TwinConfig, assemble
+from transplanter.scenario.schema import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_PATH = ROOT / "scenarios" / "paper.toml"

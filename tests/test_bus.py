@@ -1,6 +1,6 @@
 import pytest
 
-from transplanter.firmware.bus import TO_DEVICE, TO_HOST, ComBus, LineTransport
+from transplanter.machine.bus import TO_DEVICE, TO_HOST, ComBus, LineTransport
 
 
 def test_is_a_line_transport_and_a_half_transport_is_not():

@@ -7,8 +7,10 @@ import math
 
 import pytest
 
-from transplanter import sweep_backends
-from transplanter.calibrate import (
+from transplanter.cli import main
+from transplanter.scenario.schema import load_scenario
+from transplanter.studies import backends as sweep_backends
+from transplanter.studies.calibrate import (
     CalibrationSpec,
     Observation,
     binomial_deviance,
@@ -19,10 +21,8 @@ from transplanter.calibrate import (
     parse_observed,
     run_calibrate,
 )
-from transplanter.cli import main
-from transplanter.scenario import load_scenario
-from transplanter.sweep import SweepRefused
-from transplanter.tune import Param, TuneSpec
+from transplanter.studies.sweep import SweepRefused
+from transplanter.studies.tune import Param, TuneSpec
 
 pytest.importorskip("optuna")
 

@@ -220,8 +220,8 @@ def _teach_paper(tmp_path, capsys):
 
 
 def test_hmi_keys_file_writes_the_paper_image_and_prints_the_lcd(tmp_path, capsys):
-    from transplanter.config import machine_config
-    from transplanter.scenario import load_scenario
+    from transplanter.scenario.assemble import machine_config
+    from transplanter.scenario.schema import load_scenario
 
     out, printed = _teach_paper(tmp_path, capsys)
     assert out.read_bytes() == machine_config(load_scenario("paper")).eeprom.to_bytes()

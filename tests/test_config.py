@@ -6,8 +6,8 @@ import re
 import pytest
 
 from conftest import paper_scenario
-from transplanter.config import assemble, machine_config, scene_config
-from transplanter.scenario import ScenarioError
+from transplanter.scenario.assemble import assemble, machine_config, scene_config
+from transplanter.scenario.schema import ScenarioError
 
 
 def test_paper_assembly_maps_each_section(paper, paper_twin_config):
@@ -45,8 +45,8 @@ def test_a_scene_the_builder_refuses_is_a_scenario_error():
 
 
 def test_a_taught_value_finer_than_the_eeprom_is_refused_not_rounded():
-    from transplanter.config import key_quantum
-    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.scenario.assemble import key_quantum
+    from transplanter.scenario.schema import ScenarioError, load_scenario
 
     for key, value, quantum in (
         ("taught.z_low_mm", 34.0004, "1 um"),

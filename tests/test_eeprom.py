@@ -4,7 +4,7 @@ import zlib
 import numpy as np
 import pytest
 
-from transplanter.firmware.eeprom import (
+from transplanter.machine.eeprom import (
     CRC_OFFSET,
     DATA_SIZE,
     EEPROM_SIZE,
@@ -102,7 +102,7 @@ def test_save_failure_leaves_old_file_and_no_temp(tmp_path, monkeypatch):
     def broken_replace(src, dst):
         raise OSError("disk full")
 
-    monkeypatch.setattr("transplanter.firmware.eeprom.os.replace", broken_replace)
+    monkeypatch.setattr("transplanter.machine.eeprom.os.replace", broken_replace)
     with pytest.raises(OSError, match="disk full"):
         paper_image(4).save(path)
     assert path.read_bytes() == before

@@ -2,8 +2,8 @@
 
 import pytest
 
-from transplanter.firmware.bus import ComBus, LineTransport
-from transplanter.firmware.faults import FaultConfig, FaultKind, LostReplyTransport, kind_of_reply
+from transplanter.machine.bus import ComBus, LineTransport
+from transplanter.machine.faults import FaultConfig, FaultKind, LostReplyTransport, kind_of_reply
 
 
 def test_no_faults_by_default():

@@ -1,43 +1,36 @@
-"""The firmware is pure numpy: importing it must not pull in MuJoCo (it should run on a
-microcontroller's host side or real hardware without the physics engine)."""
+"""The machine package (the firmware side) is pure numpy: every module in it imports with
+MuJoCo absent, so it can run on a host beside real hardware without the physics engine."""
 
 import json
 import subprocess
 import sys
-from pathlib import Path
-
-PURE_MODULES = [
-    "transplanter.kinematics",
-    "transplanter.gcode",
-    "transplanter.motion",
-    "transplanter.steppers",
-    "transplanter.units",
-    "transplanter.errors",
-    "transplanter.planner",
-    "transplanter.hmi",
-    "transplanter.firmware",
-    "transplanter.firmware.bus",
-    "transplanter.firmware.eeprom",
-    "transplanter.firmware.faults",
-    "transplanter.firmware.homing",
-    "transplanter.firmware.marlin",
-    "transplanter.firmware.pgf",
-    "transplanter.firmware.rig",
-    "transplanter.firmware.serial_host",
-    "transplanter.firmware.sgf",
-]
 
 _PROBE = """
-import importlib, json, sys
-for name in sys.argv[1:]:
+import importlib, json, pkgutil, sys
+
+class NoMujoco:
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] == "mujoco":
+            raise ImportError("mujoco is absent in this probe")
+        return None
+
+if sys.argv[1] == "absent":
+    sys.meta_path.insert(0, NoMujoco())
+import transplanter.machine as pure
+names = ["transplanter.errors", "transplanter.units", pure.__name__]
+names += [m.name for m in pkgutil.walk_packages(pure.__path__, pure.__name__ + ".")]
+for name in names:
     importlib.import_module(name)
-print(json.dumps(sorted(m for m in sys.modules if m.split(".")[0] in ("mujoco", "transplanter"))))
+for name in sys.argv[2:]:
+    importlib.import_module(name)
+print(json.dumps({"walked": names, "loaded": sorted(
+    m for m in sys.modules if m.split(".")[0] in ("mujoco", "transplanter"))}))
 """
 
 
-def _imported(*modules: str) -> list[str]:
+def _probe(mode: str, *extra: str) -> dict:
     done = subprocess.run(
-        [sys.executable, "-c", _PROBE, *modules],
+        [sys.executable, "-c", _PROBE, mode, *extra],
         capture_output=True,
         text=True,
         timeout=120,
@@ -46,19 +39,16 @@ def _imported(*modules: str) -> list[str]:
     return json.loads(done.stdout)
 
 
-def test_the_list_holds_every_firmware_module():
-    firmware = Path(__file__).resolve().parents[1] / "src" / "transplanter" / "firmware"
-    names = {f"transplanter.firmware.{p.stem}" for p in firmware.glob("*.py")}
-    names = {n.removesuffix(".__init__") for n in names}
-    assert names <= set(PURE_MODULES)
-
-
-def test_pure_firmware_modules_do_not_import_mujoco():
-    loaded = _imported(*PURE_MODULES)
-    assert set(PURE_MODULES) <= set(loaded)
-    assert not [m for m in loaded if m.split(".")[0] == "mujoco"]
-    assert "transplanter.scene" not in loaded and "transplanter.sim" not in loaded
+def test_every_module_of_the_machine_package_imports_with_mujoco_absent():
+    found = _probe("absent")
+    walked = set(found["walked"])
+    # the walk reaches the firmware's parts and the kinematics of every arm
+    for name in ("sgf", "pgf", "motion", "gcode", "homing", "kinematics", "kinematics.fivebar"):
+        assert f"transplanter.machine.{name}" in walked
+    assert not [m for m in found["loaded"] if m.split(".")[0] == "mujoco"]
+    assert "transplanter.scene" not in found["loaded"]
+    assert "transplanter.twin.sim" not in found["loaded"]
 
 
 def test_the_probe_sees_mujoco_when_it_is_imported():
-    assert "mujoco" in _imported("transplanter.scene")
+    assert "mujoco" in _probe("present", "transplanter.scene")["loaded"]

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from transplanter.errors import ErrorCode
-from transplanter.gcode import (
+from transplanter.machine.gcode import (
     GcodeError,
     GcodeLine,
     checksum,
@@ -415,9 +415,9 @@ def test_fuzz_mutated_valid_lines():
 
 @pytest.mark.parametrize("angle", [0.0, 90.0, 180.0, 180.0001, -0.5, float("nan")])
 def test_servo_range_is_the_same_for_m280_the_pgf_and_the_eeprom(angle):
-    from transplanter.firmware.eeprom import EepromError, Pickup
-    from transplanter.firmware.pgf import PGFConfig
-    from transplanter.gcode import valid_servo_angle
+    from transplanter.machine.eeprom import EepromError, Pickup
+    from transplanter.machine.gcode import valid_servo_angle
+    from transplanter.machine.pgf import PGFConfig
 
     ok = valid_servo_angle(angle)
     assert ok == (0.0 <= angle <= 180.0)

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from transplanter.firmware.rig import DT_HOMING_S, SimulatedEndstops
-from transplanter.firmware.sgf import SGF, SGFConfig
-from transplanter.machine import power_on_joints
+from transplanter.machine.config import power_on_joints
+from transplanter.machine.rig import DT_HOMING_S, SimulatedEndstops
+from transplanter.machine.sgf import SGF, SGFConfig
 
 CORPUS = sorted((Path(__file__).parent / "gcode").glob("*.gcode"))
 MARK = "; expect:"

@@ -12,7 +12,7 @@ from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from transplanter.errors import ErrorCode  # noqa: E402
-from transplanter.gcode import (  # noqa: E402
+from transplanter.machine.gcode import (  # noqa: E402
     GcodeError,
     GcodeLine,
     checksum,

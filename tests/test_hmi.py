@@ -1,4 +1,4 @@
-"""The HMI: the 20x4 LCD and 4x4 keypad teach mode (transplanter.hmi) and running a trial
+"""The HMI: the 20x4 LCD and 4x4 keypad teach mode (transplanter.machine.hmi) and running a trial
 from the image it writes (config.with_eeprom)."""
 
 from __future__ import annotations
@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, paper_scenario
-from transplanter.config import EEPROM_OVERRIDE, assemble, machine_config, with_eeprom
-from transplanter.firmware.eeprom import EepromImage
-from transplanter.hmi import (
+from transplanter.machine.eeprom import EepromImage
+from transplanter.machine.hmi import (
     KEYS,
     LCD_COLS,
     LCD_ROWS,
@@ -23,7 +22,8 @@ from transplanter.hmi import (
     run_keys,
     terminal_key,
 )
-from transplanter.scenario import ScenarioError
+from transplanter.scenario.assemble import EEPROM_OVERRIDE, assemble, machine_config, with_eeprom
+from transplanter.scenario.schema import ScenarioError
 
 TEACH_PAPER = ROOT / "tests" / "hmi" / "teach_paper.keys"
 

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from conftest import paper_config, variant
-from transplanter.config import assemble
-from transplanter.judge import Judge
-from transplanter.results import EventKind, Outcome, SeedlingRecord
-from transplanter.scenario import load_scenario
-from transplanter.sim import Twin
-from transplanter.trial import run_trial
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import load_scenario
+from transplanter.twin.judge import Judge
+from transplanter.twin.results import EventKind, Outcome, SeedlingRecord
+from transplanter.twin.sim import Twin
+from transplanter.twin.trial import run_trial
 
 
 def _judged_twin(config):

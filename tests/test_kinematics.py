@@ -4,7 +4,7 @@ import re
 import numpy as np
 import pytest
 
-from transplanter import kinematics as kin
+from transplanter.machine.kinematics import fivebar as kin
 
 GEOM = kin.FiveBarGeometry()
 LIMITS = kin.KinematicLimits()
@@ -299,7 +299,7 @@ def test_point_is_the_assembly_the_mode_maps_back(mode):
 
 
 def test_point_of_steps_and_steps_of_point_invert_each_other():
-    from transplanter.steppers import default_drives
+    from transplanter.machine.steppers import default_drives
 
     drives = default_drives()
     xyz = np.array([[0.0, 0.2, 0.05], [-0.06, 0.17, 0.12], [0.08, 0.23, 0.03]])
@@ -318,7 +318,7 @@ def test_point_of_steps_and_steps_of_point_invert_each_other():
 
 
 def test_homed_position_comes_from_the_kinematics_object():
-    from transplanter.firmware.sgf import SGFConfig
+    from transplanter.machine.sgf import SGFConfig
 
     config = SGFConfig()
     assert config.homed_steps.tolist() == [5237, -437, 63600]

@@ -7,10 +7,10 @@ import random
 
 import pytest
 
-from transplanter.firmware.marlin import LineNoise, MarlinDevice, split_framing
-from transplanter.firmware.rig import SimulatedEndstops
-from transplanter.firmware.sgf import SGF, SGFConfig
-from transplanter.gcode import checksum
+from transplanter.machine.gcode import checksum
+from transplanter.machine.marlin import LineNoise, MarlinDevice, split_framing
+from transplanter.machine.rig import SimulatedEndstops
+from transplanter.machine.sgf import SGF, SGFConfig
 
 START = (math.radians(150.0), math.radians(30.0), 0.120)
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import paper_config
-from transplanter import kinematics
+from transplanter.machine.kinematics import fivebar as kinematics
 from transplanter.scene import SceneConfig, build_scene, models_dir
 from transplanter.scene.build import compile_with_home, scene_spec
 

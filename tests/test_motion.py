@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from transplanter import kinematics as kin
-from transplanter import motion, steppers
+from transplanter.machine import motion, steppers
+from transplanter.machine.kinematics import fivebar as kin
 
 GEOM = kin.FiveBarGeometry()
 LIMITS = kin.KinematicLimits()

@@ -1,8 +1,8 @@
 import pytest
 
-from transplanter.firmware.eeprom import EepromImage, Pickup
-from transplanter.firmware.pgf import PGF, LinePhase, PGFConfig, build_program
-from transplanter.gcode import checksum, parse_line
+from transplanter.machine.eeprom import EepromImage, Pickup
+from transplanter.machine.gcode import checksum, parse_line
+from transplanter.machine.pgf import PGF, LinePhase, PGFConfig, build_program
 
 CELL_X_MM = [-90, -45, 0, 45, 90]
 ELBOW_DEG = ["80", "85", "90", "95", "100.5"]

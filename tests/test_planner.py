@@ -5,9 +5,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from transplanter.config import machine_config
-from transplanter.planner import PlanError, plan_program
-from transplanter.scenario import load_scenario
+from transplanter.machine.planner import PlanError, plan_program
+from transplanter.scenario.assemble import machine_config
+from transplanter.scenario.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -91,9 +91,9 @@ def test_huge_target_is_refused_at_once_under_a_memory_cap(tmp_path):
         f"""
         import resource, time
         from pathlib import Path
-        from transplanter.config import machine_config
-        from transplanter.planner import PlanError, plan_program
-        from transplanter.scenario import load_scenario
+        from transplanter.scenario.assemble import machine_config
+        from transplanter.machine.planner import PlanError, plan_program
+        from transplanter.scenario.schema import load_scenario
         machine = machine_config(load_scenario(Path({str(ROOT)!r}) / "scenarios" / "paper.toml"))
         cap = 1536 * 2**20
         resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
@@ -121,7 +121,7 @@ def test_huge_target_is_refused_at_once_under_a_memory_cap(tmp_path):
 def test_planner_keeps_constant_history_per_move(machine, monkeypatch):
     """Issue row 10: the SGF's pulses_at history of earlier moves was kept for the whole
     program (about 6 KB a move, quadratic time). The planner drops what it cannot query."""
-    import transplanter.planner as planner
+    import transplanter.machine.planner as planner
 
     made = []
 
@@ -140,7 +140,7 @@ def test_planner_keeps_constant_history_per_move(machine, monkeypatch):
 
 
 def test_forget_before_keeps_later_pulses(machine):
-    from transplanter.firmware.sgf import SGF
+    from transplanter.machine.sgf import SGF
 
     rows = plan_program(machine, ["G28", "G1 X0 Y180 Z60 S100", "G1 X20 Y190 Z70"])
     assert len(rows) == 3

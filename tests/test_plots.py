@@ -1,6 +1,6 @@
-"""transplanter.plots: the sweep's PNGs from its rows (no physics)."""
+"""transplanter.studies.plots: the sweep's PNGs from its rows (no physics)."""
 
-from transplanter.plots import pareto_plot, sweep_plots
+from transplanter.studies.plots import pareto_plot, sweep_plots
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

@@ -3,10 +3,10 @@
 import pytest
 
 from conftest import paper_scenario, variant
-from transplanter import kinematics
-from transplanter.config import assemble, machine_config
-from transplanter.preflight import check_machine
-from transplanter.scenario import ScenarioError, load_scenario
+from transplanter.machine.kinematics import fivebar as kinematics
+from transplanter.scenario.assemble import assemble, machine_config
+from transplanter.scenario.preflight import check_machine
+from transplanter.scenario.schema import ScenarioError, load_scenario
 
 
 def test_paper_program_passes(paper_twin_config):
@@ -52,8 +52,8 @@ def test_first_move_from_home_is_checked():
 def test_a_timestep_too_coarse_for_the_stepper_servos_is_refused():
     """Z's servo has omega = 810 rad/s: 1 ms (omega*dt 0.81) runs, 2 ms (1.62, where the
     paper setting lost steps and fell to 78 %) is refused before anything runs."""
-    from transplanter.config import assemble
-    from transplanter.scenario import ScenarioError, load_scenario
+    from transplanter.scenario.assemble import assemble
+    from transplanter.scenario.schema import ScenarioError, load_scenario
 
     assemble(load_scenario("paper", {"physics.timestep_ms": 0.5}))
     with pytest.raises(ScenarioError, match=r"timestep_ms = 2 is too coarse for the z stepper"):

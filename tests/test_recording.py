@@ -1,4 +1,4 @@
-"""Recording a trial to .rrd and reading it back (transplanter.recording, transplanter.playback)."""
+"""Recording a trial to .rrd and reading it back (viewing.recording, viewing.playback)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from transplanter.playback import read_summary, replay
-from transplanter.recording import RecordingConfig, TrialRecorder
+from transplanter.viewing.playback import read_summary, replay
+from transplanter.viewing.recording import RecordingConfig, TrialRecorder
 
 MJCF = """
 <mujoco>

@@ -14,8 +14,8 @@ import sys
 import pytest
 
 from transplanter import cli
-from transplanter.results import SeedlingRecord
-from transplanter.video import _FrameClock, cycle_window, parse_indices, parse_size
+from transplanter.twin.results import SeedlingRecord
+from transplanter.viewing.video import _FrameClock, cycle_window, parse_indices, parse_size
 
 iio = pytest.importorskip("imageio.v2")
 pytest.importorskip("imageio_ffmpeg")
@@ -251,8 +251,8 @@ class _FakeTwin:
 
 
 def test_live_viewer_paces_shows_the_verdicts_and_stops_when_closed(monkeypatch):
-    import transplanter.live as live
-    from transplanter.results import Outcome
+    import transplanter.viewing.live as live
+    from transplanter.twin.results import Outcome
 
     clock = {"now": 0.0}
     monkeypatch.setattr(live.time, "perf_counter", lambda: clock["now"])

@@ -1,7 +1,7 @@
 """Presentation: the summary table and text safe for a terminal."""
 
-from transplanter.report import format_summary, printable
-from transplanter.results import Outcome, SeedlingRecord, TrialResult
+from transplanter.twin.report import format_summary, printable
+from transplanter.twin.results import Outcome, SeedlingRecord, TrialResult
 
 
 def test_summary_shows_rate_interval_and_every_failure_kind():

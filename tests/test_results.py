@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from transplanter.results import (
+from transplanter.twin.results import (
     FAILURE_KINDS,
     Outcome,
     SeedlingRecord,

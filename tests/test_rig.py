@@ -3,13 +3,13 @@ import math
 import numpy as np
 import pytest
 
-from transplanter.firmware.bus import TO_DEVICE, TO_HOST, ComBus
-from transplanter.firmware.eeprom import EepromImage, Pickup
-from transplanter.firmware.pgf import PGF, LinePhase, PGFConfig
-from transplanter.firmware.rig import FirmwareLink, SimulatedEndstops, run_firmware
-from transplanter.firmware.sgf import SGF, SGFConfig
-from transplanter.gcode import checksum
-from transplanter.kinematics import ik
+from transplanter.machine.bus import TO_DEVICE, TO_HOST, ComBus
+from transplanter.machine.eeprom import EepromImage, Pickup
+from transplanter.machine.gcode import checksum
+from transplanter.machine.kinematics.fivebar import ik
+from transplanter.machine.pgf import PGF, LinePhase, PGFConfig
+from transplanter.machine.rig import FirmwareLink, SimulatedEndstops, run_firmware
+from transplanter.machine.sgf import SGF, SGFConfig
 
 CELL_X_MM = [-90, -45, 0, 45, 90]
 DT_HOMING_S = 1e-3
@@ -260,7 +260,7 @@ def _assert_nothing_moves_after(result, pgf, sgf, t_fault):
 
 @pytest.mark.parametrize(("switch", "name"), [(1, "arm 1 home"), (2, "arm 2 home"), (3, "Z up")])
 def test_a_switch_stuck_closed_fails_homing_naming_it(switch, name):
-    from transplanter.firmware.faults import FaultConfig, FaultKind
+    from transplanter.machine.faults import FaultConfig, FaultKind
 
     result, pgf, sgf = _run_with_faults(FaultConfig(switch_stuck_closed=switch))
     reply = pgf.sent[-1].reply
@@ -273,7 +273,7 @@ def test_a_switch_stuck_closed_fails_homing_naming_it(switch, name):
 
 
 def test_switch_4_stuck_closed_refuses_the_first_move_down():
-    from transplanter.firmware.faults import FaultConfig, FaultKind
+    from transplanter.machine.faults import FaultConfig, FaultKind
 
     result, pgf, sgf = _run_with_faults(FaultConfig(switch_stuck_closed=4))
     last = pgf.sent[-1]
@@ -287,7 +287,7 @@ def test_switch_4_stuck_closed_refuses_the_first_move_down():
                                                (2, "4800 steps (180.0 deg)"),
                                                (3, "80000 steps (200.0 mm)")])  # fmt: skip
 def test_a_dead_switch_fails_homing_naming_it_and_the_travel(switch, travel):
-    from transplanter.firmware.faults import FaultConfig, FaultKind
+    from transplanter.machine.faults import FaultConfig, FaultKind
 
     result, pgf, sgf = _run_with_faults(FaultConfig(switch_dead=switch))
     reply = pgf.sent[-1].reply
@@ -301,7 +301,7 @@ def test_a_dead_switch_fails_homing_naming_it_and_the_travel(switch, travel):
 def test_a_lost_reply_ends_the_run_with_a_bus_timeout():
     """The SGF's ok to line 5 (the first approach) is lost on the wire: the SGF did the move,
     the PGF hears nothing for reply_timeout_s and stops; nothing moves after."""
-    from transplanter.firmware.faults import FaultConfig, FaultKind, LostReplyTransport
+    from transplanter.machine.faults import FaultConfig, FaultKind, LostReplyTransport
 
     bus = LostReplyTransport(ComBus(), 5)
     result, pgf, sgf = _run_with_faults(FaultConfig(lost_reply_line=5), bus=bus)
@@ -320,7 +320,7 @@ def test_a_lost_reply_ends_the_run_with_a_bus_timeout():
 
 def test_firmware_link_schedules_the_reply_timeout():
     """With the reply lost nothing is in flight but the PGF's deadline: the link says when."""
-    from transplanter.firmware.faults import LostReplyTransport
+    from transplanter.machine.faults import LostReplyTransport
 
     config = SGFConfig()
     pgf = PGF(taught_image(), PGFConfig(seedlings=1, reply_timeout_s=12.0))

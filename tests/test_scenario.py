@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from transplanter.config import assemble
-from transplanter.scenario import ScenarioError, load_scenario, si_key
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import ScenarioError, load_scenario, si_key
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
 
@@ -112,7 +112,7 @@ def test_section_that_is_not_a_table(tmp_path):
 
 
 def test_packaged_scenario_by_name_and_as_base(tmp_path):
-    from transplanter.scenario import packaged_scenarios
+    from transplanter.scenario.schema import packaged_scenarios
 
     assert "paper" in packaged_scenarios()
     by_name = load_scenario("paper")
@@ -143,7 +143,7 @@ def test_sections_are_typed_and_frozen():
 
 
 def test_every_schema_key_is_a_section_field_with_its_unit_scale():
-    from transplanter.scenario import SCHEMA, SECTIONS
+    from transplanter.scenario.schema import SCHEMA, SECTIONS
 
     for section, keys in SCHEMA.items():
         names = {f.name for f in dataclasses_fields(SECTIONS[section])}
@@ -182,7 +182,7 @@ def test_base_may_be_an_absolute_path_but_not_a_relative_one_outside(tmp_path):
 
 
 def test_check_value_and_key_spec_name_the_key():
-    from transplanter.scenario import check_value, key_spec, parse_value
+    from transplanter.scenario.schema import check_value, key_spec, parse_value
 
     assert check_value("taught.z_low_mm", 30) == pytest.approx(0.030)
     assert key_spec("motion.profile").choices == ("trapezoid", "scurve")
@@ -206,7 +206,7 @@ def test_friction_zero_means_no_friction_and_the_old_floor_key_is_refused_with_w
 
 
 def test_the_paper_scenario_injects_no_faults():
-    from transplanter.firmware.faults import FaultConfig
+    from transplanter.machine.faults import FaultConfig
 
     s = load_scenario(PAPER)
     assert s.faults.switch_stuck_closed == s.faults.switch_dead == s.faults.jam_motor == 0

@@ -7,7 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from transplanter import kinematics
+from transplanter.machine.kinematics import fivebar as kinematics
 from transplanter.scene import (
     ConveyorDrive,
     PotBatch,

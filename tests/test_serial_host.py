@@ -7,13 +7,13 @@ import math
 
 import pytest
 
-from transplanter.config import assemble
-from transplanter.firmware.marlin import LineNoise, MarlinDevice
-from transplanter.firmware.pgf import PGF
-from transplanter.firmware.rig import SimulatedEndstops
-from transplanter.firmware.serial_host import SerialPGF, translate_reply
-from transplanter.firmware.sgf import SGF
-from transplanter.scenario import load_scenario
+from transplanter.machine.marlin import LineNoise, MarlinDevice
+from transplanter.machine.pgf import PGF
+from transplanter.machine.rig import SimulatedEndstops
+from transplanter.machine.serial_host import SerialPGF, translate_reply
+from transplanter.machine.sgf import SGF
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import load_scenario
 
 START = (math.radians(150.0), math.radians(30.0), 0.120)
 

@@ -15,11 +15,11 @@ from pathlib import Path
 
 import pytest
 
-from transplanter.config import assemble
-from transplanter.firmware.pgf import PGF
-from transplanter.firmware.serial_host import SerialPGF
-from transplanter.scenario import load_scenario
-from transplanter.trial import run_trial
+from transplanter.machine.pgf import PGF
+from transplanter.machine.serial_host import SerialPGF
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import load_scenario
+from transplanter.twin.trial import run_trial
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "scenarios" / "example.gcode"
 
@@ -202,9 +202,9 @@ class ScriptedEndpoint:
 def _bare_host(endpoint, **kwargs):
     from types import SimpleNamespace
 
-    from transplanter.firmware.bus import ComBus
-    from transplanter.firmware.sgf import SGF
-    from transplanter.serve import RemoteHost
+    from transplanter.machine.bus import ComBus
+    from transplanter.machine.sgf import SGF
+    from transplanter.twin.serve import RemoteHost
 
     machine = assemble(load_scenario("paper", {"scenario.seedlings": 1})).machine
     host = RemoteHost(endpoint, machine, **kwargs)

@@ -4,10 +4,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from transplanter.firmware.rig import SimulatedEndstops
-from transplanter.firmware.sgf import SGF, SGFConfig
-from transplanter.gcode import format_line
-from transplanter.kinematics import fk, ik
+from transplanter.machine.gcode import format_line
+from transplanter.machine.kinematics.fivebar import fk, ik
+from transplanter.machine.rig import SimulatedEndstops
+from transplanter.machine.sgf import SGF, SGFConfig
 
 START = (math.radians(150.0), math.radians(30.0), 0.120)
 
@@ -256,7 +256,7 @@ def test_line_numbers_and_required_checksum():
 def test_a_line_whose_checksum_passes_advances_n_whatever_its_command():
     """Issue row 13: ``N2 G2 X1*96`` got error:20 but N stayed at 1, so the next line got
     error:61 "expected N2". As in Marlin, a good checksum counts the line as received."""
-    from transplanter.gcode import checksum
+    from transplanter.machine.gcode import checksum
 
     sgf = SGF(SGFConfig(require_checksum=True))
     framed = "N2 G2 X1"
@@ -446,7 +446,7 @@ def test_homing_locate_fails_when_the_switch_is_lost():
 
 def test_homing_alone_seeks_pulls_off_locates_and_pulls_off_again():
     """firmware.homing.Homing without the SGF: the raw pulses of each leg, in closed form."""
-    from transplanter.firmware.homing import Homing
+    from transplanter.machine.homing import Homing
 
     config = SGFConfig()
     endstops = SimulatedEndstops(config, START)
@@ -481,9 +481,9 @@ def test_drives_whose_moves_cannot_be_held_are_refused(steps_per_rev, microsteps
     workspace needs more step pulses than a move may emit, naming the values."""
     import time
 
-    from transplanter.config import machine_config
-    from transplanter.scenario import ScenarioError, load_scenario
-    from transplanter.steppers import StepperDrive
+    from transplanter.machine.steppers import StepperDrive
+    from transplanter.scenario.assemble import machine_config
+    from transplanter.scenario.schema import ScenarioError, load_scenario
 
     drives = tuple(
         StepperDrive(name, steps_per_rev=steps_per_rev, microsteps=microsteps, **extra)
@@ -500,7 +500,7 @@ def test_drives_whose_moves_cannot_be_held_are_refused(steps_per_rev, microsteps
 
 
 def test_paper_class_drives_are_accepted():
-    from transplanter.steppers import StepperDrive
+    from transplanter.machine.steppers import StepperDrive
 
     drives = tuple(
         StepperDrive(name, steps_per_rev=400, microsteps=256, **extra)
@@ -511,7 +511,7 @@ def test_paper_class_drives_are_accepted():
 
 def test_a_move_with_too_many_step_pulses_is_refused_before_its_events(homed, monkeypatch):
     """Row 8, the planner's bound: a move is refused (error:33) before its step events exist."""
-    import transplanter.motion as motion
+    import transplanter.machine.motion as motion
 
     sgf, endstops, t = homed
     monkeypatch.setattr(motion, "MAX_STEPS_PER_MOVE", 1000)
@@ -560,7 +560,7 @@ def test_an_over_long_line_is_refused_with_line_overflow_at_once():
     """Issue row 14: a 1M-character line was accepted; it gets error:11 without parsing."""
     import time
 
-    from transplanter.gcode import MAX_LINE_CHARS, GcodeError, parse_line
+    from transplanter.machine.gcode import MAX_LINE_CHARS, GcodeError, parse_line
 
     sgf = SGF(SGFConfig())
     long_line = "G4 P1 ;" + "x" * 1_000_000
@@ -582,9 +582,9 @@ def test_homing_distances_follow_the_drives_and_256_microsteps_plan():
     joint distances converted with the drives, and the example program plans quickly."""
     import time
 
-    from transplanter.config import machine_config
-    from transplanter.planner import plan_program
-    from transplanter.scenario import load_scenario
+    from transplanter.machine.planner import plan_program
+    from transplanter.scenario.assemble import machine_config
+    from transplanter.scenario.schema import load_scenario
 
     assert SGFConfig().homing_pulloff_steps == (96, 96, 400)
     assert SGFConfig().homing_max_steps == (4800, 4800, 80000)

@@ -1,4 +1,4 @@
-"""The shoot's sway (transplanter.shoot): its frequency, damping and droop as set, and the
+"""The shoot's sway (transplanter.twin.shoot): its frequency, damping and droop as set, and the
 same bend as a MuJoCo body on two sprung hinges carried through the same motion."""
 
 import math
@@ -7,7 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from transplanter.shoot import ShootSway, shoot_params
+from transplanter.twin.shoot import ShootSway, shoot_params
 
 UPRIGHT = (1.0, 0.0, 0.0, 0.0)
 STILL = (0.0, 0.0, 0.0)

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from conftest import paper_config
-from transplanter.firmware.pgf import LinePhase
-from transplanter.sim import LineEventKind, SimulationInvalid, Twin
+from transplanter.machine.pgf import LinePhase
+from transplanter.twin.sim import LineEventKind, SimulationInvalid, Twin
 
 
 @pytest.fixture(scope="module")
@@ -193,7 +193,7 @@ def test_exchanging_only_when_the_firmware_needs_it_changes_no_result():
     """Homing exchanges at switch changes and at the homing's own times, and the settle
     after the program in one block: the same trial, bit for bit, with far fewer
     exchanges."""
-    from transplanter.trial import run_trial
+    from transplanter.twin.trial import run_trial
 
     config = paper_config(2)
     results, exchanges = [], []

@@ -2,8 +2,8 @@
 
 import pytest
 
-from transplanter.results import wilson_interval
-from transplanter.stats import parse_seeds, pooled_rate
+from transplanter.studies.stats import parse_seeds, pooled_rate
+from transplanter.twin.results import wilson_interval
 
 
 def test_identical_trials_give_the_wilson_interval_over_all_picks():

@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from transplanter import steppers
-from transplanter.steppers import StepperDrive
+from transplanter.machine import steppers
+from transplanter.machine.steppers import StepperDrive
 
 
 def test_arm_drive_has_9600_steps_per_arm_revolution():

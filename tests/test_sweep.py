@@ -1,4 +1,4 @@
-"""transplanter.sweep: the files (manifest, resume, torn lines), the pooled table, and whole
+"""transplanter.studies.sweep: the files (manifest, resume, torn lines), the pooled table, and whole
 sweeps on every backend (the grid and one run: test_sweep_grid.py, test_sweep_backends.py)."""
 
 import json
@@ -11,7 +11,7 @@ import time
 import pytest
 
 from transplanter.cli import main
-from transplanter.sweep import (
+from transplanter.studies.sweep import (
     Axis,
     SweepRefused,
     SweepSpec,

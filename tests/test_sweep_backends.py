@@ -1,19 +1,19 @@
-"""transplanter.sweep_backends: one run as a row (never an exception) and the backends by name."""
+"""transplanter.studies.backends: one run as a row (never an exception) and the backends by name."""
 
 import sys
 
 import pytest
 
-import transplanter.trial
-from transplanter.results import TrialResult
-from transplanter.sweep_backends import (
+import transplanter.twin.trial
+from transplanter.studies.backends import (
     WARNING_SEPARATOR,
     BackendMissing,
     InlineBackend,
     make_backend,
     run_one,
 )
-from transplanter.sweep_grid import SweepRefused
+from transplanter.studies.grid import SweepRefused
+from transplanter.twin.results import TrialResult
 
 
 def _task(z_low_mm=34.0, seed=3):
@@ -33,7 +33,7 @@ def test_a_run_that_raises_is_a_row_with_its_error(monkeypatch):
     def boom(config):
         raise RuntimeError(f"solver exploded at seed {config.seed}")
 
-    monkeypatch.setattr(transplanter.trial, "run_trial", boom)
+    monkeypatch.setattr(transplanter.twin.trial, "run_trial", boom)
     row = run_one(_task())
     assert row["error"] == "RuntimeError: solver exploded at seed 3"
     assert row["successes"] is None and row["seed"] == 3
@@ -48,7 +48,7 @@ def test_a_trial_that_ran_out_of_time_is_not_called_invalid_physics(monkeypatch)
             wall_time_s=1.0, valid=False, invalid_reason=reason,
         )  # fmt: skip
 
-    monkeypatch.setattr(transplanter.trial, "run_trial", timed_out)
+    monkeypatch.setattr(transplanter.twin.trial, "run_trial", timed_out)
     row = run_one(_task())
     assert row["error"] == f"trial not valid: {reason}"
     assert row["valid"] is False and row["sim_time_s"] == 120.5

@@ -1,9 +1,9 @@
-"""transplanter.sweep_grid: --vary and --param parsed and checked with the schema, the spec's
+"""transplanter.studies.grid: --vary and --param parsed and checked with the schema, the spec's
 grid of (setting, seed) runs."""
 
 import pytest
 
-from transplanter.sweep_grid import Axis, SweepRefused, SweepSpec, parse_param_range, parse_vary
+from transplanter.studies.grid import Axis, SweepRefused, SweepSpec, parse_param_range, parse_vary
 
 REFUSED = Axis("taught.z_low_mm", (61.0, 70.0))
 
@@ -105,12 +105,12 @@ def test_spec_expands_the_grid_first_key_outermost():
 
 
 def test_a_taught_range_is_on_the_eeprom_grid():
-    from transplanter.sweep_grid import SweepRefused, parse_param_range
+    from transplanter.studies.grid import SweepRefused, parse_param_range
 
     assert parse_param_range("taught.z_low_mm=28..40.5")[2:] == (28.0, 40.5)
     with pytest.raises(SweepRefused, match="steps of 0.001"):
         parse_param_range("taught.z_low_mm=28.0005..40")
-    from transplanter.tune import Param
+    from transplanter.studies.tune import Param
 
     dist = Param("taught.s_high_mm_s", "float", 120.0, 250.0).distribution()
     assert dist.step == 0.1

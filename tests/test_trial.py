@@ -15,11 +15,11 @@ import pytest
 
 from conftest import PAPER_PATH, ROOT, paper_config, variant
 from transplanter.cli import main
-from transplanter.config import assemble
-from transplanter.results import FAILURE_KINDS, Outcome
-from transplanter.scenario import load_scenario
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import load_scenario
 from transplanter.scene import PotBatch
-from transplanter.trial import run_trial
+from transplanter.twin.results import FAILURE_KINDS, Outcome
+from transplanter.twin.trial import run_trial
 
 # Baseline recorded from the 40-seedling paper trial, seed 1 (2026-11-21): 40/40 successes
 # (100 %, 95 % Wilson interval 91.2-100 %), mean cycle 3.496 s; seeds 2-6 also gave 40/40.
@@ -156,7 +156,7 @@ def test_rejected_move_is_recorded_and_nothing_after_it_runs(tmp_path):
 def test_invalid_physics_is_never_a_success():
     """Infinite forces injected mid-trial: the result is invalid, nothing is judged a
     success, and the seedling in progress is not run."""
-    from transplanter.sim import Twin
+    from transplanter.twin.sim import Twin
 
     class PoisonedTwin(Twin):
         def __post_init__(self):
@@ -177,8 +177,8 @@ def test_invalid_physics_is_never_a_success():
 @pytest.mark.slow
 def test_recorded_trial_reads_back(tmp_path, capsys):
     """A 2-seedling trial recorded to .rrd, read back with rerun's own API."""
-    from transplanter.channels import channel_names
-    from transplanter.playback import read_summary
+    from transplanter.viewing.channels import channel_names
+    from transplanter.viewing.playback import read_summary
 
     rrd, out = tmp_path / "two.rrd", tmp_path / "two.json"
     args = ["trial", "paper", "--seedlings", "2", "--record", str(rrd), "--json", str(out)]
@@ -213,7 +213,7 @@ def test_conveyors_up_to_the_schema_limit_run_a_trial(rows):
 
 def _fault_trial(seedlings: int = 1, **overrides):
     """A short trial with scenario overrides; the result and the twin it ran."""
-    from transplanter.sim import Twin
+    from transplanter.twin.sim import Twin
 
     twins = []
 
@@ -236,7 +236,7 @@ def _assert_stopped(result, twin, kind: str, t_fault: float) -> None:
     times = np.linspace(t_fault, twin.time, 20)
     pulses = twin.sgf.pulses_at(times)
     assert (pulses == pulses[0]).all()
-    from transplanter.report import format_summary
+    from transplanter.twin.report import format_summary
 
     assert re.search(rf"^fault kind +{kind}$", format_summary(result), re.MULTILINE)
 
@@ -464,7 +464,7 @@ def test_paper_trial_reports_the_moves_z_slowed(paper_result):
     warnings = paper_result.to_dict()["warnings"]
     assert any(w.startswith("40 moves asked for 60 mm/s cruised at 50.0 mm/s") for w in warnings)
     assert all("motor 3 reaches its top step rate" in w for w in warnings), warnings
-    from transplanter.report import format_summary
+    from transplanter.twin.report import format_summary
 
     assert "warning " in format_summary(paper_result)
 

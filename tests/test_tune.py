@@ -5,9 +5,9 @@ import csv
 import pytest
 
 from transplanter.cli import main
-from transplanter.scenario import load_scenario
-from transplanter.sweep import SweepRefused
-from transplanter.tune import Param, TuneSpec, base_reference, tuned_toml
+from transplanter.scenario.schema import load_scenario
+from transplanter.studies.sweep import SweepRefused
+from transplanter.studies.tune import Param, TuneSpec, base_reference, tuned_toml
 
 pytest.importorskip("optuna")
 

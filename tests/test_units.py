@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from transplanter import units
-from transplanter.config import machine_config
-from transplanter.firmware.pgf import LinePhase, build_program
-from transplanter.firmware.rig import SimulatedEndstops
-from transplanter.firmware.sgf import SGF, SGFConfig
-from transplanter.gcode import parse_line
-from transplanter.machine import power_on_joints
-from transplanter.scenario import load_scenario
+from transplanter.machine.config import power_on_joints
+from transplanter.machine.gcode import parse_line
+from transplanter.machine.pgf import LinePhase, build_program
+from transplanter.machine.rig import SimulatedEndstops
+from transplanter.machine.sgf import SGF, SGFConfig
+from transplanter.scenario.assemble import machine_config
+from transplanter.scenario.schema import load_scenario
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from transplanter.kinematics import FiveBarGeometry, FiveBarKinematics
+from transplanter.machine.kinematics.fivebar import FiveBarGeometry, FiveBarKinematics
 
 # Collision bits (contype/conaffinity): 1 world/static, 2 pots, 4 gripper; each conveyor row
 # r has the bit ROW_BIT_FIRST + r % ROW_BITS (bits 8..30; bit 31 would overflow MuJoCo's
@@ -234,7 +234,7 @@ class SceneConfig:
     stem_length_range: tuple[float, float] = (0.035, 0.045)
     leaves_range: tuple[int, int] = (2, 3)
     seedling_mass: float = 0.003
-    # The shoot sways on its stem (transplanter.shoot: a hinge at the centre of the pot's
+    # The shoot sways on its stem (transplanter.twin.shoot: a hinge at the centre of the pot's
     # top) at this natural frequency (Hz, upright, gravity included) with this damping
     # ratio. Estimates: a 40 mm shoot flicked sideways swings a few times a second and stops
     # within a few swings.

@@ -48,7 +48,7 @@ class PotBatch:
     leaf_yaw0 (rad, yaw of leaf 0; the others follow evenly around the stem), bond_force (N,
     strength of the pot's bond to the belt; 0: none), soft (bool: a soaked pot whose wall
     gives under the jaws), sway_hz (the natural frequency of its seedling's shoot swaying on
-    its stem, Hz; transplanter.shoot), crook (rad: how far its wall leans over its foot; 0
+    its stem, Hz; transplanter.twin.shoot), crook (rad: how far its wall leans over its foot; 0
     for a straight pot), crook_azimuth (rad: towards which side, from +x) and fill_gap (m:
     how far below the rim its soil lies).
     """

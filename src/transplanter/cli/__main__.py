@@ -1,0 +1,7 @@
+"""`python -m transplanter.cli`: the command line."""
+
+import sys
+
+from transplanter.cli import main
+
+sys.exit(main())

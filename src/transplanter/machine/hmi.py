@@ -1,0 +1,965 @@
+"""The HMI: a 20x4 character LCD and a 4x4 membrane keypad, the paper's teach mode.
+
+The paper's PGF board (an Arduino Mega) has an LCD and a keypad whose buttons serve as up,
+down, left, right, select, back and numerical entries (section 3.1, Fig. 10). Through a menu
+(Fig. 8) the user enters the number of pickups M_pp and the other values (Fig. 11: navigate,
+enter the value, select saves it), and teaches points by moving the end effector with the
+keys until it is where the point should be; its X and Y are then fetched from the SGF over
+the COM bus and stored (Fig. 12, 'End effector position' in the drop menu). The result is
+the EEPROM image of Fig. 9 (layout: ``transplanter.machine.eeprom``).
+
+:class:`Hmi` is that state machine, with no I/O of its own: ``press(key)`` takes one of the
+16 keys (``KEYS``), ``lcd`` is the 4 lines of 20 characters shown. The arm is a real
+:class:`~transplanter.machine.sgf.SGF` on a simulated clock (:class:`SGFPort`): the HMI
+homes it with ``G28`` at power-on, jogs it with absolute ``G1`` lines and reads its position
+with ``M114``. A jog target is checked first as the SGF would check it (Z range, every
+interpolated point of the straight move through ``motion.plan_line``); a refused target never
+moves the arm and the LCD says why in a few words (the full reason is in
+``Hmi.last_refusal``). The SGF's own refusals are shown the same way.
+
+Key map (docs/hmi.md)::
+
+    1 2 3 A     menus:  A up, B down, # select, * back, a digit selects its item
+    4 5 6 B     values: 0-9, D decimal point, C delete, # save, * cancel
+    7 8 9 C     jog:    4/6 X-/X+, 8/2 Y-/Y+, 9/3 Z-/Z+, 5 step 10/1/0.1 mm,
+    * 0 # D             # store the position, * back
+
+Two front ends drive it: ``run_keys`` (a scripted key sequence, what the tests use and
+``transplanter hmi --keys``) and ``run_terminal`` (curses, ``transplanter hmi`` on a TTY).
+Pure Python and numpy: no MuJoCo.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import zlib
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from transplanter import fileio
+from transplanter.machine.config import Machine, power_on_joints
+from transplanter.machine.eeprom import (
+    CRC_OFFSET,
+    DATA_SIZE,
+    MAX_PICKUPS,
+    MAX_SPEED_M_S,
+    EepromError,
+    EepromImage,
+    Pickup,
+)
+from transplanter.machine.gcode import SERVO_MAX_DEG
+from transplanter.machine.kinematics import fivebar as kinematics
+from transplanter.machine.motion import plan_line
+from transplanter.machine.rig import DT_HOMING_S, SimulatedEndstops
+from transplanter.machine.sgf import SGF, SGFConfig
+from transplanter.units import M_PER_MM
+
+__all__ = [
+    "KEYS",
+    "LCD_COLS",
+    "LCD_ROWS",
+    "JOG_STEPS_MM",
+    "Hmi",
+    "KeyScriptError",
+    "SGFPort",
+    "lcd_reason",
+    "parse_keys",
+    "run_keys",
+    "run_terminal",
+]
+
+KEYS = "0123456789ABCD*#"
+"""The 16 keys of the 4x4 membrane keypad."""
+KEYPAD_ROWS = ("123A", "456B", "789C", "*0#D")
+"""The keypad as it is laid out."""
+LCD_COLS, LCD_ROWS = 20, 4
+JOG_STEPS_MM = (10.0, 1.0, 0.1)
+"""Jog step sizes, cycled by key 5 (the first is the power-on step)."""
+JOG_GRID_TICKS_PER_MM = 10
+"""Jog targets lie on a 0.1 mm grid: a jog goes to the next multiple of the step."""
+JOG_SPEED_MM_S = 20.0
+"""Speed of a jog move (the ``S`` word of its G1 line)."""
+MAX_ENTRY_CHARS = 8
+"""Characters a numeric entry takes."""
+SPEED_MAX_MM_S = MAX_SPEED_M_S / M_PER_MM
+SPEED_MIN_MM_S = 0.1
+"""Speeds: the scenario's least (0.1 mm/s) up to what the EEPROM's uint16 field holds."""
+MAX_KEY_SCRIPT_BYTES = 1 << 20
+"""A key script file is at most this big (a teach session is a few hundred keys)."""
+
+_JOG_KEYS = {"4": (0, -1), "6": (0, +1), "8": (1, -1), "2": (1, +1), "9": (2, -1), "3": (2, +1)}
+_JOG_HINT = "X4/6 Y8/2 Z9/3 5stp"
+_ENTRY_HINT = "D=. C=del #ok *back"
+_M114 = re.compile(
+    r"X:(?P<x>\S+) Y:(?P<y>\S+) Z:(?P<z>\S+) A:(?P<a>-?\d+) B:(?P<b>-?\d+) C:(?P<c>-?\d+)"
+)
+
+
+class KeyScriptError(ValueError):
+    """A key script holds something that is not a key; the message names where."""
+
+
+def parse_keys(text: str, source: str = "keys") -> list[str]:
+    """The keys of a script: each of the 16 key characters is one press; spaces and line
+    breaks are ignored, and ``;`` starts a comment up to the end of its line. Anything else
+    is a KeyScriptError naming its line, column and the valid keys."""
+    keys: list[str] = []
+    for line_no, line in enumerate(text.splitlines() or [""], start=1):
+        for col, char in enumerate(line, start=1):
+            if char == ";":
+                break
+            if char in " \t\r\f\v":
+                continue
+            if char not in KEYS:
+                where = f"line {line_no}, column {col}" if "\n" in text else f"position {col}"
+                raise KeyScriptError(
+                    f"{source}: {char!r} at {where} is not a key; the keypad's keys are "
+                    "0-9 A B C D * # (spaces and line breaks are ignored, ';' starts a comment)"
+                )
+            keys.append(char)
+    return keys
+
+
+def lcd_reason(reason: str, width: int = LCD_COLS - 3) -> str:
+    """A refusal reason (a kinematics reason, an SGF ``error:N`` reply) cut down to ``width``
+    characters for the LCD: the most telling form that fits ('motor1 79.97<80', else
+    'motor1 limit')."""
+    text = reason.strip()
+    m = re.match(r"error:(\d+) (.*)", text, re.S)
+    if m:
+        prefix = f"SGF{m.group(1)} "
+        inner = m.group(2)
+        if ": " in inner and not inner.startswith("motor"):
+            inner = inner.split(": ", 1)[1]
+        return prefix + lcd_reason(inner, width - len(prefix))
+    for candidate in _short_forms(text):
+        if len(candidate) <= width:
+            return candidate
+    return _crop(text, width)
+
+
+_LIMIT = re.compile(
+    r"(?P<what>motor (?P<motor>\d) angle|elbow angle at (?P<elbow>[BD])|transmission angle) "
+    r"(?P<v>-?[\d.]+) deg outside \[(?P<lo>-?[\d.]+), (?P<hi>-?[\d.]+)\]"
+)
+
+
+def _short_forms(text: str) -> list[str]:
+    m = _LIMIT.search(text)
+    if m:
+        if m.group("motor"):
+            name = f"motor{m.group('motor')}"
+        elif m.group("elbow"):
+            name = f"elbow {m.group('elbow')}"
+        else:
+            name = "transm."
+        value, lo, hi = m.group("v"), m.group("lo"), m.group("hi")
+        below = float(value) < float(lo)
+        bound = f"<{lo}" if below else f">{hi}"
+        return [f"{name} {value}{bound}", f"{name}{value}{bound}", f"{name} limit", name]
+    for needle, forms in (
+        ("outside workspace", ("out of reach", "no reach")),
+        ("Jacobian condition", ("near singularity", "singular")),
+        ("home first", ("not homed", "home")),
+        ("homing failed", ("homing failed", "home fail")),
+        ("position unknown", ("not homed", "home")),
+    ):
+        if needle in text:
+            return list(forms)
+    return []
+
+
+def _crop(text: str, width: int = LCD_COLS) -> str:
+    return text[:width]
+
+
+def _fit(text: str) -> str:
+    """One LCD line: ASCII, cut or padded to exactly LCD_COLS characters."""
+    text = text.encode("ascii", "replace").decode("ascii")
+    return text[:LCD_COLS].ljust(LCD_COLS)
+
+
+def _num(value: float | None, decimals: int = 1) -> str:
+    """A value for the LCD without trailing zeros ('60', '112.4'); '---' when not set."""
+    if value is None:
+        return "---"
+    text = f"{value:.{decimals}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+# -- the SGF at the other end of the COM bus --------------------------------------------
+
+
+class SGFPort:
+    """A real SGF on a simulated clock, one line at a time (the PGF's side of the COM bus,
+    without the bus's timing): ``send`` delivers a line and advances the clock until the
+    SGF has answered it (``ok`` or ``error:N``), reading the limit switches of
+    ``firmware.rig.SimulatedEndstops`` (the motors start at ``machine.power_on_joints``)."""
+
+    def __init__(self, config: SGFConfig, max_time_s: float = 1e4):
+        self.sgf = SGF(config)
+        self.endstops = SimulatedEndstops(config, power_on_joints(config))
+        self.t = 0.0
+        self.max_time_s = max_time_s
+        self.log: list[tuple[float, str, tuple[str, ...]]] = []
+        """(t, line, replies) of every line sent."""
+
+    def send(self, line: str) -> list[str]:
+        """The SGF's replies to ``line``, the last one its ``ok`` or ``error:N``."""
+        sgf = self.sgf
+        sgf.receive(line, self.t)
+        replies: list[str] = []
+        while True:
+            switches = self.endstops.read(sgf.pulses_at(self.t)[0])
+            replies.extend(sgf.poll(self.t, switches))
+            if replies and (replies[-1] == "ok" or replies[-1].startswith("error:")):
+                if not sgf.busy:
+                    break
+            t_next = sgf.next_event_time()
+            if sgf.homing:
+                t_next = (
+                    self.t + DT_HOMING_S if t_next is None else min(t_next, self.t + DT_HOMING_S)
+                )
+            if t_next is None or t_next > self.max_time_s:
+                raise RuntimeError(f"the SGF did not answer {line!r} (t = {self.t:.3f} s)")
+            self.t = max(self.t, t_next)
+        sgf.forget_before(self.t)
+        self.log.append((self.t, line, tuple(replies)))
+        return replies
+
+
+# -- the teach buffer -------------------------------------------------------------------
+
+
+@dataclass
+class TeachData:
+    """What the EEPROM will hold, as taught so far (SI; None: not taught yet)."""
+
+    m_pp: int | None = None
+    approach: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
+    grip: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
+    elbow: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
+    drop: tuple[float, float] | None = None
+    drop_elbow: float | None = None
+    z_up: float | None = None
+    z_low: float | None = None
+    s_low: float | None = None
+    s_high: float | None = None
+
+    @classmethod
+    def of_image(cls, image: EepromImage) -> TeachData:
+        data = cls(
+            m_pp=image.m_pp,
+            drop=image.drop_xy_m,
+            drop_elbow=image.drop_elbow_deg,
+            z_up=image.z_up_m,
+            z_low=image.z_low_m,
+            s_low=image.s_low_m_s,
+            s_high=image.s_high_m_s,
+        )
+        for k, p in enumerate(image.pickups):
+            data.approach[k], data.grip[k], data.elbow[k] = (
+                p.approach_xy_m,
+                p.grip_xy_m,
+                p.elbow_deg,
+            )
+        return data
+
+    def missing(self) -> str | None:
+        """The first value still to teach, for the LCD; None when the image is complete."""
+        checks = [
+            (self.m_pp, "M_pp"),
+            (self.z_up, "Z_up"),
+            (self.z_low, "Z_low"),
+            (self.s_low, "S_l"),
+            (self.s_high, "S_h"),
+            (self.drop, "drop point"),
+            (self.drop_elbow, "drop elbow"),
+        ]
+        for value, name in checks:
+            if value is None:
+                return f"{name} not set"
+        for k in range(self.m_pp):
+            for values, name in (
+                (self.approach, "appr"),
+                (self.grip, "grip"),
+                (self.elbow, "elbow"),
+            ):
+                if values[k] is None:
+                    return f"P{k + 1} {name} not set"
+        return None
+
+    def image(self) -> EepromImage:
+        """The EEPROM image (EepromError if something is missing or out of range)."""
+        missing = self.missing()
+        if missing is not None:
+            raise EepromError(missing)
+        return EepromImage(
+            pickups=tuple(
+                Pickup(self.approach[k], self.grip[k], self.elbow[k]) for k in range(self.m_pp)
+            ),
+            drop_xy_m=self.drop,
+            drop_elbow_deg=self.drop_elbow,
+            z_up_m=self.z_up,
+            z_low_m=self.z_low,
+            s_low_m_s=self.s_low,
+            s_high_m_s=self.s_high,
+        )
+
+
+@dataclass(frozen=True)
+class Field:
+    """A value entered with the digits: its LCD name, unit, range and decimals."""
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    decimals: int
+    scale: float  # SI per unit entered
+    attr: str
+    index: int | None = None  # pickup slot for the per-pickup elbow angle
+    short: str = ""  # the name in the 'Saved' note
+
+
+# -- the state machine ------------------------------------------------------------------
+
+
+class Hmi:
+    """The teach-mode state machine (module docstring). ``out_path``: where ``Write EEPROM``
+    writes the image (atomically); None keeps it in ``image_bytes`` only."""
+
+    def __init__(
+        self,
+        machine: Machine,
+        out_path: str | Path | None = None,
+        image: EepromImage | None = None,
+    ):
+        self.machine = machine
+        self.config = machine.sgf
+        self.out_path = None if out_path is None else Path(out_path)
+        self.data = TeachData.of_image(image) if image is not None else TeachData()
+        self.port = SGFPort(self.config)
+        self.position = np.full(3, np.nan)
+        """Where the SGF says the arm is (x, y, z m), from its last M114."""
+        self.steps = np.zeros(3, dtype=np.int64)
+        """The SGF's logical step counters, from its last M114."""
+        self.step_index = 0
+        self.screen = "menu"
+        self.menu = "main"
+        self.pickup = 0  # the pickup slot of the 'pickup' menu
+        self.cursor = {"main": 0}
+        self.field: Field | None = None
+        self.typed = ""
+        self.jog_target: tuple[str, int | None] | None = None  # ('approach'|'grip'|'drop', k)
+        self.note: str | None = None
+        self.last_refusal: str | None = None
+        """The full reason of the last refusal (the LCD shows it shortened)."""
+        self.refused = False
+        """The last key (or the power-on) was refused: the LCD shows why."""
+        self.image_bytes: bytes | None = None
+        """The last image written."""
+        self.writes = 0
+        self._home()
+
+    # -- the LCD --------------------------------------------------------------------
+    @property
+    def lcd(self) -> tuple[str, str, str, str]:
+        """The 4 lines of 20 characters on the LCD now."""
+        lines = getattr(self, f"_render_{self.screen}")()
+        assert len(lines) == LCD_ROWS
+        return tuple(_fit(line) for line in lines)
+
+    def lcd_text(self) -> str:
+        """The LCD in a frame, for a terminal."""
+        edge = "+" + "-" * LCD_COLS + "+"
+        return "\n".join([edge, *(f"|{line}|" for line in self.lcd), edge])
+
+    # -- keys -----------------------------------------------------------------------
+    def press(self, key: str) -> None:
+        """One key of the keypad (``KEYS``)."""
+        if not (isinstance(key, str) and len(key) == 1 and key in KEYS):
+            raise ValueError(f"{key!r} is not a key; the keys are {' '.join(KEYS)}")
+        self.note = None
+        self.refused = False
+        getattr(self, f"_key_{self.screen}")(key)
+
+    # -- the SGF --------------------------------------------------------------------
+    def _send(self, line: str) -> str | None:
+        """Send a line; None if it was done, else the SGF's error reply."""
+        replies = self.port.send(line)
+        return None if replies[-1] == "ok" else replies[-1]
+
+    def _fetch_position(self) -> None:
+        """M114: the position and the step counters, as the SGF reports them."""
+        replies = self.port.send("M114")
+        for reply in replies:
+            m = _M114.match(reply)
+            if m and m.group("x") != "nan":
+                self.position = np.array([float(m.group(a)) * M_PER_MM for a in "xyz"])
+                self.steps = np.array([int(m.group(a)) for a in "abc"], dtype=np.int64)
+                return
+        self.position = np.full(3, np.nan)
+
+    def _home(self) -> None:
+        error = self._send("G28")
+        if error is None:
+            error = self._send("G90")
+        self._fetch_position()
+        if error is not None:
+            self._refuse(error)
+            return
+        x, y, z = self.position / M_PER_MM
+        self.note = f"Homed X{x:.0f} Y{y:.0f} Z{z:.0f}"
+
+    def _note_refusal(self, reason: str) -> None:
+        self.last_refusal = reason
+        self.refused = True
+
+    def _refuse(self, reason: str) -> None:
+        """Keep the full reason; the LCD shows 'NO <reason>', or 'SGF<N> <reason>' for the
+        SGF's own error reply, in 20 characters."""
+        self._note_refusal(reason)
+        if reason.startswith("error:"):
+            self.note = lcd_reason(reason, LCD_COLS)
+        else:
+            self.note = "NO " + lcd_reason(reason, LCD_COLS - 3)
+
+    # -- menus ----------------------------------------------------------------------
+    def _items(self) -> list[tuple[str, str, Callable[[], None]]]:
+        """(digit, label, action) of the current menu."""
+        d = self.data
+        if self.menu == "main":
+            return [
+                ("1", f"Pickups  Mpp {_num(d.m_pp, 0)}", lambda: self._open("pickups")),
+                ("2", "Drop point", lambda: self._open("drop")),
+                ("3", "Z_up / Z_low", lambda: self._open("z")),
+                ("4", "Speeds S_l S_h", lambda: self._open("speeds")),
+                ("5", "Home arm (G28)", self._home),
+                ("6", "Write EEPROM", lambda: self._go("write")),
+            ]
+        if self.menu == "pickups":
+            items = [("0", f"Mpp (count) {_num(d.m_pp, 0)}", lambda: self._entry(self._f_mpp()))]
+            for k in range(d.m_pp or 0):
+                flags = "".join(
+                    c if v[k] is not None else "-"
+                    for c, v in (("A", d.approach), ("G", d.grip), ("E", d.elbow))
+                )
+                digit = str(k + 1) if k < 9 else ""
+                items.append((digit, f"Pickup {k + 1:<2}  {flags}", self._opener(k)))
+            return items
+        if self.menu == "pickup":
+            k = self.pickup
+            return [
+                ("1", f"Appr {self._xy(d.approach[k])}", lambda: self._jog("approach", k)),
+                ("2", f"Grip {self._xy(d.grip[k])}", lambda: self._jog("grip", k)),
+                ("3", f"Elbow {_num(d.elbow[k], 2)}", lambda: self._entry(self._f_elbow(k))),
+            ]
+        if self.menu == "drop":
+            return [
+                ("1", f"Pos {self._xy(d.drop)}", lambda: self._jog("drop", None)),
+                ("2", f"Elbow {_num(d.drop_elbow, 2)}", lambda: self._entry(self._f_drop_elbow())),
+            ]
+        if self.menu == "z":
+            return [
+                (
+                    "1",
+                    f"Z_up  {_num(self._mm(d.z_up), 3)} mm",
+                    lambda: self._entry(self._f_z("z_up")),
+                ),
+                (
+                    "2",
+                    f"Z_low {_num(self._mm(d.z_low), 3)} mm",
+                    lambda: self._entry(self._f_z("z_low")),
+                ),
+            ]
+        if self.menu == "speeds":
+            return [
+                (
+                    "1",
+                    f"S_l {_num(self._mm(d.s_low))} mm/s",
+                    lambda: self._entry(self._f_speed("s_low")),
+                ),
+                (
+                    "2",
+                    f"S_h {_num(self._mm(d.s_high))} mm/s",
+                    lambda: self._entry(self._f_speed("s_high")),
+                ),
+            ]
+        raise AssertionError(self.menu)
+
+    def _opener(self, k: int) -> Callable[[], None]:
+        def open_pickup():
+            self.pickup = k
+            self._open("pickup")
+
+        return open_pickup
+
+    _TITLES = {
+        "main": "MENU A^ Bv #ok",
+        "pickups": "PICKUPS   *back",
+        "drop": "DROP POINT *back",
+        "z": "Z LEVELS  *back",
+        "speeds": "SPEEDS    *back",
+    }
+    _PARENT = {
+        "pickups": "main",
+        "pickup": "pickups",
+        "drop": "main",
+        "z": "main",
+        "speeds": "main",
+    }
+
+    def _title(self) -> str:
+        if self.menu == "pickup":
+            return f"PICKUP {self.pickup + 1}  *back"
+        return self._TITLES[self.menu]
+
+    def _open(self, menu: str) -> None:
+        self.menu = menu
+        self.screen = "menu"
+        self.cursor.setdefault(self._cursor_key(), 0)
+
+    def _go(self, screen: str) -> None:
+        self.screen = screen
+
+    def _cursor_key(self) -> str:
+        return f"pickup{self.pickup}" if self.menu == "pickup" else self.menu
+
+    def _render_menu(self) -> list[str]:
+        items = self._items()
+        cursor = min(self.cursor.get(self._cursor_key(), 0), len(items) - 1)
+        top = max(0, min(cursor - 1, len(items) - (LCD_ROWS - 1)))
+        title = self._title()
+        position = f"{cursor + 1}/{len(items)}"
+        if len(title) + 1 + len(position) <= LCD_COLS:
+            title = title.ljust(LCD_COLS - len(position)) + position
+        lines = [self.note if self.note is not None else title]
+        for i in range(top, top + LCD_ROWS - 1):
+            if i < len(items):
+                digit, label, _ = items[i]
+                lines.append(
+                    (">" if i == cursor else " ") + (f"{digit} " if digit else "  ") + label
+                )
+            else:
+                lines.append("")
+        return lines
+
+    def _key_menu(self, key: str) -> None:
+        items = self._items()
+        where = self._cursor_key()
+        cursor = min(self.cursor.get(where, 0), len(items) - 1)
+        if key == "A":
+            self.cursor[where] = max(0, cursor - 1)
+        elif key == "B":
+            self.cursor[where] = min(len(items) - 1, cursor + 1)
+        elif key == "#":
+            items[cursor][2]()
+        elif key == "*":
+            if self.menu == "main":
+                self.note = "Main menu"
+            else:
+                self._open(self._PARENT[self.menu])
+        elif key.isdigit():
+            for i, (digit, _, action) in enumerate(items):
+                if digit == key:
+                    self.cursor[where] = i
+                    action()
+                    return
+            if self.menu == "pickups" and not self.data.m_pp:
+                self.note = "Set M_pp first: 0"
+            else:
+                self.note = f"No item {key} here"
+        else:
+            self.note = f"Key {key}: no use here"
+
+    # -- numeric entry (paper Fig. 11) ---------------------------------------------
+    def _f_mpp(self) -> Field:
+        return Field("Pickups M_pp", "", 1, MAX_PICKUPS, 0, 1.0, "m_pp", short="M_pp")
+
+    def _f_elbow(self, k: int) -> Field:
+        return Field(
+            f"P{k + 1} elbow M_pep",
+            "deg",
+            0.0,
+            SERVO_MAX_DEG,
+            2,
+            1.0,
+            "elbow",
+            k,
+            f"P{k + 1} elbow",
+        )
+
+    def _f_drop_elbow(self) -> Field:
+        return Field(
+            "Drop elbow M_dep", "deg", 0.0, SERVO_MAX_DEG, 2, 1.0, "drop_elbow", short="M_dep"
+        )
+
+    def _f_z(self, attr: str) -> Field:
+        name = "Z_up" if attr == "z_up" else "Z_low"
+        lo, hi = self.config.z_min_m / M_PER_MM, self.config.z_max_m / M_PER_MM
+        return Field(name, "mm", lo, hi, 3, M_PER_MM, attr, short=name)
+
+    def _f_speed(self, attr: str) -> Field:
+        name = "S_l low speed" if attr == "s_low" else "S_h high speed"
+        short = name.split()[0]
+        return Field(name, "mm/s", SPEED_MIN_MM_S, SPEED_MAX_MM_S, 1, M_PER_MM, attr, short=short)
+
+    def _entry(self, field: Field) -> None:
+        self.field = field
+        self.typed = ""
+        self.screen = "entry"
+
+    def _current(self, field: Field) -> float | None:
+        value = getattr(self.data, field.attr)
+        if field.index is not None:
+            value = value[field.index]
+        return None if value is None else value / field.scale
+
+    def _render_entry(self) -> list[str]:
+        f = self.field
+        title = f"{f.name} {f.unit}".strip()
+        lo, hi = _num(f.lo, f.decimals), _num(f.hi, f.decimals)
+        now = _num(self._current(f), f.decimals)
+        return [
+            title,
+            f"{lo}-{hi} now {now}",
+            f"new {self.typed}_",
+            self.note if self.note is not None else _ENTRY_HINT,
+        ]
+
+    def _key_entry(self, key: str) -> None:
+        f = self.field
+        if key.isdigit() or key == "D":
+            char = "." if key == "D" else key
+            if len(self.typed) >= MAX_ENTRY_CHARS:
+                self.note = f"Max {MAX_ENTRY_CHARS} characters"
+            elif char == "." and (f.decimals == 0 or "." in self.typed):
+                self.note = "Whole number" if f.decimals == 0 else "One point only"
+            else:
+                self.typed += char
+        elif key == "C":
+            self.typed = self.typed[:-1]
+        elif key == "*":
+            self._open(self.menu)
+        elif key == "#":
+            error = self._store_entry(f)
+            if error is not None:
+                self._note_refusal(error)
+                self.note = error
+            else:
+                self._open(self.menu)
+                self.note = f"Saved {f.short} {_num(self._current(f), f.decimals)}"
+        else:
+            self.note = f"Key {key}: no use here"
+
+    def _store_entry(self, f: Field) -> str | None:
+        """Store the typed value; the LCD's reason (<= 20 characters) if it is refused."""
+        text = self.typed
+        if not text or text == ".":
+            return "Type a value"
+        decimals = len(text.partition(".")[2])
+        if decimals > f.decimals:
+            return f"Max {f.decimals} decimals" if f.decimals else "Whole number"
+        value = float(text)
+        if not f.lo <= value <= f.hi:
+            return f"Range {_num(f.lo, f.decimals)}-{_num(f.hi, f.decimals)}"
+        si = value * f.scale
+        d = self.data
+        if f.attr == "z_up" and d.z_low is not None and si <= d.z_low:
+            return f"Z_up<=Z_low {_num(self._mm(d.z_low), 3)}"
+        if f.attr == "z_low" and d.z_up is not None and si >= d.z_up:
+            return f"Z_low>=Z_up {_num(self._mm(d.z_up), 3)}"
+        if f.attr == "m_pp":
+            d.m_pp = int(value)
+        elif f.index is not None:
+            getattr(d, f.attr)[f.index] = si
+        else:
+            setattr(d, f.attr, si)
+        return None
+
+    # -- jogging (paper Fig. 12) ---------------------------------------------------
+    def _jog(self, what: str, k: int | None) -> None:
+        self.jog_target = (what, k)
+        self.screen = "jog"
+        self._fetch_position()
+
+    def _jog_title(self) -> str:
+        what, k = self.jog_target
+        name = {"approach": "appr", "grip": "grip", "drop": "Drop pos"}[what]
+        return name if k is None else f"P{k + 1} {name}"
+
+    def _render_jog(self) -> list[str]:
+        x, y, z = (self.position / M_PER_MM).tolist()
+        step = f"s{_num(JOG_STEPS_MM[self.step_index])}"
+        title = self._jog_title()
+        return [
+            title.ljust(LCD_COLS - len(step)) + step,
+            f"X{x:7.1f}  Y{y:7.1f}",
+            f"Z{z:7.1f}  #sto *bk",
+            self.note if self.note is not None else _JOG_HINT,
+        ]
+
+    def _key_jog(self, key: str) -> None:
+        if key in _JOG_KEYS:
+            axis, direction = _JOG_KEYS[key]
+            self._jog_move(axis, direction)
+        elif key == "5":
+            self.step_index = (self.step_index + 1) % len(JOG_STEPS_MM)
+            self.note = f"Step {_num(JOG_STEPS_MM[self.step_index])} mm"
+        elif key == "#":
+            self._store_position()
+        elif key == "*":
+            self._open(self.menu)
+        else:
+            self.note = f"Key {key}: no use here"
+
+    def jog_target_of(self, axis: int, direction: int) -> np.ndarray:
+        """Where a jog goes: the next multiple of the step along the axis (0.1 mm grid)."""
+        step = round(JOG_STEPS_MM[self.step_index] * JOG_GRID_TICKS_PER_MM)
+        ticks = self.position[axis] / M_PER_MM * JOG_GRID_TICKS_PER_MM
+        if direction > 0:
+            n = math.floor(ticks / step + 1e-6) + 1
+        else:
+            n = math.ceil(ticks / step - 1e-6) - 1
+        target = self.position.copy()
+        target[axis] = n * step / JOG_GRID_TICKS_PER_MM * M_PER_MM
+        return target
+
+    def check_move(self, target: np.ndarray) -> str | None:
+        """Why the SGF would refuse the straight move from here to ``target`` (None: it
+        would not): Z range, then every interpolated point (``motion.plan_line``)."""
+        c = self.config
+        z = float(target[2])
+        if z > c.z_max_m + 1e-12:
+            return f"Z {z / M_PER_MM:g} mm above the Z range max {c.z_max_m / M_PER_MM:g} mm"
+        if z < c.z_min_m - 1e-12:
+            return f"Z {z / M_PER_MM:g} mm below the Z range min {c.z_min_m / M_PER_MM:g} mm"
+        try:
+            plan_line(
+                self.steps, self.position, target, JOG_SPEED_MM_S * M_PER_MM,
+                c.geometry, c.limits, c.drives, c.motion, c.mode,
+            )  # fmt: skip
+        except kinematics.UnreachableError as error:
+            return error.reason
+        except ValueError as error:
+            return str(error)
+        return None
+
+    def _jog_move(self, axis: int, direction: int) -> None:
+        if not np.isfinite(self.position).all():
+            self._refuse("position unknown: home first (menu 5)")
+            return
+        target = self.jog_target_of(axis, direction)
+        reason = self.check_move(target)
+        if reason is not None:
+            if reason.startswith("Z ") and "Z range" in reason:
+                z = target[2] / M_PER_MM
+                bound = self.config.z_max_m if direction > 0 else self.config.z_min_m
+                sign = ">" if direction > 0 else "<"
+                self._note_refusal(reason)
+                self.note = f"NO Z {z:g} {sign} {bound / M_PER_MM:g}"
+            else:
+                self._refuse(reason)
+            return
+        x, y, z = (target / M_PER_MM).tolist()
+        error = self._send(f"G1 X{x:.1f} Y{y:.1f} Z{z:.1f} S{JOG_SPEED_MM_S:g}")
+        self._fetch_position()
+        if error is not None:
+            self._refuse(error)
+
+    def _store_position(self) -> None:
+        self._fetch_position()  # the coordinates come from the SGF (paper Fig. 12)
+        if not np.isfinite(self.position).all():
+            self._refuse("position unknown: home first (menu 5)")
+            return
+        xy = (float(self.position[0]), float(self.position[1]))
+        what, k = self.jog_target
+        if what == "drop":
+            self.data.drop = xy
+        else:
+            getattr(self.data, what)[k] = xy
+        title = self._jog_title()
+        self._open(self.menu)
+        self.note = f"{title} stored"
+
+    # -- writing the EEPROM ----------------------------------------------------------
+    def _render_write(self) -> list[str]:
+        target = "file" if self.out_path is not None else "memory"
+        return [
+            "WRITE EEPROM",
+            f"Mpp {_num(self.data.m_pp, 0)} to {target}",
+            "#=check+write *back",
+            self.note if self.note is not None else "",
+        ]
+
+    def _key_write(self, key: str) -> None:
+        if key == "*":
+            self._open("main")
+        elif key == "#":
+            self.write()
+        else:
+            self.note = f"Key {key}: no use here"
+
+    def write(self) -> bool:
+        """Check the taught data (complete, in range, every point and move of the cycle
+        reachable: ``preflight.check_machine``) and write the image; False (the LCD says
+        why) if refused or the file could not be written."""
+        from transplanter.scenario.preflight import check_machine
+        from transplanter.scenario.schema import ScenarioError
+
+        try:
+            image = self.data.image()
+        except EepromError as error:
+            self._note_refusal(str(error))
+            self.note = "NO " + _crop(str(error), LCD_COLS - 3)
+            return False
+        try:
+            check_machine(dataclasses.replace(self.machine, eeprom=image))
+        except ScenarioError as error:
+            self._refuse(str(error))
+            self.note = "NO " + _preflight_short(str(error))
+            return False
+        data = image.to_bytes()
+        if self.out_path is not None:
+            try:
+                write_image(self.out_path, data)
+            except OSError as error:
+                self._note_refusal(f"{self.out_path}: {error}")
+                self.note = "NO write failed"
+                return False
+        self.image_bytes = data
+        self.writes += 1
+        crc = int.from_bytes(data[CRC_OFFSET : CRC_OFFSET + 4], "little")
+        assert crc == zlib.crc32(data[:DATA_SIZE])
+        self.note = f"Written CRC {crc:08x}"
+        return True
+
+    # -- helpers ---------------------------------------------------------------------
+    @staticmethod
+    def _mm(value: float | None) -> float | None:
+        return None if value is None else value / M_PER_MM
+
+    @staticmethod
+    def _xy(xy) -> str:
+        if xy is None:
+            return "---"
+        return f"{xy[0] / M_PER_MM:.1f} {xy[1] / M_PER_MM:.1f}"
+
+
+def _preflight_short(message: str) -> str:
+    """A preflight refusal in 17 characters: which taught point or move fails."""
+    m = re.match(r"taught\.pickup\[(\d+)\]\.(approach|grip)_mm", message)
+    if m:
+        return f"P{int(m.group(1)) + 1} {m.group(2)[:4]} unreach."
+    m = re.match(r"taught\.pickup\[(\d+)\]: ", message)
+    if m:
+        return f"P{int(m.group(1)) + 1} move unreach."
+    if message.startswith("taught.drop_mm: "):
+        return "home>drop unreach"
+    if message.startswith("taught.drop_mm"):
+        return "drop unreachable"
+    return _crop(message, LCD_COLS - 3)
+
+
+def write_image(path: str | Path, data: bytes) -> None:
+    """Write an EEPROM image atomically (``fileio``: an exclusive temporary file beside the
+    target, moved into place when complete)."""
+    target = Path(path)
+    tmp = fileio.temp_beside(target)
+    try:
+        tmp.write_bytes(data)
+    except BaseException:
+        fileio.discard(tmp)
+        raise
+    fileio.commit(tmp, target)
+
+
+# -- front ends ------------------------------------------------------------------------
+
+
+def run_keys(
+    hmi: Hmi, keys: Iterable[str], on_screen: Callable[[int, str, Hmi], None] | None = None
+) -> Hmi:
+    """Press each key in turn; ``on_screen(i, key, hmi)`` after every press."""
+    for i, key in enumerate(keys):
+        hmi.press(key)
+        if on_screen is not None:
+            on_screen(i, key, hmi)
+    return hmi
+
+
+TERMINAL_KEYS = {
+    "enter": "#",
+    "backspace": "C",
+    "escape": "*",
+    "up": "A",
+    "down": "B",
+    ".": "D",
+    "q": None,  # quit
+}
+"""Keyboard keys of the terminal UI beyond the keypad's own characters (0-9, a-d or A-D,
+* and #): Enter = #, Backspace = C, Esc = *, arrow up/down = A/B, '.' = D; q quits."""
+
+
+def terminal_key(name: str) -> str | None:
+    """The keypad key of a keyboard key (a character or a TERMINAL_KEYS name); None for
+    none. 'q' is handled by the caller (quit)."""
+    if len(name) == 1 and name.upper() in KEYS:
+        return name.upper()
+    return TERMINAL_KEYS.get(name)
+
+
+def run_terminal(hmi: Hmi) -> None:  # pragma: no cover - needs a terminal
+    """The interactive curses front end: the LCD, the keypad and the mapping; q quits."""
+    import curses
+
+    special = {
+        curses.KEY_UP: "up",
+        curses.KEY_DOWN: "down",
+        curses.KEY_BACKSPACE: "backspace",
+        127: "backspace",
+        8: "backspace",
+        curses.KEY_ENTER: "enter",
+        10: "enter",
+        13: "enter",
+        27: "escape",
+    }
+
+    def draw(screen) -> None:
+        screen.erase()
+        for row, line in enumerate(hmi.lcd_text().splitlines()):
+            screen.addstr(row, 2, line)
+        pad = ["Keypad:"] + [" ".join(r) for r in KEYPAD_ROWS]
+        for row, line in enumerate(pad):
+            screen.addstr(row, 28, line)
+        help_lines = [
+            "menus: A/up B/down #/Enter select *,Esc back, digit = item",
+            "values: digits, D or '.' point, C/Backspace delete, # save",
+            "jog: 4/6 X  8/2 Y  9/3 Z  5 step  # store  * back",
+            "q: quit (the image is written only by 6 Write EEPROM)",
+        ]
+        for row, line in enumerate(help_lines, start=7):
+            screen.addstr(row, 2, line)
+        if hmi.last_refusal:
+            screen.addstr(12, 2, ("last refusal: " + hmi.last_refusal)[: max(10, curses.COLS - 4)])
+        screen.refresh()
+
+    def loop(screen) -> None:
+        curses.curs_set(0)
+        while True:
+            draw(screen)
+            code = screen.getch()
+            name = special.get(code) or (chr(code) if 0 <= code < 256 else "")
+            if name in ("q", "Q"):
+                return
+            key = terminal_key(name)
+            if key is not None:
+                hmi.press(key)
+
+    curses.wrapper(loop)

@@ -1,0 +1,1 @@
+"""Arm kinematics, one module per arm."""

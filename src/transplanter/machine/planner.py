@@ -1,0 +1,84 @@
+"""Plans a G-code program through the SGF on a simulated clock (`transplanter plan`).
+
+Each line goes to the SGF exactly as over the bus, one at a time after the previous reply;
+homing reads simulated limit switches. For every line it reports how long the SGF took to
+answer and the net step pulses each motor made, or stops at the first error reply.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from transplanter.machine.config import Machine, power_on_joints
+from transplanter.machine.gcode import GcodeError, parse_line, split_program_lines
+from transplanter.machine.rig import DT_HOMING_S, SimulatedEndstops
+from transplanter.machine.sgf import SGF
+
+__all__ = ["PlanError", "PlannedLine", "plan_program"]
+
+_ASCII_BLANKS = " \t\r\n"
+
+
+class PlanError(ValueError):
+    """A line the SGF refused; `line_no` is its 1-based line number in the file."""
+
+    def __init__(self, line_no: int, message: str):
+        super().__init__(message)
+        self.line_no = line_no
+
+
+@dataclass(frozen=True)
+class PlannedLine:
+    line_no: int
+    text: str
+    duration_s: float
+    steps: np.ndarray  # net pulses per motor (arm 1, arm 2, Z)
+    replies: tuple[str, ...]
+
+
+def plan_program(machine: Machine, lines: str | Iterable[str]) -> list[PlannedLine]:
+    """Run every line through a fresh SGF; PlanError at the first refused line.
+
+    ``lines``: the program's text (split with ``gcode.split_program_lines``: at newlines only)
+    or its lines.
+    """
+    if isinstance(lines, str):
+        lines = split_program_lines(lines)
+    config = machine.sgf
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, power_on_joints(config))
+    t = 0.0
+    rows: list[PlannedLine] = []
+    pulses_t = None  # raw pulses at t, once computed
+    for line_no, raw in enumerate(lines, start=1):
+        text = raw.strip(_ASCII_BLANKS)  # a Unicode space is not a blank: the SGF refuses it
+        try:
+            if parse_line(text) is None:
+                continue
+        except GcodeError as exc:
+            raise PlanError(line_no, exc.reply) from None
+        if pulses_t is None:
+            pulses_t = sgf.pulses_at(np.array([t]))[0]
+        pulses0 = pulses_t  # receive() adds no motion: the pulses at t are still these
+        t0 = t
+        sgf.receive(text, t)
+        replies: list[str] = []
+        while True:
+            replies += sgf.poll(t, endstops.read(pulses_t))
+            if replies and (replies[-1] == "ok" or replies[-1].startswith("error")):
+                break
+            t_next = sgf.next_event_time()
+            t = t + DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
+            if t - t0 > 3600.0:
+                raise PlanError(line_no, f"{text!r} did not finish within an hour of machine time")
+            pulses_t = sgf.pulses_at(np.array([t]))[0]
+        if replies[-1].startswith("error"):
+            raise PlanError(line_no, replies[-1])
+        pulses_t = sgf.pulses_at(np.array([t]))[0]
+        steps = pulses_t - pulses0
+        sgf.forget_before(t)  # the clock only moves on: constant memory per move
+        rows.append(PlannedLine(line_no, text, t - t0, steps, tuple(replies[:-1])))
+    return rows

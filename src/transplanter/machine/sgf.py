@@ -1,0 +1,628 @@
+"""Signal generation firmware (SGF): G-code lines in, step pulses and handshakes out.
+
+Lines are parsed on arrival and executed one at a time in arrival order (FIFO); each gets
+its reply when it is done, so replies come back in line order:
+
+- ``G0``/``G1``: planned from the current logical step counters with
+  ``motion.plan_line`` before any step (every interpolated point checked); ``ok`` when the
+  last step has been issued. Speed: ``S`` mm/s, or ``F`` mm/min, else the last one given,
+  else ``default_speed_m_s``. ``G0`` moves like ``G1``.
+- ``G4 P<ms>``: ``ok`` after the dwell. ``M280``: servo command recorded, ``ok`` at once.
+  ``M710``: conveyor index recorded, ``ok`` after ``conveyor_index_s``. ``M400``: ``ok``
+  (the FIFO has already finished everything before it). ``M114``/``M119``: a report line,
+  then ``ok``. ``M105``: ``ok``.
+- Receive buffer (Marlin's model): parsed lines wait in a command queue of
+  ``command_queue_lines`` (BUFSIZE = 4) behind the running one. While it is full, arriving
+  lines wait unparsed in a receive buffer of ``rx_buffer_bytes`` and enter the queue in
+  order as slots free (Marlin stops reading serial: flow control by the ok handshake). A
+  line that fits in neither is dropped and answered ``error:66`` at once, out of line
+  order (a real UART loses the bytes; with N framing the next line is then out of
+  sequence). A host that waits for ``ok`` before each line (the PGF) never fills them.
+  A line over ``gcode.MAX_LINE_CHARS`` (256) characters gets ``error:11`` (line overflow).
+- ``G28``: two-pass homing like grbl's (:class:`transplanter.machine.homing.Homing`): seek,
+  pull off, slow locate, pull off; ``ok`` once done, ``error:69`` if a switch never closes,
+  ``error:68`` if one stays closed after the pull-off (each naming the switch and the likely
+  cause), every motor stopped where it is. Moves before homing are refused (error 9, like
+  grbl's alarm lock).
+- Limit switch 4 (Z down) is a hard limit: a move that would lower Z while it reads closed is
+  refused with ``error:70`` (a stuck or shorted switch, or Z lost steps downwards).
+- Stall (``stall()``, a driver's stall output such as Trinamic StallGuard's DIAG pin, wired
+  only when ``stall_detection``): every motor stops where it is, the running line and
+  every queued or buffered line are answered ``error:67``, and the position is unknown
+  (moves get ``error:9``) until a ``G28``. A stall while idle is reported to the next line
+  (unless it is a ``G28``). Prusa's crash detection and Klipper's sensorless homing use the
+  same driver signal; what the host does next is the host's business (the PGF re-homes).
+
+Two counters per motor: raw pulses since power-on (never reset; they drive the simulated
+motors through ``pulses_at``) and logical steps, which homing sets.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from transplanter.errors import ErrorCode
+from transplanter.machine.gcode import MAX_LINE_CHARS, GcodeError, GcodeLine, parse_line
+from transplanter.machine.homing import Homing, check_homing_settings
+from transplanter.machine.kinematics.fivebar import (
+    FiveBarGeometry,
+    FiveBarKinematics,
+    KinematicLimits,
+    UnreachableError,
+)
+from transplanter.machine.motion import MAX_STEPS_PER_MOVE, MotionConfig, PlannedMove, plan_line
+from transplanter.machine.steppers import StepperDrive, default_drives
+from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS, show
+
+
+@dataclass(frozen=True)
+class SGFConfig:
+    """Machine, homing and timing settings of the SGF (SI units)."""
+
+    geometry: FiveBarGeometry = field(default_factory=FiveBarGeometry)
+    limits: KinematicLimits = field(default_factory=KinematicLimits)
+    drives: tuple[StepperDrive, StepperDrive, StepperDrive] = field(default_factory=default_drives)
+    """(arm 1, arm 2, Z) drives."""
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    z_min_m: float = 0.005
+    z_max_m: float = 0.160
+    home_theta1_rad: float = math.radians(200.0)
+    """Motor 1 angle at which limit switch 1 trips (arms folded back, C at (0, 75) mm)."""
+    home_theta2_rad: float = math.radians(-20.0)
+    """Motor 2 angle at which limit switch 2 trips."""
+    home_z_m: float = 0.160
+    """Z at which limit switch 3 (Z up) trips."""
+    homing_rate_hz: tuple[float, float, float] = (1600.0, 1600.0, 8000.0)
+    """Step rate of each motor while it seeks its switch and pulls off."""
+    homing_locate_rate_hz: tuple[float, float, float] | None = None
+    """Step rate of the slow second approach (locate); None: homing_rate_hz / 10."""
+    homing_dirs: tuple[int, int, int] = (+1, -1, +1)
+    """Direction (+1/-1 in step counts) in which each motor seeks its switch."""
+    homing_z_first: bool = True
+    """Home Z (up) alone first, then both arms, like grbl's default HOMING_CYCLE_0 = Z:
+    jaws that stopped among the pots rise clear of them before the arms swing."""
+    homing_pulloff_steps: tuple[int, int, int] | None = None
+    """Steps each motor backs off its switch after it trips; None: 3.6 deg of each arm joint
+    and 1 mm of Z in the drives' steps (96, 96, 400 with the default drives)."""
+    homing_max_steps: tuple[int, int, int] | None = None
+    """Longest seek before homing fails; None: half an arm joint revolution and 200 mm of
+    Z in the drives' steps (4800, 4800, 80000 with the default drives)."""
+    homing_locate_scalar: float = 5.0
+    """The locate fails after this many pull-off distances (grbl's HOMING_AXIS_LOCATE_SCALAR)."""
+    default_speed_m_s: float = 0.05
+    """Speed of G0/G1 moves until a move gives S or F (modal afterwards)."""
+    conveyor_index_s: float = 0.6
+    require_checksum: bool = False
+    """Refuse lines without Marlin ``N<n> ... *<checksum>`` framing."""
+    mode: str = "+-"
+    """Five-bar working mode passed to the IK (paper: '+-', elbows out)."""
+    command_queue_lines: int = 4
+    """Parsed lines waiting behind the running one (Marlin's BUFSIZE = 4)."""
+    stall_detection: bool = False
+    """The drivers' stall output is wired to the SGF (see ``SGF.stall``); the paper's
+    open-loop machine has none."""
+    rx_buffer_bytes: int = 512
+    """Serial receive buffer: lines that arrive while the command queue is full wait here,
+    unparsed (Marlin stops reading serial while its queue is full; its RX_BUFFER_SIZE may be
+    set up to 2048); a line that does not
+    fit is dropped with error:66 (see the module docstring)."""
+
+    def __post_init__(self):
+        if len(self.drives) != 3:
+            raise ValueError("SGFConfig.drives must be (arm1, arm2, z)")
+        if not (math.isfinite(self.z_min_m) and self.z_min_m < self.z_max_m):
+            raise ValueError(
+                f"SGFConfig needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
+            )
+        if len(self.drives) == 3 and all(isinstance(d, StepperDrive) for d in self.drives):
+            per_unit = [d.steps_per_unit for d in self.drives]
+            if self.homing_pulloff_steps is None:
+                joint = (math.radians(3.6), math.radians(3.6), 0.001)
+                pulloff = tuple(max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True))
+                object.__setattr__(self, "homing_pulloff_steps", pulloff)
+            if self.homing_max_steps is None:
+                joint = (math.pi, math.pi, 0.200)
+                longest = tuple(max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True))
+                object.__setattr__(self, "homing_max_steps", longest)
+        if self.homing_locate_rate_hz is None:
+            locate = tuple(float(r) / 10.0 for r in self.homing_rate_hz)
+            object.__setattr__(self, "homing_locate_rate_hz", locate)
+        check_homing_settings(self)
+        self._check_steps_per_move()
+        if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
+            raise ValueError(
+                f"SGFConfig.default_speed_m_s must be > 0, got {self.default_speed_m_s}"
+            )
+        if not (isinstance(self.command_queue_lines, int) and self.command_queue_lines >= 1):
+            raise ValueError(
+                f"SGFConfig.command_queue_lines must be an integer >= 1, "
+                f"got {self.command_queue_lines!r}"
+            )
+        if not (
+            isinstance(self.rx_buffer_bytes, int) and self.rx_buffer_bytes >= MAX_LINE_CHARS + 1
+        ):
+            raise ValueError(
+                f"SGFConfig.rx_buffer_bytes must be an integer >= {MAX_LINE_CHARS + 1} (one "
+                f"longest line and its newline), got {self.rx_buffer_bytes!r}"
+            )
+        if not (math.isfinite(self.conveyor_index_s) and self.conveyor_index_s >= 0):
+            raise ValueError(
+                f"SGFConfig.conveyor_index_s must be >= 0, got {self.conveyor_index_s}"
+            )
+
+    def _check_steps_per_move(self) -> None:
+        """Refuse drives whose longest possible move (each joint across its whole range:
+        the motor windows, z_min..z_max) needs more step pulses than a move may emit
+        (motion.MAX_STEPS_PER_MOVE): the SGF could not hold such a move's step events."""
+        spans = (
+            *(hi - lo for lo, hi in (self.limits.motor_window(m) for m in (1, 2))),
+            self.z_max_m - self.z_min_m,
+        )
+        needed = [d.steps_per_unit * span for d, span in zip(self.drives, spans, strict=True)]
+        if sum(needed) <= MAX_STEPS_PER_MOVE:
+            return
+        worst = int(np.argmax(needed))
+        drive = self.drives[worst]
+        unit = "m of Z travel" if drive.linear else "rad of its motor window"
+        raise ValueError(
+            f"drive {drive.name!r} with steps_per_rev={drive.steps_per_rev} and "
+            f"microsteps={drive.microsteps} needs {needed[worst]:.4g} step pulses across "
+            f"{spans[worst]:.4g} {unit}; the three drives need {sum(needed):.4g} for a "
+            f"move across the whole workspace, more than the {MAX_STEPS_PER_MOVE} step "
+            "pulses one move may emit: lower steps_per_rev or microsteps"
+        )
+
+    @property
+    def home_joint_positions(self) -> tuple[float, float, float]:
+        """Joint positions (rad, rad, m) at which switches 1, 2, 3 trip."""
+        return (self.home_theta1_rad, self.home_theta2_rad, self.home_z_m)
+
+    @property
+    def kinematics(self) -> FiveBarKinematics:
+        """The arm's kinematics in this config's working mode."""
+        return FiveBarKinematics(self.geometry, self.limits, self.mode)
+
+    @property
+    def homed_steps(self) -> np.ndarray:
+        """Logical step counters after G28: the switch positions less the final pull-off."""
+        return self.home_steps - np.asarray(self.homing_dirs) * np.asarray(
+            self.homing_pulloff_steps
+        )
+
+    @property
+    def home_steps(self) -> np.ndarray:
+        """Logical step counters homing sets when each switch trips (nearest step)."""
+        return np.array(
+            [
+                int(d.to_steps(q))
+                for d, q in zip(self.drives, self.home_joint_positions, strict=True)
+            ],
+            dtype=np.int64,
+        )
+
+
+@dataclass
+class _Job:
+    line: GcodeLine | GcodeError
+    arrival: float
+    t_start: float = math.nan
+    t_done: float = math.nan
+    replies: list[str] = field(default_factory=list)
+    homing: Homing | None = None
+    move: PlannedMove | None = None
+    target_xyz: np.ndarray | None = None
+
+
+class SGF:
+    """The SGF state machine on a simulated clock (see the module docstring)."""
+
+    def __init__(self, config: SGFConfig | None = None):
+        self.config = config if config is not None else SGFConfig()
+        self._queue: deque[_Job] = deque()
+        self._rx: deque[tuple[str, float]] = deque()  # (line, arrival) waiting for a slot
+        self._rx_bytes = 0
+        self.rx_dropped = 0
+        """Lines dropped because the command queue and the receive buffer were full."""
+        self._current: _Job | None = None
+        self._t_free = -math.inf
+        self._now = -math.inf
+        self._replies: list[str] = []
+        self._servo_commands: list[tuple[float, int, float]] = []
+        self._machine_events: list[tuple[float, str]] = []
+        self._last_line_number = 0
+        self._absolute = True
+        self._speed_m_s = self.config.default_speed_m_s
+        self._endstops: tuple[bool, ...] | None = None
+        self.homed = False
+        self._raw = np.zeros(3, dtype=np.int64)  # raw pulses once the last segment ended
+        self._logical = np.zeros(3, dtype=np.int64)
+        self._position = np.full(3, np.nan)
+        # motion history for pulses_at: segment start times and evaluators
+        self._segment_starts: list[float] = []
+        self._segments: list = []
+        self._pending_stall: str | None = None  # a stall reply for the next line
+        self.stalls: list[tuple[float, int]] = []
+        """(t, motor) of every stall that stopped the SGF."""
+        # moves that cruised slower than their F asked: (asked m/s, why) -> [count, slowest]
+        self._slowed: dict[tuple[float, str], list] = {}
+        self.homing_trip_raw: np.ndarray | None = None
+        """Raw pulse counts at which each switch was read closed by the last homing's locate."""
+
+    # -- state -----------------------------------------------------------------------
+    @property
+    def busy(self) -> bool:
+        return self._current is not None or bool(self._queue)
+
+    @property
+    def homing(self) -> bool:
+        """True while a G28 is running (the simulator must poll every physics step, or
+        at `homing_poll_time` and whenever a switch changes)."""
+        return self._current is not None and self._current.homing is not None
+
+    def speed_warnings(self) -> list[str]:
+        """The moves that cruised slower than their F asked (the firmware obeys its limits
+        without a word, as grbl does; a trial reports them): one line per speed and reason."""
+        return [
+            f"{count} move{'s' if count > 1 else ''} asked for {asked / M_PER_MM:g} mm/s "
+            f"cruised at {slowest / M_PER_MM:.1f} mm/s or less: {why}"
+            for (asked, why), (count, slowest) in sorted(self._slowed.items())
+        ]
+
+    def homing_poll_time(self, now: float, dt: float) -> float | None:
+        """While homing, when the switches must be read next if none changes (at most one
+        step of dt after any change of the homing's state); None when not homing."""
+        if not self.homing:
+            return None
+        return self._current.homing.next_poll_time(now, dt)
+
+    @property
+    def position_xyz(self) -> np.ndarray:
+        """Logical (x, y, z) in m after the last completed move; NaN before homing."""
+        return self._position.copy()
+
+    @property
+    def logical_steps(self) -> np.ndarray:
+        return self._logical.copy()
+
+    @property
+    def raw_pulses(self) -> np.ndarray:
+        """Raw pulse counts once everything issued so far has been stepped."""
+        return self._raw.copy()
+
+    # -- input -----------------------------------------------------------------------
+    def room_for(self, line: str) -> bool:
+        """Whether ``receive`` would keep ``line`` (a free command-queue slot, or room in the
+        receive buffer) rather than drop it with ``error:66``."""
+        if len(self._queue) < self.config.command_queue_lines and not self._rx:
+            return True
+        return len(line) + 1 <= self.config.rx_buffer_bytes - self._rx_bytes
+
+    def receive(self, line: str, now: float) -> None:
+        """A line has arrived: parse it now (for line numbering), execute it in turn.
+
+        With the command queue full it waits in the receive buffer and is parsed when a slot
+        frees; with that full too it is dropped and answered ``error:66`` at once.
+        """
+        self._check_time(now)
+        if not isinstance(line, str):
+            raise TypeError(f"a received line is a str, got {type(line).__name__}")
+        if len(self._queue) < self.config.command_queue_lines and not self._rx:
+            self._enqueue(line, now)
+            return
+        if self.room_for(line):
+            self._rx.append((line, now))
+            self._rx_bytes += len(line) + 1  # and its newline
+            return
+        self.rx_dropped += 1
+        self._replies.append(
+            ErrorCode.RX_BUFFER_OVERFLOW.reply(
+                f"receive buffer full ({self.config.command_queue_lines} queued lines, "
+                f"{self._rx_bytes} of {self.config.rx_buffer_bytes} bytes waiting): a line of "
+                f"{len(line)} characters was dropped; wait for ok before sending more"
+            )
+        )
+
+    def _refill(self) -> None:
+        """Move lines from the receive buffer into free command-queue slots, in order."""
+        while self._rx and len(self._queue) < self.config.command_queue_lines:
+            line, arrival = self._rx.popleft()
+            self._rx_bytes -= len(line) + 1
+            self._enqueue(line, arrival)
+
+    def _enqueue(self, line: str, now: float) -> None:
+        try:
+            parsed = parse_line(
+                line,
+                expected_line_number=self._last_line_number + 1,
+                require_checksum=self.config.require_checksum,
+            )
+        except GcodeError as error:
+            parsed = error
+        if parsed is None:
+            return
+        if parsed.line_number is not None:
+            # a line whose checksum passed advances N, whatever its command's fate (Marlin)
+            self._last_line_number = parsed.line_number
+        self._queue.append(_Job(parsed, now))
+
+    def _check_time(self, now: float) -> None:
+        if not math.isfinite(now) or now < self._now:
+            raise ValueError(f"time must be finite and non-decreasing: {now} after {self._now}")
+        self._now = now
+
+    # -- time ------------------------------------------------------------------------
+    def poll(self, now: float, endstops: Sequence[bool] | None = None) -> list[str]:
+        """Advance to ``now`` (switch states read at ``now``); return the replies due."""
+        self._check_time(now)
+        if endstops is not None:
+            self._endstops = tuple(bool(e) for e in endstops)
+        while True:
+            if self._current is None:
+                if not self._queue:
+                    break
+                job = self._queue.popleft()
+                self._refill()
+                self._start(job, max(job.arrival, self._t_free))
+                self._current = job
+            job = self._current
+            if job.homing is not None:
+                self._update_homing(job, now, endstops)
+            if math.isfinite(job.t_done) and job.t_done <= now:
+                self._finish(job)
+                continue
+            break
+        replies, self._replies = self._replies, []
+        return replies
+
+    def next_event_time(self) -> float | None:
+        """When the running line completes (None if idle or still seeking switches)."""
+        if self._current is not None:
+            return self._current.t_done if math.isfinite(self._current.t_done) else None
+        if self._queue:
+            return max(self._queue[0].arrival, self._t_free)
+        return None
+
+    def pulses_at(self, times) -> np.ndarray:
+        """Raw pulse counts of the 3 motors at each time, shape (n, 3) int64."""
+        times = np.atleast_1d(np.asarray(times, dtype=np.float64))
+        out = np.zeros((times.size, 3), dtype=np.int64)
+        if not self._segments:
+            return out
+        index = np.searchsorted(np.asarray(self._segment_starts), times, side="right") - 1
+        for segment in np.unique(index):
+            if segment < 0:
+                continue
+            mask = index == segment
+            out[mask] = self._segments[segment](times[mask])
+        return out
+
+    def forget_before(self, t: float) -> int:
+        """Drop the motion history that ``pulses_at`` no longer needs for times >= ``t``.
+
+        Keeps the last segment that starts at or before ``t`` and everything after it, so
+        ``pulses_at`` answers as before for every time >= ``t`` (earlier times are no longer
+        valid). A caller whose clock only moves forward (the planner, the simulator) calls
+        this to keep memory constant per move. Returns how many segments were dropped.
+        """
+        starts = self._segment_starts
+        keep_from = int(np.searchsorted(np.asarray(starts), t, side="right")) - 1
+        if keep_from <= 0:
+            return 0
+        del self._segment_starts[:keep_from]
+        del self._segments[:keep_from]
+        return keep_from
+
+    def stall(self, now: float, motor: int) -> None:
+        """A driver reports that ``motor`` (0, 1, 2) stalled at ``now``: stop everything
+        (ignored while the position is unknown and no homing runs: already stopped).
+
+        The motors hold the pulse counts they had at ``now``; the running line ends with
+        ``error:67`` and so does every line waiting in the queue or the receive buffer (each
+        line still gets exactly one reply, in order); the position is unknown until ``G28``.
+        """
+        self._check_time(now)
+        if motor not in (0, 1, 2):
+            raise ValueError(f"motor must be 0, 1 or 2, got {motor!r}")
+        if not (self.homed or self.homing):
+            return  # already stopped, or never homed: nothing runs that a stall could stop
+        self.stalls.append((now, motor))
+        held = self.pulses_at(now)[0]
+        self._add_segment(now, lambda t: np.broadcast_to(held, (np.size(t), 3)).copy())
+        self._raw = held.copy()
+        self.homed = False
+        self._position[:] = np.nan
+        message = ErrorCode.MOTOR_STALLED.reply(
+            f"motor {motor + 1} stalled at t={now:.3f} s: motion stopped, position lost; "
+            "home with G28"
+        )
+        self._machine_events.append((now, "stalled"))
+        job = self._current
+        if job is None:
+            self._pending_stall = message
+        else:
+            job.move, job.homing, job.t_done = None, None, now
+            job.replies = [message]
+            self._finish(job)
+        for _ in self._queue:
+            self._replies.append(message)
+        for _ in self._rx:
+            self._replies.append(message)
+        self._queue.clear()
+        self._rx.clear()
+        self._rx_bytes = 0
+
+    def drain_servo_commands(self) -> list[tuple[float, int, float]]:
+        """(t, servo index, angle deg) commanded since the last drain."""
+        out, self._servo_commands = self._servo_commands, []
+        return out
+
+    def drain_machine_events(self) -> list[tuple[float, str]]:
+        """(t, name) events since the last drain: 'conveyor_index', 'homed', 'homing_failed',
+        'stalled'."""
+        out, self._machine_events = self._machine_events, []
+        return out
+
+    # -- execution -------------------------------------------------------------------
+    def _add_segment(self, t0: float, evaluator) -> None:
+        self._segment_starts.append(t0)
+        self._segments.append(evaluator)
+
+    def _start(self, job: _Job, t0: float) -> None:
+        job.t_start = t0
+        job.t_done = t0
+        line = job.line
+        if isinstance(line, GcodeError):
+            job.replies = [line.reply]
+            return
+        command, words = line.command, line.words
+        if self._pending_stall is not None:
+            message, self._pending_stall = self._pending_stall, None
+            if command != "G28":
+                job.replies = [message]
+                return
+        try:
+            if command in ("G0", "G1"):
+                self._start_move(job, words)
+            elif command == "G4":
+                job.t_done = t0 + words["P"] * S_PER_MS
+            elif command == "G28":
+                job.homing = Homing(self.config, t0, self._raw)
+                self._add_segment(t0, job.homing.pulses)
+                job.t_done = math.nan
+                job.replies = ["ok"]
+                return
+            elif command == "G90":
+                self._absolute = True
+            elif command == "G91":
+                self._absolute = False
+            elif command == "M280":
+                self._servo_commands.append((t0, int(words["P"]), float(words["S"])))
+            elif command == "M710":
+                self._machine_events.append((t0, "conveyor_index"))
+                job.t_done = t0 + self.config.conveyor_index_s
+            elif command == "M114":
+                job.replies.append(self._position_report())
+            elif command == "M119":
+                job.replies.append(self._endstop_report())
+            # M400, M105: nothing to do, the FIFO already finished what came before
+        except GcodeError as error:
+            job.t_done = t0
+            job.replies = [error.reply]
+            return
+        job.replies.append("ok")
+
+    def _start_move(self, job: _Job, words: dict[str, float]) -> None:
+        if not self.homed:
+            raise GcodeError(ErrorCode.SYSTEM_LOCKED, "position unknown: home first with G28")
+        target = self._position.copy()
+        for axis, letter in enumerate("XYZ"):
+            if letter in words:
+                value = words[letter] * M_PER_MM
+                target[axis] = value if self._absolute else target[axis] + value
+        speed_m_s = self._speed_m_s  # modal: committed only once the move is accepted
+        if "S" in words:
+            speed_m_s = words["S"] * M_PER_MM
+        elif "F" in words:
+            speed_m_s = words["F"] * MM_PER_MIN_TO_M_S
+        z = target[2]
+        if not self.config.z_min_m <= z <= self.config.z_max_m:
+            raise GcodeError(
+                ErrorCode.INVALID_TARGET,
+                f"Z {show(z / M_PER_MM)} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
+                f"{self.config.z_max_m / M_PER_MM:.3f}] mm",
+            )
+        switches = self._endstops or ()
+        if z < self._position[2] and len(switches) > 3 and switches[3]:
+            raise GcodeError(
+                ErrorCode.LIMIT_SWITCH_CLOSED,
+                f"limit switch 4 (Z down) reads closed at Z {self._position[2] / M_PER_MM:.3f} "
+                f"mm, above its trip point at {self.config.z_min_m / M_PER_MM:.3f} mm: the "
+                "switch is stuck closed or its wiring is shorted (M119 shows it TRIGGERED), or "
+                "Z lost steps downwards; Z will not move down. Check the switch and its "
+                "wiring, then home with G28",
+            )
+        config = self.config
+        try:
+            move = plan_line(
+                self._logical, self._position, target, speed_m_s,
+                config.geometry, config.limits, config.drives, config.motion, config.mode,
+            )  # fmt: skip
+        except UnreachableError as error:
+            shown = ", ".join(show(v / M_PER_MM) for v in target)
+            raise GcodeError(
+                ErrorCode.INVALID_TARGET,
+                f"target position not reachable: {error.reason} "
+                f"(move to ({shown}) mm, interpolated point {error.index})",
+            ) from None
+        except ValueError as error:
+            raise GcodeError(ErrorCode.INVALID_TARGET, f"move refused: {error}") from None
+        self._speed_m_s = speed_m_s
+        if move.speed_limit:
+            seen = self._slowed.setdefault((speed_m_s, move.speed_limit), [0, math.inf])
+            seen[0] += 1
+            seen[1] = min(seen[1], move.cruise_speed_m_s)
+        job.move = move
+        job.target_xyz = target
+        job.t_done = job.t_start + move.duration_s
+        t0, t_done = job.t_start, job.t_done
+        raw0 = self._raw.copy()
+        start_steps = move.start_steps.copy()
+
+        def evaluate(t: np.ndarray) -> np.ndarray:
+            # (t0 + duration) - t0 can round below duration: at the ack every step is out.
+            rel = np.where(t >= t_done, move.duration_s, t - t0)
+            return raw0 + (move.steps_at(rel) - start_steps)
+
+        self._add_segment(t0, evaluate)
+
+    def _update_homing(self, job: _Job, now: float, endstops: Sequence[bool] | None) -> None:
+        homing = job.homing
+        if homing.done_seeking:
+            return
+        failure = homing.update(now, endstops)
+        if failure is not None:
+            job.replies = [homing.failure_code.reply(f"homing failed: {failure}")]
+            self.homed = False
+            self._position[:] = np.nan
+            self._machine_events.append((now, "homing_failed"))
+        if homing.done_seeking:
+            job.t_done = homing.t_done
+
+    def _finish(self, job: _Job) -> None:
+        t = job.t_done
+        if job.homing is not None:
+            homing = job.homing
+            self._raw = homing.pulses(np.array([t]))[0]
+            if not homing.failed:
+                self.homing_trip_raw = homing.trip_raw.copy()
+                self._logical = self.config.homed_steps
+                self._position = self.config.kinematics.point_of_steps(
+                    self._logical, self.config.drives
+                )
+                self.homed = True
+                self._machine_events.append((t, "homed"))
+        elif job.move is not None:
+            self._raw = self._raw + (job.move.end_steps - job.move.start_steps)
+            self._logical = job.move.end_steps.copy()
+            self._position = job.target_xyz.copy()
+        self._replies.extend(job.replies)
+        self._t_free = t
+        self._current = None
+
+    def _position_report(self) -> str:
+        x, y, z = (f"{v / M_PER_MM:.3f}".replace("-0.000", "0.000") for v in self._position)
+        a, b, c = (int(s) for s in self._logical)
+        return f"X:{x} Y:{y} Z:{z} A:{a} B:{b} C:{c}"
+
+    def _endstop_report(self) -> str:
+        if self._endstops is None:
+            return "endstops: unknown"
+        states = " ".join(
+            f"{i + 1}:{'TRIGGERED' if s else 'open'}" for i, s in enumerate(self._endstops)
+        )
+        return f"endstops: {states}"

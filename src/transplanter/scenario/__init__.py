@@ -1,0 +1,1 @@
+"""The scenario: its schema, its assembly into the machine and the scene, the preflight."""

@@ -1,0 +1,440 @@
+"""The one place where a scenario becomes the configs the twin's parts take.
+
+`assemble(scenario)` maps the typed scenario sections onto the firmware side (`Machine`:
+kinematics, drives, motion, SGF, PGF, EEPROM image), the scene (`SceneConfig`), the hobby
+servos (`ServoConfig`) and the trial's judge (`JudgeConfig`), builds the Machine once and
+(by default) runs the preflight checks. No other module reads scenario sections: a new
+scenario key is a field in `transplanter.scenario.schema` plus one line here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import zlib
+from dataclasses import dataclass
+from typing import Any
+
+from transplanter.machine.config import GRIPPER_SERVO, WRIST_SERVO, Machine, power_on_joints
+from transplanter.machine.eeprom import (
+    ANGLE_COUNTS_PER_DEG,
+    DATA_SIZE,
+    POSITION_COUNTS_PER_M,
+    SPEED_COUNTS_PER_M_S,
+    EepromImage,
+    Pickup,
+)
+from transplanter.machine.faults import FaultConfig
+from transplanter.machine.kinematics.fivebar import FiveBarGeometry, KinematicLimits
+from transplanter.machine.motion import MotionConfig
+from transplanter.machine.pgf import PGFConfig, build_program
+from transplanter.machine.sgf import SGFConfig
+from transplanter.machine.steppers import StepperDrive
+from transplanter.scenario.schema import Scenario, ScenarioError, TaughtPickup, TaughtSection
+from transplanter.scene import SceneConfig
+from transplanter.units import M_PER_MM
+
+__all__ = [
+    "JudgeConfig",
+    "ServoConfig",
+    "TwinConfig",
+    "assemble",
+    "fault_config",
+    "machine_config",
+    "scene_config",
+    "with_eeprom",
+]
+
+# Hard stops of the scene's joints sit this far beyond the motor windows the firmware
+# enforces (rad), and the Z slide's top stop this far above switch 3 (m).
+HARD_STOP_BEYOND_WINDOW_RAD = math.radians(5.0)
+Z_STOP_ABOVE_SWITCH_M = 0.005
+
+
+@dataclass(frozen=True)
+class ServoConfig:
+    """A hobby servo: rated speed (deg/s); for the gripper, the jaw opening at 180 deg (m)."""
+
+    speed_deg_s: float
+    max_opening_m: float | None = None
+
+
+@dataclass(frozen=True)
+class JudgeConfig:
+    """How a trial judges each seedling (scenario [metrics]) and the sizes it needs."""
+
+    knocked_offset_m: float
+    knocked_tilt_rad: float
+    lifted_fraction: float
+    between_jaws_m: float
+    settle_s: float
+    damage_bend_rad: float  # a shoot bent further than this from its pot's axis is damaged
+    pot_height_m: float
+    cell_pitch_m: float
+    row_pitch_m: float
+
+
+@dataclass(frozen=True)
+class TwinConfig:
+    """Everything a Twin and a trial need, built once from a scenario."""
+
+    name: str
+    seed: int
+    seedlings: int
+    overrides: tuple[tuple[str, Any], ...]  # the scenario keys set on top of the file
+    machine: Machine
+    scene: SceneConfig
+    gripper_servo: ServoConfig
+    wrist_servo: ServoConfig
+    judge: JudgeConfig
+    faults: FaultConfig = FaultConfig()  # scenario [faults]: none by default
+
+
+def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
+    """The twin's configs for a scenario; with preflight, every taught point and move is
+    checked first (ScenarioError naming the key)."""
+    machine = machine_config(scenario)
+    if preflight:
+        from transplanter.scenario.preflight import check_machine, check_reply_timeout
+
+        check_machine(machine)
+        check_reply_timeout(machine)
+    s = scenario
+    faults = fault_config(s, machine)
+    scene = scene_config(s, machine)
+    if preflight:
+        from transplanter.scenario.preflight import check_timestep
+
+        check_timestep(scene)
+    return TwinConfig(
+        name=s.meta.name,
+        seed=s.meta.seed,
+        seedlings=s.meta.seedlings,
+        overrides=s.overrides,
+        machine=machine,
+        scene=scene,
+        gripper_servo=ServoConfig(
+            speed_deg_s=60.0 / s.gripper.servo_s_per_60deg,
+            max_opening_m=s.gripper.max_opening_m,
+        ),
+        wrist_servo=ServoConfig(speed_deg_s=60.0 / s.gripper.wrist_servo_s_per_60deg),
+        judge=JudgeConfig(
+            knocked_offset_m=s.metrics.knocked_offset_m,
+            knocked_tilt_rad=s.metrics.knocked_tilt_rad,
+            lifted_fraction=s.metrics.lifted_fraction,
+            between_jaws_m=s.metrics.between_jaws_m,
+            settle_s=s.metrics.settle_s,
+            damage_bend_rad=s.metrics.damage_bend_rad,
+            pot_height_m=s.pots.height_m,
+            cell_pitch_m=s.conveyor.cell_pitch_m,
+            row_pitch_m=s.conveyor.row_pitch_m,
+        ),
+        faults=faults,
+    )
+
+
+def fault_config(s: Scenario, machine: Machine) -> FaultConfig:
+    """The faults a scenario injects ([faults]); a lost reply beyond the PGF's program (it
+    would never happen) is a ScenarioError."""
+    f = s.faults
+    lines = len(build_program(machine.eeprom, machine.pgf))
+    if f.lost_reply_line > lines:
+        raise ScenarioError(
+            f"faults.lost_reply_line = {f.lost_reply_line}: the PGF sends {lines} lines for "
+            f"{machine.pgf.seedlings} seedlings (more only after stall recoveries), so that "
+            f"reply is never lost; choose 1-{lines}, or 0 for none."
+        )
+    try:
+        return FaultConfig(
+            switch_stuck_closed=f.switch_stuck_closed,
+            switch_dead=f.switch_dead,
+            jam_motor=f.jam_motor,
+            jam_at_s=f.jam_at_s,
+            jam_duration_s=f.jam_duration_s,
+            jam_torque_nm=f.jam_torque_nm,
+            lost_reply_line=f.lost_reply_line,
+        )
+    except ValueError as exc:
+        raise ScenarioError(f"the scenario's [faults]: {exc}") from None
+
+
+def machine_config(s: Scenario) -> Machine:
+    """The firmware side of the machine; a value the firmware refuses is a ScenarioError
+    naming the scenario's sections."""
+    try:
+        return _machine(s)
+    except ValueError as exc:
+        if isinstance(exc, ScenarioError):
+            raise
+        raise ScenarioError(
+            f"the scenario's [arm], [limits], [drives], [motion], [gripper] or [taught] values "
+            f"do not make a working machine: {exc}"
+        ) from None
+
+
+def _machine(s: Scenario) -> Machine:
+    arm, lim, drv, mot, grip = s.arm, s.limits, s.drives, s.motion, s.gripper
+    geometry = FiveBarGeometry(l0_m=arm.l0_m, l1_m=arm.l1_m, l2_m=arm.l2_m)
+    limits = KinematicLimits(
+        motor1_min_rad=lim.motor1_min_rad,
+        motor1_max_rad=lim.motor1_max_rad,
+        motor2_min_rad=lim.motor2_min_rad,
+        motor2_max_rad=lim.motor2_max_rad,
+        elbow_min_rad=lim.elbow_min_rad,
+        elbow_max_rad=lim.elbow_max_rad,
+        transmission_min_rad=lim.transmission_min_rad,
+        transmission_max_rad=lim.transmission_max_rad,
+        max_condition=lim.max_condition,
+    )
+    common = dict(
+        steps_per_rev=drv.steps_per_rev,
+        microsteps=drv.microsteps,
+        max_step_rate_hz=drv.max_step_rate_hz,
+        holding_torque_nm=drv.holding_torque_nm,
+    )
+    drives = (
+        StepperDrive("arm1", ratio=drv.arm_belt_ratio, **common),
+        StepperDrive("arm2", ratio=drv.arm_belt_ratio, **common),
+        StepperDrive("z", ratio=1.0, lead_m=drv.z_lead_m, **common),
+    )
+    motion = MotionConfig(
+        resolution_m=mot.resolution_m,
+        accel_m_s2=mot.accel_m_s2,
+        profile=mot.profile,
+        compute_time_per_point_s=mot.compute_time_per_point_s,
+    )
+    sgf = SGFConfig(
+        geometry=geometry,
+        limits=limits,
+        drives=drives,
+        motion=motion,
+        z_min_m=lim.z_min_m,
+        z_max_m=lim.z_max_m,
+        home_theta1_rad=drv.switch1_theta1_rad,
+        home_theta2_rad=drv.switch2_theta2_rad,
+        home_z_m=drv.switch3_z_m,
+        homing_locate_rate_hz=(
+            drv.homing_locate_rate_arm_hz,
+            drv.homing_locate_rate_arm_hz,
+            drv.homing_locate_rate_z_hz,
+        ),
+        homing_rate_hz=(drv.homing_rate_arm_hz, drv.homing_rate_arm_hz, drv.homing_rate_z_hz),
+        conveyor_index_s=s.conveyor.index_time_s,
+        mode=arm.working_mode,
+        stall_detection=s.recovery.stall_detection,
+    )
+    pgf = PGFConfig(
+        gripper_servo=GRIPPER_SERVO,
+        wrist_servo=WRIST_SERVO,
+        gripper_open_deg=math.degrees(grip.open_rad),
+        gripper_close_deg=math.degrees(grip.close_rad),
+        open_dwell_s=grip.open_dwell_s,
+        close_dwell_s=grip.close_dwell_s,
+        release_dwell_s=grip.release_dwell_s,
+        seedlings=s.meta.seedlings,
+        line_numbers=s.bus.line_numbers,
+        rehome_every_cycles=s.recovery.rehome_every_cycles,
+        stall_recovery=s.recovery.stall_detection,
+        stall_retries=s.recovery.stall_retries,
+        stall_settle_s=s.recovery.stall_settle_s,
+        reply_timeout_s=s.bus.reply_timeout_s,
+    )
+    taught = s.taught
+    taught_image = EepromImage(
+        pickups=tuple(
+            Pickup(
+                approach_xy_m=p.approach_m,
+                grip_xy_m=p.grip_m,
+                elbow_deg=math.degrees(p.wrist_rad),
+            )
+            for p in taught.pickup
+        ),
+        drop_xy_m=taught.drop_m,
+        drop_elbow_deg=math.degrees(taught.drop_wrist_rad),
+        z_up_m=taught.z_up_m,
+        z_low_m=taught.z_low_m,
+        s_low_m_s=taught.s_low_m_s,
+        s_high_m_s=taught.s_high_m_s,
+    )
+    # The PGF works from the EEPROM's bytes, as on the machine: quantised and CRC-checked.
+    eeprom = EepromImage.from_bytes(taught_image.to_bytes())
+    _check_quantised(taught_image, eeprom)
+    return Machine(
+        geometry, limits, arm.working_mode, drives, motion, sgf, pgf, eeprom, s.bus.baud_bps
+    )
+
+
+TAUGHT_QUANTA = {
+    "_mm": 1 / (POSITION_COUNTS_PER_M * M_PER_MM),  # 0.001 mm
+    "_mm_s": 1 / (SPEED_COUNTS_PER_M_S * M_PER_MM),  # 0.1 mm/s
+    "_deg": 1 / ANGLE_COUNTS_PER_DEG,  # 0.01 deg
+}
+"""What the EEPROM stores of a taught key, in the key's file unit, by its unit suffix."""
+
+
+def key_quantum(key: str) -> float | None:
+    """The step a scenario key's value must be a whole multiple of ('section.key' in file
+    units): the taught keys' EEPROM resolution; None for any other key."""
+    if not key.startswith("taught."):
+        return None
+    for suffix in ("_mm_s", "_mm", "_deg"):  # the longest suffix first
+        if key.rsplit(".", 1)[-1].split("[")[0].endswith(suffix):
+            return TAUGHT_QUANTA[suffix]
+    return None
+
+
+def _check_quantised(given: EepromImage, stored: EepromImage) -> None:
+    """ScenarioError naming the first taught value the EEPROM cannot hold as given (it stores
+    micrometres, centidegrees and 0.1 mm/s): the physics must run on the user's value."""
+    pairs = [
+        ("taught.z_up_mm", given.z_up_m, stored.z_up_m, 1e3, "1 um", 3),
+        ("taught.z_low_mm", given.z_low_m, stored.z_low_m, 1e3, "1 um", 3),
+        ("taught.s_low_mm_s", given.s_low_m_s, stored.s_low_m_s, 1e3, "0.1 mm/s", 1),
+        ("taught.s_high_mm_s", given.s_high_m_s, stored.s_high_m_s, 1e3, "0.1 mm/s", 1),
+        ("taught.drop_wrist_deg", given.drop_elbow_deg, stored.drop_elbow_deg, 1, "0.01 deg", 2),
+    ]
+    for axis, (a, b) in enumerate(zip(given.drop_xy_m, stored.drop_xy_m, strict=True)):
+        pairs.append((f"taught.drop_mm[{axis}]", a, b, 1e3, "1 um", 3))
+    for k, (p, q) in enumerate(zip(given.pickups, stored.pickups, strict=True)):
+        for name, xy, xy_stored in (
+            ("approach_mm", p.approach_xy_m, q.approach_xy_m),
+            ("grip_mm", p.grip_xy_m, q.grip_xy_m),
+        ):
+            for axis in (0, 1):
+                key = f"taught.pickup[{k}].{name}[{axis}]"
+                pairs.append((key, xy[axis], xy_stored[axis], 1e3, "1 um", 3))
+        pairs.append((f"taught.pickup[{k}].wrist_deg", p.elbow_deg, q.elbow_deg, 1, "0.01 deg", 2))
+    for key, value, kept, scale, quantum, places in pairs:
+        if not math.isclose(value, kept, rel_tol=1e-9, abs_tol=1e-12):
+            raise ScenarioError(
+                f"{key} = {value * scale:.10g} is finer than the EEPROM stores ({quantum}): it "
+                f"would run as {kept * scale:.{places}f}; give it with at most {places} decimals"
+            )
+
+
+EEPROM_OVERRIDE = "eeprom"
+"""The overrides entry (and so the results' "overrides") of a run from an EEPROM image."""
+
+
+def with_eeprom(scenario: Scenario, image: EepromImage, source: str) -> Scenario:
+    """The scenario with its [taught] section replaced by an EEPROM image's taught data (as
+    `transplanter hmi` writes it; `trial --eeprom`), the rest unchanged. The image is recorded
+    in the overrides as ``eeprom = "<source> (M_pp N, CRC-32 0x...)"``. ScenarioError if
+    --set also sets a taught key, or the image's Z levels break the scenario's rules (inside
+    limits.z_min_mm..z_max_mm, Z_up above Z_low); reach is the preflight's to check."""
+    clash = sorted(k for k, _ in scenario.overrides if k.startswith("taught."))
+    if clash:
+        raise ScenarioError(
+            f"{', '.join(clash)} and the EEPROM image {source} both set the taught data; "
+            "drop the --set or re-teach the image"
+        )
+    lim = scenario.limits
+    for name, value in (("Z_up", image.z_up_m), ("Z_low", image.z_low_m)):
+        if not lim.z_min_m <= value <= lim.z_max_m:
+            raise ScenarioError(
+                f"EEPROM image {source}: {name} = {value * 1e3:g} mm is outside "
+                f"[limits.z_min_mm, limits.z_max_mm] = [{lim.z_min_m * 1e3:g}, "
+                f"{lim.z_max_m * 1e3:g}] mm"
+            )
+    if image.z_up_m <= image.z_low_m:
+        raise ScenarioError(
+            f"EEPROM image {source}: Z_up = {image.z_up_m * 1e3:g} mm must be above Z_low = "
+            f"{image.z_low_m * 1e3:g} mm"
+        )
+    taught = TaughtSection(
+        z_up_m=image.z_up_m,
+        z_low_m=image.z_low_m,
+        s_low_m_s=image.s_low_m_s,
+        s_high_m_s=image.s_high_m_s,
+        drop_m=image.drop_xy_m,
+        drop_wrist_rad=math.radians(image.drop_elbow_deg),
+        pickup=tuple(
+            TaughtPickup(
+                approach_m=p.approach_xy_m, grip_m=p.grip_xy_m, wrist_rad=math.radians(p.elbow_deg)
+            )
+            for p in image.pickups
+        ),
+    )
+    crc = zlib.crc32(image.to_bytes()[:DATA_SIZE])
+    record = f"{source} (M_pp {image.m_pp}, CRC-32 0x{crc:08x})"
+    return dataclasses.replace(
+        scenario, taught=taught, overrides=(*scenario.overrides, (EEPROM_OVERRIDE, record))
+    )
+
+
+def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
+    """The physical parameters of a scenario as the scene builder's config.
+
+    The power-on pose (the `home` keyframe) is machine.power_on_joints: a little short of
+    limit switches 1-3, so that G28 has a little way to travel.
+    """
+    arm, drv, grip, conv, pots, tube, phys, lim = (
+        s.arm, s.drives, s.gripper, s.conveyor, s.pots, s.drop_tube, s.physics, s.limits,
+    )  # fmt: skip
+    theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
+    stop = HARD_STOP_BEYOND_WINDOW_RAD
+    try:
+        return SceneConfig(
+            l0=arm.l0_m,
+            l1=arm.l1_m,
+            l2=arm.l2_m,
+            steps_per_rev=drv.steps_per_rev,
+            holding_torque=drv.holding_torque_nm,
+            rotor_inertia=drv.rotor_inertia_kgm2,
+            pullout_zero_speed_rev_s=drv.pullout_zero_speed_rev_s,
+            screw_efficiency=drv.screw_efficiency,
+            arm_belt_ratio=drv.arm_belt_ratio,
+            screw_lead=drv.z_lead_m,
+            switch1_theta1_min=drv.switch1_theta1_rad,
+            switch2_theta2_max=drv.switch2_theta2_rad,
+            switch3_z_min=drv.switch3_z_m,
+            switch4_z_max=lim.z_min_m,
+            theta1_range=(lim.motor1_min_rad - stop, lim.motor1_max_rad + stop),
+            theta2_range=(lim.motor2_min_rad - stop, lim.motor2_max_rad + stop),
+            z_range=(0.0, max(lim.z_max_m, drv.switch3_z_m) + Z_STOP_ABOVE_SWITCH_M),
+            power_on_theta1=theta1_on,
+            power_on_theta2=theta2_on,
+            power_on_z=z_on,
+            gripper_max_opening=grip.max_opening_m,
+            grip_force=grip.grip_force_n,
+            rows=conv.rows,
+            cols=conv.cols,
+            cell_pitch=conv.cell_pitch_m,
+            row_pitch=conv.row_pitch_m,
+            pickup_row_y=conv.pickup_row_y_m,
+            pot_diameter=pots.diameter_m,
+            pot_diameter_sd=pots.diameter_sd_m,
+            pot_height=pots.height_m,
+            pot_height_sd=pots.height_sd_m,
+            pot_mass=pots.mass_kg,
+            pot_mass_sd=pots.mass_sd_kg,
+            pot_friction=pots.friction,
+            pot_friction_sd=pots.friction_sd,
+            pot_offset_sd=pots.placement_sd_m,
+            pot_offset_max=pots.placement_max_m,
+            pot_mass_range=(pots.mass_min_kg, pots.mass_max_kg),
+            pot_bond_share=pots.bond_share,
+            pot_bond_force=pots.bond_force_n,
+            pot_bond_sd_log=pots.bond_force_sd_log,
+            pot_soft_share=pots.soft_share,
+            pot_soft_wall=pots.soft_wall_m,
+            pot_crooked_share=pots.crooked_share,
+            pot_crooked_max=pots.crooked_max_rad,
+            pot_fill_gap=pots.fill_gap_m,
+            pot_fill_gap_sd=pots.fill_gap_sd_m,
+            canopy_contact=pots.canopy_contact,
+            canopy_timeconst=pots.canopy_timeconst_s,
+            canopy_friction=pots.canopy_friction,
+            seedling_mass=pots.shoot_mass_kg,
+            stem_sway_hz=pots.stem_sway_hz,
+            stem_sway_sd_hz=pots.stem_sway_sd_hz,
+            stem_damping_ratio=pots.stem_damping_ratio,
+            conveyor_index_error_sd=conv.index_error_sd_m,
+            drop_tube_xy=(tube.x_m, tube.y_m),
+            funnel_top_diameter=tube.funnel_top_diameter_m,
+            funnel_top_z=tube.funnel_top_z_m,
+            timestep=phys.timestep_s,
+            sleep=phys.sleep,
+        )
+    except ValueError as exc:
+        raise ScenarioError(f"the scenario does not make a buildable scene: {exc}") from None

@@ -1,0 +1,235 @@
+"""Checks a machine's taught points before any simulation starts.
+
+Every taught point must be reachable (kinematics limits, Z range), and every straight line
+the PGF will ask for must be reachable at every interpolated point, so a trial never starts
+on a program the SGF would reject halfway through. Errors name the scenario key.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from transplanter.machine.config import Machine
+from transplanter.machine.kinematics import fivebar as kinematics
+from transplanter.machine.motion import plan_line
+from transplanter.scenario.schema import ScenarioError
+from transplanter.units import M_PER_MM
+
+__all__ = [
+    "check_machine",
+    "check_taught_speeds",
+    "check_reply_timeout",
+    "check_timestep",
+    "longest_line_s",
+    "MAX_OMEGA_DT",
+    "REPLY_TIMEOUT_MARGIN_S",
+]
+
+# The PGF's reply timeout must exceed the longest line by this much (s): the line's and its
+# reply's time on the wire and the SGF's planning before the first step.
+REPLY_TIMEOUT_MARGIN_S = 1.0
+
+# The stepper servos are stiff explicit springs: a timestep at which a motor's natural
+# frequency times the step exceeds this rings and loses steps. The study in
+# docs/edge_trials.md: Z has omega*dt = 0.81 at 1 ms (0.5 and 1 ms agree on every setting),
+# 1.62 at 2 ms (the paper setting falls from 100 % to 78 %, with 300 lost-step events).
+MAX_OMEGA_DT = 1.0
+
+
+def check_machine(machine: Machine) -> None:
+    """Raise ScenarioError naming the scenario key of the first taught point (as stored in
+    the EEPROM image), speed or move that fails."""
+    taught = machine.eeprom
+    check_taught_speeds(machine)
+    points: list[tuple[str, tuple[float, float]]] = [("taught.drop_mm", taught.drop_xy_m)]
+    for i, p in enumerate(taught.pickups):
+        points.append((f"taught.pickup[{i}].approach_mm", p.approach_xy_m))
+        points.append((f"taught.pickup[{i}].grip_mm", p.grip_xy_m))
+    xy = np.array([p for _, p in points])
+    report = kinematics.check_points(
+        machine.geometry, machine.limits, xy[:, 0], xy[:, 1], mode=machine.mode
+    )
+    for (key, p), ok, reason in zip(points, report.ok, report.reasons, strict=True):
+        if not ok:
+            raise ScenarioError(
+                f"{key} = [{p[0] / M_PER_MM:g}, {p[1] / M_PER_MM:g}] mm cannot be reached: "
+                f"{reason}. "
+                "Teach a point inside the workspace."
+            )
+    z_low, z_up = taught.z_low_m, taught.z_up_m
+    drop = (*taught.drop_xy_m, z_up)
+    homed = _homed_xyz(machine)
+    _require_line(
+        machine,
+        homed,
+        drop,
+        "taught.drop_mm: the first move, from the homed position",
+        "Move the drop point or the limit switches (drives.home_*).",
+    )
+    for i, p in enumerate(taught.pickups):
+        approach_low, grip_low = (*p.approach_xy_m, z_low), (*p.grip_xy_m, z_low)
+        grip_up, approach_up = (*p.grip_xy_m, z_up), (*p.approach_xy_m, z_up)
+        path = [drop, approach_low, grip_low, grip_up, approach_up, drop]
+        for a, b in zip(path[:-1], path[1:], strict=True):
+            _require_line(
+                machine,
+                a,
+                b,
+                f"taught.pickup[{i}]: the move from",
+                "Move the approach or grip point.",
+            )
+
+
+def check_taught_speeds(machine: Machine) -> None:
+    """ScenarioError for a taught speed the SGF can never move at: it solves the kinematics
+    of one Bresenham point at a time (motion.compute_time_per_point_us), so no move is
+    faster than resolution / compute time (505 mm/s for the paper's ESP32). The firmware
+    would run such a program at its own top speed, not the taught one."""
+    motion = machine.motion
+    cap = motion.point_rate_speed_cap_m_s
+    taught = machine.eeprom
+    for key, speed in (
+        ("taught.s_low_mm_s", taught.s_low_m_s),
+        ("taught.s_high_mm_s", taught.s_high_m_s),
+    ):
+        if speed > cap:
+            raise ScenarioError(
+                f"{key} = {speed / M_PER_MM:g} is faster than the SGF can move: it solves the "
+                f"kinematics of each {motion.resolution_m / M_PER_MM:g} mm point in "
+                f"{motion.compute_time_per_point_s * 1e6:g} us "
+                "(motion.resolution_mm, motion.compute_time_per_point_us), so no move exceeds "
+                f"{cap / M_PER_MM:.0f} mm/s. Teach at most that, or change those two keys "
+                "(a faster controller, a coarser grid)."
+            )
+
+
+def _require_line(machine, a, b, what: str, hint: str) -> None:
+    """ScenarioError '<what> a to b mm leaves the workspace: <reason>. <hint>' if the SGF
+    would refuse the straight line from a to b."""
+    try:
+        _check_line(machine, a, b)
+    except kinematics.UnreachableError as exc:
+        raise ScenarioError(
+            f"{what} {_mm(a)} to {_mm(b)} mm leaves the workspace: {exc.reason}. {hint}"
+        ) from None
+
+
+def _homed_xyz(machine) -> tuple[float, float, float]:
+    """Where G28 leaves the machine: the SGF's homed step counters, through its kinematics."""
+    sgf = machine.sgf
+    x, y, z = sgf.kinematics.point_of_steps(sgf.homed_steps, sgf.drives)
+    return (float(x), float(y), float(z))
+
+
+def _check_line(machine, a, b) -> None:
+    start = np.asarray(a, dtype=float)
+    steps = machine.sgf.kinematics.steps_of_point(start, machine.drives)
+    speed = machine.eeprom.s_high_m_s
+    plan_line(
+        steps,
+        start,
+        np.asarray(b, dtype=float),
+        speed,
+        machine.geometry,
+        machine.limits,
+        machine.drives,
+        machine.motion,
+        mode=machine.mode,
+    )
+
+
+def longest_line_s(machine: Machine) -> tuple[float, str]:
+    """The longest time (s) the SGF may take over one line of the PGF's program, and what
+    that line is: a homing that finds each switch at the end of its seek and locate, the
+    longest taught move at its speed, a dwell or a conveyor index."""
+    sgf, pgf, taught = machine.sgf, machine.pgf, machine.eeprom
+    seek, locate = np.asarray(sgf.homing_rate_hz), np.asarray(sgf.homing_locate_rate_hz)
+    pulloff, longest = np.asarray(sgf.homing_pulloff_steps), np.asarray(sgf.homing_max_steps)
+    per_motor = (
+        longest / seek + 2 * pulloff / seek + np.ceil(sgf.homing_locate_scalar * pulloff) / locate
+    )
+    cycles = [[2], [0, 1]] if sgf.homing_z_first else [[0, 1, 2]]
+    candidates = [(float(sum(per_motor[c].max() for c in cycles)), "G28 (homing, worst case)")]
+    z_low, z_up = taught.z_low_m, taught.z_up_m
+    drop = (*taught.drop_xy_m, z_up)
+    s_low, s_high = taught.s_low_m_s, taught.s_high_m_s
+    moves = [(_homed_xyz(machine), drop, s_high)]
+    for p in taught.pickups:
+        approach_low, grip_low = (*p.approach_xy_m, z_low), (*p.grip_xy_m, z_low)
+        grip_up, approach_up = (*p.grip_xy_m, z_up), (*p.approach_xy_m, z_up)
+        moves += [
+            (drop, approach_low, s_high), (approach_low, grip_low, s_low),
+            (grip_low, grip_up, s_low), (grip_up, approach_up, s_high),
+            (approach_up, drop, s_high),
+        ]  # fmt: skip
+    for a, b, speed in moves:
+        start = np.asarray(a, dtype=float)
+        steps = sgf.kinematics.steps_of_point(start, machine.drives)
+        move = plan_line(
+            steps, start, np.asarray(b, dtype=float), speed, machine.geometry, machine.limits,
+            machine.drives, machine.motion, mode=machine.mode,
+        )  # fmt: skip
+        candidates.append((move.duration_s, f"the move {_mm(a)} to {_mm(b)} mm"))
+    candidates += [
+        (pgf.open_dwell_s, "the open dwell (gripper.open_dwell_ms)"),
+        (pgf.close_dwell_s, "the close dwell (gripper.close_dwell_ms)"),
+        (pgf.release_dwell_s, "the release dwell (gripper.release_dwell_ms)"),
+        (sgf.conveyor_index_s, "M710 (conveyor.index_time_s)"),
+    ]
+    if pgf.stall_recovery:
+        candidates.append((pgf.stall_settle_s, "the dwell after a stall (stall_settle_ms)"))
+    return max(candidates)
+
+
+def check_reply_timeout(machine: Machine) -> None:
+    """ScenarioError when bus.reply_timeout_s is not longer than the longest line the PGF
+    sends (plus REPLY_TIMEOUT_MARGIN_S): the PGF would stop a healthy run with a timeout."""
+    timeout = machine.pgf.reply_timeout_s
+    duration, what = longest_line_s(machine)
+    if timeout < duration + REPLY_TIMEOUT_MARGIN_S:
+        raise ScenarioError(
+            f"bus.reply_timeout_s = {timeout:g} s is too short: {what} can take {duration:.2f} "
+            f"s, and the PGF would stop a healthy run with a bus timeout; use at least "
+            f"{duration + REPLY_TIMEOUT_MARGIN_S:.1f} s."
+        )
+
+
+def _mm(p) -> str:
+    return "(" + ", ".join(f"{v / M_PER_MM:g}" for v in p) + ")"
+
+
+def check_timestep(scene_config) -> None:
+    """Raise ScenarioError when physics.timestep_ms is too coarse for a stepper's servo.
+
+    Builds the machine (one conveyor cell is enough: the pots do not load the motors) and
+    takes each motor's natural frequency from its servo stiffness and its joint's inertia
+    (mass matrix at the home keyframe, rotor armature included)."""
+    import dataclasses
+    import math
+
+    import mujoco
+
+    from transplanter.scene import build_scene
+
+    scene = build_scene(dataclasses.replace(scene_config, rows=1, cols=1), seed=0)
+    m = scene.model
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    mujoco.mj_forward(m, d)
+    inertia = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, inertia)
+    dt = m.opt.timestep
+    worst = (0.0, "")
+    for a in scene.motor_actuators:
+        dof = m.jnt_dofadr[m.actuator_trnid[a, 0]]
+        stiffness = m.actuator_gainprm[a, 0] * m.actuator_gear[a, 0] ** 2
+        omega = math.sqrt(stiffness / inertia[dof, dof])
+        worst = max(worst, (omega, m.actuator(a).name))
+    omega, name = worst
+    if omega * dt > MAX_OMEGA_DT:
+        raise ScenarioError(
+            f"physics.timestep_ms = {dt * 1e3:g} is too coarse for the {name} stepper's servo "
+            f"(natural frequency {omega:.0f} rad/s: omega x timestep = {omega * dt:.2f} > "
+            f"{MAX_OMEGA_DT:g}); it would ring and lose steps. Use at most "
+            f"{MAX_OMEGA_DT / omega * 1e3:.2f} ms (docs/edge_trials.md)."
+        )

@@ -1,0 +1,865 @@
+"""Scenario files: a strict TOML schema with units in every key, read into SI values.
+
+A scenario file holds every number a user may want to change. Each key names its unit
+(`l1_mm`, `s_high_mm_s`, `mass_g`); the loader converts to SI and refuses, before anything
+runs, a file with an unknown key, a missing value, a wrong unit or a value out of range, always
+naming the key. A file may start from another one with `[scenario] base = "paper.toml"` and
+override only what differs (a bare name not found beside the file is a packaged scenario).
+
+The result is a `Scenario` of typed, frozen section dataclasses (`scenario.taught.z_low_m`),
+values in SI and field names carrying their SI unit. Only `scenario.assemble` turns them into
+the configs of the firmware, the scene, the servos and the judge.
+"""
+
+from __future__ import annotations
+
+import importlib.resources
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from transplanter import fileio
+from transplanter.machine.eeprom import MAX_PICKUPS
+
+__all__ = [
+    "Scenario",
+    "ScenarioError",
+    "check_value",
+    "key_spec",
+    "load_scenario",
+    "parse_value",
+    "resolve_scenario_path",
+    "packaged_scenarios",
+    "SCHEMA",
+    "SECTIONS",
+]
+
+
+class ScenarioError(ValueError):
+    """A scenario file cannot be used; the message names the key and what to do."""
+
+
+@dataclass(frozen=True)
+class Key:
+    """One scenario key: its kind, SI scale factor and allowed range (in file units)."""
+
+    kind: str  # "float", "int", "bool", "str", "xy" (pair of floats), "list"
+    scale: float = 1.0
+    lo: float | None = None
+    hi: float | None = None
+    choices: tuple[str, ...] = ()
+    doc: str = ""
+
+
+_DEG = math.pi / 180.0
+
+# SI scale of each unit suffix a file key may carry (the key's unit is its suffix).
+_SCALE = {
+    "_mm_s2": 1e-3, "_mm_s": 1e-3, "_mm": 1e-3, "_deg": _DEG, "_g": 1e-3, "_ms": 1e-3,
+    "_us": 1e-6,
+}  # fmt: skip
+
+# Unit suffixes the loader understands (longest first, so `_mm_s` is not read as `_s`); used
+# to tell a wrong unit from an unknown key.
+_UNIT_SUFFIXES = tuple(
+    sorted(
+        ("_mm_s2", "_mm_s", "_mm", "_m_s2", "_m_s", "_m", "_deg", "_rad", "_g", "_kg", "_ms",
+         "_us", "_s", "_hz", "_nm", "_n", "_bps", "_kgm2", "_rev_s",
+         # units the schema never uses, so that `l1_cm` is reported as a wrong unit
+         "_cm", "_in", "_mm_min", "_rev_min", "_rpm", "_min", "_lb", "_oz", "_n_mm"),
+        key=len,
+        reverse=True,
+    )
+)  # fmt: skip
+
+_SI_SUFFIX = {
+    "_mm_s2": "_m_s2",
+    "_mm_s": "_m_s",
+    "_mm": "_m",
+    "_deg": "_rad",
+    "_g": "_kg",
+    "_ms": "_s",
+    "_us": "_s",
+}
+
+
+def _unit_of(key: str) -> str | None:
+    for suffix in _UNIT_SUFFIXES:
+        if key.endswith(suffix):
+            return suffix
+    return None
+
+
+def _stem(key: str) -> str:
+    unit = _unit_of(key)
+    return key[: -len(unit)] if unit else key
+
+
+def si_key(key: str) -> str:
+    """The name a file key has once its value is in SI: `l1_mm` -> `l1_m`."""
+    unit = _unit_of(key)
+    return key[: -len(unit)] + _SI_SUFFIX[unit] if unit in _SI_SUFFIX else key
+
+
+def key(
+    kind: str,
+    lo: float | None = None,
+    hi: float | None = None,
+    doc: str = "",
+    choices: tuple[str, ...] = (),
+):
+    """A section dataclass field that is a scenario key: its kind, allowed range (in the
+    file's unit) and meaning. The file key is the field name with its file unit (the field
+    `l1_m` is read from `l1_mm`; see FILE_KEYS), the scale follows from that unit."""
+    return field(metadata={"key": Key(kind, 1.0, lo, hi, choices, doc)})
+
+
+# ---------------------------------------------------------------------------------------
+# The sections. Field names carry the SI unit of the value; the file key carries the unit
+# the file uses. A new key is a field here plus one line in transplanter.scenario.assemble.
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MetaSection:
+    """[scenario]: the trial's name, seed and size."""
+
+    name: str = key("str", doc="short name used in reports")
+    description: str = key("str")
+    seed: int = key("int", lo=0, hi=2**63 - 1, doc="random seed of the pots")
+    seedlings: int = key("int", lo=1, hi=100000, doc="seedlings to pick in a trial")
+
+
+@dataclass(frozen=True)
+class ArmSection:
+    """[arm]: the five-bar's geometry and working mode."""
+
+    l0_m: float = key("float", 1, 500, doc="half the distance between the two motors")
+    l1_m: float = key("float", 1, 1000, doc="active link length")
+    l2_m: float = key("float", 1, 1000, doc="passive link length")
+    working_mode: str = key("str", choices=("+-", "-+", "++", "--"))
+
+
+@dataclass(frozen=True)
+class LimitsSection:
+    """[limits]: joint windows and conditioning limits the firmware enforces."""
+
+    motor1_min_rad: float = key("float", -180, 360, doc="active joint 1 window")
+    motor1_max_rad: float = key("float", -180, 360)
+    motor2_min_rad: float = key("float", -180, 360, doc="active joint 2 window")
+    motor2_max_rad: float = key("float", -180, 360)
+    elbow_min_rad: float = key("float", 0, 180)
+    elbow_max_rad: float = key("float", 0, 180)
+    transmission_min_rad: float = key("float", 0, 180)
+    transmission_max_rad: float = key("float", 0, 180)
+    max_condition: float = key("float", 1, 1e6)
+    z_min_m: float = key("float", -100, 1000)
+    z_max_m: float = key("float", -100, 1000)
+
+
+@dataclass(frozen=True)
+class DrivesSection:
+    """[drives]: stepper motors, transmissions, limit switches and homing rates."""
+
+    steps_per_rev: int = key("int", lo=1, hi=100000)
+    microsteps: int = key("int", lo=1, hi=256)
+    arm_belt_ratio: float = key("float", 0.01, 100, doc="motor revolutions per arm revolution")
+    z_lead_m: float = key("float", 0.1, 100, doc="lead screw travel per revolution")
+    max_step_rate_hz: float = key("float", 1, 1e6)
+    holding_torque_nm: float = key("float", 0.001, 100)
+    rotor_inertia_kgm2: float = key("float", 1e-9, 1e-2, doc="motor rotor inertia")
+    pullout_zero_speed_rev_s: float = key(
+        "float", 0.1, 1000, doc="motor speed at which the pull-out torque reaches 0"
+    )
+    screw_efficiency: float = key("float", 0.01, 1.0, doc="lead screw efficiency")
+    switch1_theta1_rad: float = key("float", -180, 360, doc="limit switch 1 trip angle")
+    switch2_theta2_rad: float = key("float", -180, 360, doc="limit switch 2 trip angle")
+    switch3_z_m: float = key("float", 0, 1000, doc="limit switch 3 (Z up) trip height")
+    homing_rate_arm_hz: float = key("float", 1, 1e5)
+    homing_rate_z_hz: float = key("float", 1, 1e6)
+    homing_locate_rate_arm_hz: float = key("float", 1, 1e5, doc="slow second homing pass")
+    homing_locate_rate_z_hz: float = key("float", 1, 1e6)
+
+
+@dataclass(frozen=True)
+class MotionSection:
+    """[motion]: the SGF's interpolation and speed profile."""
+
+    resolution_m: float = key("float", 0.001, 10, doc="Bresenham grid (paper 2.4)")
+    accel_m_s2: float = key("float", 1, 1e6)
+    profile: str = key("str", choices=("trapezoid", "scurve"))
+    compute_time_per_point_s: float = key(
+        "float",
+        0.01,
+        1e6,
+        doc="IK time per point: 198 ESP32 dual core, 276 single core, 4027 Arduino Mega",
+    )
+
+
+@dataclass(frozen=True)
+class BusSection:
+    """[bus]: the UART between the PGF and the SGF."""
+
+    baud_bps: float = key("float", 300, 1e7)
+    line_numbers: bool = key("bool", doc="Marlin N<n> ... *<checksum> framing")
+    reply_timeout_s: float = key(
+        "float",
+        0.1,
+        3600,
+        doc="the PGF stops with a bus timeout when nothing comes back for this long while a "
+        "line is outstanding; longer than the longest line (preflight checks it)",
+    )
+
+
+@dataclass(frozen=True)
+class GripperSection:
+    """[gripper]: gripper and wrist servos and the PGF's dwells."""
+
+    servo_s_per_60deg: float = key("float", 0.01, 10, doc="hobby servo speed")
+    max_opening_m: float = key("float", 1, 200, doc="jaw opening at 180 deg servo angle")
+    open_rad: float = key("float", 0, 180)
+    close_rad: float = key("float", 0, 180)
+    grip_force_n: float = key("float", 0.01, 1000, doc="servo force limit at the jaws")
+    wrist_servo_s_per_60deg: float = key("float", 0.01, 10)
+    open_dwell_s: float = key("float", 0, 10000)
+    close_dwell_s: float = key("float", 0, 10000)
+    release_dwell_s: float = key("float", 0, 10000)
+
+
+@dataclass(frozen=True)
+class ConveyorSection:
+    """[conveyor]: the feeding conveyor's cells and index time."""
+
+    rows: int = key("int", lo=1, hi=100)
+    cols: int = key("int", lo=1, hi=20)
+    cell_pitch_m: float = key("float", 1, 1000)
+    row_pitch_m: float = key("float", 1, 1000)
+    pickup_row_y_m: float = key("float", -1000, 1000)
+    index_time_s: float = key("float", 0.01, 60)
+    index_error_sd_m: float = key(
+        "float", 0, 20, doc="where an index leaves the row: belt stretch and rib play (sd)"
+    )
+
+
+@dataclass(frozen=True)
+class PotsSection:
+    """[pots]: paper pots and their spread."""
+
+    diameter_m: float = key("float", 1, 500)
+    diameter_sd_m: float = key("float", 0, 100)
+    height_m: float = key("float", 1, 500)
+    height_sd_m: float = key("float", 0, 100)
+    mass_kg: float = key("float", 0.1, 10000)
+    mass_sd_kg: float = key("float", 0, 10000)
+    friction: float = key("float", 0, 10, doc="sliding friction coefficient pot-jaw")
+    friction_sd: float = key("float", 0, 10, doc="spread of a gamma distribution (never < 0)")
+    placement_sd_m: float = key("float", 0, 100, doc="pot offset from its cell centre")
+    placement_max_m: float = key("float", 0, 100, doc="largest offset the cell allows")
+    mass_min_kg: float = key(
+        "float", 0.1, 10000, doc="masses are a normal truncated to [min, max] (no clipping)"
+    )
+    mass_max_kg: float = key("float", 0.1, 10000)
+    bond_share: float = key(
+        "float", 0, 1, doc="share of pots whose roots or wet paper bond them to the belt"
+    )
+    bond_force_n: float = key("float", 0, 100, doc="median strength of a pot's bond (N)")
+    bond_force_sd_log: float = key(
+        "float", 0, 3, doc="spread of bond strengths: sd of their natural log"
+    )
+    soft_share: float = key(
+        "float", 0, 1, doc="share of soaked pots whose wall gives under the jaws"
+    )
+    soft_wall_m: float = key(
+        "float", 0.01, 100, doc="how deep a soaked pot's wall gives before it resists fully"
+    )
+    crooked_share: float = key(
+        "float", 0, 1, doc="share of pots whose wall leans over its flat foot"
+    )
+    crooked_max_rad: float = key(
+        "float", 0.1, 44.9, doc="a crooked pot's wall leans up to this (uniform), to any side"
+    )
+    fill_gap_m: float = key(
+        "float", 0, 20, doc="how far below the rim a pot's soil lies (mean; normal, truncated)"
+    )
+    fill_gap_sd_m: float = key("float", 0, 20, doc="spread of the fill gaps between pots")
+    canopy_contact: bool = key(
+        "bool", doc="the leaves' capsule proxies touch the jaws (soft): they push and drag the pot"
+    )
+    canopy_timeconst_s: float = key(
+        "float", 0, 1000, doc="contact time constant of a leaf on a jaw: larger is softer"
+    )
+    canopy_friction: float = key("float", 0, 10, doc="sliding friction of a leaf on a jaw")
+    shoot_mass_kg: float = key("float", 0.01, 1000, doc="the seedling's shoot above the pot")
+    stem_sway_hz: float = key(
+        "float", 0.01, 1000, doc="natural frequency of the shoot swaying on its stem"
+    )
+    stem_sway_sd_hz: float = key(
+        "float", 0, 1000, doc="spread of the sway frequency between seedlings (gamma)"
+    )
+    stem_damping_ratio: float = key("float", 0, 10, doc="damping ratio of that sway")
+
+
+@dataclass(frozen=True)
+class DropTubeSection:
+    """[drop_tube]: where the drop tube's funnel is."""
+
+    x_m: float = key("float", -1000, 1000)
+    y_m: float = key("float", -1000, 1000)
+    funnel_top_diameter_m: float = key("float", 1, 1000)
+    funnel_top_z_m: float = key("float", -1000, 1000)
+
+
+@dataclass(frozen=True)
+class MetricsSection:
+    """[metrics]: how a trial judges each seedling (not physics)."""
+
+    knocked_offset_m: float = key(
+        "float", 0.1, 100, doc="a pot this far from its grip point is out of its cell"
+    )
+    knocked_tilt_rad: float = key("float", 1, 90, doc="a pot tilted this much is knocked over")
+    lifted_fraction: float = key(
+        "float", 0.01, 1.0, doc="share of the lift a gripped pot must rise"
+    )
+    between_jaws_m: float = key(
+        "float", 1, 100, doc="pot centre within this (xy) of the grip centre at the drop"
+    )
+    settle_s: float = key("float", 0.0, 60, doc="physics kept running after the last line")
+    damage_bend_rad: float = key(
+        "float", 1, 180, doc="a shoot bent further than this from its pot's axis is damaged"
+    )
+
+
+@dataclass(frozen=True)
+class PhysicsSection:
+    """[physics]: solver settings."""
+
+    timestep_s: float = key("float", 0.01, 10)
+    sleep: bool = key(
+        "bool",
+        doc="let resting bodies sleep: faster; may change a single trial's trajectory near "
+        "the edge; the pooled rate over seeds is what to compare (docs/edge_trials.md)",
+    )
+
+
+@dataclass(frozen=True)
+class RecoverySection:
+    """[recovery]: what the machine does about lost steps (the paper's machine: nothing)."""
+
+    rehome_every_cycles: int = key(
+        "int",
+        lo=0,
+        hi=100000,
+        doc="G28 and back to the drop point before every N-th cycle; 0 never",
+    )
+    stall_detection: bool = key(
+        "bool",
+        doc="drivers report a stall (StallGuard): the SGF stops, the PGF re-homes and retries",
+    )
+    stall_retries: int = key(
+        "int", lo=1, hi=100, doc="stalls one seedling's cycle may recover from before the PGF stops"
+    )
+    stall_settle_s: float = key(
+        "float", lo=0, hi=10000, doc="dwell after a stall before the re-home (the arm settles)"
+    )
+
+
+@dataclass(frozen=True)
+class FaultsSection:
+    """[faults]: faults injected into a trial (all 0: none, the paper's run)."""
+
+    switch_stuck_closed: int = key(
+        "int", lo=0, hi=4, doc="limit switch 1-4 that always reads closed (0: none)"
+    )
+    switch_dead: int = key(
+        "int", lo=0, hi=4, doc="homing limit switch 1-3 that never closes, unplugged (0: none)"
+    )
+    jam_motor: int = key(
+        "int", lo=0, hi=3, doc="motor 1-3 (arm 1, arm 2, Z) whose joint jams (0: none)"
+    )
+    jam_at_s: float = key("float", lo=0, hi=1e6, doc="when the jam starts (simulated s)")
+    jam_duration_s: float = key("float", lo=0, hi=1e6, doc="how long the jam lasts")
+    jam_torque_nm: float = key(
+        "float",
+        lo=0,
+        hi=100,
+        doc="the jam's resisting torque at the motor shaft, a friction brake through the "
+        "drive (compare drives.holding_torque_nm)",
+    )
+    lost_reply_line: int = key(
+        "int",
+        lo=0,
+        hi=10**9,
+        doc="the SGF's reply to the n-th line it receives is lost on the wire (0: none)",
+    )
+
+
+@dataclass(frozen=True)
+class TaughtPickup:
+    """One [[taught.pickup]]: approach (via) point M_pd, grip point M_pgd, wrist angle M_pep."""
+
+    approach_m: tuple[float, float] = key("xy", -1000, 1000, doc="approach (via) point M_pd[k]")
+    grip_m: tuple[float, float] = key("xy", -1000, 1000, doc="grip point M_pgd[k]")
+    wrist_rad: float = key("float", 0, 180, doc="wrist servo angle M_pep[k]")
+
+
+@dataclass(frozen=True)
+class TaughtSection:
+    """[taught]: the EEPROM image (paper Fig. 9) as entered on the HMI."""
+
+    z_up_m: float = key("float", -100, 1000)
+    z_low_m: float = key("float", -100, 1000)
+    s_low_m_s: float = key("float", 0.1, 10000, doc="paper S_l")
+    s_high_m_s: float = key("float", 0.1, 10000, doc="paper S_h")
+    drop_m: tuple[float, float] = key("xy", -1000, 1000, doc="drop point M_dp")
+    drop_wrist_rad: float = key("float", 0, 180, doc="wrist servo angle at the drop, M_dep")
+    pickup: tuple[TaughtPickup, ...] = key(
+        "list", doc="pickup points, each approach_mm, grip_mm, wrist_deg"
+    )
+
+
+# The file key of every field whose file unit differs from its SI unit.
+_FILE_KEY_OVERRIDES = {
+    "mass_kg": "mass_g", "mass_sd_kg": "mass_sd_g", "mass_min_kg": "mass_min_g",
+    "mass_max_kg": "mass_max_g", "open_dwell_s": "open_dwell_ms",
+    "close_dwell_s": "close_dwell_ms", "release_dwell_s": "release_dwell_ms",
+    "compute_time_per_point_s": "compute_time_per_point_us", "timestep_s": "timestep_ms",
+    "stall_settle_s": "stall_settle_ms", "canopy_timeconst_s": "canopy_timeconst_ms",
+    "shoot_mass_kg": "shoot_mass_g",
+}  # fmt: skip
+_FILE_SUFFIX = {"_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm", "_rad": "_deg"}
+
+SECTIONS: dict[str, type] = {
+    "scenario": MetaSection,
+    "arm": ArmSection,
+    "limits": LimitsSection,
+    "drives": DrivesSection,
+    "motion": MotionSection,
+    "bus": BusSection,
+    "gripper": GripperSection,
+    "conveyor": ConveyorSection,
+    "pots": PotsSection,
+    "drop_tube": DropTubeSection,
+    "metrics": MetricsSection,
+    "physics": PhysicsSection,
+    "recovery": RecoverySection,
+    "faults": FaultsSection,
+    "taught": TaughtSection,
+}
+
+
+def _file_key(field_name: str) -> str:
+    if field_name in _FILE_KEY_OVERRIDES:
+        return _FILE_KEY_OVERRIDES[field_name]
+    for si, unit in _FILE_SUFFIX.items():
+        if field_name.endswith(si) and not field_name.endswith("_rev_s"):
+            return field_name[: -len(si)] + unit
+    return field_name
+
+
+def _schema_of(cls: type) -> dict[str, Key]:
+    """{file key: Key} of a section dataclass, the scale taken from the file key's unit."""
+    out = {}
+    for f in fields(cls):
+        spec: Key = f.metadata["key"]
+        file_key = _file_key(f.name)
+        assert si_key(file_key) == f.name, (file_key, f.name)
+        out[file_key] = replace(spec, scale=_SCALE.get(_unit_of(file_key) or "", 1.0))
+    return out
+
+
+SCHEMA: dict[str, dict[str, Key]] = {name: _schema_of(cls) for name, cls in SECTIONS.items()}
+PICKUP_SCHEMA: dict[str, Key] = _schema_of(TaughtPickup)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario: one typed, frozen section per table, values in SI."""
+
+    path: Path | None
+    meta: MetaSection
+    arm: ArmSection
+    limits: LimitsSection
+    drives: DrivesSection
+    motion: MotionSection
+    bus: BusSection
+    gripper: GripperSection
+    conveyor: ConveyorSection
+    pots: PotsSection
+    drop_tube: DropTubeSection
+    metrics: MetricsSection
+    physics: PhysicsSection
+    recovery: RecoverySection
+    faults: FaultsSection
+    taught: TaughtSection
+    overrides: tuple[tuple[str, Any], ...] = ()
+    """The 'section.key' = value overrides applied on top of the file, as given."""
+
+    def get(self, dotted: str) -> Any:
+        """The SI value of a file key given as 'section.key' (`taught.s_high_mm_s`)."""
+        section, _, name = dotted.partition(".")
+        if section not in SECTIONS or name not in SCHEMA[section]:
+            raise ScenarioError(f"{dotted!r} is not a scenario key ('section.key').")
+        attr = "meta" if section == "scenario" else section
+        return getattr(getattr(self, attr), si_key(name))
+
+    @property
+    def name(self) -> str:
+        return self.meta.name
+
+    @property
+    def seed(self) -> int:
+        return self.meta.seed
+
+
+REMOVED_KEYS = {
+    "pots.friction_min": "frictions are drawn from a gamma distribution with pots.friction "
+    "as mean and pots.friction_sd as sd, never below 0, so no floor is needed; delete the key",
+}
+"""Keys that were in the schema once, with what to do instead."""
+
+
+def _unknown_key_error(where: str, key: str, known: Mapping[str, Key]) -> ScenarioError:
+    if f"{where}.{key}" in REMOVED_KEYS:
+        return ScenarioError(f"{where}.{key} was removed: {REMOVED_KEYS[f'{where}.{key}']}.")
+    stem = _stem(key)
+    same_stem = [k for k in known if _stem(k) == stem and k != key]
+    if same_stem:
+        return ScenarioError(
+            f"{where}.{key}: wrong unit; this value must be given as '{same_stem[0]}' "
+            f"(unit {_unit_of(same_stem[0]) or 'none'}). Rename the key and convert the value."
+        )
+    return ScenarioError(
+        f"{where}.{key}: unknown key. Known keys in [{where.split('.')[0]}]: "
+        f"{', '.join(sorted(known))}."
+    )
+
+
+def _convert(where: str, key: str, spec: Key, raw: Any) -> Any:
+    name = f"{where}.{key}"
+    if spec.kind == "str":
+        if not isinstance(raw, str):
+            raise ScenarioError(f"{name}: expected a string, got {raw!r}.")
+        if spec.choices and raw not in spec.choices:
+            raise ScenarioError(f"{name}: {raw!r} is not one of {', '.join(spec.choices)}.")
+        return raw
+    if spec.kind == "bool":
+        if not isinstance(raw, bool):
+            raise ScenarioError(f"{name}: expected true or false, got {raw!r}.")
+        return raw
+    if spec.kind == "int":
+        if isinstance(raw, bool) or not isinstance(raw, int):
+            raise ScenarioError(f"{name}: expected a whole number, got {raw!r}.")
+        _check_range(name, spec, raw)
+        return raw
+    if spec.kind == "float":
+        return _number(name, spec, raw)
+    if spec.kind == "xy":
+        if not isinstance(raw, list) or len(raw) != 2:
+            raise ScenarioError(f"{name}: expected a pair [x, y], got {raw!r}.")
+        return tuple(_number(f"{name}[{i}]", spec, v) for i, v in enumerate(raw))
+    raise AssertionError(spec.kind)
+
+
+def _number(name: str, spec: Key, raw: Any) -> float:
+    if isinstance(raw, bool) or not isinstance(raw, int | float):
+        raise ScenarioError(f"{name}: expected a number, got {raw!r}.")
+    value = float(raw)
+    if not math.isfinite(value):
+        raise ScenarioError(f"{name}: {raw!r} is not a finite number.")
+    _check_range(name, spec, value)
+    return value * spec.scale
+
+
+def _check_range(name: str, spec: Key, value: float) -> None:
+    if spec.lo is not None and value < spec.lo or spec.hi is not None and value > spec.hi:
+        if spec.hi is None:
+            allowed = f"must be at least {spec.lo:g}"
+        elif spec.lo is None:
+            allowed = f"must be at most {spec.hi:g}"
+        else:
+            allowed = f"is outside the allowed range [{spec.lo:g}, {spec.hi:g}]"
+        raise ScenarioError(f"{name}: {value!r} {allowed}.")
+
+
+def _merge(base: dict, over: Mapping) -> dict:
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in base.items()}
+    for section, table in over.items():
+        if isinstance(table, dict) and isinstance(out.get(section), dict):
+            out[section].update(table)
+        else:
+            out[section] = table
+    return out
+
+
+# A scenario is a short text file; anything bigger is not one (and is never read whole).
+MAX_SCENARIO_BYTES = 1 << 20
+
+
+def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
+    path = path.resolve()
+    if path in seen:
+        raise ScenarioError(f"{path}: 'base' files form a cycle: {' -> '.join(map(str, seen))}.")
+    try:
+        text = fileio.read_text_input(path, MAX_SCENARIO_BYTES, "scenario")
+        raw = tomllib.loads(text)
+    except fileio.FileRefused as exc:
+        raise ScenarioError(str(exc)) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}.") from None
+    for section, table in raw.items():
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{path}: [{section}] must be a table of keys, got {table!r}.")
+    base = raw.get("scenario", {}).pop("base", None)
+    if base is None:
+        return raw
+    return _merge(_read_raw(_base_path(path, base), (*seen, path)), raw)
+
+
+def _base_path(path: Path, base: Any) -> Path:
+    """The file a `base = ...` names: a file in the scenario's own directory (or below it),
+    an absolute path (as `transplanter tune` writes for a scenario kept elsewhere), else a
+    packaged scenario by name; never a relative path out of the directory ('../x.toml')."""
+    if not isinstance(base, str) or not base:
+        raise ScenarioError(f"{path}: scenario.base must be a file name, got {base!r}.")
+    if Path(base).is_absolute():
+        return Path(base)
+    candidate = (path.parent / base).resolve()
+    if not candidate.is_relative_to(path.parent):
+        raise ScenarioError(
+            f"{path}: scenario.base = {base!r} points outside the scenario's directory; "
+            "name a file beside it, an absolute path or a packaged scenario (e.g. 'paper.toml')."
+        )
+    if candidate.exists() or len(Path(base).parts) != 1:
+        return candidate
+    return resolve_scenario_path(base)  # a packaged scenario by name
+
+
+def _apply_overrides(raw: dict, overrides: Mapping[str, Any]) -> dict:
+    raw = _merge(raw, {})
+    for dotted, value in overrides.items():
+        section, _, key = dotted.partition(".")
+        if not key:
+            raise ScenarioError(f"override {dotted!r}: use 'section.key'.")
+        table = raw.setdefault(section, {})
+        if not isinstance(table, dict):
+            raise ScenarioError(f"override {dotted!r}: [{section}] is not a table.")
+        table[key] = value
+    return raw
+
+
+def parse_value(text: str) -> Any:
+    """A value as `--set` and `--vary` take it: a TOML value (30, 1.5, true, [0, 140],
+    "scurve"), else the bare text as a string (scurve)."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
+def key_spec(dotted: str) -> Key:
+    """The schema entry of a file key given as 'section.key'; ScenarioError naming an
+    unknown section or key (with the known ones, or the right unit)."""
+    section, _, name = dotted.partition(".")
+    if not name:
+        raise ScenarioError(f"{dotted!r}: write SECTION.KEY (e.g. taught.z_low_mm).")
+    if section not in SCHEMA:
+        raise ScenarioError(
+            f"{dotted}: unknown section [{section}]. Known sections: {', '.join(SCHEMA)}."
+        )
+    if name not in SCHEMA[section]:
+        raise _unknown_key_error(section, name, SCHEMA[section])
+    return SCHEMA[section][name]
+
+
+def check_value(dotted: str, raw: Any) -> Any:
+    """One key's value in its file unit checked on its own (kind, range, choices), returned
+    in SI; ScenarioError naming the key. Checks between keys (z_up above z_low, reach) need
+    the whole scenario: load_scenario."""
+    spec = key_spec(dotted)
+    section, _, name = dotted.partition(".")
+    if spec.kind == "list":
+        return _pickups(section, name, raw)
+    return _convert(section, name, spec, raw)
+
+
+def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, dict[str, Any]]:
+    """Check a raw TOML mapping against SCHEMA and convert it to SI: {section: {field: value}}."""
+    values: dict[str, dict[str, Any]] = {}
+    for section in raw:
+        if section not in SCHEMA:
+            raise ScenarioError(
+                f"{source}: unknown section [{section}]. Known sections: {', '.join(SCHEMA)}."
+            )
+    for section, keys in SCHEMA.items():
+        table = raw.get(section)
+        if table is None:
+            raise ScenarioError(f"{source}: missing section [{section}].")
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{source}: [{section}] must be a table of keys, got {table!r}.")
+        for key_name in table:
+            if key_name not in keys:
+                raise _unknown_key_error(section, key_name, keys)
+        out: dict[str, Any] = {}
+        for key_name, spec in keys.items():
+            if key_name not in table:
+                hint = spec.doc or spec.kind
+                raise ScenarioError(
+                    f"{source}: {section}.{key_name} is missing; give a value ({hint})."
+                )
+            if spec.kind == "list":
+                out[si_key(key_name)] = _pickups(section, key_name, table[key_name])
+            else:
+                out[si_key(key_name)] = _convert(section, key_name, spec, table[key_name])
+        values[section] = out
+    _cross_checks(values)
+    return values
+
+
+def _pickups(section: str, key: str, raw: Any) -> tuple[TaughtPickup, ...]:
+    if not isinstance(raw, list) or not raw:
+        raise ScenarioError(f"{section}.{key}: give at least one [[{section}.{key}]] table.")
+    out = []
+    for i, item in enumerate(raw):
+        where = f"{section}.{key}[{i}]"
+        if not isinstance(item, dict):
+            raise ScenarioError(f"{where}: expected a table with {', '.join(PICKUP_SCHEMA)}.")
+        for k in item:
+            if k not in PICKUP_SCHEMA:
+                raise _unknown_key_error(where, k, PICKUP_SCHEMA)
+        entry = {}
+        for k, spec in PICKUP_SCHEMA.items():
+            if k not in item:
+                raise ScenarioError(f"{where}.{k} is missing; give a value ({spec.doc}).")
+            entry[si_key(k)] = _convert(where, k, spec, item[k])
+        out.append(TaughtPickup(**entry))
+    return tuple(out)
+
+
+def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
+    lim, taught = v["limits"], v["taught"]
+    for lo, hi in (
+        ("motor1_min_deg", "motor1_max_deg"),
+        ("motor2_min_deg", "motor2_max_deg"),
+        ("elbow_min_deg", "elbow_max_deg"),
+        ("transmission_min_deg", "transmission_max_deg"),
+        ("z_min_mm", "z_max_mm"),
+    ):
+        if lim[si_key(lo)] >= lim[si_key(hi)]:
+            raise ScenarioError(f"limits.{lo} must be below limits.{hi}.")
+    z_min, z_max = lim["z_min_m"], lim["z_max_m"]
+    for key in ("z_up_mm", "z_low_mm"):
+        if not z_min <= taught[si_key(key)] <= z_max:
+            raise ScenarioError(
+                f"taught.{key} = {taught[si_key(key)] * 1e3:g} mm is outside "
+                f"[limits.z_min_mm, limits.z_max_mm] = [{z_min * 1e3:g}, {z_max * 1e3:g}] mm."
+            )
+    if taught["z_up_m"] <= taught["z_low_m"]:
+        raise ScenarioError("taught.z_up_mm must be above taught.z_low_mm.")
+    if len(taught["pickup"]) > MAX_PICKUPS:
+        raise ScenarioError(
+            f"taught.pickup: the EEPROM holds at most {MAX_PICKUPS} pickup points, "
+            f"got {len(taught['pickup'])}."
+        )
+    if v["arm"]["working_mode"] != "+-":
+        raise ScenarioError(
+            f"arm.working_mode = {v['arm']['working_mode']!r}: the MJCF model is assembled in the "
+            "paper's working mode '+-' (elbows out, eqs 6-7); the five-bar kinematics solves "
+            "all four modes, but the twin can only run '+-'."
+        )
+    drv = v["drives"]
+    for key, lo, hi, window in (
+        ("switch1_theta1_deg", "motor1_min_deg", "motor1_max_deg", "limits"),
+        ("switch2_theta2_deg", "motor2_min_deg", "motor2_max_deg", "limits"),
+    ):
+        if not lim[si_key(lo)] <= drv[si_key(key)] <= lim[si_key(hi)]:
+            raise ScenarioError(
+                f"drives.{key} (a limit switch) must lie inside {window}.{lo}..{hi}."
+            )
+    if not z_min < drv["switch3_z_m"] <= z_max:
+        raise ScenarioError(
+            "drives.switch3_z_mm (limit switch 3) must lie in (limits.z_min_mm, limits.z_max_mm]."
+        )
+    pots = v["pots"]
+    if pots["mass_min_kg"] > pots["mass_kg"] or pots["mass_kg"] > pots["mass_max_kg"]:
+        raise ScenarioError("pots.mass_g must lie within [pots.mass_min_g, pots.mass_max_g].")
+    if pots["friction"] == 0 and pots["friction_sd"] > 0:
+        raise ScenarioError(
+            "pots.friction_sd > 0 with pots.friction = 0: frictions are drawn from a gamma "
+            "distribution (never below 0) with that mean and sd; a mean of 0 has no spread. "
+            "Set friction_sd = 0 (frictionless pots) or raise friction."
+        )
+    conv = v["conveyor"]
+    cells = conv["rows"] * conv["cols"]
+    if v["scenario"]["seedlings"] > cells:
+        raise ScenarioError(
+            f"scenario.seedlings = {v['scenario']['seedlings']} is more than the conveyor holds "
+            f"(conveyor.rows x conveyor.cols = {cells} pots)."
+        )
+    if conv["index_time_s"] < 0.2:
+        raise ScenarioError("conveyor.index_time_s must be at least 0.2 s (push and settle).")
+    grip = v["gripper"]
+    if grip["close_rad"] >= grip["open_rad"]:
+        raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
+    _check_faults(v["faults"])
+
+
+def _check_faults(f: dict[str, Any]) -> None:
+    if f["switch_dead"] == 4:
+        raise ScenarioError(
+            "faults.switch_dead = 4: limit switch 4 (Z down) is not used in homing, so a dead "
+            "switch 4 would change nothing; choose a homing switch 1-3, or 0 for none (a stuck "
+            "closed switch 4 is faults.switch_stuck_closed = 4)."
+        )
+    if f["switch_dead"] and f["switch_dead"] == f["switch_stuck_closed"]:
+        raise ScenarioError(
+            f"faults.switch_dead and faults.switch_stuck_closed both name limit switch "
+            f"{f['switch_dead']}: a switch cannot be dead and stuck closed; set one to 0."
+        )
+    jam = (f["jam_torque_nm"], f["jam_duration_s"])
+    if f["jam_motor"] and not all(v > 0 for v in jam):
+        raise ScenarioError(
+            f"faults.jam_motor = {f['jam_motor']} needs faults.jam_torque_nm > 0 and "
+            "faults.jam_duration_s > 0 to jam anything; give both, or set jam_motor = 0."
+        )
+    if not f["jam_motor"] and any(v > 0 for v in jam):
+        raise ScenarioError(
+            "faults.jam_torque_nm or faults.jam_duration_s is set but faults.jam_motor = 0 "
+            "(no jam): name the motor that jams (1 arm 1, 2 arm 2, 3 Z) or set both to 0."
+        )
+
+
+def packaged_scenarios() -> list[str]:
+    """Names of the scenarios shipped with the package (`paper`, ...)."""
+    root = importlib.resources.files("transplanter.scenarios")
+    return sorted(p.name[: -len(".toml")] for p in root.iterdir() if p.name.endswith(".toml"))
+
+
+def resolve_scenario_path(name: str | Path) -> Path:
+    """A scenario file: the path as given if it exists, else a packaged scenario by name
+    (`paper` or `paper.toml`)."""
+    path = Path(name)
+    if path.exists() or len(path.parts) != 1:
+        return path
+    stem = path.name[: -len(".toml")] if path.name.endswith(".toml") else path.name
+    packaged = importlib.resources.files("transplanter.scenarios") / f"{stem}.toml"
+    if packaged.is_file():
+        return Path(str(packaged))
+    raise ScenarioError(
+        f"{name}: no such scenario file, and no packaged scenario of that name "
+        f"(packaged: {', '.join(packaged_scenarios())})."
+    )
+
+
+def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:
+    """Read, merge (`base`), override (`{"taught.s_high_mm_s": 200}`, file units) and
+    validate a scenario file, or a packaged scenario by name (`paper`)."""
+    path = resolve_scenario_path(path)
+    raw = _read_raw(path)
+    if overrides:
+        raw = _apply_overrides(raw, overrides)
+    values = validate(raw, str(path))
+    sections = {("meta" if k == "scenario" else k): SECTIONS[k](**v) for k, v in values.items()}
+    return Scenario(path=path, overrides=tuple((overrides or {}).items()), **sections)

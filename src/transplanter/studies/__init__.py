@@ -1,0 +1,1 @@
+"""Many trials: grids, backends, sweeps, tuning, calibration, statistics, plots."""

@@ -1,0 +1,241 @@
+"""Running a sweep's tasks: one trial per task as `transplanter trial` judges it (`run_one`),
+on a backend that yields the rows as they finish, in any order: `inline` (this process),
+`process` (a spawn process pool) or `ray` (a Ray cluster)."""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import time
+from collections.abc import Iterable, Iterator, Mapping
+from typing import Any
+
+from transplanter.scenario.schema import ScenarioError, load_scenario
+from transplanter.studies.grid import SweepRefused
+from transplanter.twin.results import FAILURE_KINDS
+
+BACKENDS = ("process", "ray", "inline")
+
+# Columns of a run's row after the varied keys.
+RESULT_FIELDS = (
+    "seed",
+    "successes",
+    "seedlings",
+    "success_rate",
+    "cycle_time_s",
+    "cycle_time_sd_s",
+    "cycles",
+    *(f"fail_{k}" for k in FAILURE_KINDS),
+    "lost_step_events",
+    "max_stem_bend_deg",
+    "valid",
+    "fault",
+    "fault_kind",
+    "sim_time_s",
+    "wall_time_s",
+    "warnings",
+    "error",
+)
+
+
+# The trial's warnings in one cell of a row (none: an empty string).
+WARNING_SEPARATOR = " | "
+
+
+class BackendMissing(SweepRefused):
+    """The backend's package is not installed."""
+
+
+def _empty_result() -> dict[str, Any]:
+    return {f: None for f in RESULT_FIELDS if f != "seed"}
+
+
+def run_one(task: Mapping[str, Any]) -> dict[str, Any]:
+    """One trial as `transplanter trial` runs it, as a row: the varied values, the seed, the
+    counts and times; a setting the scenario refuses or a trial that raised is a row with
+    its `error` (never an exception)."""
+    from transplanter.scenario.assemble import assemble
+    from transplanter.twin.trial import run_trial
+
+    row: dict[str, Any] = {**task["setting"], "seed": task["seed"], **_empty_result()}
+    t0 = time.perf_counter()
+    overrides = {
+        **task["overrides"],
+        **task["setting"],
+        "scenario.seed": task["seed"],
+        "scenario.seedlings": task["seedlings"],
+    }
+    try:
+        config = assemble(load_scenario(task["scenario"], overrides), preflight=True)
+    except ScenarioError as exc:
+        row["error"] = f"setting refused: {exc}"
+        row["wall_time_s"] = time.perf_counter() - t0
+        return row
+    try:
+        result = run_trial(config)
+    except Exception as exc:  # the physics or the firmware raised: a row, not a crash
+        row["error"] = f"{type(exc).__name__}: {exc}"
+        row["wall_time_s"] = time.perf_counter() - t0
+        return row
+    d = result.to_dict()
+    row.update(
+        successes=d["successes"],
+        seedlings=d["seedlings"],
+        success_rate=d["success_rate"],
+        cycle_time_s=d["cycle_time_s"],
+        cycle_time_sd_s=d["cycle_time_sd_s"],
+        cycles=int(result.cycle_times.size),
+        lost_step_events=len(d["lost_step_events"]),
+        max_stem_bend_deg=d["max_stem_bend_deg"],
+        valid=d["valid"],
+        fault=d["fault"],
+        fault_kind=d["fault_kind"],  # why the firmware stopped, by kind (FaultKind)
+        sim_time_s=d["sim_time_s"],
+        wall_time_s=d["wall_time_s"],
+        # what the trial summary warns of (speeds the drives could not reach, ...), one cell
+        warnings=WARNING_SEPARATOR.join(d["warnings"]),
+    )
+    for kind, count in d["failures"].items():
+        row[f"fail_{kind}"] = count
+    if not d["valid"]:
+        row["error"] = f"trial not valid: {d['invalid_reason']}"
+    elif d["fault"]:
+        row["error"] = f"firmware fault: {d['fault']}"
+    return row
+
+
+class InlineBackend:
+    """Runs the tasks one after another in this process (notebooks, tests)."""
+
+    workers = 1
+
+    def run(self, tasks: Iterable[Mapping[str, Any]]) -> Iterator[dict[str, Any]]:
+        for task in tasks:
+            yield run_one(task)
+
+    def close(self) -> None:
+        pass
+
+
+def _ignore_sigint() -> None:
+    # Ctrl-C goes to the whole process group: the parent decides, workers are terminated.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class ProcessBackend:
+    """A `ProcessPoolExecutor` of spawned processes (MuJoCo and fork do not mix)."""
+
+    def __init__(self, workers: int) -> None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.workers = workers
+        self.pool = ProcessPoolExecutor(
+            max_workers=workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_ignore_sigint,
+        )
+
+    def run(self, tasks: Iterable[Mapping[str, Any]]) -> Iterator[dict[str, Any]]:
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        pending = {self.pool.submit(run_one, dict(t)) for t in tasks}
+        try:
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield future.result()
+        finally:
+            for future in pending:
+                future.cancel()
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def terminate(self) -> None:
+        """Stop at once (Ctrl-C): running trials are lost, finished rows are kept."""
+        processes = list(getattr(self.pool, "_processes", {}).values())
+        self.pool.shutdown(wait=False, cancel_futures=True)
+        for p in processes:
+            p.terminate()
+        for p in processes:
+            p.join(5)
+
+
+class RayBackend:
+    """Tasks on a Ray cluster (`address`) or a local one of `workers` CPUs."""
+
+    def __init__(self, workers: int, address: str | None = None) -> None:
+        try:
+            import ray
+        except ImportError:
+            raise BackendMissing(
+                "the ray backend needs Ray: pip install 'transplanter[ray]' (or use "
+                "--backend process)"
+            ) from None
+        self.ray = ray
+        self.workers = workers
+        self.owns = not ray.is_initialized()
+        if self.owns:
+            if address is not None:
+                ray.init(address=address, log_to_driver=False)
+            else:
+                ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        self.remote = ray.remote(num_cpus=1, max_retries=0)(run_one)
+
+    def run(self, tasks: Iterable[Mapping[str, Any]]) -> Iterator[dict[str, Any]]:
+        ray = self.ray
+        pending = [self.remote.remote(dict(t)) for t in tasks]
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    yield ray.get(ref)
+        finally:
+            for ref in pending:
+                ray.cancel(ref, force=True)
+
+    def close(self) -> None:
+        if self.owns:
+            self.ray.shutdown()
+
+    def terminate(self) -> None:
+        self.close()
+
+
+def check_backend(name: str, workers: int, address: str | None = None) -> None:
+    """SweepRefused naming the problem if `make_backend` would refuse these options."""
+    if name not in BACKENDS:
+        raise SweepRefused(f"--backend {name!r}: choose one of {', '.join(BACKENDS)}")
+    if workers < 1:
+        raise SweepRefused(f"--workers must be at least 1, got {workers}")
+    if address is not None and name != "ray":
+        raise SweepRefused("--address names a Ray cluster: use it with --backend ray")
+
+
+def make_backend(name: str, workers: int, address: str | None = None):
+    """A backend by name: 'process' (default), 'ray' or 'inline'."""
+    check_backend(name, workers, address)
+    if name == "inline":
+        return InlineBackend()
+    if name == "ray":
+        return RayBackend(workers, address)
+    return ProcessBackend(workers)
+
+
+def comparable(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Rows without their wall time: what must be identical whatever the backend."""
+    return [{k: v for k, v in r.items() if k != "wall_time_s"} for r in rows]
+
+
+@contextlib.contextmanager
+def backend_of(name: str, workers: int, address: str | None = None):
+    """A backend, closed on the way out (terminated on Ctrl-C)."""
+    runner = make_backend(name, workers, address)
+    try:
+        yield runner
+    except KeyboardInterrupt:
+        getattr(runner, "terminate", runner.close)()
+        raise
+    else:
+        runner.close()

@@ -1,0 +1,90 @@
+"""Pooled success over several trials, with an interval from the spread between trials.
+
+Picks within one trial are not independent: one lost-step strike can spoil every later pick
+of that trial. The pooled interval therefore resamples whole trials (a cluster bootstrap,
+`scipy.stats.bootstrap` with paired successes and counts), and is never narrower than the
+Wilson interval over all picks, which is what independent picks would give.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from transplanter.twin.results import wilson_interval
+
+__all__ = ["PooledRate", "pooled_rate", "parse_seeds"]
+
+BOOTSTRAP_RESAMPLES = 9999
+BOOTSTRAP_SEED = 20201  # fixed: the same trials give the same interval
+
+
+@dataclass(frozen=True)
+class PooledRate:
+    successes: int
+    seedlings: int
+    trials: int
+    success_rate: float
+    ci95: tuple[float, float]
+    method: str
+
+    def to_dict(self) -> dict:
+        return {
+            "successes": self.successes,
+            "seedlings": self.seedlings,
+            "trials": self.trials,
+            "success_rate": self.success_rate,
+            "ci95": list(self.ci95),
+            "method": self.method,
+        }
+
+
+def pooled_rate(successes: Sequence[int], seedlings: Sequence[int]) -> PooledRate:
+    """Pooled success rate of trials with these successes and seedlings, 95 % interval."""
+    k = np.asarray(successes, dtype=float)
+    n = np.asarray(seedlings, dtype=float)
+    if k.shape != n.shape or k.ndim != 1 or k.size == 0 or (n <= 0).any() or (k > n).any():
+        raise ValueError("pooled_rate needs one (successes <= seedlings > 0) pair per trial")
+    total_k, total_n = int(k.sum()), int(n.sum())
+    rate = total_k / total_n
+    lo, hi = wilson_interval(total_k, total_n)
+    method = "Wilson over all picks"
+    rates = k / n
+    if k.size >= 3 and np.ptp(rates) > 0:
+        from scipy import stats
+
+        boot = stats.bootstrap(
+            (k, n),
+            lambda a, b: a.sum() / b.sum(),
+            paired=True,
+            vectorized=False,
+            n_resamples=BOOTSTRAP_RESAMPLES,
+            method="percentile",
+            random_state=np.random.default_rng(BOOTSTRAP_SEED),
+        )
+        b_lo, b_hi = float(boot.confidence_interval.low), float(boot.confidence_interval.high)
+        if b_lo < lo or b_hi > hi:
+            method = "cluster bootstrap over trials (at least the Wilson interval)"
+        lo, hi = min(lo, b_lo), max(hi, b_hi)
+    return PooledRate(total_k, total_n, int(k.size), rate, (lo, hi), method)
+
+
+def parse_seeds(text: str) -> list[int]:
+    """'41-44' or '1,3,5-7' -> seeds, in order; ValueError naming the bad part."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        lo, dash, hi = part.partition("-")
+        if not (lo.isascii() and lo.isdigit()) or (dash and not (hi.isascii() and hi.isdigit())):
+            raise ValueError(f"seeds {text!r}: {part!r} is not N or N-M (whole numbers >= 0)")
+        a, b = int(lo), int(hi) if dash else int(lo)
+        if b < a:
+            raise ValueError(f"seeds {text!r}: {part!r} runs backwards")
+        if b - a >= 10000:
+            raise ValueError(f"seeds {text!r}: {part!r} is more than 10000 trials")
+        seeds.extend(range(a, b + 1))
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds {text!r}: a seed is given twice")
+    return seeds

@@ -1,0 +1,383 @@
+"""Parameter sweeps: a grid of scenario settings x seeds, one trial per (setting, seed).
+
+Each run is judged exactly as `transplanter trial` judges it: the scenario is loaded with the
+`--set` overrides plus the setting's values, assembled with preflight, and `run_trial` gives
+the result. The runs go to a backend (`inline` in this process, `process`: a spawn process
+pool, `ray`: a Ray cluster) and come back in any order; every row carries its setting and
+seed, and the tables are sorted by the grid, so the numbers never depend on the backend, the
+worker count or the order the runs finished in (only `wall_time_s` does).
+
+Files in the output directory:
+
+- `sweep.json`: the manifest (scenario, its overrides and digest, the varied keys and values,
+  seeds, seedlings). A rerun with a different manifest is refused; with the same one the runs
+  already in `runs.jsonl` are skipped (resume).
+- `runs.jsonl`: one JSON line per finished run, appended, flushed and fsynced as it finishes.
+  A torn last line (killed mid-write) is dropped and that run is run again.
+- `runs.csv`, `settings.csv`: rewritten atomically from the rows at the end and on Ctrl-C;
+  `settings.csv` pools each setting's seeds with `stats.pooled_rate`.
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import json
+import math
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from transplanter import fileio
+from transplanter.studies.backends import (
+    BACKENDS,
+    RESULT_FIELDS,
+    BackendMissing,
+    InlineBackend,
+    backend_of,
+    check_backend,
+    comparable,
+    make_backend,
+    run_one,
+)
+from transplanter.studies.grid import (
+    MANIFEST_IDENTITY,
+    Axis,
+    SweepRefused,
+    SweepSpec,
+    format_value,
+    parse_param_range,
+    parse_vary,
+    run_key,
+)
+from transplanter.studies.stats import PooledRate, pooled_rate
+
+__all__ = [
+    "Axis",
+    "BACKENDS",
+    "BackendMissing",
+    "SweepRefused",
+    "SweepReport",
+    "SweepSpec",
+    "aggregate",
+    "backend_of",
+    "check_backend",
+    "comparable",
+    "format_value",
+    "make_backend",
+    "parse_param_range",
+    "parse_vary",
+    "pool_runs",
+    "run_key",
+    "run_one",
+    "run_sweep",
+    "write_csv_atomic",
+]
+
+RUNS_JSONL, RUNS_CSV, SETTINGS_CSV = "runs.jsonl", "runs.csv", "settings.csv"
+MANIFEST = "sweep.json"
+
+# Columns of settings.csv after the varied keys.
+SETTING_FIELDS = (
+    "runs",
+    "errors",
+    "successes",
+    "seedlings",
+    "success_rate",
+    "ci95_low",
+    "ci95_high",
+    "ci_method",
+    "cycle_time_s",
+)
+
+
+def read_runs(path: Path) -> list[dict[str, Any]]:
+    """The rows of a runs.jsonl. A torn last line (killed mid-write: no newline, or not
+    JSON) is cut off the file so that new rows append cleanly and its run is run again; a
+    damaged line before the last is refused."""
+    if not path.exists():
+        return []
+    data = path.read_bytes()
+    rows: list[dict[str, Any]] = []
+    pos = 0
+    while pos < len(data):
+        nl = data.find(b"\n", pos)
+        if nl < 0:  # the last line lacks its newline: torn
+            break
+        line = data[pos:nl]
+        if line.strip():
+            try:
+                row = json.loads(line)
+                if not isinstance(row, dict) or "seed" not in row:
+                    raise ValueError(line)
+            except ValueError:
+                if nl + 1 == len(data):
+                    break  # the last line: torn
+                line_no = data.count(b"\n", 0, pos) + 1
+                raise SweepRefused(
+                    f"{path}: line {line_no} is damaged; move the file away to start over"
+                ) from None
+            rows.append(row)
+        pos = nl + 1
+    if pos < len(data):
+        with open(path, "r+b") as f:
+            f.truncate(pos)
+            os.fsync(f.fileno())
+    return rows
+
+
+class RunLog:
+    """runs.jsonl opened for appending, locked against a second sweep writing it."""
+
+    def __init__(self, path: Path) -> None:
+        import fcntl
+
+        self.f = open(path, "a", encoding="utf-8")
+        try:
+            fcntl.flock(self.f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self.f.close()
+            raise SweepRefused(
+                f"{path} is being written by another sweep; wait for it or use another --out"
+            ) from None
+
+    def append(self, row: Mapping[str, Any]) -> None:
+        self.f.write(json.dumps(row) + "\n")
+        self.f.flush()
+        os.fsync(self.f.fileno())
+
+    def close(self) -> None:
+        self.f.close()
+
+
+def _cell(value: Any) -> Any:
+    return "" if value is None else value
+
+
+def write_csv_atomic(path: Path, fields: Sequence[str], rows: Iterable[Mapping[str, Any]]) -> None:
+    tmp = fileio.temp_beside(path)
+    try:
+        with open(tmp, "w", encoding="utf-8", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(fields)
+            for row in rows:
+                w.writerow([_cell(row.get(k)) for k in fields])
+    except BaseException:
+        fileio.discard(tmp)
+        raise
+    fileio.commit(tmp, path)
+
+
+def check_manifest(out: Path, manifest: Mapping[str, Any]) -> bool:
+    """True if `out` already holds this sweep; SweepRefused if it holds another one (or
+    results without a manifest). Creates `out` when missing."""
+    if out.exists() and not out.is_dir():
+        raise SweepRefused(f"--out {out} is a file; give a directory")
+    path = out / MANIFEST
+    if not path.exists():
+        if (out / RUNS_JSONL).exists():
+            raise SweepRefused(
+                f"{out} holds {RUNS_JSONL} but no {MANIFEST}: results of unknown origin; "
+                "use another --out"
+            )
+        return False
+    try:
+        old = json.loads(fileio.read_text_input(path, 1 << 24, "sweep manifest"))
+    except (fileio.FileRefused, ValueError) as exc:
+        raise SweepRefused(f"{path} cannot be read ({exc}); use another --out") from None
+    differs = [k for k in MANIFEST_IDENTITY if old.get(k) != manifest.get(k)]
+    if differs:
+        raise SweepRefused(
+            f"{out} holds the results of a different sweep (it differs in: "
+            f"{', '.join(differs)}); results of two sweeps are never mixed: use another --out "
+            "or delete that directory"
+        )
+    return True
+
+
+# ---------------------------------------------------------------------------------------
+# Aggregation
+# ---------------------------------------------------------------------------------------
+
+
+def sort_rows(rows: Iterable[Mapping[str, Any]], spec: SweepSpec) -> list[dict[str, Any]]:
+    """Rows in grid order (settings as the grid lists them, seeds as given), one per run."""
+    order = {
+        run_key(s, seed, spec.keys): i
+        for i, (s, seed) in enumerate(itertools.product(spec.settings(), spec.seeds))
+    }
+    unique: dict[str, dict[str, Any]] = {}
+    for row in rows:
+        if any(k not in row for k in spec.keys):
+            continue
+        k = run_key(row, row["seed"], spec.keys)
+        if k in order and k not in unique:
+            unique[k] = dict(row)
+    return [unique[k] for k in sorted(unique, key=order.__getitem__)]
+
+
+def aggregate(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> list[dict[str, Any]]:
+    """One row per distinct value of `keys` (in first-seen order): the runs pooled with
+    `stats.pooled_rate` (runs that raised or were refused are counted in `errors` only) and
+    the mean cycle time over all their timed cycles."""
+    groups: dict[str, list[Mapping[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault(json.dumps([row[k] for k in keys]), []).append(row)
+    out = []
+    for members in groups.values():
+        agg: dict[str, Any] = {k: members[0][k] for k in keys}
+        counted = [r for r in members if r["successes"] is not None]
+        agg.update(runs=len(members), errors=sum(r["error"] is not None for r in members))
+        agg.update({f: None for f in SETTING_FIELDS[2:]})
+        if counted:
+            pooled, agg["cycle_time_s"] = pool_runs(counted)
+            agg.update(
+                successes=pooled.successes,
+                seedlings=pooled.seedlings,
+                success_rate=pooled.success_rate,
+                ci95_low=pooled.ci95[0],
+                ci95_high=pooled.ci95[1],
+                ci_method=pooled.method,
+            )
+        out.append(agg)
+    return out
+
+
+def pool_runs(rows: Sequence[Mapping[str, Any]]) -> tuple[PooledRate, float | None]:
+    """Runs that were counted (none refused or raised), pooled: their success with
+    `stats.pooled_rate`, and the mean cycle time over all their timed cycles (None if none
+    was timed)."""
+    pooled = pooled_rate([r["successes"] for r in rows], [r["seedlings"] for r in rows])
+    n = sum(r["cycles"] or 0 for r in rows)
+    cycle = sum(r["cycle_time_s"] * r["cycles"] for r in rows if r["cycles"]) / n if n else None
+    return pooled, cycle
+
+
+def best_setting(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> str:
+    """The setting with the highest success rate so far (ties: shortest cycle), as text."""
+    tally: dict[str, list[float]] = {}
+    for r in rows:
+        if r["successes"] is None:
+            continue
+        t = tally.setdefault(json.dumps([r[k] for k in keys]), [0, 0, 0.0, 0])
+        t[0] += r["successes"]
+        t[1] += r["seedlings"]
+        if r["cycles"]:
+            t[2] += r["cycle_time_s"] * r["cycles"]
+            t[3] += r["cycles"]
+    if not tally:
+        return ""
+
+    def score(item):
+        k, n, c, m = item[1]
+        return (k / n, -(c / m) if m else -math.inf)
+
+    name, (k, n, _, _) = max(tally.items(), key=score)
+    values = json.loads(name)
+    text = " ".join(
+        f"{key.split('.')[-1]}={format_value(v)}" for key, v in zip(keys, values, strict=True)
+    )
+    return f"best {text}: {100 * k / n:.0f} %"
+
+
+# ---------------------------------------------------------------------------------------
+# The runner
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass
+class SweepReport:
+    """What a sweep left in its directory."""
+
+    out: Path
+    rows: list[dict[str, Any]]  # every finished run, grid order
+    settings: list[dict[str, Any]]  # pooled per setting, grid order
+    ran: int  # runs done by this call
+    skipped: int  # runs found already done (resume)
+    total: int
+    interrupted: bool = False
+    plots: list[Path] = field(default_factory=list)
+    plot_error: str | None = None
+
+    @property
+    def complete(self) -> bool:
+        return len(self.rows) == self.total
+
+
+def run_sweep(
+    spec: SweepSpec,
+    out: str | os.PathLike,
+    backend: str = "process",
+    workers: int = 1,
+    address: str | None = None,
+    progress: bool = False,
+    plots: bool = True,
+    on_row: Callable[[dict[str, Any]], None] | None = None,
+) -> SweepReport:
+    """Run every (setting, seed) of the grid not yet in `out`, writing each row as it
+    finishes; then the CSVs and the plots. Ctrl-C: the finished rows stay, the CSVs are
+    rewritten and the report says `interrupted`."""
+    out = Path(out)
+    manifest = spec.manifest()  # ScenarioError here: nothing runs
+    resumed = check_manifest(out, manifest)
+    out.mkdir(parents=True, exist_ok=True)
+    if not resumed:
+        fileio.write_json_atomic(out / MANIFEST, manifest)
+    log = RunLog(out / RUNS_JSONL)
+    try:
+        done = sort_rows(read_runs(out / RUNS_JSONL), spec)
+        finished = {run_key(r, r["seed"], spec.keys) for r in done}
+        tasks = [
+            t for t in spec.tasks() if run_key(t["setting"], t["seed"], spec.keys) not in finished
+        ]
+        rows = list(done)
+        interrupted = False
+        runner = make_backend(backend, workers, address) if tasks else InlineBackend()
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=spec.runs_total, initial=len(done), unit="run", dynamic_ncols=True)
+            bar.set_postfix_str(best_setting(rows, spec.keys))
+        try:
+            for row in runner.run(tasks):
+                log.append(row)
+                rows.append(row)
+                if on_row is not None:
+                    on_row(row)
+                if bar is not None:
+                    bar.set_postfix_str(best_setting(rows, spec.keys), refresh=False)
+                    bar.update(1)
+        except KeyboardInterrupt:
+            interrupted = True
+            getattr(runner, "terminate", runner.close)()
+        else:
+            runner.close()
+        finally:
+            if bar is not None:
+                bar.close()
+        rows = sort_rows(rows, spec)
+        settings = aggregate(rows, spec.keys)
+        write_csv_atomic(out / RUNS_CSV, (*spec.keys, *RESULT_FIELDS), rows)
+        write_csv_atomic(out / SETTINGS_CSV, (*spec.keys, *SETTING_FIELDS), settings)
+    finally:
+        log.close()
+    report = SweepReport(
+        out=out,
+        rows=rows,
+        settings=settings,
+        ran=len(tasks) if not interrupted else len(rows) - len(done),
+        skipped=len(done),
+        total=spec.runs_total,
+        interrupted=interrupted,
+    )
+    if plots and not interrupted and settings:
+        from transplanter.studies import plots as plotting
+
+        try:
+            report.plots = plotting.sweep_plots(out, spec.keys, rows)
+        except (OSError, ValueError) as exc:
+            report.plot_error = str(exc)
+    return report

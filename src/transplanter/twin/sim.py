@@ -1,0 +1,419 @@
+"""The twin's simulation loop: the firmware's step events drive the MuJoCo physics.
+
+PGF -> COM bus -> SGF run on the simulated clock exactly as in `firmware.rig`, but the
+limit switches come from the model's sensors and, at every physics step, each stepper's
+position servo is commanded to the position its SGF step pulses have reached at that time
+(`SGF.pulses_at`), never to a smoothed trajectory. Per-move work is done once per firmware
+event: the commands for every physics step until the next event are computed in one
+vectorised call, so the per-step path is one row copy and `mj_step` (plus the conveyor's
+drive while it indexes, a slip check every few steps and the caller's monitor).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from transplanter.machine.bus import ComBus
+from transplanter.machine.config import GRIPPER_SERVO, Machine
+from transplanter.machine.faults import LostReplyTransport
+from transplanter.machine.gcode import SERVO_MAX_DEG
+from transplanter.machine.pgf import PGF, SentLine
+from transplanter.machine.rig import FirmwareLink
+from transplanter.machine.sgf import SGF
+from transplanter.scenario.assemble import TwinConfig
+from transplanter.scene import ConveyorDrive, Scene, build_scene
+
+__all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepEvent"]
+
+# Longest block of physics steps whose commands are computed at once (bounds memory and how
+# late a MuJoCo warning is noticed).
+_MAX_BLOCK_STEPS = 500
+# The motors are checked for slipping every this many physics steps.
+SLIP_CHECK_STEPS = 5
+# A motor counts as being stepped (its driver can sense a stall) when it got a pulse in this
+# long (s): about 3 full steps/s at 16 microsteps, StallGuard's lower speed range.
+STALL_WINDOW_S = 0.02
+# The random stream of the conveyor's index errors (with the trial's seed).
+_INDEX_ERROR_STREAM = 0x1DE7
+# Wrist servo angle at which the jaws point along passive link 1 (the wrist joint's zero).
+WRIST_SERVO_ZERO_DEG = 90.0
+
+
+@dataclass(frozen=True)
+class LostStepEvent:
+    """A motor slipped: when, which, by how many microsteps (signed), and what the machine
+    (arm, gripper, jaws) was touching at that moment ('machine geom/other geom')."""
+
+    t_s: float
+    motor: int  # 0 arm 1, 1 arm 2, 2 Z
+    microsteps: int
+    contacts: tuple[str, ...]
+    detected: bool = False  # the driver reported it as a stall and the SGF stopped
+
+
+class SimulationInvalid(RuntimeError):
+    """The physics produced a MuJoCo warning or diverged: the trial is invalid."""
+
+
+def _geom_name(model: mujoco.MjModel, geom: int) -> str:
+    name = model.geom(geom).name
+    return name or f"{model.body(model.geom_bodyid[geom]).name}:geom{geom}"
+
+
+@dataclass
+class _ServoRamp:
+    """A hobby servo: holds its power-on angle, then turns at a constant speed towards its
+    last command (degrees)."""
+
+    speed_deg_s: float
+    power_on_deg: float
+    start_deg: float = field(init=False)
+    target_deg: float = field(init=False)
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.start_deg = self.target_deg = self.power_on_deg
+
+    def command(self, t: float, target_deg: float) -> None:
+        self.start_deg = self.at(np.array([t]))[0]
+        self.target_deg = target_deg
+        self.t0 = t
+
+    def at(self, times: np.ndarray) -> np.ndarray:
+        travel = self.target_deg - self.start_deg
+        moved = np.minimum(self.speed_deg_s * np.maximum(times - self.t0, 0.0), abs(travel))
+        return self.start_deg + math.copysign(1.0, travel) * moved
+
+
+class LineEventKind(StrEnum):
+    SENT = "sent"  # the PGF put the line on the bus
+    DONE = "done"  # its reply reached the PGF
+
+
+@dataclass
+class LineEvent:
+    """A PGF line was sent or its reply arrived: what trials watch."""
+
+    line: SentLine
+    t: float
+    kind: LineEventKind
+
+
+@dataclass
+class _Block:
+    """Commands for consecutive physics steps, computed once per firmware event."""
+
+    ctrl: np.ndarray  # (n, nu)
+    pulses: np.ndarray  # (n, 3)
+    conveyor: bool = False
+
+
+@dataclass
+class Twin:
+    """One machine: scene, firmware and bus, stepped together on the simulated clock."""
+
+    config: TwinConfig
+    remote: Any = None
+    """An external host (``transplanter.twin.serve.RemoteHost``): its ``attach(twin)`` returns the
+    PGF's stand-in and the device layer in front of the SGF; None: the twin's own PGF."""
+    machine: Machine = field(init=False)
+    scene: Scene = field(init=False)
+
+    def __post_init__(self) -> None:
+        cfg = self.config
+        self.machine = cfg.machine
+        self.scene = build_scene(cfg.scene, seed=cfg.seed)
+        self.model = self.scene.model
+        self.data = self.scene.make_data()
+        self.dt = float(self.model.opt.timestep)
+        self.sgf = SGF(self.machine.sgf)
+        self.bus = ComBus(baud_bps=self.machine.baud_bps)
+        self.faults = cfg.faults  # scenario [faults]: switches, a jam, a lost reply
+        if self.faults.lost_reply_line:
+            self.bus = LostReplyTransport(self.bus, self.faults.lost_reply_line)
+        if self.remote is None:
+            self.pgf = PGF(self.machine.eeprom, self.machine.pgf)
+            self.link = FirmwareLink(self.pgf, self.bus, self.sgf)
+        else:  # an external host on a serial line takes the PGF's place
+            self.pgf, device = self.remote.attach(self)
+            self.link = FirmwareLink(self.pgf, self.bus, self.sgf, device=device)
+        self._max_opening = cfg.gripper_servo.max_opening_m
+        self._open_m_per_deg = self._max_opening / SERVO_MAX_DEG
+        # Servos hold their power-on pose (the keyframe's) until an M280 moves them.
+        gripper_deg = self.scene.gripper_opening(self.data) / self._open_m_per_deg
+        wrist_deg = math.degrees(self.data.qpos[self.scene.wrist_qpos_adr]) + WRIST_SERVO_ZERO_DEG
+        self.gripper = _ServoRamp(cfg.gripper_servo.speed_deg_s, gripper_deg)
+        self.wrist = _ServoRamp(cfg.wrist_servo.speed_deg_s, wrist_deg)
+        self.conveyor = ConveyorDrive(self.scene)  # its state lives in self.data.userdata
+        # where each index leaves the row (belt stretch, rib play): its own seeded stream
+        self._index_error_sd = cfg.scene.conveyor_index_error_sd
+        self._index_rng = np.random.default_rng((cfg.seed, _INDEX_ERROR_STREAM))
+        # Stepper positions are relative to where each motor was at power-on: the SGF's raw
+        # pulse counters start at zero there, and homing only changes its logical counters.
+        self.q_power_on = self.scene.joint_positions(self.data).copy()
+        self.unit_per_step = np.array([d.unit_per_step for d in self.machine.drives])
+        self.full_step_joint = np.array(
+            [
+                2 * math.pi / d.steps_per_rev / d.ratio
+                if not d.linear
+                else d.lead_m / d.steps_per_rev
+                for d in self.machine.drives
+            ]
+        )
+        # A stepper whose rotor falls more than two full steps behind its field slips to the
+        # next stable position, four full steps (one electrical cycle) further: the steps
+        # are lost for good, the firmware never learns of it.
+        self.electrical_cycle = 4.0 * self.full_step_joint
+        # per motor, as Python numbers for the checks made every few steps: actuator,
+        # gear, qpos address, full step and electrical cycle (joint units)
+        self._motor_terms = [
+            (int(a), float(g), int(q), float(f), float(c))
+            for a, g, q, f, c in zip(
+                self.scene.motor_actuators,
+                self.scene.motor_gears,
+                self.scene.motor_qpos_adr,
+                self.full_step_joint,
+                self.electrical_cycle,
+                strict=True,
+            )
+        ]
+        self.microsteps_per_full_step = np.array([d.microsteps for d in self.machine.drives])
+        self.slip_offset = np.zeros(3)  # joint units the motors have lost so far
+        self.microsteps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
+        self.lost_step_events: list[LostStepEvent] = []
+        # the largest bend (deg) of the seedling shoots followed now, written by the trial's
+        # judge (transplanter.twin.shoot: the shoots are not bodies); a recording channel
+        self.stem_bend_deg = 0.0
+        self.belt_realignments: list[tuple[float, float]] = []
+        """(t, m) at each conveyor index: how far the belt was off its held position, which
+        the index's own profile then takes back."""
+        platform = self.model.body("platform").id
+        self._machine_body = self.model.body_rootid == self.model.body_rootid[platform]
+        self.k = 0  # physics steps taken; time = k * dt exactly
+        self._done_index = 0
+        self._warnings0 = self._warning_counts()
+        self.line_listeners: list[Callable[[LineEvent], None]] = []
+        # Called with the twin at every firmware exchange, before the next block of physics
+        # steps is computed: an observer may read the state or apply external forces.
+        self.exchange_listeners: list[Callable[[Twin], None]] = []
+        self.block: _Block | None = None
+        # A jam (faults.jam_motor): a friction brake on the motor's joint while it lasts, the
+        # jam torque at the motor shaft passed to the joint through the drive's gear.
+        self._jam_dof, self._jam_frictionloss = -1, (0.0, 0.0)
+        if self.faults.jam_motor:
+            motor = self.faults.jam_motor - 1
+            joint = self.model.actuator_trnid[self.scene.motor_actuators[motor], 0]
+            self._jam_dof = int(self.model.jnt_dofadr[joint])
+            free = float(self.model.dof_frictionloss[self._jam_dof])
+            brake = float(self.scene.motor_gears[motor]) * self.faults.jam_torque_nm
+            self._jam_frictionloss = (free, free + brake)
+            # the hardest friction constraint MuJoCo allows: a brake that holds, where the
+            # default impedance lets the light joint creep through it like a weak damper
+            self.model.dof_solimp[self._jam_dof, :2] = mujoco.mjMAXIMP
+
+    # -- time -------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return self.k * self.dt
+
+    def _warning_counts(self) -> np.ndarray:
+        return np.array(self.data.warning.number, dtype=np.int64)
+
+    # -- firmware exchange ------------------------------------------------------------
+    def _exchange(self, t: float) -> None:
+        """Deliver bus traffic due at t, advance SGF and PGF, start servos and conveyor."""
+        if self._jam_dof >= 0:
+            jammed = self.faults.jam_active(t)
+            self.model.dof_frictionloss[self._jam_dof] = self._jam_frictionloss[jammed]
+        sent_now = self.link.exchange(t, self._switches())
+        # nothing asks for pulses older than a stall window (`_stall_flags`): keep the
+        # SGF's motion history short, or every `pulses_at` searches the whole trial's
+        self.sgf.forget_before(t - STALL_WINDOW_S)
+        for ts, index, deg in self.sgf.drain_servo_commands():
+            servo = self.gripper if index == GRIPPER_SERVO else self.wrist
+            servo.command(ts, deg)
+        for t_event, name in self.sgf.drain_machine_events():
+            if name == "conveyor_index":
+                self.belt_realignments.append((t_event, self.conveyor.grid_offset(self.data)))
+                error = self._index_error_sd * self._index_rng.standard_normal()
+                self.conveyor.start(
+                    self.data, t_event, self.machine.sgf.conveyor_index_s, error_m=error
+                )
+        sent = self.pgf.sent
+        while self._done_index < len(sent) and sent[self._done_index].reply is not None:
+            self._notify(LineEvent(sent[self._done_index], t, LineEventKind.DONE))
+            self._done_index += 1
+        for line in sent_now:  # a remote host's line is reported once the device took it
+            self._notify(LineEvent(line, line.t_sent, LineEventKind.SENT))
+        for listener in self.exchange_listeners:
+            listener(self)
+
+    def _switches(self) -> tuple[bool, ...]:
+        """The limit switches as the firmware reads them now (with any switch fault)."""
+        return self.faults.switches(self.scene.limit_switches(self.data))
+
+    def _notify(self, event: LineEvent) -> None:
+        for listener in self.line_listeners:
+            listener(event)
+
+    def _next_exchange_time(self, t: float, idle_until: float) -> float:
+        """The next exchange; `idle_until` when nothing is in flight."""
+        t_next = self.link.next_event_time(t, self.dt, switches_watched=True)
+        jam = self.faults.next_jam_change(t)  # the jam starts or ends at an exchange
+        if jam is not None and (t_next is None or jam < t_next):
+            t_next = jam
+        return idle_until if t_next is None else t_next
+
+    # -- command blocks -----------------------------------------------------------------
+    def _block(self, t_next: float) -> _Block:
+        """Actuator commands for every physics step from now until the next exchange."""
+        n = int(np.clip(math.ceil((t_next - self.time) / self.dt - 1e-9), 1, _MAX_BLOCK_STEPS))
+        times = (self.k + 1 + np.arange(n)) * self.dt
+        pulses = self.sgf.pulses_at(times)
+        joints = self.q_power_on + self.slip_offset + pulses * self.unit_per_step
+        ctrl = np.repeat(self.data.ctrl[None, :], n, axis=0)
+        ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
+        ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
+        ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - WRIST_SERVO_ZERO_DEG)
+        bonds = self.scene.bond_actuators
+        if bonds.size:  # a bond carries load while the jaws pull on its pot (build._add_bond)
+            touching = self.scene.pots_touching_jaws(self.data)
+            ctrl[:, bonds] = np.isin(self.scene.bond_pots, touching)
+        return _Block(ctrl, pulses, self.conveyor.armed(self.data))
+
+    # -- stepping ------------------------------------------------------------------------
+    def step_until(
+        self,
+        t_end: float,
+        monitor: Callable[[Twin, int], None] | None = None,
+        monitor_every: int = 5,
+        stop_when_done: bool = True,
+    ) -> None:
+        """Advance the whole machine to simulated time t_end, or until the PGF is done or
+        faults when stop_when_done (else the physics runs on with the firmware idle)."""
+        m, d = self.model, self.data
+        ctrl = d.ctrl
+        # With nothing in flight the firmware has nothing to say until t_end, unless the
+        # caller stops when the program is done (it then looks after every step, as ever)
+        # or an external host may write at any time.
+        idle_to_end = not stop_when_done and self.remote is None
+        while self.time < t_end - 1e-12:
+            t = self.time
+            self._exchange(t)
+            idle_until = t_end if idle_to_end else t + self.dt
+            block = self.block = self._block(min(self._next_exchange_time(t, idle_until), t_end))
+            # While it homes the SGF reads its switches: a change of them ends the block
+            # (step_until's exchange reads them; see FirmwareLink.next_event_time).
+            switches = self._switches() if self.sgf.homing else None
+            rows = block.ctrl
+            for i in range(rows.shape[0]):
+                ctrl[:] = rows[i]
+                if block.conveyor:
+                    self.conveyor.apply(d, self.time)
+                mujoco.mj_step(m, d)
+                self.k += 1
+                stalled = self.k % SLIP_CHECK_STEPS == 0 and self._slip(rows, i)
+                if monitor is not None and self.k % monitor_every == 0:
+                    monitor(self, i)
+                if stalled:  # the SGF stopped: the rest of this block's commands are void
+                    break
+                if switches is not None and self._switches() != switches:
+                    break
+            self._check_valid()
+            if stop_when_done and (self.pgf.done or self.pgf.fault):
+                return
+
+    def _slip(self, rows: np.ndarray, i: int) -> bool:
+        """Let every motor lagging more than two full steps slip by whole electrical cycles;
+        True when the drivers reported it to the SGF (stall detection), which stopped."""
+        ctrl, qpos = self.data.ctrl, self.data.qpos
+        # the common case in scalars (the same IEEE operations as the arrays below): no
+        # motor is half an electrical cycle off, rint would give 0 for all
+        for act, gear, adr, _, cycle in self._motor_terms:
+            if abs((ctrl[act] / gear - qpos[adr]) / cycle) > 0.5:
+                break
+        else:
+            return False
+        lag = self.commanded_joints() - self.scene.joint_positions(self.data)
+        cycles = np.rint(lag / self.electrical_cycle)
+        if not cycles.any():
+            return False
+        shift = cycles * self.electrical_cycle
+        self.slip_offset -= shift
+        lost = (cycles * 4 * self.microsteps_per_full_step).astype(np.int64)
+        self.microsteps_lost += lost
+        contacts = self.machine_contacts()
+        detected = self._stall_flags(lost)
+        for motor in np.flatnonzero(lost):
+            self.lost_step_events.append(
+                LostStepEvent(
+                    self.time, int(motor), int(lost[motor]), contacts, bool(detected[motor])
+                )
+            )
+        acts = self.scene.motor_actuators
+        rows[i + 1 :, acts] -= shift * self.scene.motor_gears
+        self.data.ctrl[acts] -= shift * self.scene.motor_gears
+        if not detected.any():
+            return False
+        self.sgf.stall(self.time, int(np.flatnonzero(detected)[0]))
+        return True
+
+    def _stall_flags(self, lost: np.ndarray) -> np.ndarray:
+        """Which slipping motors their drivers report as stalled: with stall detection, a
+        motor that is being stepped. StallGuard measures the back-EMF of a turning motor
+        and is blind below a minimum step rate (TMC2209 datasheet: TCOOLTHRS), so a motor
+        pushed off position while it holds still loses its steps unnoticed."""
+        if not self.sgf.config.stall_detection:
+            return np.zeros(3, dtype=bool)
+        window = np.array([self.time - STALL_WINDOW_S, self.time])
+        pulses = self.sgf.pulses_at(window)
+        return (lost != 0) & (pulses[1] != pulses[0])
+
+    def _check_valid(self) -> None:
+        grown = self._warning_counts() - self._warnings0
+        if grown.any():
+            names = [mujoco.mjtWarning(i).name for i in np.flatnonzero(grown)]
+            raise SimulationInvalid(f"MuJoCo warning at t={self.time:.3f} s: {', '.join(names)}")
+        if not np.isfinite(self.data.qpos).all() or not np.isfinite(self.data.qacc).all():
+            raise SimulationInvalid(
+                f"simulation diverged (non-finite state) at t={self.time:.3f} s"
+            )
+
+    # -- observations used by trials and recordings -------------------------------------
+    def gripper_opening_cmd(self, times: np.ndarray) -> np.ndarray:
+        """Jaw opening (m) the gripper servo is commanded to at the given times: the servo's
+        angle maps linearly onto the opening, 0 deg closed, SERVO_MAX_DEG (a hobby servo's
+        whole turn) fully open."""
+        opening = self.gripper.at(np.asarray(times, dtype=float)) * self._open_m_per_deg
+        return np.clip(opening, 0.0, self._max_opening)
+
+    def machine_contacts(self) -> tuple[str, ...]:
+        """The contacts of the machine's geoms now, as 'machine geom/other geom' names."""
+        m, d = self.model, self.data
+        out = []
+        for c in d.contact[: d.ncon]:
+            g1, g2 = int(c.geom1), int(c.geom2)
+            on1, on2 = self._machine_body[m.geom_bodyid[g1]], self._machine_body[m.geom_bodyid[g2]]
+            if on1 or on2:
+                mine, other = (g1, g2) if on1 else (g2, g1)
+                out.append(f"{_geom_name(m, mine)}/{_geom_name(m, other)}")
+        return tuple(sorted(set(out)))
+
+    def commanded_joints(self) -> np.ndarray:
+        return self.data.ctrl[self.scene.motor_actuators] / self.scene.motor_gears
+
+    def max_motor_lag_full_steps(self) -> float:
+        """The largest |commanded - actual| of the motors, in full motor steps (a stepper
+        slips past ~2); in scalars: the judge asks every few steps."""
+        ctrl, qpos = self.data.ctrl, self.data.qpos
+        return max(
+            abs(ctrl[act] / gear - qpos[adr]) / full_step
+            for act, gear, adr, full_step, _ in self._motor_terms
+        )

@@ -1,0 +1,250 @@
+"""Headless pick-and-drop trials: run the twin through a scenario's seedlings and judge them.
+
+`run_trial(config)` builds a Twin, lets the judge follow it and returns a `TrialResult`;
+with a recording path it also writes a rerun recording, and `observers` (`TrialObserver`:
+video frames, failure clips, a live viewer) read the state after every physics step.
+Presentation (progress bar, summary table, JSON files) lives in `transplanter.twin.report`, the
+command line in `transplanter.cli`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from transplanter.scenario.assemble import TwinConfig
+from transplanter.twin.judge import Judge
+from transplanter.twin.results import Outcome, SeedlingRecord, TrialResult
+from transplanter.twin.sim import SimulationInvalid, Twin
+from transplanter.units import M_PER_MM
+from transplanter.viewing import channels
+
+__all__ = [
+    "run_trial",
+    "TrialInterrupted",
+    "TrialObserver",
+    "MONITOR_EVERY_STEPS",
+    "FIRMWARE_HORIZON_S",
+]
+
+# Grip force, leaf contacts and motor lag are sampled every this many physics steps (10 ms
+# at the paper's 1 ms step: the gripper moves at most 1.5 mm between samples).
+MONITOR_EVERY_STEPS = 10
+# The PGF must finish within this much simulated time (s): a base plus a per-seedling budget
+# about ten times a paper cycle, so only a hung firmware hits it.
+FIRMWARE_HORIZON_S = (60.0, 30.0)
+
+# Progress callback: (seedlings finished, simulated time s).
+Progress = Callable[[int, float], None]
+
+
+class TrialObserver(Protocol):
+    """Watches a trial as it runs (frames for a video, failure clips, a live viewer).
+
+    An observer only reads the twin's state: a trial gives the same results with or
+    without observers. `attach` is called once the twin and the judge exist (an observer
+    may add line listeners: they run after the judge's, so records are up to date), `step`
+    after every physics step, `finish` once the judge gave its last verdicts (also after an
+    interrupt or invalid physics), `abort` instead of `finish` when the trial raised."""
+
+    def attach(self, twin: Twin, records: list[SeedlingRecord]) -> None: ...
+
+    def step(self, twin: Twin) -> None: ...
+
+    def finish(self, twin: Twin, interrupted: bool) -> None: ...
+
+    def abort(self) -> None: ...
+
+
+class TrialInterrupted(KeyboardInterrupt):
+    """The user stopped the trial (Ctrl-C); `result` holds what was judged until then (the
+    seedling in progress and later ones are not_run, `result.interrupted` is True)."""
+
+    def __init__(self, result: TrialResult) -> None:
+        super().__init__(f"interrupted after {result.judged} seedlings")
+        self.result = result
+
+
+def run_trial(
+    config: TwinConfig,
+    record_path: str | Path | None = None,
+    record_rate_hz: float = 60.0,
+    progress: Progress | None = None,
+    twin_factory: Callable[[TwinConfig], Twin] = Twin,
+    observers: Sequence[TrialObserver] = (),
+    horizon_s: float | None = None,
+) -> TrialResult:
+    """Run the configured seedlings through the whole twin and measure what happens.
+
+    `twin_factory` builds the Twin (a subclass may add observers or disturbances);
+    `observers` watch every physics step without changing the physics (TrialObserver);
+    `horizon_s` replaces the simulated time the program must finish in (FIRMWARE_HORIZON_S;
+    `math.inf` for a remote host's session)."""
+    t_wall = time.perf_counter()
+    twin = twin_factory(config)
+    m_pp = twin.machine.eeprom.m_pp
+    records = [SeedlingRecord(index=i, pickup=i % m_pp) for i in range(config.seedlings)]
+    recorder = None
+    if record_path is not None:
+        from transplanter.viewing.recording import TrialRecorder
+
+        recorder = TrialRecorder(
+            twin.scene.render_model,
+            record_path,
+            rate_hz=record_rate_hz,
+            scalar_names=channels.channel_names(),
+        )
+    judge = Judge(twin, config.judge, records, recorder.event if recorder is not None else None)
+    twin.line_listeners.append(judge.on_line)
+    monitor: Any = judge.monitor if recorder is None else _RecordingMonitor(judge, recorder)
+    every = MONITOR_EVERY_STEPS if recorder is None else 1
+    if recorder is not None:
+        monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state at t = 0
+    recording_monitor = monitor
+    if observers:
+        _attach(observers, twin, records, recorder)
+        monitor, every = _ObservingMonitor(monitor, every, observers), 1
+    valid, reason, interrupted = True, None, False
+    try:
+        horizon = FIRMWARE_HORIZON_S[0] + FIRMWARE_HORIZON_S[1] * len(records)
+        if horizon_s is not None:  # a remote host decides how long it runs
+            horizon = horizon_s
+        while not (twin.pgf.done or twin.pgf.fault) and twin.time < horizon:
+            twin.step_until(min(twin.time + 1.0, horizon), monitor=monitor, monitor_every=every)
+            if progress is not None:
+                finished = sum(
+                    r.outcome != Outcome.PENDING or r.t_release_s is not None for r in records
+                )
+                progress(finished, twin.time)
+        twin.step_until(
+            twin.time + config.judge.settle_s,
+            monitor=monitor,
+            monitor_every=every,
+            stop_when_done=False,
+        )
+        if not (twin.pgf.done or twin.pgf.fault):
+            valid, reason = False, f"the PGF did not finish within {horizon:.0f} s simulated"
+    except SimulationInvalid as exc:
+        valid, reason = False, str(exc)
+    except KeyboardInterrupt:
+        interrupted = True
+    except BaseException:
+        _abort(observers, recorder)  # an unexpected error leaves no temporary file behind
+        raise
+    judge.finish(twin.time, valid and not interrupted)
+    try:
+        for observer in observers:
+            observer.finish(twin, interrupted)
+    except BaseException:
+        _abort(observers, recorder)
+        raise
+    recording_error = None
+    if recorder is not None:
+        recording_error = _finish_recording(recorder, recording_monitor, twin, interrupted)
+    result = TrialResult(
+        scenario=config.name,
+        seed=config.seed,
+        per_seedling=records,
+        sim_time_s=twin.time,
+        wall_time_s=time.perf_counter() - t_wall,
+        valid=valid,
+        invalid_reason=reason,
+        fault=twin.pgf.fault or getattr(twin.pgf, "machine_fault", None),  # a remote host's
+        fault_kind=twin.pgf.fault_kind,
+        interrupted=interrupted,
+        recording_error=recording_error,
+        lost_step_events=[dataclasses.asdict(e) for e in twin.lost_step_events],
+        belt_realignments=[
+            {"t_s": t, "offset_mm": offset / M_PER_MM} for t, offset in twin.belt_realignments
+        ],
+        overrides=dict(config.overrides),
+        warnings=twin.sgf.speed_warnings(),
+    )
+    if interrupted:
+        raise TrialInterrupted(result)
+    return result
+
+
+def _attach(
+    observers: Sequence[TrialObserver], twin: Twin, records: list[SeedlingRecord], recorder: Any
+) -> None:
+    """Attach every observer; if one cannot start (no GL context), none leaves a file."""
+    attached: list[TrialObserver] = []
+    try:
+        for observer in observers:
+            attached.append(observer)
+            observer.attach(twin, records)
+    except BaseException:
+        _abort(attached, recorder)
+        raise
+
+
+def _abort(observers: Sequence[TrialObserver], recorder: Any) -> None:
+    """Every observer and the recorder drop what they started (no file left behind)."""
+    for observer in observers:
+        observer.abort()
+    if recorder is not None:
+        recorder.abort()
+
+
+class _ObservingMonitor:
+    """Runs the trial's own monitor on its schedule and every observer after every step."""
+
+    def __init__(self, inner: Any, inner_every: int, observers: Sequence[TrialObserver]) -> None:
+        self.inner, self.inner_every = inner, inner_every
+        self.steps = [o.step for o in observers]
+
+    def __call__(self, twin: Twin, i: int) -> None:
+        if twin.k % self.inner_every == 0:
+            self.inner(twin, i)
+        for step in self.steps:
+            step(twin)
+
+
+def _finish_recording(recorder: Any, monitor: Any, twin: Twin, interrupted: bool) -> str | None:
+    """Close the recording (an interrupted one goes to its own `.partial.rrd` name, never
+    over a complete file); the reason if it could not be written."""
+    from transplanter.viewing.recording import RecordingError
+
+    try:
+        if twin.block is not None:
+            monitor.record(twin, twin.block.pulses[-1], force=True)
+        if interrupted:
+            path = Path(recorder.path)
+            recorder.close(path.with_name(path.stem + ".partial.rrd"))
+        else:
+            recorder.close()
+    except RecordingError as exc:
+        return str(exc)
+    except Exception as exc:  # a frame that could not be buffered: the file is incomplete
+        recorder.abort()
+        return f"the recording {str(recorder.path)!r} could not be written: {exc}"
+    return None
+
+
+class _RecordingMonitor:
+    """Feeds the recorder its frames (poses and scalar channels) while the judge monitors."""
+
+    def __init__(self, judge: Judge, recorder: Any) -> None:
+        self.judge, self.recorder = judge, recorder
+        self.pulses = np.zeros(3, dtype=np.int64)
+        self.t_pulses = 0.0
+
+    def __call__(self, twin: Twin, i: int) -> None:
+        # called every physics step so that frames fall on the recording rate's grid
+        if twin.k % MONITOR_EVERY_STEPS == 0:
+            self.judge.monitor(twin, i)
+        if self.recorder.due(twin.time):
+            self.record(twin, twin.block.pulses[i])
+
+    def record(self, twin: Twin, pulses: np.ndarray, force: bool = False) -> None:
+        t = twin.time
+        dt = t - self.t_pulses
+        rates = np.abs(pulses - self.pulses) / dt if dt > 0 else np.zeros(3)
+        self.pulses, self.t_pulses = pulses.copy(), t
+        self.recorder.frame(t, twin.data, channels.sample(twin, rates), force=force)

@@ -1,0 +1,1 @@
+"""Recording, playback, video and the live viewer."""
