@@ -116,8 +116,8 @@ def main() -> None:
     )
 
     print("floor, the arm swinging (theta1 +-0.3 rad at the motor), best of 3:")
-    robot = mujoco.MjModel.from_xml_path(str(MODELS / "transplanter.xml"))
-    print(f"  robot alone (models/transplanter.xml): {swinging_rate(robot, None):,.0f} steps/s")
+    robot = mujoco.MjModel.from_xml_path(str(MODELS / "fivebar" / "fivebar.xml"))
+    print(f"  robot alone (models/fivebar/fivebar.xml): {swinging_rate(robot, None):,.0f} steps/s")
     for rows in (1, 4, 8):
         scene = build_scene(SceneConfig(rows=rows), seed=0)
         ConveyorDrive(scene)  # as a trial: rows past the front drum leave the broadphase

@@ -1,17 +1,21 @@
-"""Write the visual meshes of the twin to models/assets/ (re-runnable, deterministic).
+"""Write the visual meshes of the twin into the assets/ folders of models/ (re-runnable,
+deterministic): the robot's to models/fivebar/assets/, the workcell's to
+models/workcells/conveyor_tube/assets/.
 
 Run: .venv/bin/python scripts/make_meshes.py
 
-Meshes are visual only; every collision shape is a MuJoCo primitive (models/*.xml and
+Meshes are visual only; every collision shape is a MuJoCo primitive (the models' XML and
 transplanter.scene.build). Sizes are the design defaults (docs/sources.md) in metres, and
 the meshes are drawn at that size: build_scene does not scale them (a pot's collision
 cylinder follows its drawn size, its mesh stays the nominal pot; the stem is a capsule).
+Workcell conveyor_tube (the pots build_scene adds on its conveyor, its drop tube):
 - paper_pot.stl: tapered paper pot, 35 mm rim, 32 mm base, 52 mm tall, base at z=0.
 - seedling_leaf.stl: one leaf blade that starts at the origin and extends along +x (45 mm),
   curving up.
-- jaw.stl: one jaw plate, 3 x 20 x 45 mm, centred, with a ribbed inner face.
 - funnel.stl: funnel (60 mm top dia at z=0, 42 mm throat 20 mm lower) and the tube below it,
   down to 160 mm below the funnel top (the collision walls are boxes: drop_tube_boxes).
+Robot fivebar:
+- jaw.stl: one jaw plate, 3 x 20 x 45 mm, centred, with a ribbed inner face.
 """
 
 from pathlib import Path
@@ -19,7 +23,9 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-ASSETS = Path(__file__).resolve().parent.parent / "models" / "assets"
+MODELS = Path(__file__).resolve().parent.parent / "models"
+ROBOT_ASSETS = MODELS / "fivebar" / "assets"
+WORKCELL_ASSETS = MODELS / "workcells" / "conveyor_tube" / "assets"
 
 
 def paper_pot() -> trimesh.Trimesh:
@@ -74,17 +80,21 @@ def funnel() -> trimesh.Trimesh:
     return trimesh.creation.revolve(profile, sections=48)
 
 
-def main() -> None:
-    ASSETS.mkdir(parents=True, exist_ok=True)
-    meshes = {
-        "paper_pot.stl": paper_pot(),
-        "seedling_leaf.stl": seedling_leaf(),
-        "jaw.stl": jaw(),
-        "funnel.stl": funnel(),
+def meshes() -> dict[Path, trimesh.Trimesh]:
+    """Every mesh by the path it is written to."""
+    return {
+        WORKCELL_ASSETS / "paper_pot.stl": paper_pot(),
+        WORKCELL_ASSETS / "seedling_leaf.stl": seedling_leaf(),
+        ROBOT_ASSETS / "jaw.stl": jaw(),
+        WORKCELL_ASSETS / "funnel.stl": funnel(),
     }
-    for name, mesh in meshes.items():
-        mesh.export(ASSETS / name)
-        print(f"wrote {ASSETS / name} ({len(mesh.faces)} faces)")
+
+
+def main() -> None:
+    for path, mesh in meshes().items():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        mesh.export(path)
+        print(f"wrote {path} ({len(mesh.faces)} faces)")
 
 
 if __name__ == "__main__":

@@ -1,16 +1,17 @@
-"""Write SceneConfig()'s numbers into models/transplanter.xml and models/scene.xml.
+"""Write SceneConfig()'s numbers into the robot's and the workcell's MJCF files:
+models/fivebar/fivebar.xml and models/workcells/conveyor_tube/conveyor_tube.xml.
 
 Run: .venv/bin/python scripts/make_models.py          (rewrites the files in place)
      .venv/bin/python scripts/make_models.py --check  (exit status 1 if they are stale)
 
 The XML files are edited by hand for their structure (bodies, shapes, classes, materials);
 this script only rewrites the attributes that follow from transplanter.scene.SceneConfig,
-with the very functions build_scene uses: it loads models/scene.xml with MjSpec, applies
-SceneConfig() (scene_spec: options, arm, drives, drop tube, conveyor), derives the arm's
-inertials and the home keyframe (compile_with_home), and writes the resulting values back
-into the attributes listed in TRANSPLANTER and SCENE (and the block of tube walls), with
-repr() precision so that the files compile to exactly the model build_scene makes from the
-default config. tests/test_models.py checks that the files are up to date.
+with the very functions build_scene uses: it assembles the robot and the workcell into one
+MjSpec, applies SceneConfig() (scene_spec: options, arm, drives, drop tube, conveyor), derives
+the arm's inertials and the home keyframe (compile_with_home), and writes the resulting values
+back into the attributes listed by robot_values and workcell_values (and the block of tube
+walls), with repr() precision so that the files assemble to exactly the model build_scene makes
+from the default config. tests/test_models.py checks that the files are up to date.
 """
 
 from __future__ import annotations
@@ -21,7 +22,13 @@ from pathlib import Path
 
 import mujoco
 
-from transplanter.scene.build import ARM_BODIES, compile_with_home, scene_spec
+from transplanter.scene.build import (
+    ARM_BODIES,
+    compile_with_home,
+    robot_xml,
+    scene_spec,
+    workcell_xml,
+)
 from transplanter.scene.config import SceneConfig
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -41,10 +48,10 @@ def fmt(*values) -> str:
     return " ".join(out)
 
 
-def transplanter_values(
+def robot_values(
     spec: mujoco.MjSpec, machine_nq: int
 ) -> list[tuple[str, str | None, dict[str, str]]]:
-    """(tag, name, {attribute: text}) for models/transplanter.xml. Unnamed tags (option, flag,
+    """(tag, name, {attribute: text}) for models/fivebar/fivebar.xml. Unnamed tags (option, flag,
     inertial) are found as the first such tag after the previous entry's tag."""
     opt = spec.option
     sleep = opt.enableflags & int(mujoco.mjtEnableBit.mjENBL_SLEEP)
@@ -104,8 +111,8 @@ def transplanter_values(
     return out
 
 
-def scene_values(spec: mujoco.MjSpec) -> list[tuple[str, str | None, dict[str, str]]]:
-    """(tag, name, {attribute: text}) for models/scene.xml."""
+def workcell_values(spec: mujoco.MjSpec) -> list[tuple[str, str | None, dict[str, str]]]:
+    """(tag, name, {attribute: text}) for models/workcells/conveyor_tube/conveyor_tube.xml."""
     table = spec.geom("belt_table")
     return [
         ("geom", "belt_table", {"size": fmt(*table.size), "pos": fmt(*table.pos)}),
@@ -167,21 +174,23 @@ def set_tube_walls(text: str, walls: str) -> str:
     begin = re.search(r"[ \t]*<!-- BEGIN tube walls[^\n]*\n", text)
     end = re.search(r"[ \t]*<!-- END tube walls -->", text)
     if begin is None or end is None:
-        raise ValueError("models/scene.xml lacks the BEGIN/END tube walls comments")
+        raise ValueError("the workcell's MJCF lacks the BEGIN/END tube walls comments")
     return text[: begin.end()] + walls + text[end.start() :]
 
 
 def generate(models: Path = MODELS) -> dict[str, str]:
-    """The up-to-date text of each model file (name -> text), from the files in `models`."""
+    """The up-to-date text of each model file (path relative to `models` -> text), from the
+    files in `models`."""
     cfg = SceneConfig()
-    spec = scene_spec(cfg, models / "scene.xml")
+    spec = scene_spec(cfg, models)
     compile_with_home(spec, cfg)
-    machine_nq = mujoco.MjModel.from_xml_path(str(models / "transplanter.xml")).nq
-    robot = (models / "transplanter.xml").read_text()
-    scene = (models / "scene.xml").read_text()
+    robot, workcell = robot_xml(models=models), workcell_xml(models=models)
+    machine_nq = mujoco.MjModel.from_xml_path(str(robot)).nq
+    robot_text = set_attributes(robot.read_text(), robot_values(spec, machine_nq))
+    workcell_text = set_attributes(workcell.read_text(), workcell_values(spec))
     return {
-        "transplanter.xml": set_attributes(robot, transplanter_values(spec, machine_nq)),
-        "scene.xml": set_tube_walls(set_attributes(scene, scene_values(spec)), tube_walls(spec)),
+        robot.relative_to(models).as_posix(): robot_text,
+        workcell.relative_to(models).as_posix(): set_tube_walls(workcell_text, tube_walls(spec)),
     }
 
 

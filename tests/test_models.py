@@ -11,8 +11,14 @@ import pytest
 
 from conftest import paper_config
 from transplanter.machine.kinematics import fivebar as kinematics
-from transplanter.scene import SceneConfig, build_scene, models_dir
-from transplanter.scene.build import compile_with_home, scene_spec
+from transplanter.scene import SceneConfig, build_scene
+from transplanter.scene.build import (
+    compile_with_home,
+    merge_models,
+    robot_xml,
+    scene_files,
+    scene_spec,
+)
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -40,6 +46,11 @@ def run_noisy(model, seconds=2.0, seed=0):
     return data
 
 
+def files_model():
+    """The robot's and the workcell's files as they are, merged as build_scene merges them."""
+    return merge_models(scene_files()).compile()
+
+
 def load_make_models():
     spec = importlib.util.spec_from_file_location("make_models", REPO / "scripts/make_models.py")
     module = importlib.util.module_from_spec(spec)
@@ -48,7 +59,8 @@ def load_make_models():
 
 
 def test_model_files_are_what_make_models_writes():
-    """models/*.xml carry SceneConfig()'s numbers: run scripts/make_models.py if this fails."""
+    """The models' XML carries SceneConfig()'s numbers: run scripts/make_models.py if this
+    fails."""
     make_models = load_make_models()
     for name, text in make_models.generate(REPO / "models").items():
         assert (REPO / "models" / name).read_text() == text, f"models/{name} is stale"
@@ -65,7 +77,7 @@ def model_arrays(model):
 
 def test_default_config_changes_nothing_in_the_model_files():
     """build_scene's config steps, applied with SceneConfig(), give exactly the model files."""
-    files = mujoco.MjModel.from_xml_path(str(models_dir() / "scene.xml"))
+    files = files_model()
     cfg = SceneConfig()
     applied = compile_with_home(scene_spec(cfg), cfg)
     a, b = model_arrays(files), model_arrays(applied)
@@ -74,11 +86,39 @@ def test_default_config_changes_nothing_in_the_model_files():
     assert differ == []
 
 
+def test_merging_one_file_gives_the_model_of_that_file():
+    """merge_models changes no array of a file's model (only the mesh paths it records)."""
+    merged = merge_models([robot_xml()], name="fivebar").compile()
+    direct = mujoco.MjModel.from_xml_path(str(robot_xml()))
+    a, b = model_arrays(merged), model_arrays(direct)
+    assert a.keys() == b.keys()
+    assert [n for n in a if not np.array_equal(a[n], b[n])] == []
+    assert merged.names == direct.names
+
+
+def test_merging_refuses_an_include_and_two_assets_of_one_name(tmp_path):
+    including = tmp_path / "including.xml"
+    including.write_text(f'<mujoco><include file="{robot_xml()}"/></mujoco>')
+    with pytest.raises(ValueError, match="include"):
+        merge_models([including])
+    files, jaw = [], (robot_xml().parent / "assets" / "jaw.stl").read_bytes()
+    for k in (1, 2):
+        (tmp_path / f"m{k}" / "assets").mkdir(parents=True)
+        (tmp_path / f"m{k}" / "assets" / "box.stl").write_bytes(jaw[: 84 + 50 * k])
+        files.append(tmp_path / f"m{k}" / f"m{k}.xml")
+        files[-1].write_text(
+            f'<mujoco><compiler meshdir="assets"/><asset><mesh name="m{k}" file="box.stl"/>'
+            "</asset></mujoco>"
+        )
+    with pytest.raises(ValueError, match="box.stl"):
+        merge_models(files)
+
+
 def test_another_config_is_applied_over_the_files():
     """Longer links move the elbow and get heavier inertia; the keyframe closes the chain."""
     cfg = SceneConfig(l1=0.14, active_link_mass=0.08, rows=1, cols=1)
     model = build_scene(cfg, seed=0).model
-    files = mujoco.MjModel.from_xml_path(str(models_dir() / "transplanter.xml"))
+    files = mujoco.MjModel.from_xml_path(str(robot_xml()))
     assert model.body("passive1").pos.tolist() == [0.14, 0, -0.015]
     assert model.body("link1").mass[0] == pytest.approx(0.08)
     assert model.body("link1").inertia[0] > 1.5 * files.body("link1").inertia[0]
@@ -88,10 +128,10 @@ def test_another_config_is_applied_over_the_files():
     assert np.linalg.norm(data.site("c1").xpos - data.site("c2").xpos) < 1e-9
 
 
-@pytest.mark.parametrize("name", ["transplanter.xml", "scene.xml"])
-def test_model_files_run_without_warnings(name):
-    model = mujoco.MjModel.from_xml_path(str(models_dir() / name))
-    data = run_noisy(model)
+def test_merged_model_files_run_without_warnings():
+    """The robot with its workcell, without pots (each folder's files alone:
+    test_model_dirs.py)."""
+    data = run_noisy(files_model())
     assert data.warning.number.sum() == 0
     assert np.all(np.isfinite(data.qpos))
 
@@ -103,7 +143,7 @@ def test_built_scene_runs_without_warnings():
 
 
 def test_home_keyframe_closes_the_loop_and_matches_fk():
-    model = mujoco.MjModel.from_xml_path(str(models_dir() / "transplanter.xml"))
+    model = mujoco.MjModel.from_xml_path(str(robot_xml()))
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)
@@ -234,12 +274,12 @@ def test_exported_scene_is_the_scene_a_trial_builds(tmp_path):
         runs.append(data.qpos.copy())
     np.testing.assert_allclose(runs[0], runs[1], atol=1e-4)  # 0.1 mm, 0.1 mrad after 1 s
     assert sorted(p.name for p in (tmp_path / "assets").iterdir()) == sorted(
-        p.name for p in (models_dir() / "assets").iterdir()
-    )
+        p.name for xml in scene_files() for p in (xml.parent / "assets").iterdir()
+    )  # the robot's and the workcell's meshes
 
 
 def test_named_cameras_look_at_what_they_are_named_for():
-    model = mujoco.MjModel.from_xml_path(str(models_dir() / "scene.xml"))
+    model = files_model()
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)

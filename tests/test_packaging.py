@@ -33,11 +33,22 @@ def wheel(tmp_path_factory):
 @pytest.mark.slow
 def test_wheel_holds_models_scenarios_and_every_module(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
-    for f in ("scene.xml", "transplanter.xml"):
-        assert f"transplanter/models/{f}" in names
-    assert {n for n in names if n.startswith("transplanter/models/assets/")} == {
-        f"transplanter/models/assets/{p.name}" for p in (ROOT / "models" / "assets").iterdir()
+    # every file of every model folder (robots, workcells): the XML, the meshes; and nothing
+    # else under models/ than those, README.md and __init__.py
+    models = ROOT / "models"
+    shipped = {
+        f"transplanter/models/{p.relative_to(models).as_posix()}"
+        for p in models.rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts
     }
+    for f in (
+        "fivebar/fivebar.xml",
+        "fivebar/assets/jaw.stl",
+        "workcells/conveyor_tube/conveyor_tube.xml",
+        "workcells/conveyor_tube/assets/funnel.stl",
+    ):
+        assert f"transplanter/models/{f}" in shipped
+    assert {n for n in names if n.startswith("transplanter/models/")} == shipped
     assert "transplanter/scenarios/paper.toml" in names
     for module in (ROOT / "src" / "transplanter").rglob("*.py"):
         rel = module.relative_to(ROOT / "src").as_posix()

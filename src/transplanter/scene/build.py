@@ -1,20 +1,28 @@
-"""build_scene: load models/scene.xml with MjSpec, apply a SceneConfig, add ribs and pots, compile.
+"""build_scene: assemble the robot and its workcell from models/, apply a SceneConfig, add
+ribs and pots, compile.
 
-models/*.xml hold the machine, the belt table, the conveyor carriage and the drop tube with
-the numbers of SceneConfig() (scripts/make_models.py writes them with the functions below),
-so for the default config the `apply_*` steps change nothing; any other config is applied
-here: link lengths and masses, stepper drives, gripper, solver, drop tube, conveyor layout,
-and the arm's inertials derived from its geoms. Then the conveyor ribs and the rows x cols
-paper pots with seedlings (a PotBatch drawn from the seed) are added, the `home` keyframe is
-set and the spec is compiled into a Scene.
+The models are MuJoCo Menagerie folders (models/README.md): the robot models/fivebar/
+(fivebar.xml: arm, Z slide, gripper, their actuators and `home` keyframe) and the workcell
+models/workcells/conveyor_tube/ (conveyor_tube.xml: floor, light, cameras, belt table, conveyor
+carriage, drop tube). `scene_spec` merges the two files into one MjSpec as MJCF's <include>
+would (robot first), each file's meshes read from its own assets/ folder. The files hold the
+numbers of SceneConfig() (scripts/make_models.py writes them with the functions below), so for
+the default config the `apply_*` steps change nothing; any other config is applied here: link
+lengths and masses, stepper drives, gripper, solver, drop tube, conveyor layout, and the arm's
+inertials derived from its geoms. Then the conveyor ribs and the rows x cols paper pots with
+seedlings (a PotBatch drawn from the seed) are added, the `home` keyframe is set and the spec
+is compiled into a Scene.
 
-Frames and joint conventions: models/README.md and docs/architecture.md.
+Frames and joint conventions: models/fivebar/README.md and docs/architecture.md.
 """
 
 from __future__ import annotations
 
 import importlib.resources
+import posixpath
 import shutil
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from pathlib import Path
 
 import mujoco
@@ -55,7 +63,7 @@ from transplanter.scene.handles import LeafProxies, Scene
 from transplanter.scene.pots import PotBatch
 
 # Bodies whose inertial is derived from their geoms (masses and shapes follow the config);
-# models/transplanter.xml carries the result for the default config as explicit <inertial>.
+# models/fivebar/fivebar.xml carries the result for the default config as explicit <inertial>.
 ARM_BODIES = (
     "platform", "link1", "passive1", "gripper", "jaw_left", "jaw_right", "link2", "passive2",
 )  # fmt: skip
@@ -66,9 +74,68 @@ BOND_REACH = 0.001  # m: how far a bond stretches before it tears (estimate: pap
 _CAPSULE_Z_TO_X = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
 
 
+# The robot and the workcell the scene is assembled from (folders of models/), and the name of
+# the assembled model.
+ROBOT = "fivebar"
+WORKCELL = "conveyor_tube"
+SCENE_MODEL = "transplanter_scene"
+# Which compiler directory an asset element's `file` is relative to (MJCF: meshdir and
+# texturedir, each falling back to assetdir).
+_ASSET_DIRS = {"mesh": "meshdir", "hfield": "meshdir", "skin": "meshdir", "texture": "texturedir"}
+
+
 def models_dir() -> Path:
     """The MJCF models shipped with the package (models/ of the repository)."""
     return Path(str(importlib.resources.files("transplanter.models")))
+
+
+def robot_xml(robot: str = ROBOT, models: str | Path | None = None) -> Path:
+    """A robot's MJCF: models/<robot>/<robot>.xml (the robot only; scene.xml beside it adds a
+    floor and a light)."""
+    return Path(models if models is not None else models_dir()) / robot / f"{robot}.xml"
+
+
+def workcell_xml(workcell: str = WORKCELL, models: str | Path | None = None) -> Path:
+    """A workcell's MJCF: models/workcells/<workcell>/<workcell>.xml (its world without a robot)."""
+    root = Path(models if models is not None else models_dir())
+    return root / "workcells" / workcell / f"{workcell}.xml"
+
+
+def scene_files(models: str | Path | None = None) -> tuple[Path, Path]:
+    """The MJCF files the scene is assembled from, in order: the robot's, the workcell's."""
+    return robot_xml(models=models), workcell_xml(models=models)
+
+
+def merge_models(files: Sequence[str | Path], name: str = SCENE_MODEL) -> mujoco.MjSpec:
+    """One MjSpec from MJCF files, merged as MJCF's <include> merges them: the sections of each
+    file's <mujoco>, in the order of the files, under one <mujoco model=name>. Unlike <include>,
+    each file's asset files (meshes, textures) are read from its own folder: MuJoCo resolves
+    every asset against the main file's meshdir, so an included file cannot bring its own
+    assets/ folder (and MjSpec.attach renames every element unless given an empty prefix, which
+    MuJoCo warns about). The files must agree on their compiler's asset folders (Menagerie:
+    meshdir="assets"); two files may not bring different files under the same name."""
+    root = ET.Element("mujoco", model=name)
+    assets: dict[str, bytes] = {}
+    dirs: dict[str, str] | None = None
+    for file in map(Path, files):
+        doc = ET.parse(file).getroot()
+        if doc.find(".//include") is not None:
+            raise ValueError(f"{file}: has an <include>; merge the included file instead")
+        compiler = doc.find("compiler")
+        attrs = compiler.attrib if compiler is not None else {}
+        these = {d: attrs.get(d, attrs.get("assetdir", "")) for d in ("meshdir", "texturedir")}
+        if dirs is not None and these != dirs:
+            raise ValueError(f"{file}: asset folders {these} differ from the other files' {dirs}")
+        dirs = these
+        for element in doc.iter():
+            if element.tag not in _ASSET_DIRS or element.get("file") is None:
+                continue
+            key = posixpath.join(these[_ASSET_DIRS[element.tag]], element.get("file"))
+            data = (file.parent / key).read_bytes()
+            if assets.setdefault(key, data) != data:
+                raise ValueError(f"{file}: {key} is another file than the one of that name before")
+        root.extend(list(doc))
+    return mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"), assets=assets)
 
 
 def build_scene(config: SceneConfig | None = None, seed: int = 0) -> Scene:
@@ -115,17 +182,18 @@ def export_scene(cfg: SceneConfig, seed: int, out: str | Path) -> Path:
     xml = spec.to_xml()
     assets = target.parent / spec.meshdir
     assets.mkdir(exist_ok=True)
-    for mesh in sorted((models_dir() / "assets").iterdir()):
-        if mesh.suffix == ".stl":
-            shutil.copyfile(mesh, assets / mesh.name)
+    for xml_file in scene_files():  # every folder's meshes (the model's mesh files are unique)
+        for mesh in sorted((xml_file.parent / spec.meshdir).iterdir()):
+            if mesh.suffix == ".stl":
+                shutil.copyfile(mesh, assets / mesh.name)
     fileio.write_text_atomic(target, xml)
     return target
 
 
-def scene_spec(cfg: SceneConfig, xml_path: str | Path | None = None) -> mujoco.MjSpec:
-    """models/scene.xml (or xml_path) with the config applied: all but the ribs and pots."""
-    path = xml_path if xml_path is not None else models_dir() / "scene.xml"
-    spec = mujoco.MjSpec.from_file(str(path))
+def scene_spec(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjSpec:
+    """The robot and the workcell of `models` (default: the package's models/) merged into one
+    spec (`merge_models`), with the config applied: all but the ribs and pots."""
+    spec = merge_models(scene_files(models))
     apply_options(spec, cfg)
     apply_arm(spec, cfg)
     apply_drop_tube(spec, cfg)
@@ -240,7 +308,7 @@ def apply_arm(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height]
 
     # Stepper drives: position servos on the motor shaft through the gear, torque-limited,
-    # with the pull-out curve as joint damping (models/README.md).
+    # with the pull-out curve as joint damping (models/fivebar/README.md).
     arm_gear, screw_gear = cfg.arm_belt_ratio, cfg.screw_gear
     screw_torque = cfg.holding_torque * cfg.screw_efficiency
     for joint_name, gear, torque, scale in (

@@ -1,7 +1,8 @@
 """SceneConfig: every physical number of the scene, and the scene's named constants.
 
-SceneConfig() holds the design defaults (docs/sources.md); models/*.xml carry exactly these defaults
-(scripts/make_models.py writes them there), and build_scene applies any other config.
+SceneConfig() holds the design defaults (docs/sources.md); the models' XML (models/fivebar/,
+models/workcells/conveyor_tube/) carries exactly these defaults (scripts/make_models.py writes
+them there), and build_scene applies any other config.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ POT_COLLISION_RGBA = (0.55, 0.4, 0.25, 0.5)
 LEAF_PROXY_RGBA = (0.2, 0.8, 0.2, 0.3)
 STATIC_COLLISION_RGBA = (0.5, 0.5, 0.55, 0.3)
 
-# Gripper layout of models/transplanter.xml (m): the column runs from just under the wrist
+# Gripper layout of models/fivebar/fivebar.xml (m): the column runs from just under the wrist
 # servo (WRIST_SERVO_BOTTOM below C) down to the top of the palm, which sits PALM_HEIGHT
 # above the jaws' top edge (JAW_HALF_HEIGHT above the grip centre). The jaws start
 # JAW_HALF_THICKNESS off the centre. Passive links run PASSIVE_DROP below the active ones
@@ -393,7 +394,7 @@ class SceneConfig:
         """The five-bar's link lengths for the pure-numpy kinematics."""
         return FiveBarGeometry(l0_m=self.l0, l1_m=self.l1, l2_m=self.l2)
 
-    # Derived drive numbers (documented in models/README.md).
+    # Derived drive numbers (documented in models/fivebar/README.md).
     @property
     def screw_gear(self) -> float:
         """Motor radians per metre of Z travel."""

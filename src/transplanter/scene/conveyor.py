@@ -63,7 +63,7 @@ class ConveyorDrive:
         if self.model.nuserdata < USERDATA_CONVEYOR:
             raise ValueError(
                 f"the model has nuserdata={self.model.nuserdata}; the conveyor needs "
-                f"{USERDATA_CONVEYOR} (<size nuserdata=...> in models/transplanter.xml)"
+                f"{USERDATA_CONVEYOR} (<size nuserdata=...> of the workcell's XML)"
             )
         m, rows = self.model, self.config.rows
         # The drive's hold (joint stiffness about qpos_spring, and damping) as built; off

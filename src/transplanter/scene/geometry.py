@@ -2,7 +2,7 @@
 the conveyor's cells, ribs and belt table, the gripper column and the pots' inertia.
 
 Pure functions of a SceneConfig (numpy/math only, no MjSpec): build_scene and
-scripts/make_models.py both call them, so models/*.xml and a built scene agree bit for bit.
+scripts/make_models.py both call them, so the models' XML and a built scene agree bit for bit.
 """
 
 from __future__ import annotations
