@@ -33,8 +33,8 @@ def wheel(tmp_path_factory):
 @pytest.mark.slow
 def test_wheel_holds_models_scenarios_and_every_module(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
-    # every file of every model folder (robots, workcells): the XML, the meshes; and nothing
-    # else under models/ than those, README.md and __init__.py
+    # every file of every Menagerie folder (robots, workcells): README, CHANGELOG, LICENSE,
+    # the XML, the meshes; and nothing else under models/ than those and __init__.py
     models = ROOT / "models"
     shipped = {
         f"transplanter/models/{p.relative_to(models).as_posix()}"
@@ -43,9 +43,12 @@ def test_wheel_holds_models_scenarios_and_every_module(wheel):
     }
     for f in (
         "fivebar/fivebar.xml",
+        "fivebar/scene.xml",
         "fivebar/assets/jaw.stl",
+        "fivebar/LICENSE",
         "workcells/conveyor_tube/conveyor_tube.xml",
         "workcells/conveyor_tube/assets/funnel.stl",
+        "workcells/conveyor_tube/README.md",
     ):
         assert f"transplanter/models/{f}" in shipped
     assert {n for n in names if n.startswith("transplanter/models/")} == shipped
