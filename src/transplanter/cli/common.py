@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -97,6 +98,17 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def _trial_overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """The --set overrides with --seedlings and --seed, where the command has them and they
+    are given, as scenario.seedlings and scenario.seed; ScenarioError for a malformed --set."""
+    overrides = _overrides(args)
+    for option in ("seedlings", "seed"):
+        value = getattr(args, option, None)
+        if value is not None:
+            overrides[f"scenario.{option}"] = value
+    return overrides
+
+
 def _seeds(args: argparse.Namespace) -> list[int] | None:
     """The --seeds list, or None after saying why it was refused."""
     from transplanter.studies.stats import parse_seeds
@@ -109,12 +121,13 @@ def _seeds(args: argparse.Namespace) -> list[int] | None:
 
 
 def _machine(args: argparse.Namespace):
-    """The machine of a scenario, or None after saying why it was refused."""
+    """The machine of a scenario (with --set, and --seedlings where the command has it), or
+    None after saying why it was refused."""
     from transplanter.scenario.assemble import machine_config
     from transplanter.scenario.schema import ScenarioError, load_scenario
 
     try:
-        return machine_config(load_scenario(args.scenario, _overrides(args)))
+        return machine_config(load_scenario(args.scenario, _trial_overrides(args)))
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return None
@@ -126,18 +139,7 @@ def _single_trial_config(args: argparse.Namespace):
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import load_scenario
 
-    overrides = _overrides(args)
-    if args.seedlings is not None:
-        overrides["scenario.seedlings"] = args.seedlings
-    if args.seed is not None:
-        overrides["scenario.seed"] = args.seed
-    return assemble(load_scenario(args.scenario, overrides), preflight=True)
-
-
-def _trial_status(result) -> int:
-    if not result.valid:
-        return EXIT_INVALID_PHYSICS
-    return EXIT_FIRMWARE_FAULT if result.fault else EXIT_OK
+    return assemble(load_scenario(args.scenario, _trial_overrides(args)), preflight=True)
 
 
 def _output_targets(args: argparse.Namespace) -> dict[str, Path | None] | None:
@@ -154,6 +156,80 @@ def _output_targets(args: argparse.Namespace) -> dict[str, Path | None] | None:
                 _err(f"{option}: {exc}")
                 return None
     return targets
+
+
+def _progress(args: argparse.Namespace) -> bool:
+    """Whether to draw a progress bar: not with --quiet, and only on a terminal."""
+    return not args.quiet and sys.stderr.isatty()
+
+
+def _run(config, progress: bool = False, **kwargs: Any):
+    """run_trial(config, **kwargs) with a progress bar when `progress`: (result, interrupted),
+    an interrupted trial's result being the part that ran."""
+    from transplanter.twin.report import progress_bar
+    from transplanter.twin.trial import TrialInterrupted, run_trial
+
+    bar, update = progress_bar(config.seedlings, progress)
+    try:
+        return run_trial(config, progress=update, **kwargs), False
+    except TrialInterrupted as stop:
+        return stop.result, True
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+# An output of a command besides --json: the line to print when it was written, or the error to
+# report when it was not (exit status 5); (None, None) says nothing.
+Output = tuple[str | None, str | None]
+
+
+def _finish(
+    args: argparse.Namespace,
+    results: Sequence[Any],
+    summary: str | None = None,
+    payload: Any = None,
+    json_target: Path | None = None,
+    *,
+    interrupted: bool = False,
+    note: str | None = None,
+    outputs: Sequence[Output] = (),
+) -> int:
+    """How every command that runs trials ends (trial and its --seeds, render, view, serve):
+    print the summary, write `payload` to --json, report a --record error of any result and
+    the command's other `outputs` in order, then the exit status: 130 interrupted (after
+    `note` on stderr, where given), 5 an output could not be written, 3 a trial not valid,
+    4 a firmware fault, else 0."""
+    from transplanter import fileio
+
+    if summary is not None:
+        print(summary)
+    failed = False
+    if json_target is not None:
+        try:
+            fileio.write_json_atomic(json_target, payload)
+            print(f"results written to {_show(args.json)}")
+        except OSError as exc:
+            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
+            failed = True
+    recording = [
+        (None, f"--record: {r.recording_error}") for r in results if r.recording_error is not None
+    ]
+    for line, error in [*recording, *outputs]:
+        if error is not None:
+            _err(error)
+            failed = True
+        elif line is not None:
+            print(line)
+    if interrupted:
+        if note is not None:
+            _err(note)
+        return EXIT_INTERRUPTED
+    if failed:
+        return EXIT_OUTPUT_FAILED
+    if not all(r.valid for r in results):
+        return EXIT_INVALID_PHYSICS
+    return EXIT_FIRMWARE_FAULT if any(r.fault for r in results) else EXIT_OK
 
 
 def _show(path) -> str:

@@ -8,16 +8,14 @@ import math
 
 from transplanter.cli.common import (
     EXIT_FIRMWARE_FAULT,
-    EXIT_INTERRUPTED,
     EXIT_OK,
-    EXIT_OUTPUT_FAILED,
     EXIT_REFUSED,
     _err,
+    _finish,
+    _machine,
     _output_targets,
-    _overrides,
-    _show,
+    _run,
     _single_trial_config,
-    _trial_status,
     add_options,
     ascii_float,
     ascii_int,
@@ -71,13 +69,11 @@ def _serve_parser(sub) -> None:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    from transplanter import fileio
     from transplanter.machine.marlin import LineNoise
     from transplanter.scenario.schema import ScenarioError
     from transplanter.twin.report import format_summary
     from transplanter.twin.serve import PtyEndpoint, RemoteHost, SerialEndpoint, format_stats
     from transplanter.twin.sim import Twin
-    from transplanter.twin.trial import TrialInterrupted, run_trial
 
     if not (0 <= args.inject_errors <= 1):
         _err(f"--inject-errors is the share of lines with a byte error, 0..1: {args.inject_errors}")
@@ -105,37 +101,19 @@ def cmd_serve(args: argparse.Namespace) -> int:
     )  # fmt: skip
     mode = "real time" if args.realtime else "as fast as the handshake allows"
     print(f"serving {config.name} on {endpoint.path} ({mode}); connect a host there", flush=True)
-    interrupted = False
     try:
-        result = run_trial(
+        result, interrupted = _run(
             config, record_path=targets["--record"], record_rate_hz=args.record_rate,
             twin_factory=lambda c: Twin(c, remote=host), horizon_s=math.inf,
         )  # fmt: skip
-    except TrialInterrupted as stop:
-        result, interrupted = stop.result, True
     finally:
         endpoint.close()
     stats = host.stats()
-    print(format_summary(result))
-    print(format_stats(stats))
-    status = EXIT_OK
-    if targets["--json"] is not None:
-        payload = result.to_dict()
-        payload["serial"] = stats.to_dict()
-        try:
-            fileio.write_json_atomic(targets["--json"], payload)
-            print(f"results written to {_show(args.json)}")
-        except OSError as exc:
-            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
-            status = EXIT_OUTPUT_FAILED
-    if result.recording_error is not None:
-        _err(f"--record: {result.recording_error}")
-        status = EXIT_OUTPUT_FAILED
-    if interrupted:
-        return EXIT_INTERRUPTED
-    if status != EXIT_OK:
-        return status
-    return _trial_status(result)  # 4: the machine stopped (a stall, a homing failure)
+    payload = {**result.to_dict(), "serial": stats.to_dict()}
+    return _finish(  # exit status 4: the machine stopped (a stall, a homing failure)
+        args, [result], f"{format_summary(result)}\n{format_stats(stats)}", payload,
+        targets["--json"], interrupted=interrupted,
+    )  # fmt: skip
 
 
 def _pgf_parser(sub) -> None:
@@ -154,16 +132,9 @@ def _pgf_parser(sub) -> None:
 def cmd_pgf(args: argparse.Namespace) -> int:
     from transplanter.machine.pgf import PGF
     from transplanter.machine.serial_host import SerialPGF
-    from transplanter.scenario.assemble import machine_config
-    from transplanter.scenario.schema import ScenarioError, load_scenario
 
-    try:
-        overrides = _overrides(args)
-        if args.seedlings is not None:
-            overrides["scenario.seedlings"] = args.seedlings
-        machine = machine_config(load_scenario(args.scenario, overrides))
-    except ScenarioError as exc:
-        _err(f"scenario refused: {exc}")
+    machine = _machine(args)
+    if machine is None:
         return EXIT_REFUSED
     try:
         import serial

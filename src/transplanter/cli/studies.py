@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import functools
 import os
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +17,7 @@ from transplanter.cli.common import (
     OPTIONS,
     _err,
     _overrides,
+    _progress,
     _seeds,
     _show,
     add_options,
@@ -141,7 +141,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     try:
         report = run_sweep(
             spec, args.out, backend=args.backend, workers=args.workers, address=args.address,
-            progress=not args.quiet and sys.stderr.isatty(),
+            progress=_progress(args),
         )  # fmt: skip
     except (ScenarioError, SweepRefused) as exc:
         _err(f"sweep refused: {exc}")
@@ -249,7 +249,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
         spec = _search_spec(args, seeds, args.param, "--param")
         report = run_tune(
             spec, args.trials, args.storage, args.study, args.out, workers=args.workers,
-            progress=not args.quiet and sys.stderr.isatty(),
+            progress=_progress(args),
         )  # fmt: skip
     except (ScenarioError, SweepRefused) as exc:
         _err(f"tune refused: {exc}")
@@ -366,7 +366,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         report = run_calibrate(
             spec, args.trials, args.out, storage=args.storage, study_name=args.study,
             workers=args.workers, backend=args.backend, address=args.address,
-            progress=not args.quiet and sys.stderr.isatty(),
+            progress=_progress(args),
         )  # fmt: skip
     except (ScenarioError, SweepRefused) as exc:
         _err(f"calibrate refused: {exc}")

@@ -6,24 +6,22 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
 from transplanter.cli.common import (
-    EXIT_FIRMWARE_FAULT,
-    EXIT_INTERRUPTED,
-    EXIT_INVALID_PHYSICS,
     EXIT_OK,
-    EXIT_OUTPUT_FAILED,
     EXIT_REFUSED,
+    Output,
     _err,
+    _finish,
     _output_targets,
-    _overrides,
+    _progress,
+    _run,
     _seeds,
     _show,
     _single_trial_config,
-    _trial_status,
+    _trial_overrides,
     add_options,
     ascii_float,
     ascii_int,
@@ -85,11 +83,9 @@ def _trial_parser(sub) -> None:
 
 
 def cmd_trial(args: argparse.Namespace) -> int:
-    from transplanter import fileio
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError
-    from transplanter.twin.report import format_summary, progress_bar
-    from transplanter.twin.trial import TrialInterrupted, run_trial
+    from transplanter.twin.report import format_summary
     from transplanter.viewing.video import GLUnavailable, RenderRefused
 
     if not (math.isfinite(args.record_rate) and args.record_rate > 0):
@@ -109,14 +105,10 @@ def cmd_trial(args: argparse.Namespace) -> int:
     if not _read_eeprom(args):
         return EXIT_REFUSED
     try:
-        overrides = _overrides(args)
+        overrides = _trial_overrides(args)
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
-    if args.seedlings is not None:
-        overrides["scenario.seedlings"] = args.seedlings
-    if args.seed is not None:
-        overrides["scenario.seed"] = args.seed
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
@@ -132,54 +124,34 @@ def cmd_trial(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     if clips is not None and not _clip_dir_ready(Path(args.clips_of_failures)):
         return EXIT_REFUSED
-    bar, update = progress_bar(config.seedlings, not args.quiet and sys.stderr.isatty())
-    interrupted = False
     try:
-        result = run_trial(
-            config, record_path=targets["--record"], record_rate_hz=args.record_rate,
-            progress=update, observers=[clips] if clips is not None else (),
+        result, interrupted = _run(
+            config, _progress(args), record_path=targets["--record"],
+            record_rate_hz=args.record_rate, observers=[clips] if clips is not None else (),
         )  # fmt: skip
-    except TrialInterrupted as stop:
-        result, interrupted = stop.result, True
     except (GLUnavailable, RenderRefused) as exc:
         _err(f"--clips-of-failures: {exc}")
         return EXIT_REFUSED
-    finally:
-        if bar is not None:
-            bar.close()
-    print(format_summary(result))
-    status = EXIT_OK
-    payload = result.to_dict()
+    summary, payload, outputs = format_summary(result), result.to_dict(), []
     if clips is not None:
         payload["clips"] = [dataclasses.asdict(c) for c in clips.clips]
-        _print_clips(clips, args.clips_of_failures)
+        summary += "\n" + _clips_listing(clips, args.clips_of_failures)
         if clips.error is not None:
-            _err(f"--clips-of-failures: {clips.error}")
-            status = EXIT_OUTPUT_FAILED
-    if targets["--json"] is not None:
-        try:
-            fileio.write_json_atomic(targets["--json"], payload)
-            print(f"results written to {_show(args.json)}")
-        except OSError as exc:
-            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
-            status = EXIT_OUTPUT_FAILED
-    if result.recording_error is not None:
-        _err(f"--record: {result.recording_error}")
-        status = EXIT_OUTPUT_FAILED
-    elif args.record is not None:
-        where = Path(args.record)
-        if interrupted:
-            where = where.with_name(where.stem + ".partial.rrd")
-        shown = _show(where)
-        print(f"recording written to {shown} (view it with: transplanter replay {shown})")
+            outputs.append((None, f"--clips-of-failures: {clips.error}"))
+    if args.record is not None and result.recording_error is None:
+        outputs.append(_recording_written(Path(args.record), interrupted))
+    return _finish(
+        args, [result], summary, payload, targets["--json"], interrupted=interrupted,
+        note=f"interrupted after {result.judged} seedlings", outputs=outputs,
+    )  # fmt: skip
+
+
+def _recording_written(where: Path, interrupted: bool) -> Output:
+    """Where the recording went (an interrupted trial's is .partial.rrd)."""
     if interrupted:
-        _err(f"interrupted after {result.judged} seedlings")
-        return EXIT_INTERRUPTED
-    if status != EXIT_OK:
-        return status
-    if not result.valid:
-        return EXIT_INVALID_PHYSICS
-    return EXIT_FIRMWARE_FAULT if result.fault else EXIT_OK
+        where = where.with_name(where.stem + ".partial.rrd")
+    shown = _show(where)
+    return f"recording written to {shown} (view it with: transplanter replay {shown})", None
 
 
 def _read_eeprom(args: argparse.Namespace) -> bool:
@@ -241,26 +213,26 @@ def _clip_dir_ready(directory: Path) -> bool:
     return True
 
 
-def _print_clips(clips, directory) -> None:
+def _clips_listing(clips, directory) -> str:
+    """The lines that list the failure clips written into `directory`."""
     if not clips.clips:
-        print(f"no failure clips: no seedling failed (or none was filmed) in {_show(directory)}")
-        return
-    print(f"{len(clips.clips)} failure clip(s) written to {_show(directory)}:")
+        return f"no failure clips: no seedling failed (or none was filmed) in {_show(directory)}"
+    lines = [f"{len(clips.clips)} failure clip(s) written to {_show(directory)}:"]
     for c in clips.clips:
         cut = f", the first {c.dropped_frames} frames cut" if c.dropped_frames else ""
-        print(
+        lines.append(
             f"  {_show(Path(c.path).name)}  ({c.frames} frames, t {c.t_start_s:.2f}-"
             f"{c.t_end_s:.2f} s{cut})"
         )
+    return "\n".join(lines)
 
 
 def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path) -> int:
-    """One trial per seed, each line printed as it finishes, then the pooled rate."""
-    from transplanter import fileio
+    """`trial --seeds`: one trial per seed, each line printed as it finishes, then the pooled
+    rate."""
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError
     from transplanter.studies.stats import pooled_rate
-    from transplanter.twin.trial import TrialInterrupted, run_trial
 
     try:
         configs = [
@@ -275,10 +247,8 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
         return EXIT_REFUSED
     results, interrupted = [], False
     for config in configs:
-        try:
-            result = run_trial(config)
-        except TrialInterrupted:
-            interrupted = True
+        result, interrupted = _run(config)
+        if interrupted:
             break
         results.append(result)
         d = result.to_dict()
@@ -289,29 +259,21 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
             f"({100 * d['success_rate']:.1f} %){cluster}  {failed or ''}"
         )
     payload: dict[str, Any] = {"trials": [r.to_dict() for r in results], "interrupted": interrupted}
+    summary = None
     if results:
         pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
         payload["pooled"] = pooled.to_dict()
         lo, hi = pooled.ci95
-        print(
+        summary = (
             f"pooled over {pooled.trials} trial{'s' if pooled.trials != 1 else ''}: "
             f"{100 * pooled.success_rate:.1f} % "
             f"({pooled.successes}/{pooled.seedlings}), 95 % CI {100 * lo:.1f}-{100 * hi:.1f} % "
             f"({pooled.method})"
         )
-    if json_path is not None:
-        try:
-            fileio.write_json_atomic(json_path, payload)
-            print(f"results written to {_show(args.json)}")
-        except OSError as exc:
-            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
-            return EXIT_OUTPUT_FAILED
-    if interrupted:
-        _err(f"interrupted after {len(results)} trials")
-        return EXIT_INTERRUPTED
-    if not all(r.valid for r in results):
-        return EXIT_INVALID_PHYSICS
-    return EXIT_FIRMWARE_FAULT if any(r.fault for r in results) else EXIT_OK
+    return _finish(
+        args, results, summary, payload, json_path, interrupted=interrupted,
+        note=f"interrupted after {len(results)} trials",
+    )  # fmt: skip
 
 
 def _render_parser(sub) -> None:
@@ -353,8 +315,7 @@ def _render_parser(sub) -> None:
 def cmd_render(args: argparse.Namespace) -> int:
     from transplanter import fileio
     from transplanter.scenario.schema import ScenarioError
-    from transplanter.twin.report import format_summary, progress_bar
-    from transplanter.twin.trial import TrialInterrupted, run_trial
+    from transplanter.twin.report import format_summary
     from transplanter.viewing import video
 
     try:
@@ -378,40 +339,30 @@ def cmd_render(args: argparse.Namespace) -> int:
     observer = video.VideoObserver(
         target, args.width, args.height, args.fps, args.camera, seedlings, args.shadows
     )
-    bar, update = progress_bar(config.seedlings, not args.quiet and sys.stderr.isatty())
-    interrupted = False
     try:
-        result = run_trial(config, progress=update, observers=[observer])
-    except TrialInterrupted as stop:
-        result, interrupted = stop.result, True
+        result, interrupted = _run(config, _progress(args), observers=[observer])
     except (video.GLUnavailable, video.RenderRefused) as exc:
         _err(f"render refused: {exc}")
         return EXIT_REFUSED
-    finally:
-        if bar is not None:
-            bar.close()
-    print(format_summary(result))
-    if json_target is not None:
-        try:
-            fileio.write_json_atomic(json_target, result.to_dict())
-            print(f"results written to {_show(args.json)}")
-        except OSError as exc:
-            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
-            return EXIT_OUTPUT_FAILED
-    if interrupted:
-        _err(f"interrupted after {result.judged} seedlings; no video written")
-        return EXIT_INTERRUPTED
+    note = f"interrupted after {result.judged} seedlings; no video written"
+    video_written = () if interrupted else [_video_written(args, observer)]
+    return _finish(
+        args, [result], format_summary(result), result.to_dict(), json_target,
+        interrupted=interrupted, note=note, outputs=video_written,
+    )  # fmt: skip
+
+
+def _video_written(args: argparse.Namespace, observer) -> Output:
+    """What the video came to: where it was written, or why it was not."""
     if observer.error is not None:
-        _err(f"render: {observer.error}")
-        return EXIT_OUTPUT_FAILED
+        return None, f"render: {observer.error}"
     n = observer.frames
     rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
-    print(
+    return (
         f"video written to {_show(args.out)}: {n} frames at {args.fps:g} fps "
         f"({n / args.fps:.1f} s), {args.width}x{args.height}, camera {_show(args.camera)}; "
         f"rendering and encoding took {observer.render_s:.1f} s{rate}"
-    )
-    return _trial_status(result)
+    ), None
 
 
 def _view_parser(sub) -> None:
@@ -447,7 +398,6 @@ def cmd_view(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     from transplanter.scenario.schema import ScenarioError
     from transplanter.twin.report import format_summary
-    from transplanter.twin.trial import TrialInterrupted, run_trial
 
     try:
         config = _single_trial_config(args)
@@ -456,9 +406,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     observer = live.LiveViewer(args.speed)
     try:
-        result = run_trial(config, observers=[observer])
-    except TrialInterrupted as stop:
-        result = stop.result
+        result, _ = _run(config, observers=[observer])
     except live.ViewerUnavailable as exc:
         _err(f"view: {exc}")
         return EXIT_REFUSED
@@ -466,9 +414,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     if observer.closed:
         print(f"viewer closed at t = {observer.closed_at:.1f} s simulated")
         return EXIT_OK
-    if result.interrupted:
-        return EXIT_INTERRUPTED
-    return _trial_status(result)
+    return _finish(args, [result], interrupted=result.interrupted)
 
 
 def _export_parser(sub) -> None:
@@ -489,10 +435,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from transplanter.scene import export_scene
 
     try:
-        overrides = _overrides(args)
-        if args.seed is not None:
-            overrides["scenario.seed"] = args.seed
-        config = assemble(load_scenario(args.scenario, overrides), preflight=False)
+        config = assemble(load_scenario(args.scenario, _trial_overrides(args)), preflight=False)
         path = export_scene(config.scene, config.seed, args.out)
     except (ScenarioError, fileio.FileRefused) as exc:
         _err(f"export refused: {exc}")
