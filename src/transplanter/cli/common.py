@@ -1,0 +1,244 @@
+"""What the commands share: the exit statuses, ASCII number types, the options declared once
+(`OPTIONS`, `add_options`), reading --set/--seeds and the scenario, checking the output
+paths, printing, and the one end of every command that runs trials (`_finish`).
+
+Names with a leading underscore belong to the `transplanter.cli` package: its command
+modules use them, nothing outside it should.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+DEFAULT_SCENARIO = "paper"  # the packaged paper scenario
+
+EXIT_OK, EXIT_REFUSED, EXIT_INVALID_PHYSICS, EXIT_FIRMWARE_FAULT = 0, 2, 3, 4
+EXIT_OUTPUT_FAILED = 5  # a result file or the recording could not be written
+EXIT_INTERRUPTED = 130  # Ctrl-C, as shells report SIGINT
+
+
+_FLOAT_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:inf|nan)", re.I)
+_INT_RE = re.compile(r"[+-]?\d+")
+
+
+def ascii_float(text: str) -> float:
+    """A number written in ASCII (Python's float() also takes Unicode digits such as '١٠')."""
+    if not (text.isascii() and _FLOAT_RE.fullmatch(text.strip())):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number (ASCII digits 0-9)")
+    return float(text)
+
+
+def ascii_int(text: str) -> int:
+    """A whole number written in ASCII digits."""
+    if not (text.isascii() and _INT_RE.fullmatch(text.strip())):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number (ASCII digits 0-9)")
+    return int(text)
+
+
+# The options several commands take, each declared once: add_options(parser, name, ...) adds
+# them in the order named; keyword arguments change what one command says differently.
+OPTIONS: dict[str, dict[str, Any]] = {
+    "scenario": {"help": "scenario file, or a packaged scenario's name (paper)"},
+    "--scenario": {
+        "default": DEFAULT_SCENARIO,
+        "help": "scenario file, or the name of a packaged scenario (default: paper)",
+    },
+    "--set": {
+        "action": "append",
+        "default": [],
+        "metavar": "SECTION.KEY=VALUE",
+        "help": "override a scenario key in its file unit, e.g. --set taught.z_low_mm=30 "
+        '(a TOML value: 30, true, [0, 140], "scurve"); repeatable',
+    },
+    "--seedlings": {"type": ascii_int, "default": None, "help": "override scenario.seedlings"},
+    "--seed": {"type": ascii_int, "default": None, "help": "override scenario.seed"},
+    "--seeds": {
+        "default": None,
+        "help": "one trial per seed ('41-44', '1,3,5-7') and the pooled success rate with an "
+        "interval from the spread between trials",
+    },
+    "--json": {"type": Path, "default": None, "help": "write results to this JSON file"},
+    "--record": {"type": Path, "default": None, "help": "write a rerun .rrd recording"},
+    "--record-rate": {"type": ascii_float, "default": 60.0, "help": "recording rate in Hz (> 0)"},
+    "--quiet": {"action": "store_true", "help": "no progress bar"},
+}
+
+
+def add_options(
+    parser: argparse.ArgumentParser,
+    *names: str,
+    table: dict[str, dict[str, Any]] = OPTIONS,
+    **changes: Any,
+) -> None:
+    """Add the named options of `table` (default: OPTIONS) to `parser`, in order, with
+    `changes` (e.g. help=..., default=...) made to each."""
+    for name in names:
+        parser.add_argument(name, **{**table[name], **changes})
+
+
+def _overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """The --set options as {'section.key': value}; ScenarioError for a malformed one."""
+    from transplanter.scenario.schema import ScenarioError, parse_value
+
+    out: dict[str, Any] = {}
+    for item in args.set:
+        key, eq, text = item.partition("=")
+        key = key.strip()
+        if not eq or "." not in key:
+            raise ScenarioError(f"--set {item!r}: write SECTION.KEY=VALUE")
+        value = parse_value(text)  # a bare word is a string: --set motion.profile=scurve
+        if key in out:
+            raise ScenarioError(f"--set {key} is given twice")
+        out[key] = value
+    return out
+
+
+def _trial_overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """The --set overrides with --seedlings and --seed, where the command has them and they
+    are given, as scenario.seedlings and scenario.seed; ScenarioError for a malformed --set."""
+    overrides = _overrides(args)
+    for option in ("seedlings", "seed"):
+        value = getattr(args, option, None)
+        if value is not None:
+            overrides[f"scenario.{option}"] = value
+    return overrides
+
+
+def _seeds(args: argparse.Namespace) -> list[int] | None:
+    """The --seeds list, or None after saying why it was refused."""
+    from transplanter.studies.stats import parse_seeds
+
+    try:
+        return parse_seeds(args.seeds)
+    except ValueError as exc:
+        _err(f"--seeds: {exc}")
+        return None
+
+
+def _machine(args: argparse.Namespace):
+    """The machine of a scenario (with --set, and --seedlings where the command has it), or
+    None after saying why it was refused."""
+    from transplanter.scenario.assemble import machine_config
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+
+    try:
+        return machine_config(load_scenario(args.scenario, _trial_overrides(args)))
+    except ScenarioError as exc:
+        _err(f"scenario refused: {exc}")
+        return None
+
+
+def _single_trial_config(args: argparse.Namespace):
+    """The assembled config of one trial from SCENARIO, --set, --seedlings and --seed;
+    ScenarioError when refused."""
+    from transplanter.scenario.assemble import assemble
+    from transplanter.scenario.schema import load_scenario
+
+    return assemble(load_scenario(args.scenario, _trial_overrides(args)), preflight=True)
+
+
+def _output_targets(args: argparse.Namespace) -> dict[str, Path | None] | None:
+    """The checked --json and --record paths (None where not given), or None after saying
+    why one is refused (trial and serve)."""
+    from transplanter import fileio
+
+    targets: dict[str, Path | None] = {"--json": None, "--record": None}
+    for option, path, suffix in (("--json", args.json, None), ("--record", args.record, ".rrd")):
+        if path is not None:
+            try:
+                targets[option] = fileio.check_output(path, suffix)
+            except fileio.FileRefused as exc:
+                _err(f"{option}: {exc}")
+                return None
+    return targets
+
+
+def _progress(args: argparse.Namespace) -> bool:
+    """Whether to draw a progress bar: not with --quiet, and only on a terminal."""
+    return not args.quiet and sys.stderr.isatty()
+
+
+def _run(config, progress: bool = False, **kwargs: Any):
+    """run_trial(config, **kwargs) with a progress bar when `progress`: (result, interrupted),
+    an interrupted trial's result being the part that ran."""
+    from transplanter.twin.report import progress_bar
+    from transplanter.twin.trial import TrialInterrupted, run_trial
+
+    bar, update = progress_bar(config.seedlings, progress)
+    try:
+        return run_trial(config, progress=update, **kwargs), False
+    except TrialInterrupted as stop:
+        return stop.result, True
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+# An output of a command besides --json: the line to print when it was written, or the error to
+# report when it was not (exit status 5); (None, None) says nothing.
+Output = tuple[str | None, str | None]
+
+
+def _finish(
+    args: argparse.Namespace,
+    results: Sequence[Any],
+    summary: str | None = None,
+    payload: Any = None,
+    json_target: Path | None = None,
+    *,
+    interrupted: bool = False,
+    note: str | None = None,
+    outputs: Sequence[Output] = (),
+) -> int:
+    """How every command that runs trials ends (trial and its --seeds, render, view, serve):
+    print the summary, write `payload` to --json, report a --record error of any result and
+    the command's other `outputs` in order, then the exit status: 130 interrupted (after
+    `note` on stderr, where given), 5 an output could not be written, 3 a trial not valid,
+    4 a firmware fault, else 0."""
+    from transplanter import fileio
+
+    if summary is not None:
+        print(summary)
+    failed = False
+    if json_target is not None:
+        try:
+            fileio.write_json_atomic(json_target, payload)
+            print(f"results written to {_show(args.json)}")
+        except OSError as exc:
+            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
+            failed = True
+    recording = [
+        (None, f"--record: {r.recording_error}") for r in results if r.recording_error is not None
+    ]
+    for line, error in [*recording, *outputs]:
+        if error is not None:
+            _err(error)
+            failed = True
+        elif line is not None:
+            print(line)
+    if interrupted:
+        if note is not None:
+            _err(note)
+        return EXIT_INTERRUPTED
+    if failed:
+        return EXIT_OUTPUT_FAILED
+    if not all(r.valid for r in results):
+        return EXIT_INVALID_PHYSICS
+    return EXIT_FIRMWARE_FAULT if any(r.fault for r in results) else EXIT_OK
+
+
+def _show(path) -> str:
+    from transplanter.twin.report import printable
+
+    return printable(str(path))
+
+
+def _err(message: str) -> None:
+    from transplanter.twin.report import printable
+
+    print(printable(message), file=sys.stderr)

@@ -1,0 +1,93 @@
+"""`transplanter ik` and `transplanter plan`: the machine's kinematics and G-code planning,
+without physics."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+
+from transplanter.cli.common import _err, _machine, _show, add_options, ascii_float
+
+# A G-code program for `plan`: a 100k-move file is about 3 MB; anything far bigger is not one.
+MAX_GCODE_FILE_BYTES = 64 << 20
+
+
+def register(sub) -> None:
+    _ik_parser(sub)
+    _plan_parser(sub)
+
+
+def _ik_parser(sub) -> None:
+    p = sub.add_parser("ik", help="joint angles for a point of the plane (mm)")
+    p.add_argument("x", type=ascii_float, help="x in mm")
+    p.add_argument("y", type=ascii_float, help="y in mm")
+    add_options(p, "--scenario", "--set")
+    p.set_defaults(func=cmd_ik)
+
+
+def cmd_ik(args: argparse.Namespace) -> int:
+    from transplanter.machine.kinematics import fivebar as kinematics
+
+    machine = _machine(args)
+    if machine is None:
+        return 2
+    x, y = args.x * 1e-3, args.y * 1e-3
+    report = kinematics.check_points(
+        machine.geometry, machine.limits, np.array([x]), np.array([y]), mode=machine.mode
+    )
+    if not report.ok[0]:
+        print(f"({args.x:g}, {args.y:g}) mm cannot be reached: {report.reasons[0]}")
+        return 1
+    t1, t2 = float(report.theta1[0]), float(report.theta2[0])
+    tr = float(kinematics.transmission_angle(machine.geometry, t1, t2, x, y))
+    print(f"theta1 = {math.degrees(t1):.4f} deg")
+    print(f"theta2 = {math.degrees(t2):.4f} deg")
+    print(f"passive-link (transmission) angle = {math.degrees(tr):.4f} deg")
+    return 0
+
+
+def _plan_parser(sub) -> None:
+    p = sub.add_parser("plan", help="plan a G-code file: duration and steps of every line")
+    p.add_argument("file", type=Path)
+    add_options(p, "--scenario", "--set")
+    p.set_defaults(func=cmd_plan)
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from transplanter import fileio
+    from transplanter.machine.planner import PlanError, plan_program
+
+    machine = _machine(args)
+    if machine is None:
+        return 2
+    try:
+        text = fileio.read_text_input(args.file, MAX_GCODE_FILE_BYTES, "G-code")
+    except fileio.FileRefused as exc:
+        _err(str(exc))
+        return 1
+    try:
+        rows = plan_program(machine, text)  # split at newlines only
+    except PlanError as exc:
+        _err(f"{args.file}:{exc.line_no}: {exc}")
+        return 1
+    print(
+        f"{'line':>5}  {'duration_s':>10}  {'steps_a':>8}  {'steps_b':>8}  {'steps_z':>8}  g-code"
+    )
+    total = 0.0
+    totals = np.zeros(3, dtype=np.int64)
+    for row in rows:
+        total += row.duration_s
+        totals += np.abs(row.steps)
+        a, b, z = row.steps
+        print(
+            f"{row.line_no:>5}  {row.duration_s:>10.4f}  {a:>8d}  {b:>8d}  {z:>8d}  "
+            f"{_show(row.text)}"
+        )
+    print(
+        f"total  {total:>10.4f}  {totals[0]:>8d}  {totals[1]:>8d}  {totals[2]:>8d}  "
+        f"({len(rows)} lines; step columns are net steps per line, total is |steps|)"
+    )
+    return 0
