@@ -23,13 +23,13 @@ from pathlib import Path
 import mujoco
 
 from transplanter.scene.build import (
-    ARM_BODIES,
     compile_with_home,
     robot_xml,
     scene_spec,
     workcell_xml,
 )
 from transplanter.scene.config import SceneConfig
+from transplanter.scene.robots.fivebar import INERTIAL_BODIES as ARM_BODIES
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 JACOBIAN = {

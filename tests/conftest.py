@@ -57,10 +57,10 @@ def paper_eeprom(paper_twin_config):
 @pytest.fixture(scope="session")
 def ik(paper_twin_config):
     """IK of the paper's arm in its working mode: ik(x_m, y_m) -> (theta1, theta2) rad."""
-    machine = paper_twin_config.machine
+    arm = paper_twin_config.machine.kinematics
 
     def solve(x, y):
-        t1, t2 = kinematics.ik(machine.geometry, np.asarray(x), np.asarray(y), mode=machine.mode)
+        t1, t2 = kinematics.ik(arm.geometry, np.asarray(x), np.asarray(y), mode=arm.mode)
         return float(t1), float(t2)
 
     return solve

@@ -14,7 +14,7 @@ def test_paper_assembly_maps_each_section(paper, paper_twin_config):
     cfg = paper_twin_config
     assert (cfg.name, cfg.seed, cfg.seedlings) == ("paper", 1, 40)
     m = cfg.machine
-    assert m.geometry.l1_m == pytest.approx(0.120) and m.mode == "+-"
+    assert m.kinematics.geometry.l1_m == pytest.approx(0.120) and m.kinematics.mode == "+-"
     assert m.sgf.home_joint_positions == pytest.approx((math.radians(200), math.radians(-20), 0.16))
     assert m.drives[2].lead_m == pytest.approx(0.008) and m.drives[0].ratio == 3.0
     assert m.pgf.gripper_open_deg == pytest.approx(155.0) and m.pgf.seedlings == 40

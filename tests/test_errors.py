@@ -9,6 +9,7 @@ import pytest
 from transplanter.errors import ErrorCode
 from transplanter.machine.config import power_on_joints
 from transplanter.machine.gcode import GcodeError, format_line, parse_line
+from transplanter.machine.homing import HomingConfig
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.sgf import SGF, SGFConfig
 
@@ -80,7 +81,7 @@ def test_every_code_is_a_reply_the_firmware_gives():
     given |= {ErrorCode(int(r.split(" ")[0][6:])) for r in stalled.poll(0.05)}
     # homing with switch 3 stuck closed (68), then with it dead (69)
     for switch_3 in (True, False):
-        homing = SGF(SGFConfig(homing_max_steps=(200, 200, 400)))
+        homing = SGF(SGFConfig(homing=HomingConfig(max_steps=(200, 200, 400))))
         homing.receive("G28", 0.0)
         replies = []
         for k in range(10_000):

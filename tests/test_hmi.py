@@ -75,7 +75,7 @@ def test_press_refuses_a_non_key(hmi):
 
 def test_power_on_homes_the_sgf_and_shows_the_menu(hmi, machine):
     sgf = machine.sgf
-    home = sgf.kinematics.point_of_steps(sgf.homed_steps, sgf.drives)
+    home = sgf.kinematics.point_of_steps(sgf.homed_steps)
     np.testing.assert_allclose(hmi.position, home, atol=1e-6)
     np.testing.assert_array_equal(hmi.steps, sgf.homed_steps)
     assert [line for _, line, _ in hmi.port.log][:2] == ["G28", "G90"]

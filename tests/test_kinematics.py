@@ -146,9 +146,9 @@ def test_design_workspace_is_reachable_with_default_limits():
     report = kin.check_points(GEOM, LIMITS, x_mm * 1e-3, y_mm * 1e-3)
     assert report.ok.all(), report.reasons[report.failing[0]]
     # the design numbers (docs/sources.md): passive-link angle 70-116 deg, condition <= 1.7
-    assert 70.0 < np.degrees(report.transmission.min()) < 71.0
-    assert 115.0 < np.degrees(report.transmission.max()) < 116.0
-    assert report.condition.max() < 1.7
+    assert 70.0 < np.degrees(report.diagnostics["transmission"].min()) < 71.0
+    assert 115.0 < np.degrees(report.diagnostics["transmission"].max()) < 116.0
+    assert report.diagnostics["condition"].max() < 1.7
     assert report.reasons == ("",) * x_mm.size
 
 
@@ -178,7 +178,7 @@ def test_rejects_near_parallel_singularity_with_reason():
     wide = kin.KinematicLimits(motor2_min_rad=math.radians(100), motor2_max_rad=math.radians(260))
     x, y = workspace_points(2000, seed=6)
     report = kin.check_points(GEOM, wide, x, y, mode="++")
-    trans_deg = np.degrees(report.transmission)
+    trans_deg = np.degrees(report.diagnostics["transmission"])
     near = trans_deg < 30.0
     assert near.any() and (~near).any()
     assert not report.ok[near].any()
@@ -207,10 +207,10 @@ def test_rejects_condition_number_with_reason():
     strict = kin.KinematicLimits(max_condition=1.5)
     report = kin.check_points(GEOM, strict, [0.0, -0.1], [0.2, 0.12])
     assert report.ok.tolist() == [True, False]
-    assert report.reasons[1] == f"Jacobian condition {report.condition[1]:.3g} > 1.5"
+    assert report.reasons[1] == f"Jacobian condition {report.diagnostics['condition'][1]:.3g} > 1.5"
     t1, t2 = kin.ik(GEOM, -0.1, 0.12)
     cond = np.linalg.cond(kin.jacobian(GEOM, t1, t2, -0.1, 0.12))
-    assert report.condition[1] == pytest.approx(cond, rel=1e-12)
+    assert report.diagnostics["condition"][1] == pytest.approx(cond, rel=1e-12)
     assert report.reasons[1] == "Jacobian condition 1.54 > 1.5"
 
 
@@ -274,7 +274,7 @@ def test_passive_angles_close_the_chain_vectorised_and_refuse_an_open_one():
     c1 = b + l2 * np.stack([np.cos(theta1 + phi1), np.sin(theta1 + phi1)], axis=-1)
     c2 = d + l2 * np.stack([np.cos(theta2 + phi2), np.sin(theta2 + phi2)], axis=-1)
     np.testing.assert_allclose(c1, c2, atol=1e-12)
-    np.testing.assert_allclose(c1, np.stack(KIN.point(theta1, theta2), axis=-1), atol=1e-12)
+    np.testing.assert_allclose(c1, np.stack(KIN.planar_point(theta1, theta2), axis=-1), atol=1e-12)
     short = kin.FiveBarKinematics(kin.FiveBarGeometry(l2_m=0.1))
     with pytest.raises(ValueError, match=r"cannot close at theta=\(3.14159\d*, 0.0\)"):
         short.passive_angles([math.pi / 2, math.pi], [math.pi / 2, 0.0])
@@ -284,10 +284,10 @@ def test_passive_angles_close_the_chain_vectorised_and_refuse_an_open_one():
 def test_point_is_the_assembly_the_mode_maps_back(mode):
     k = kin.FiveBarKinematics(GEOM, LIMITS, mode)
     x, y = workspace_points(400, seed=5)
-    t1, t2 = k.joints(x, y)
+    t1, t2 = k.planar_joints(x, y)
     ok = np.isfinite(t1) & np.isfinite(t2)
     assert ok.sum() > 300
-    px, py = k.point(t1[ok], t2[ok])
+    px, py = k.planar_point(t1[ok], t2[ok])
     np.testing.assert_allclose(px, x[ok], atol=1e-9)
     np.testing.assert_allclose(py, y[ok], atol=1e-9)
     # '-+' (elbows in) lands in the 'down' assembly: plain fk('up') would be wrong there
@@ -295,7 +295,7 @@ def test_point_is_the_assembly_the_mode_maps_back(mode):
     if mode == "-+":
         assert np.max(np.hypot(x0 - x[ok], y0 - y[ok])) > 0.01
     # scalars in, numpy scalars out
-    assert np.ndim(k.point(float(t1[0]), float(t2[0]))[0]) == 0
+    assert np.ndim(k.planar_point(float(t1[0]), float(t2[0]))[0]) == 0
 
 
 def test_point_of_steps_and_steps_of_point_invert_each_other():
@@ -303,18 +303,19 @@ def test_point_of_steps_and_steps_of_point_invert_each_other():
 
     drives = default_drives()
     xyz = np.array([[0.0, 0.2, 0.05], [-0.06, 0.17, 0.12], [0.08, 0.23, 0.03]])
-    steps = KIN.steps_of_point(xyz, drives)
+    assert KIN.drives == drives
+    steps = KIN.steps_of_point(xyz)
     assert steps.dtype == np.int64 and steps.shape == (3, 3)
     # 9600 microsteps per arm revolution, 400 per mm of Z
     assert steps[0].tolist() == [
-        int(round(a * 9600 / (2 * math.pi))) for a in KIN.joints(0.0, 0.2)
+        int(round(a * 9600 / (2 * math.pi))) for a in KIN.planar_joints(0.0, 0.2)
     ] + [20000]
-    back = KIN.point_of_steps(steps, drives)
+    back = KIN.point_of_steps(steps)
     assert back.shape == (3, 3)
     np.testing.assert_allclose(back, xyz, atol=1e-4)  # a microstep moves C by < 0.1 mm
-    np.testing.assert_array_equal(KIN.point_of_steps(steps[1], drives), back[1])
+    np.testing.assert_array_equal(KIN.point_of_steps(steps[1]), back[1])
     with pytest.raises(ValueError, match="finite"):
-        KIN.steps_of_point([0.0, 0.5, 0.05], drives)  # out of reach: no steps
+        KIN.steps_of_point([0.0, 0.5, 0.05])  # out of reach: no steps
 
 
 def test_homed_position_comes_from_the_kinematics_object():
@@ -322,22 +323,25 @@ def test_homed_position_comes_from_the_kinematics_object():
 
     config = SGFConfig()
     assert config.homed_steps.tolist() == [5237, -437, 63600]
-    x, y, z = config.kinematics.point_of_steps(config.homed_steps, config.drives)
+    x, y, z = config.kinematics.point_of_steps(config.homed_steps)
     assert (round(x * 1e3, 3), round(y * 1e3, 3), round(z * 1e3, 3)) == (0.0, 78.988, 159.0)
 
 
 def test_check_and_require_use_the_limits_and_mode():
     x = np.array([0.0, 0.0, 0.3])
     y = np.array([0.2, 0.01, 0.2])
-    report = KIN.check(x, y)
+    xyz = np.column_stack([x, y, np.full(3, 0.05)])
+    report = KIN.check(xyz)
     expected = kin.check_points(GEOM, LIMITS, x, y, "+-")
     assert report.ok.tolist() == expected.ok.tolist() == [True, False, False]
     assert report.reasons == expected.reasons
     assert report.reasons[2].startswith("outside workspace: |C-O1|=")
-    theta1, theta2 = KIN.require(x[:1], y[:1])
-    assert (theta1[0], theta2[0]) == pytest.approx(KIN.joints(0.0, 0.2))
+    joints = KIN.require(xyz[:1])
+    assert joints.shape == (1, 3)
+    assert (joints[0, 0], joints[0, 1]) == pytest.approx(KIN.planar_joints(0.0, 0.2))
+    assert joints[0, 2] == 0.05
     with pytest.raises(kin.UnreachableError) as info:
-        KIN.require(x, y)
+        KIN.require(xyz)
     assert info.value.index == 1
 
 

@@ -9,6 +9,7 @@ from transplanter.machine.kinematics import fivebar as kin
 GEOM = kin.FiveBarGeometry()
 LIMITS = kin.KinematicLimits()
 DRIVES = steppers.default_drives()
+KIN = kin.FiveBarKinematics(geometry=GEOM, limits=LIMITS, mode="+-", drives=DRIVES)
 CONFIG = motion.MotionConfig()
 
 
@@ -147,9 +148,7 @@ def test_chained_random_moves_never_drift_and_respect_limits():
     counters = steps_of(position)
     for i in range(1000):
         config = CONFIG if i % 2 else motion.MotionConfig(profile="scurve")
-        move = motion.plan_line(
-            counters, position, targets[i + 1], speeds[i], GEOM, LIMITS, DRIVES, config
-        )
+        move = motion.plan_line(counters, position, targets[i + 1], speeds[i], KIN, config)
         if i % 20 == 0:
             _check_move(move, speeds[i], config, counters)
         counters = move.start_steps + np.array(
@@ -166,7 +165,7 @@ def test_every_move_invariants_on_a_sample():
         start, end = targets[i], targets[i + 1]
         counters = steps_of(start)
         for config in (CONFIG, motion.MotionConfig(profile="scurve", resolution_m=5e-4)):
-            move = motion.plan_line(counters, start, end, 0.15, GEOM, LIMITS, DRIVES, config)
+            move = motion.plan_line(counters, start, end, 0.15, KIN, config)
             _check_move(move, 0.15, config, counters)
 
 
@@ -177,7 +176,7 @@ def test_fk_of_quantised_joints_stays_near_the_line():
     res = CONFIG.resolution_m
     for i in range(20):
         start, end = targets[i], targets[i + 1]
-        move = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+        move = motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
         t1 = DRIVES[0].to_position(move.point_steps[:, 0])
         t2 = DRIVES[1].to_position(move.point_steps[:, 1])
         z = DRIVES[2].to_position(move.point_steps[:, 2])
@@ -196,12 +195,12 @@ def test_speed_caps():
     end = np.array([0.05, 0.15, 0.05])
     counters = steps_of(start)
     # commanded speed rules when it is low
-    slow = motion.plan_line(counters, start, end, 0.05, GEOM, LIMITS, DRIVES, CONFIG)
+    slow = motion.plan_line(counters, start, end, 0.05, KIN, CONFIG)
     assert slow.peak_speed_m_s == pytest.approx(0.05)
     assert slow.speed_limit == "" and slow.cruise_speed_m_s == 0.05
     # the point-rate cap: resolution / compute time (Arduino Mega: 0.1 mm / 4027 us)
     mega = motion.MotionConfig(compute_time_per_point_s=4027e-6)
-    capped = motion.plan_line(counters, start, end, 1.0, GEOM, LIMITS, DRIVES, mega)
+    capped = motion.plan_line(counters, start, end, 1.0, KIN, mega)
     assert capped.peak_speed_m_s == pytest.approx(1e-4 / 4027e-6)
     _check_move(capped, 1.0, mega, counters)
     # every cap says why the move is slower than asked
@@ -210,7 +209,8 @@ def test_speed_caps():
     # the step-rate cap: a slow Z motor limits a vertical move
     slow_z = (DRIVES[0], DRIVES[1], steppers.z_drive(max_step_rate_hz=4000.0))
     up = np.array([-0.05, 0.15, 0.09])
-    move = motion.plan_line(counters, start, up, 1.0, GEOM, LIMITS, slow_z, CONFIG)
+    slow_kin = kin.FiveBarKinematics(GEOM, LIMITS, drives=slow_z)
+    move = motion.plan_line(counters, start, up, 1.0, slow_kin, CONFIG)
     assert move.peak_speed_m_s == pytest.approx(4000.0 / 400_000.0)  # 10 mm/s
     assert move.speed_limit.startswith("motor 3 reaches its top step rate, 4000 steps/s")
     assert np.diff(move.step_times[2]).min() >= 1 / 4000.0 * (1 - 1e-9)
@@ -219,14 +219,14 @@ def test_speed_caps():
 def test_trapezoid_duration_and_triangular_short_move():
     start = np.array([-0.05, 0.18, 0.05])
     end = start + np.array([0.1, 0.0, 0.0])
-    move = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    move = motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
     v0, v, a = CONFIG.min_speed_m_s, 0.1, CONFIG.accel_m_s2
     ramp_t, ramp_s = (v - v0) / a, (v * v - v0 * v0) / (2 * a)
     length = np.linalg.norm(np.diff(move.points_xyz, axis=0), axis=1).sum()
     assert move.duration_s == pytest.approx(2 * ramp_t + (length - 2 * ramp_s) / v, rel=1e-12)
     assert length == pytest.approx(0.1, abs=1e-12)  # straight along x: no staircase
     short_end = start + np.array([0.001, 0.0, 0.0])
-    short = motion.plan_line(steps_of(start), start, short_end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    short = motion.plan_line(steps_of(start), start, short_end, 0.1, KIN, CONFIG)
     assert short.peak_speed_m_s == pytest.approx(math.sqrt(v0 * v0 + a * 0.001))
     assert short.duration_s == pytest.approx(2 * (short.peak_speed_m_s - v0) / a, rel=1e-9)
 
@@ -234,9 +234,9 @@ def test_trapezoid_duration_and_triangular_short_move():
 def test_scurve_starts_gently_and_takes_longer():
     start = np.array([-0.05, 0.18, 0.05])
     end = start + np.array([0.1, 0.0, 0.0])
-    trap = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    trap = motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
     scurve_cfg = motion.MotionConfig(profile="scurve")
-    scurve = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, scurve_cfg)
+    scurve = motion.plan_line(steps_of(start), start, end, 0.1, KIN, scurve_cfg)
     # each S ramp lasts 1.5x the trapezoid ramp and covers 1.5x the distance
     ramp_t = (0.1 - 0.002) / 2.0
     # 3T + (L - 3D)/v - (2T + (L - 2D)/v) = T - D/v with D = T (v0 + v) / 2
@@ -263,7 +263,7 @@ def test_unreachable_point_on_the_way_raises_and_plans_nothing():
     start = np.array([-0.09, 0.13, 0.05])
     end = np.array([0.26, 0.13, 0.05])  # beyond reach
     with pytest.raises(kin.UnreachableError) as info:
-        motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+        motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
     assert info.value.index > 0
     assert "not reachable" in str(info.value) and " mm" in str(info.value)
 
@@ -275,7 +275,7 @@ def test_reachable_ends_with_unreachable_middle_raise():
     ends = kin.check_points(GEOM, LIMITS, [start[0], end[0]], [start[1], end[1]])
     assert ends.ok.all()
     with pytest.raises(kin.UnreachableError) as info:
-        motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+        motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
     err = info.value
     grid = motion.bresenham_3d(
         np.rint(start / CONFIG.resolution_m).astype(np.int64),
@@ -293,7 +293,7 @@ def test_reachable_ends_with_unreachable_middle_raise():
 
 def test_zero_length_move():
     here = np.array([0.0, 0.2, 0.05])
-    move = motion.plan_line(steps_of(here), here, here, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    move = motion.plan_line(steps_of(here), here, here, 0.1, KIN, CONFIG)
     assert move.duration_s == 0.0 and move.num_steps == 0
     np.testing.assert_array_equal(move.end_steps, steps_of(here))
     np.testing.assert_array_equal(move.steps_at([0.0, 1.0]), [steps_of(here)] * 2)
@@ -303,20 +303,20 @@ def test_counters_off_target_are_caught_up():
     # after homing the counters may not match the IK of the commanded start
     here = np.array([0.0, 0.2, 0.05])
     off = steps_of(here) + np.array([30, -12, 400])
-    move = motion.plan_line(off, here, here, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    move = motion.plan_line(off, here, here, 0.1, KIN, CONFIG)
     np.testing.assert_array_equal(move.end_steps, steps_of(here))
     assert move.duration_s == pytest.approx(400 / 20000.0)
     _check_move(move, 0.1, CONFIG, off)
     # in a real move the catch-up is part of the first segment
     end = np.array([0.05, 0.2, 0.05])
-    move = motion.plan_line(off, here, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    move = motion.plan_line(off, here, end, 0.1, KIN, CONFIG)
     _check_move(move, 0.1, CONFIG, off)
 
 
 def test_sub_resolution_move():
     start = np.array([0.0, 0.2, 0.05])
     end = start + np.array([2e-5, 0.0, 0.0])
-    move = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    move = motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
     assert move.points_xyz.shape == (2, 3)
     np.testing.assert_array_equal(move.end_steps, steps_of(end))
     assert move.duration_s > 0
@@ -326,27 +326,29 @@ def test_bad_arguments():
     here = np.array([0.0, 0.2, 0.05])
     counters = steps_of(here)
     with pytest.raises(ValueError, match="speed_m_s"):
-        motion.plan_line(counters, here, here, 0.0, GEOM, LIMITS, DRIVES, CONFIG)
+        motion.plan_line(counters, here, here, 0.0, KIN, CONFIG)
     with pytest.raises(ValueError, match="end_xyz"):
-        motion.plan_line(counters, here, [0.0, np.nan, 0.0], 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+        motion.plan_line(counters, here, [0.0, np.nan, 0.0], 0.1, KIN, CONFIG)
     with pytest.raises(ValueError, match="start_steps"):
-        motion.plan_line([1.5, 0, 0], here, here, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+        motion.plan_line([1.5, 0, 0], here, here, 0.1, KIN, CONFIG)
     with pytest.raises(ValueError, match="Z drive"):
         bad = (DRIVES[0], DRIVES[1], DRIVES[0])
-        motion.plan_line(counters, here, here, 0.1, GEOM, LIMITS, bad, CONFIG)
+        kin.FiveBarKinematics(geometry=GEOM, limits=LIMITS, drives=bad)
+    with pytest.raises(ValueError, match="kinematics"):
+        motion.plan_line(counters, here, here, 0.1, (GEOM, LIMITS, DRIVES), CONFIG)
 
 
 def test_deterministic():
     start, end = random_targets(2, seed=9)
-    a = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
-    b = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    a = motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
+    b = motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
     for m in range(3):
         assert a.step_times[m].tobytes() == b.step_times[m].tobytes()
 
 
 def test_move_steps_at_agrees_with_steppers_steps_at():
     start, end = random_targets(2, seed=11)
-    move = motion.plan_line(steps_of(start), start, end, 0.1, GEOM, LIMITS, DRIVES, CONFIG)
+    move = motion.plan_line(steps_of(start), start, end, 0.1, KIN, CONFIG)
     times = np.concatenate(
         [np.random.default_rng(12).uniform(-0.1, move.duration_s + 0.1, 500), move.step_times[0]]
     )
@@ -368,7 +370,7 @@ def test_compute_time_per_point_holds_even_at_extreme_acceleration():
     start = np.array([-0.05 + 0.45e-4, 0.18, 0.05])
     end = np.array([0.05 - 0.45e-4, 0.18, 0.05])
     counters = steps_of(start)
-    move = motion.plan_line(counters, start, end, 1.0, GEOM, LIMITS, DRIVES, hasty)
+    move = motion.plan_line(counters, start, end, 1.0, KIN, hasty)
     dt = np.diff(move.point_times_s)
     assert dt.min() >= hasty.compute_time_per_point_s * (1 - 1e-12)
     seg = np.linalg.norm(np.diff(move.points_xyz, axis=0), axis=1)
@@ -388,9 +390,7 @@ def test_diagonal_descent_is_not_capped_by_z_step_bunching():
         start,
         end,
         0.150,
-        GEOM,
-        LIMITS,
-        DRIVES,
+        KIN,
         motion.MotionConfig(accel_m_s2=1.5),
     )
     assert move.peak_speed_m_s == pytest.approx(0.150)

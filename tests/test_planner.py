@@ -147,7 +147,7 @@ def test_forget_before_keeps_later_pulses(machine):
     sgf = SGF(machine.sgf)
     sgf.homed = True
     sgf._logical = machine.sgf.homed_steps
-    sgf._position = machine.sgf.kinematics.point_of_steps(sgf._logical, machine.sgf.drives)
+    sgf._position = machine.sgf.kinematics.point_of_steps(sgf._logical)
     sgf.receive("G1 X0 Y180 Z60", 0.0)
     sgf.receive("G1 X20 Y190 Z70", 0.0)
     times = np.linspace(0.0, 3.0, 301)

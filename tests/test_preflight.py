@@ -31,8 +31,9 @@ def test_path_through_singular_region_refused(tmp_path):
         },
     )
     machine = machine_config(load_scenario(path))
+    arm = machine.kinematics
     ends = kinematics.check_points(
-        machine.geometry, machine.limits, [-0.016, -0.131, -0.125], [0.084, 0.107, 0.110]
+        arm.geometry, arm.limits, [-0.016, -0.131, -0.125], [0.084, 0.107, 0.110]
     )
     assert ends.ok.all()  # every taught point on its own is fine
     with pytest.raises(

@@ -78,7 +78,7 @@ def test_simulated_endstops_trip_at_home_positions():
     )
     assert endstops.read(trip) == (True, True, True, False)
     assert endstops.read(trip + [5, -5, 5]) == (True, True, True, False)
-    assert endstops.z_down_trip_m == config.z_min_m == 0.005
+    assert endstops.z_down_trip_m == config.kinematics.z_min_m == 0.005
     below, above = (int(config.drives[2].to_steps(z - 0.120)) for z in (0.0049, 0.0051))
     assert endstops.read([0, 0, below]) == (False, False, False, True)
     assert endstops.read([0, 0, above]) == (False, False, False, False)
@@ -113,13 +113,13 @@ def test_five_pickup_cycle_through_bus(capsys):
 
     # raw pulses: final position's step counts minus the start, plus the homing overshoot
     drives = config.drives
-    theta1, theta2 = ik(config.geometry, 0.0, 0.140)
+    theta1, theta2 = ik(config.kinematics.geometry, 0.0, 0.140)
     final_steps = np.array(
         [int(drives[0].to_steps(theta1)), int(drives[1].to_steps(theta2)),
          int(drives[2].to_steps(0.100))]
     )  # fmt: skip
     overshoot = sgf.homing_trip_raw - endstops.trip_pulses()
-    locate_rate = np.array(config.homing_locate_rate_hz)
+    locate_rate = np.array(config.homing.locate_rate_hz)
     assert np.all(np.abs(overshoot) <= np.ceil(locate_rate * DT_HOMING_S))
     assert np.array_equal(sgf.logical_steps, final_steps)
     # the logical counter was set to home_steps at raw pulse homing_trip_raw

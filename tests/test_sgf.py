@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from transplanter.machine.gcode import format_line
-from transplanter.machine.kinematics.fivebar import fk, ik
+from transplanter.machine.homing import HomingConfig
+from transplanter.machine.kinematics.fivebar import FiveBarKinematics, fk, ik
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.sgf import SGF, SGFConfig
 
@@ -52,9 +53,9 @@ def test_homing_sets_logical_counters_and_keeps_raw_pulses(homed):
     config = sgf.config
     # the slow locate read each switch closed within a step of reaching it (1 ms polling)
     overshoot = sgf.homing_trip_raw - endstops.trip_pulses()
-    assert np.all(overshoot * np.array(config.homing_dirs) >= 0)
-    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing_locate_rate_hz) * 1e-3))
-    pulloff = np.array(config.homing_dirs) * np.array(config.homing_pulloff_steps)
+    assert np.all(overshoot * np.array(config.homing.dirs) >= 0)
+    assert np.all(np.abs(overshoot) <= np.ceil(np.array(config.homing.locate_rate_hz) * 1e-3))
+    pulloff = np.array(config.homing.dirs) * np.array(config.homing.pulloff_steps)
     assert np.array_equal(sgf.logical_steps, config.home_steps - pulloff)
     assert np.array_equal(sgf.raw_pulses, sgf.homing_trip_raw - pulloff)
     assert np.array_equal(sgf.pulses_at(t + 5.0)[0], sgf.raw_pulses)
@@ -76,15 +77,15 @@ def test_homing_seeks_pulls_off_locates_and_pulls_off_again():
     pulses = sgf.pulses_at(times)
     assert np.array_equal(pulses[0], [0, 0, 0])
     steps = np.diff(pulses, axis=0)
-    assert np.all(np.abs(steps) <= np.ceil(np.array(config.homing_rate_hz) * times[1]))
-    for motor, direction in enumerate(config.homing_dirs):
+    assert np.all(np.abs(steps) <= np.ceil(np.array(config.homing.rate_hz) * times[1]))
+    for motor, direction in enumerate(config.homing.dirs):
         moving = steps[:, motor][steps[:, motor] != 0] * direction
         legs = np.sign(moving[np.r_[True, np.diff(np.sign(moving)) != 0]])
         assert legs.tolist() == [1, -1, 1, -1], motor  # seek, pull-off, locate, pull-off
 
 
 def test_homing_fails_without_switch():
-    config = SGFConfig(homing_max_steps=(200, 200, 400))
+    config = SGFConfig(homing=HomingConfig(max_steps=(200, 200, 400)))
     sgf = SGF(config)
     sgf.receive("G28", 0.0)
     t = 0.0
@@ -132,7 +133,8 @@ def test_homing_polled_at_its_own_times_and_switch_changes_is_homing_polled_ever
     """The twin reads the switches at every physics step but exchanges with the SGF only
     when one changes or when the homing asks (a locate begins, a leg runs out): the same
     homing, to the step, with a fraction of the polls; also when a switch never closes."""
-    config = SGFConfig() if switches_work else SGFConfig(homing_max_steps=(200, 200, 400))
+    dead = SGFConfig(homing=HomingConfig(max_steps=(200, 200, 400)))
+    config = SGFConfig() if switches_work else dead
     runs = []
     for watched in (False, True):
         sgf = SGF(config)
@@ -160,7 +162,7 @@ def test_move_pulses_reach_ik_of_target(homed):
     raw0, logical0 = sgf.raw_pulses, sgf.logical_steps
     replies, t_done = run_line(sgf, "G1 X45 Y200 Z60 S100", t)
     assert replies == ["ok"]
-    theta1, theta2 = ik(sgf.config.geometry, 0.045, 0.200)
+    theta1, theta2 = ik(sgf.config.kinematics.geometry, 0.045, 0.200)
     drives = sgf.config.drives
     expected = np.array(
         [int(drives[0].to_steps(theta1)), int(drives[1].to_steps(theta2)),
@@ -282,7 +284,8 @@ def test_default_home_is_the_folded_back_pose_of_the_model():
     assert config.home_joint_positions == pytest.approx(
         (math.radians(200.0), math.radians(-20.0), 0.160)
     )
-    x, y = fk(config.geometry, config.home_theta1_rad, config.home_theta2_rad, "up")
+    kinematics = config.kinematics
+    x, y = fk(kinematics.geometry, kinematics.home_theta1_rad, kinematics.home_theta2_rad, "up")
     assert (float(x), float(y)) == pytest.approx((0.0, 0.075), abs=5e-4)
 
 
@@ -291,11 +294,13 @@ def test_position_after_homing_uses_the_assembly_of_the_mode(mode):
     """Switches placed so that the pulled-off pose is the IK of (45, 200) mm in ``mode``."""
     base = SGFConfig()
     unit = np.array([d.unit_per_step for d in base.drives])
-    dirs = np.array(base.homing_dirs)
-    pulled_off = np.array([*ik(base.geometry, 0.045, 0.200, mode), 0.159])
-    home_q = pulled_off + dirs * np.array(base.homing_pulloff_steps) * unit
+    dirs = np.array(base.homing.dirs)
+    pulled_off = np.array([*ik(base.kinematics.geometry, 0.045, 0.200, mode), 0.159])
+    home_q = pulled_off + dirs * np.array(base.homing.pulloff_steps) * unit
     config = SGFConfig(
-        mode=mode, home_theta1_rad=home_q[0], home_theta2_rad=home_q[1], home_z_m=home_q[2]
+        kinematics=FiveBarKinematics(
+            mode=mode, home_theta1_rad=home_q[0], home_theta2_rad=home_q[1], home_z_m=home_q[2]
+        )
     )
     sgf = SGF(config)
     home(sgf, SimulatedEndstops(config, home_q - dirs * np.radians(5.0)))
@@ -325,17 +330,18 @@ def test_time_must_not_go_backwards():
 @pytest.mark.parametrize(
     "kwargs",
     [
-        {"z_min_m": 0.2},
-        {"homing_dirs": (1, 0, 1)},
-        {"homing_rate_hz": (0.0, 1.0, 1.0)},
-        {"homing_pulloff_steps": (1, 2)},
+        {"kinematics": lambda: FiveBarKinematics(z_min_m=0.2)},
+        {"homing": lambda: HomingConfig(dirs=(1, 0, 1))},
+        {"homing": lambda: HomingConfig(rate_hz=(0.0, 1.0, 1.0))},
+        {"homing": lambda: HomingConfig(pulloff_steps=(1, 2))},
         {"default_speed_m_s": 0.0},
         {"conveyor_index_s": -1.0},
     ],
 )
 def test_config_validation(kwargs):
+    """A bad setting is refused, whether it lives on the kinematics, the homing or the SGF."""
     with pytest.raises(ValueError):
-        SGFConfig(**kwargs)
+        SGFConfig(**{k: v() if callable(v) else v for k, v in kwargs.items()})
 
 
 def test_every_step_is_out_at_the_ack_time(homed):
@@ -384,17 +390,17 @@ def test_two_pass_homing_trips_within_a_step_of_the_switch():
     sgf = SGF(config)
     endstops = SimulatedEndstops(config, START)
     home_lagging(sgf, endstops, lag_s, dt)
-    overshoot = (sgf.homing_trip_raw - endstops.trip_pulses()) * np.array(config.homing_dirs)
-    locate_rate = np.array(config.homing_locate_rate_hz)
-    assert np.allclose(locate_rate, np.array(config.homing_rate_hz) / 10)
+    overshoot = (sgf.homing_trip_raw - endstops.trip_pulses()) * np.array(config.homing.dirs)
+    locate_rate = np.array(config.homing.locate_rate_hz)
+    assert np.allclose(locate_rate, np.array(config.homing.rate_hz) / 10)
     assert np.all(overshoot >= 0)
     assert np.all(overshoot <= np.ceil(locate_rate * (lag_s + dt)))  # 1, 1, 4 steps
     assert np.all(overshoot[:2] <= 1)  # the single-pass seek was 7-8 steps late on each arm
 
 
 def test_homing_locate_rate_is_configurable_and_validated():
-    config = SGFConfig(homing_locate_rate_hz=(50.0, 50.0, 100.0))
-    assert config.homing_locate_rate_hz == (50.0, 50.0, 100.0)
+    config = SGFConfig(homing=HomingConfig(locate_rate_hz=(50.0, 50.0, 100.0)))
+    assert config.homing.locate_rate_hz == (50.0, 50.0, 100.0)
     sgf_fast = SGF(SGFConfig())
     sgf_slow = SGF(config)
     t_fast = home(sgf_fast, SimulatedEndstops(sgf_fast.config, START))
@@ -402,8 +408,8 @@ def test_homing_locate_rate_is_configurable_and_validated():
     # the arms' locate covers >= 96 pull-off steps: 0.6 s at 160 Hz, 1.9 s at 50 Hz
     assert t_slow - t_fast > 1.0
     for bad in ((0.0, 1.0, 1.0), (1.0, 1.0), (1.0, math.nan, 1.0)):
-        with pytest.raises(ValueError, match="homing_locate_rate_hz"):
-            SGFConfig(homing_locate_rate_hz=bad)
+        with pytest.raises(ValueError, match="homing locate_rate_hz"):
+            SGFConfig(homing=HomingConfig(locate_rate_hz=bad))
 
 
 def test_homing_fails_when_the_switch_stays_closed_after_the_pull_off():
@@ -450,7 +456,7 @@ def test_homing_alone_seeks_pulls_off_locates_and_pulls_off_again():
 
     config = SGFConfig()
     endstops = SimulatedEndstops(config, START)
-    homing = Homing(config, 0.0, np.zeros(3, dtype=np.int64))
+    homing = Homing(config.homing, config.kinematics.axes, 0.0, np.zeros(3, dtype=np.int64))
     t, dt = 0.0, 1e-3
     for _ in range(20_000):  # 20 s of polls at most
         assert homing.update(t, endstops.read(homing.pulses(np.array([t]))[0])) is None
@@ -459,12 +465,12 @@ def test_homing_alone_seeks_pulls_off_locates_and_pulls_off_again():
         t += dt
     assert homing.done_seeking and not homing.failed
     trip = endstops.trip_pulses()
-    dirs = np.array(config.homing_dirs)
+    dirs = np.array(config.homing.dirs)
     assert np.all((homing.trip_raw - trip) * dirs >= 0)
     assert np.all((homing.trip_raw - trip) * dirs <= [1, 1, 1])
-    # after the final pull-off every motor stands homing_pulloff_steps back from its trip
+    # after the final pull-off every motor stands homing.pulloff_steps back from its trip
     end = homing.pulses(np.array([homing.t_done, homing.t_done + 1.0]))
-    expected = homing.trip_raw - dirs * np.array(config.homing_pulloff_steps)
+    expected = homing.trip_raw - dirs * np.array(config.homing.pulloff_steps)
     np.testing.assert_array_equal(end, [expected, expected])
     # raw pulses never jump: at most one step per motor between polls 0.1 ms apart
     times = np.arange(0.0, homing.t_done, 1e-4)
@@ -490,7 +496,7 @@ def test_drives_whose_moves_cannot_be_held_are_refused(steps_per_rev, microsteps
         for name, extra in (("arm1", {}), ("arm2", {}), ("z", {"ratio": 1.0, "lead_m": 0.008}))
     )
     with pytest.raises(ValueError, match=named) as info:
-        SGFConfig(drives=drives)
+        SGFConfig(kinematics=FiveBarKinematics(drives=drives))
     assert "step pulses one move may emit" in str(info.value)
     t0 = time.perf_counter()
     overrides = {"drives.steps_per_rev": steps_per_rev, "drives.microsteps": microsteps}
@@ -506,7 +512,7 @@ def test_paper_class_drives_are_accepted():
         StepperDrive(name, steps_per_rev=400, microsteps=256, **extra)
         for name, extra in (("arm1", {}), ("arm2", {}), ("z", {"ratio": 1.0, "lead_m": 0.008}))
     )
-    SGFConfig(drives=drives)
+    SGFConfig(kinematics=FiveBarKinematics(drives=drives))
 
 
 def test_a_move_with_too_many_step_pulses_is_refused_before_its_events(homed, monkeypatch):
@@ -586,13 +592,13 @@ def test_homing_distances_follow_the_drives_and_256_microsteps_plan():
     from transplanter.scenario.assemble import machine_config
     from transplanter.scenario.schema import load_scenario
 
-    assert SGFConfig().homing_pulloff_steps == (96, 96, 400)
-    assert SGFConfig().homing_max_steps == (4800, 4800, 80000)
+    assert SGFConfig().homing.pulloff_steps == (96, 96, 400)
+    assert SGFConfig().homing.max_steps == (4800, 4800, 80000)
     root = Path(__file__).parents[1]
     machine = machine_config(
         load_scenario(root / "scenarios/paper.toml", {"drives.microsteps": 256})
     )
-    assert machine.sgf.homing_pulloff_steps == (1536, 1536, 6400)
+    assert machine.sgf.homing.pulloff_steps == (1536, 1536, 6400)
     t0 = time.perf_counter()
     rows = plan_program(machine, (root / "scenarios/example.gcode").read_text())
     assert time.perf_counter() - t0 < 30.0
@@ -657,7 +663,7 @@ def test_stalls_while_stopped_or_before_homing_change_nothing():
     assert sgf.stalls == [] and sgf.poll(0.6) == []
     replies, _ = run_line(sgf, "M280 P0 S90", 0.7)
     assert replies == ["ok"]
-    with pytest.raises(ValueError, match="motor must be 0, 1 or 2"):
+    with pytest.raises(ValueError, match=r"motor must be 0 \.\. 2, got 3"):
         sgf.stall(0.8, 3)
 
 

@@ -44,7 +44,7 @@ def test_homing_uses_the_model_limit_switches(scenario):
     cfg = twin.machine.sgf
     logical = twin.sgf.logical_steps
     expected_home = np.asarray(cfg.home_steps)
-    assert np.all(np.abs(logical - expected_home) <= np.asarray(cfg.homing_pulloff_steps) + 2)
+    assert np.all(np.abs(logical - expected_home) <= np.asarray(cfg.homing.pulloff_steps) + 2)
 
 
 def test_moves_wait_for_the_handshake(scenario):

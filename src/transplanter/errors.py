@@ -1,4 +1,14 @@
-"""Every error code the firmware replies with, named once (like grbl's report.h).
+"""The package's errors: one root, the typed refusals of a point, and every firmware code.
+
+:class:`TransplanterError` is the root of every exception the package raises on purpose (a
+scenario, a file, a move, a G-code line, a sweep refused; a simulation that went invalid), so a
+caller catches "any refusal" with one ``except``. A point the kinematics refuse carries
+:class:`Refusal` records (a :class:`RefusalReason` with the joint or quantity, its value and
+its bounds), formatted in one place for the command line and the JSON (:meth:`Refusal.text`,
+:meth:`Refusal.as_dict`) and the 20-column LCD (:meth:`Refusal.short`): nothing reads a
+message back.
+
+Every error code the firmware replies with is named once (like grbl's report.h).
 
 A refused line is answered ``error:<code> <message>``. Codes 1-38 are grbl's numbers with
 grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line framing
@@ -36,9 +46,108 @@ grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line fr
 
 from __future__ import annotations
 
-from enum import IntEnum
+import math
+from dataclasses import dataclass
+from enum import IntEnum, StrEnum
 
-__all__ = ["ErrorCode"]
+from transplanter.units import show, show_outside
+
+__all__ = ["ErrorCode", "Refusal", "RefusalReason", "TransplanterError"]
+
+
+class TransplanterError(Exception):
+    """Root of every error the package raises on purpose: catch it to catch any refusal."""
+
+
+class RefusalReason(StrEnum):
+    """Why a kinematics refuses a point (the value of ``Refusal.reason`` in JSON)."""
+
+    NOT_FINITE = "not_finite"
+    """A coordinate is NaN or infinite."""
+    OUT_OF_WORKSPACE = "out_of_workspace"
+    """No joint values reach the point (a chain cannot close)."""
+    JOINT_LIMIT = "joint_limit"
+    """An axis would leave its window (a motor angle, a slide's travel)."""
+    SERIAL_SINGULARITY = "serial_singularity"
+    """A link pair too folded or too stretched: the workspace boundary."""
+    PARALLEL_SINGULARITY = "parallel_singularity"
+    """The closed chain near a pose where it loses stiffness (uncontrollable)."""
+    ILL_CONDITIONED = "ill_conditioned"
+    """The Jacobian's condition number above its limit."""
+    AXIS_RANGE = "axis_range"
+    """A Cartesian coordinate outside the machine's range (Z below or above its travel)."""
+
+
+@dataclass(frozen=True)
+class Refusal:
+    """One reason a point is refused, with its numbers: what (``subject``), its ``value`` and
+    the bounds it crossed, in ``unit``. ``bound_names`` names the bounds where they are
+    quantities (``L1+L2``) rather than settings."""
+
+    reason: RefusalReason
+    subject: str
+    value: float = math.nan
+    low: float | None = None
+    high: float | None = None
+    unit: str = ""
+    note: str = ""
+    bound_names: tuple[str, str] = ("", "")
+
+    def text(self) -> str:
+        """The refusal as the command line, the firmware's error reply and the JSON show it."""
+        reason, unit = self.reason, self.unit
+        if reason is RefusalReason.NOT_FINITE:
+            return f"outside workspace: {self.subject} are not finite"
+        if reason is RefusalReason.OUT_OF_WORKSPACE:
+            if self.high is not None and self.value > self.high:
+                return (
+                    f"outside workspace: {self.subject}={show(self.value, 4)} {unit} > "
+                    f"{self.bound_names[1]}={self.high:.4f} {unit}"
+                )
+            return (
+                f"outside workspace: {self.subject}={self.value:.4f} {unit} < "
+                f"{self.bound_names[0]}={self.low:.4f} {unit}"
+            )
+        if reason is RefusalReason.ILL_CONDITIONED:
+            return f"{self.subject} {self.value:.3g} > {self.high:g}"
+        if reason is RefusalReason.AXIS_RANGE:
+            return (
+                f"{self.subject} {show(self.value)} {unit} outside "
+                f"[{self.low:.3f}, {self.high:.3f}] {unit}"
+            )
+        value, low, high = show_outside(self.value, self.low, self.high)
+        note = f" ({self.note})" if self.note else ""
+        return f"{self.subject} {value} {unit} outside [{low}, {high}] {unit}{note}"
+
+    def short(self) -> str:
+        """At most 20 characters, for a line of the teach pendant's LCD."""
+        if self.reason in (RefusalReason.NOT_FINITE, RefusalReason.OUT_OF_WORKSPACE):
+            return "out of reach"
+        if self.reason is RefusalReason.SERIAL_SINGULARITY:
+            return "near singularity"
+        if self.reason is RefusalReason.PARALLEL_SINGULARITY:
+            return "parallel singular"
+        if self.reason is RefusalReason.ILL_CONDITIONED:
+            return "ill-conditioned"
+        return f"{self.subject.removesuffix(' angle')} limit"[:20]
+
+    def as_dict(self) -> dict:
+        """The refusal for JSON: reason, subject, value and bounds (None where not set)."""
+        finite = math.isfinite(self.value)
+        return {
+            "reason": str(self.reason),
+            "subject": self.subject,
+            "value": self.value if finite else None,
+            "low": self.low,
+            "high": self.high,
+            "unit": self.unit,
+            "text": self.text(),
+        }
+
+
+def refusal_text(refusals) -> str:
+    """Several refusals of one point as one line (``; ``-joined)."""
+    return "; ".join(r.text() for r in refusals)
 
 
 class ErrorCode(IntEnum):

@@ -18,6 +18,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from transplanter.errors import TransplanterError
+
 __all__ = [
     "FileRefused",
     "check_output",
@@ -29,7 +31,7 @@ __all__ = [
 ]
 
 
-class FileRefused(ValueError):
+class FileRefused(TransplanterError, ValueError):
     """An input or output path that cannot be used; the message says why and what to do."""
 
 

@@ -4,12 +4,12 @@ without physics."""
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 import numpy as np
 
 from transplanter.cli.common import _err, _machine, _show, add_options, ascii_float
+from transplanter.units import M_PER_MM
 
 # A G-code program for `plan`: a 100k-move file is about 3 MB; anything far bigger is not one.
 MAX_GCODE_FILE_BYTES = 64 << 20
@@ -21,31 +21,35 @@ def register(sub) -> None:
 
 
 def _ik_parser(sub) -> None:
-    p = sub.add_parser("ik", help="joint angles for a point of the plane (mm)")
+    p = sub.add_parser("ik", help="joint angles for a point (mm), or why it cannot be reached")
     p.add_argument("x", type=ascii_float, help="x in mm")
     p.add_argument("y", type=ascii_float, help="y in mm")
+    p.add_argument(
+        "z",
+        type=ascii_float,
+        nargs="?",
+        help="z in mm (default: the taught Z_up; the five-bar's plane does not depend on it)",
+    )
     add_options(p, "--scenario", "--set")
     p.set_defaults(func=cmd_ik)
 
 
 def cmd_ik(args: argparse.Namespace) -> int:
-    from transplanter.machine.kinematics import fivebar as kinematics
-
     machine = _machine(args)
     if machine is None:
         return 2
-    x, y = args.x * 1e-3, args.y * 1e-3
-    report = kinematics.check_points(
-        machine.geometry, machine.limits, np.array([x]), np.array([y]), mode=machine.mode
-    )
-    if not report.ok[0]:
-        print(f"({args.x:g}, {args.y:g}) mm cannot be reached: {report.reasons[0]}")
+    kinematics = machine.kinematics
+    z_mm = args.z if args.z is not None else machine.eeprom.z_up_m / M_PER_MM
+    point = np.array([[args.x, args.y, z_mm]]) * M_PER_MM
+    report = kinematics.check(point)
+    shown = f"({args.x:g}, {args.y:g})" if args.z is None else f"({args.x:g}, {args.y:g}, {z_mm:g})"
+    refusal = kinematics.limit_target(point[0])
+    if not report.ok[0] or refusal is not None:
+        reason = report.reasons[0] or refusal.text()
+        print(f"{shown} mm cannot be reached: {reason}")
         return 1
-    t1, t2 = float(report.theta1[0]), float(report.theta2[0])
-    tr = float(kinematics.transmission_angle(machine.geometry, t1, t2, x, y))
-    print(f"theta1 = {math.degrees(t1):.4f} deg")
-    print(f"theta2 = {math.degrees(t2):.4f} deg")
-    print(f"passive-link (transmission) angle = {math.degrees(tr):.4f} deg")
+    for line in kinematics.point_lines(report, 0):
+        print(line)
     return 0
 
 

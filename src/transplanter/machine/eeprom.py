@@ -38,6 +38,7 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
+from transplanter.errors import TransplanterError
 from transplanter.machine.gcode import SERVO_MAX_DEG, valid_servo_angle
 
 EEPROM_SIZE = 4096
@@ -68,7 +69,7 @@ DATA_SIZE = CRC_OFFSET
 assert _HEADER.size == 32 and _PICKUP.size == 20 and CRC_OFFSET == 232
 
 
-class EepromError(ValueError):
+class EepromError(TransplanterError, ValueError):
     """The image cannot be used; the message names why."""
 
 

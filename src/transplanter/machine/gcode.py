@@ -33,7 +33,7 @@ import re
 import unicodedata
 from dataclasses import dataclass, field
 
-from transplanter.errors import ErrorCode
+from transplanter.errors import ErrorCode, TransplanterError
 
 MAX_PAYLOAD_CHARS = 80
 """grbl's LINE_BUFFER_SIZE: the longest payload a line may carry."""
@@ -75,7 +75,7 @@ _NUMBER_RE = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)")
 _DIGITS_RE = re.compile(r"[0-9]+")
 
 
-class GcodeError(ValueError):
+class GcodeError(TransplanterError, ValueError):
     """A line the firmware refuses; ``code`` is the grbl-style error number."""
 
     def __init__(self, code: ErrorCode | int, message: str):

@@ -1,21 +1,21 @@
-"""Homing (G28) of the three motors, like grbl's limits.c: seek, pull off, locate, pull off.
+"""Homing (G28) of an arm's axes, like grbl's limits.c: seek, pull off, locate, pull off.
 
-Z first (``homing_z_first``, grbl's default cycle order), then both arms at once; or every
-motor at once. Each motor: seek the limit switch at ``homing_rate_hz`` until the switch reads
-closed, pull off ``homing_pulloff_steps``, then locate it again slowly at
-``homing_locate_rate_hz`` (the switch must read open first). The fast seek trips late (the
+The axes of ``HomingConfig.first_cycle`` first (Z on the five-bar, grbl's default cycle order
+HOMING_CYCLE_0 = Z), then the others at once; or every axis at once. Each axis: seek its limit
+switch at ``rate_hz`` until the switch reads closed, pull off ``pulloff_steps``, then locate it
+again slowly at ``locate_rate_hz`` (the switch must read open first). The fast seek trips late (the
 motor lags its command, the switch is read once per poll); the slow locate cuts that error
 about tenfold. At the locate trip the SGF sets the logical counter to the switch position;
 then the final pull-off. Homing fails, stopping every motor where it is, with a message
 naming the switch and the likely cause (``Homing.failure_code`` is the reply's code):
 
 - ``HOMING_SWITCH_NOT_FOUND`` (error:69, grbl's ALARM:9): the seek travelled
-  ``homing_max_steps`` without the switch closing (a dead or unplugged switch, or the axis
+  ``max_steps`` without the switch closing (a dead or unplugged switch, or the axis
   blocked before it), or a switch that closed in the seek never closed again in the slow
   locate (an intermittent switch);
 - ``HOMING_SWITCH_STUCK`` (error:68, grbl's ALARM:8): the switch still reads closed after the
   pull-off (a switch stuck closed or shorted wiring; also named when it was already closed
-  as homing began), checked until the locate has travelled its ``homing_locate_scalar``
+  as homing began), checked until the locate has travelled its ``locate_scalar``
   pull-offs.
 
 The SGF reads the switches at each poll and hands them to :meth:`Homing.update`; the raw
@@ -26,68 +26,122 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from transplanter.errors import ErrorCode
-from transplanter.machine.faults import SWITCH_NAMES
+from transplanter.machine.axes import Axis
 
-if TYPE_CHECKING:
-    from transplanter.machine.sgf import SGFConfig
-
-__all__ = ["Homing", "check_homing_settings"]
+__all__ = ["Homing", "HomingConfig"]
 
 _FLOOR_EPS = 1e-9  # keeps floor(k / rate * rate) at k despite rounding
 
+PULLOFF_JOINT = (math.radians(3.6), 0.001)
+"""Default pull-off of a rotary axis (rad) and of a slide (m)."""
+MAX_SEEK_JOINT = (math.pi, 0.200)
+"""Default longest seek of a rotary axis (rad) and of a slide (m)."""
 
-def check_homing_settings(config: SGFConfig) -> None:
-    """ValueError naming the first bad ``homing_*`` setting of an SGF config."""
-    for name in (
-        "homing_rate_hz",
-        "homing_locate_rate_hz",
-        "homing_dirs",
-        "homing_pulloff_steps",
-        "homing_max_steps",
-    ):
-        if len(getattr(config, name)) != 3:
-            raise ValueError(f"SGFConfig.{name} needs one value per motor (3)")
-    for name in ("homing_rate_hz", "homing_locate_rate_hz"):
-        rates = getattr(config, name)
-        if not all(math.isfinite(r) and r > 0 for r in rates):
-            raise ValueError(f"SGFConfig.{name} must be > 0, got {rates}")
-    if any(d not in (-1, 1) for d in config.homing_dirs):
-        raise ValueError(f"SGFConfig.homing_dirs must be +1 or -1, got {config.homing_dirs}")
-    if any(int(p) != p or p < 1 for p in config.homing_pulloff_steps):
-        raise ValueError(
-            "SGFConfig.homing_pulloff_steps must be integers >= 1 (the locate starts "
-            "from a switch that the pull-off has opened)"
-        )
-    if not (math.isfinite(config.homing_locate_scalar) and config.homing_locate_scalar > 1):
-        raise ValueError(
-            f"SGFConfig.homing_locate_scalar must be > 1, got {config.homing_locate_scalar}"
-        )
-    if any(int(p) != p or p < 1 for p in config.homing_max_steps):
-        raise ValueError("SGFConfig.homing_max_steps must be integers >= 1")
+
+@dataclass(frozen=True)
+class HomingConfig:
+    """How G28 homes each axis (one value per axis, in motor order; SI and steps)."""
+
+    rate_hz: tuple[float, ...] = (1600.0, 1600.0, 8000.0)
+    """Step rate of each axis while it seeks its switch and pulls off."""
+    locate_rate_hz: tuple[float, ...] | None = None
+    """Step rate of the slow second approach (locate); None: rate_hz / 10."""
+    dirs: tuple[int, ...] = (+1, -1, +1)
+    """Direction (+1/-1 in step counts) in which each axis seeks its switch."""
+    first_cycle: tuple[int, ...] | None = (2,)
+    """Axes homed alone first, the rest after them together (grbl's HOMING_CYCLE_0 = Z: jaws
+    that stopped among the pots rise clear before the arms swing); None: all at once."""
+    pulloff_steps: tuple[int, ...] | None = None
+    """Steps each axis backs off its switch after it trips; None: 3.6 deg of a rotary joint
+    and 1 mm of a slide in its drive's steps (96, 96, 400 with the five-bar's drives)."""
+    max_steps: tuple[int, ...] | None = None
+    """Longest seek before homing fails; None: half a rotary joint's revolution and 200 mm of
+    a slide in its drive's steps (4800, 4800, 80000 with the five-bar's drives)."""
+    locate_scalar: float = 5.0
+    """The locate fails after this many pull-off distances (grbl's HOMING_AXIS_LOCATE_SCALAR)."""
+
+    def resolved(self, axes: Sequence[Axis]) -> HomingConfig:
+        """This config with every None filled in from the axes' drives, checked: ValueError
+        naming the first bad setting."""
+        per_unit = [axis.drive.steps_per_unit for axis in axes]
+        filled = {}
+        if self.pulloff_steps is None:
+            joint = [PULLOFF_JOINT[axis.linear] for axis in axes]
+            filled["pulloff_steps"] = tuple(
+                max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True)
+            )
+        if self.max_steps is None:
+            joint = [MAX_SEEK_JOINT[axis.linear] for axis in axes]
+            filled["max_steps"] = tuple(
+                max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True)
+            )
+        if self.locate_rate_hz is None:
+            filled["locate_rate_hz"] = tuple(float(r) / 10.0 for r in self.rate_hz)
+        config = replace(self, **filled)
+        config.check(len(axes))
+        return config
+
+    def check(self, n_axes: int) -> None:
+        """ValueError naming the first bad setting for an arm of ``n_axes`` axes."""
+        for name in ("rate_hz", "locate_rate_hz", "dirs", "pulloff_steps", "max_steps"):
+            if len(getattr(self, name)) != n_axes:
+                raise ValueError(f"homing {name} needs one value per axis ({n_axes})")
+        for name in ("rate_hz", "locate_rate_hz"):
+            rates = getattr(self, name)
+            if not all(math.isfinite(r) and r > 0 for r in rates):
+                raise ValueError(f"homing {name} must be > 0, got {rates}")
+        if any(d not in (-1, 1) for d in self.dirs):
+            raise ValueError(f"homing dirs must be +1 or -1, got {self.dirs}")
+        if any(int(p) != p or p < 1 for p in self.pulloff_steps):
+            raise ValueError(
+                "homing pulloff_steps must be integers >= 1 (the locate starts "
+                "from a switch that the pull-off has opened)"
+            )
+        if not (math.isfinite(self.locate_scalar) and self.locate_scalar > 1):
+            raise ValueError(f"homing locate_scalar must be > 1, got {self.locate_scalar}")
+        if any(int(p) != p or p < 1 for p in self.max_steps):
+            raise ValueError("homing max_steps must be integers >= 1")
+        if self.first_cycle is not None and not all(
+            isinstance(a, int) and 0 <= a < n_axes for a in self.first_cycle
+        ):
+            raise ValueError(
+                f"homing first_cycle must name axes 0..{n_axes - 1}, got {self.first_cycle}"
+            )
+
+    @property
+    def cycles(self) -> list[list[int]]:
+        """The homing cycles of ``len(rate_hz)`` axes in order (each a list of axes)."""
+        every = list(range(len(self.rate_hz)))
+        if self.first_cycle is None:
+            return [every]
+        rest = [a for a in every if a not in self.first_cycle]
+        return [list(self.first_cycle)] + ([rest] if rest else [])
 
 
 class Homing:
-    """Raw pulses of the three motors during G28, in closed form (grbl's limits.c).
+    """Raw pulses of every axis's motor during G28, in closed form (grbl's limits.c).
 
     Each motor runs a list of legs ``(t_start, raw_start, direction, rate_hz, max_steps)``;
     a leg lasts until the next one starts. Phases per motor: 0 seek, 1 pull-off then locate,
     2 final pull-off (or stopped after a failure).
     """
 
-    def __init__(self, config: SGFConfig, t0: float, raw0: np.ndarray):
-        """Start homing at ``t0`` from raw pulse counts ``raw0`` with the ``homing_*``
-        settings of ``config``."""
-        self.seek_rate = np.asarray(config.homing_rate_hz, dtype=np.float64)
-        self.locate_rate = np.asarray(config.homing_locate_rate_hz, dtype=np.float64)
-        self.dirs = np.asarray(config.homing_dirs, dtype=np.int64)
-        self.max_steps = np.asarray(config.homing_max_steps, dtype=np.int64)
-        self.pulloff = np.asarray(config.homing_pulloff_steps, dtype=np.int64)
-        self.locate_max_steps = np.ceil(config.homing_locate_scalar * self.pulloff).astype(np.int64)
+    def __init__(self, config: HomingConfig, axes: Sequence[Axis], t0: float, raw0: np.ndarray):
+        """Start homing ``axes`` at ``t0`` from raw pulse counts ``raw0`` with a resolved
+        ``config`` (:meth:`HomingConfig.resolved`)."""
+        n = self.n = len(axes)
+        self.axes = tuple(axes)
+        self.seek_rate = np.asarray(config.rate_hz, dtype=np.float64)
+        self.locate_rate = np.asarray(config.locate_rate_hz, dtype=np.float64)
+        self.dirs = np.asarray(config.dirs, dtype=np.int64)
+        self.max_steps = np.asarray(config.max_steps, dtype=np.int64)
+        self.pulloff = np.asarray(config.pulloff_steps, dtype=np.int64)
+        self.locate_max_steps = np.ceil(config.locate_scalar * self.pulloff).astype(np.int64)
         self.legs = [
             [
                 (
@@ -98,20 +152,20 @@ class Homing:
                     int(self.max_steps[m]),
                 )
             ]
-            for m in range(3)
+            for m in range(n)
         ]
-        self.phase = np.zeros(3, dtype=np.int64)
+        self.phase = np.zeros(n, dtype=np.int64)
         # Phase -1: waiting (holding still) for the first cycle's motors to finish.
-        self.first_cycle = [2] if config.homing_z_first else [0, 1, 2]
-        for m in range(3):
+        self.first_cycle = config.cycles[0]
+        for m in range(n):
             if m not in self.first_cycle:
                 self.legs[m] = [(t0, int(raw0[m]), 1, 0.0, 0)]
                 self.phase[m] = -1
-        self.t_locate = np.full(3, np.inf)
-        self.cleared = np.zeros(3, dtype=bool)  # switch read open since the locate began
-        self.t_end = np.full(3, np.inf)
-        self.trip_raw = np.zeros(3, dtype=np.int64)
-        self.seek_steps = np.zeros(3, dtype=np.int64)  # steps each seek travelled to its trip
+        self.t_locate = np.full(n, np.inf)
+        self.cleared = np.zeros(n, dtype=bool)  # switch read open since the locate began
+        self.t_end = np.full(n, np.inf)
+        self.trip_raw = np.zeros(n, dtype=np.int64)
+        self.seek_steps = np.zeros(n, dtype=np.int64)  # steps each seek travelled to its trip
         self.failed = False
         self.failure_code: ErrorCode | None = None
         self._changed = True  # the last update changed the plan: poll again next step
@@ -119,7 +173,7 @@ class Homing:
             (math.degrees(d.unit_per_step), "deg")
             if not d.linear
             else (d.unit_per_step * 1e3, "mm")
-            for d in config.drives
+            for d in (axis.drive for axis in axes)
         ]
 
     def _motor(self, motor: int, t: np.ndarray) -> np.ndarray:
@@ -132,8 +186,8 @@ class Homing:
         return raw_start[leg] + direction[leg] * n
 
     def pulses(self, t: np.ndarray) -> np.ndarray:
-        """Raw pulse counts of the 3 motors at times t, shape (len(t), 3)."""
-        return np.stack([self._motor(m, t) for m in range(3)], axis=1)
+        """Raw pulse counts of the motors at times t, shape (len(t), n_axes)."""
+        return np.stack([self._motor(m, t) for m in range(self.n)], axis=1)
 
     def _raw(self, motor: int, t: float) -> int:
         return int(self._motor(motor, np.array([t]))[0])
@@ -173,7 +227,7 @@ class Homing:
         if self._changed:
             return now + dt
         events = [math.inf]
-        for motor in range(3):
+        for motor in range(self.n):
             if self.phase[motor] not in (0, 1):
                 continue
             t_start, _, _, rate, count = self.legs[motor][-1]
@@ -201,7 +255,7 @@ class Homing:
                     )
                 )
                 self.phase[m] = 0
-        for motor in range(3):
+        for motor in range(self.n):
             closed = endstops is not None and bool(endstops[motor])
             direction = int(self.dirs[motor])
             if self.phase[motor] == 0:
@@ -267,9 +321,8 @@ class Homing:
                     )
         return None
 
-    @staticmethod
-    def _switch(motor: int) -> str:
-        return f"limit switch {motor + 1} ({SWITCH_NAMES[motor]})"
+    def _switch(self, motor: int) -> str:
+        return f"limit switch {motor + 1} ({self.axes[motor].switch_name})"
 
     def _distance(self, motor: int, steps: int) -> str:
         per_step, unit = self._travel[motor]

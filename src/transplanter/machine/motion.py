@@ -1,8 +1,9 @@
 """Straight-line moves as step events (paper section 2.4).
 
 A move from the current position to a G-code target is interpolated as a 3D Bresenham line on
-a grid of ``resolution_m``; every point is checked against the kinematic limits before anything
-is produced, then solved by IK all at once. Absolute target step counts per point come from
+a grid of ``resolution_m``; every point is checked against the arm's kinematic limits (any
+:class:`~transplanter.machine.kinematics.Kinematics`) before anything is produced, then solved
+by its IK all at once. Absolute target step counts per point come from
 the drives, so steps never drift. A speed profile along the path (trapezoid or S-curve, with
 acceleration at the start and deceleration at the end) gives every point a time, and each
 motor's steps between two points are spread evenly inside that segment's time interval.
@@ -11,13 +12,12 @@ motor's steps between two points are spread evenly inside that segment's time in
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from transplanter.machine.kinematics import fivebar as kin
-from transplanter.machine.steppers import StepperDrive, count_at, step_counts
+from transplanter.machine.kinematics import Kinematics, UnreachableError
+from transplanter.machine.steppers import count_at, step_counts
 from transplanter.units import M_PER_MM, show
 
 PROFILES = ("trapezoid", "scurve")
@@ -99,7 +99,7 @@ def bresenham_3d(start_idx, end_idx) -> np.ndarray:
 
 @dataclass
 class PlannedMove:
-    """A planned straight move: points, joint targets and step events of the 3 motors."""
+    """A planned straight move: points, joint targets and step events of the arm's motors."""
 
     start_xyz: np.ndarray
     """(3,) m, where the move starts."""
@@ -110,17 +110,17 @@ class PlannedMove:
     point_times_s: np.ndarray
     """(N,) s from move start at which each point is reached."""
     joint_positions: np.ndarray
-    """(N, 3): theta1 (rad), theta2 (rad), z (m) at each point."""
+    """(N, n_axes) joint positions at each point (the five-bar: theta1, theta2 in rad, z in m)."""
     point_steps: np.ndarray
-    """(N, 3) int64 absolute motor steps at each point (to_steps of joint_positions)."""
-    step_times: tuple[np.ndarray, np.ndarray, np.ndarray]
+    """(N, n_axes) int64 absolute motor steps at each point (to_steps of joint_positions)."""
+    step_times: tuple[np.ndarray, ...]
     """Per motor, sorted float64 step pulse times (s from move start)."""
-    step_dirs: tuple[np.ndarray, np.ndarray, np.ndarray]
+    step_dirs: tuple[np.ndarray, ...]
     """Per motor, int8 +1/-1 direction of each pulse."""
     start_steps: np.ndarray
-    """(3,) int64 step counters before the move."""
+    """(n_axes,) int64 step counters before the move."""
     end_steps: np.ndarray
-    """(3,) int64 step counters after the move (= point_steps[-1])."""
+    """(n_axes,) int64 step counters after the move (= point_steps[-1])."""
     duration_s: float
     peak_speed_m_s: float
     path_m: np.ndarray | None = None
@@ -136,18 +136,19 @@ class PlannedMove:
     )
 
     def steps_at(self, t) -> np.ndarray:
-        """Step counters of the three motors at times t (s from move start), shape (len(t), 3).
+        """Step counters of the motors at times t (s from move start), shape (len(t), n_axes).
 
         A step counts once t >= its time. The cumulative counts are built on the first call,
         so calling this at every physics step costs one binary search per motor.
         """
+        n = len(self.step_times)
         if self._counts is None:
             self._counts = tuple(
-                step_counts(self.step_dirs[m], self.start_steps[m]) for m in range(3)
+                step_counts(self.step_dirs[m], self.start_steps[m]) for m in range(n)
             )
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
         return np.stack(
-            [count_at(t, self.step_times[m], self._counts[m]) for m in range(3)], axis=-1
+            [count_at(t, self.step_times[m], self._counts[m]) for m in range(n)], axis=-1
         )
 
     @property
@@ -163,23 +164,14 @@ def _vector3(value, name: str) -> np.ndarray:
     return arr
 
 
-def _start_steps(value) -> np.ndarray:
+def _start_steps(value, n: int) -> np.ndarray:
     arr = np.asarray(value)
-    if arr.shape != (3,) or not (
+    if arr.shape != (n,) or not (
         np.issubdtype(arr.dtype, np.integer)
         or (np.issubdtype(arr.dtype, np.floating) and np.all(arr == np.round(arr)))
     ):
-        raise ValueError(f"plan_line: start_steps must be 3 integer step counts, got {value!r}")
+        raise ValueError(f"plan_line: start_steps must be {n} integer step counts, got {value!r}")
     return arr.astype(np.int64)
-
-
-def _check_drives(drives: Sequence[StepperDrive]) -> None:
-    if len(drives) != 3 or not all(isinstance(d, StepperDrive) for d in drives):
-        raise ValueError("plan_line: drives must be 3 StepperDrive (arm 1, arm 2, Z)")
-    if drives[0].linear or drives[1].linear:
-        raise ValueError("plan_line: the arm drives (drives[0], drives[1]) must be rotary")
-    if not drives[2].linear:
-        raise ValueError("plan_line: the Z drive (drives[2]) must be a lead screw (lead_m set)")
 
 
 def _ramp(v0: float, v1: float, accel: float, profile: str) -> tuple[float, float]:
@@ -274,28 +266,29 @@ def plan_line(
     start_xyz,
     end_xyz,
     speed_m_s: float,
-    geom: kin.FiveBarGeometry,
-    limits: kin.KinematicLimits,
-    drives: Sequence[StepperDrive],
+    kinematics: Kinematics,
     config: MotionConfig,
-    mode: str = "+-",
 ) -> PlannedMove:
-    """Plan a straight 3D move from start_xyz to end_xyz (m) at up to speed_m_s.
+    """Plan a straight 3D move of ``kinematics``' arm from start_xyz to end_xyz (m) at up to
+    speed_m_s.
 
-    Raises kinematics.UnreachableError (naming the point and its coordinates in mm) if any
-    interpolated point violates a limit; nothing is planned then. Steps needed to go from
+    Raises UnreachableError (naming the point, its coordinates in mm and its typed refusals)
+    if any interpolated point violates a limit; nothing is planned then. Steps needed to go from
     start_steps to the first point (start_xyz's IK) are part of the first segment.
     Cruise speed = min(speed_m_s, the speed at which the busiest motor reaches its
     max_step_rate_hz, resolution / compute_time_per_point_s).
     """
-    start_counts = _start_steps(start_steps)
+    if not isinstance(kinematics, Kinematics):
+        raise ValueError(f"plan_line: kinematics must be a Kinematics, got {kinematics!r}")
+    drives = kinematics.drives
+    n = len(drives)
+    start_counts = _start_steps(start_steps, n)
     start = _vector3(start_xyz, "start_xyz")
     end = _vector3(end_xyz, "end_xyz")
     if not (isinstance(speed_m_s, int | float | np.floating) and math.isfinite(speed_m_s)):
         raise ValueError(f"plan_line: speed_m_s must be a finite number, got {speed_m_s!r}")
     if speed_m_s <= 0:
         raise ValueError(f"plan_line: speed_m_s must be > 0, got {speed_m_s!r}")
-    _check_drives(drives)
     res = config.resolution_m
 
     # A long move's target first, before any interpolation: a far-away target is refused
@@ -306,11 +299,11 @@ def plan_line(
     major = float(np.max(np.abs(end_idx - start_idx)))
     if major >= _TARGET_FIRST_POINTS:
         try:
-            kin.require_reachable(geom, limits, np.array([end[0]]), np.array([end[1]]), mode)
-        except kin.UnreachableError as err:
+            kinematics.require(end[None, :])
+        except UnreachableError as err:
             last = int(min(major, 2.0**62))
-            raise kin.UnreachableError(
-                last, err.reason, _refusal(start, end, last, last + 1, end, err.reason)
+            raise UnreachableError(
+                last, err.refusals, _refusal(start, end, last, last + 1, end, err.reason)
             ) from None
     if major + 1 > MAX_POINTS_PER_MOVE:
         raise ValueError(
@@ -333,20 +326,20 @@ def plan_line(
             # parameter along the ideal line.
             dom = int(np.argmax(np.abs(grid[-1] - grid[0])))
             line_param = (grid[:, dom] - grid[0, dom]) / (grid[-1, dom] - grid[0, dom])
-            # Z needs no IK: its motor follows the exact line height, so its steps (400 per
-            # mm) are spread evenly instead of bunching 40 at a time at each grid step.
+            # Z follows the exact line height (on the five-bar its lead screw needs no IK),
+            # so its steps (400 per mm) are spread evenly instead of bunching 40 at a time at
+            # each grid step.
             points[:, 2] = start[2] + line_param * (end[2] - start[2])
             points[0] = start
             points[-1] = end
 
     try:
-        theta1, theta2 = kin.require_reachable(geom, limits, points[:, 0], points[:, 1], mode)
-    except kin.UnreachableError as err:
+        joints = kinematics.require(points)
+    except UnreachableError as err:
         message = _refusal(start, end, err.index, points.shape[0], points[err.index], err.reason)
-        raise kin.UnreachableError(err.index, err.reason, message) from None
+        raise UnreachableError(err.index, err.refusals, message) from None
 
-    joints = np.column_stack([theta1, theta2, points[:, 2]])
-    point_steps = np.column_stack([drives[m].to_steps(joints[:, m]) for m in range(3)])
+    point_steps = np.column_stack([drives[m].to_steps(joints[:, m]) for m in range(n)])
     steps_needed = int(np.abs(np.diff(point_steps, axis=0)).sum()) + int(
         np.abs(point_steps[0] - start_counts).sum()
     )
@@ -360,8 +353,8 @@ def plan_line(
     if points.shape[0] == 1:
         correction = point_steps[0] - start_counts
         if not correction.any():
-            empty_t = tuple(np.empty(0) for _ in range(3))
-            empty_d = tuple(np.empty(0, dtype=np.int8) for _ in range(3))
+            empty_t = tuple(np.empty(0) for _ in range(n))
+            empty_d = tuple(np.empty(0, dtype=np.int8) for _ in range(n))
             return PlannedMove(
                 start, end, points, np.zeros(1), joints, point_steps, empty_t, empty_d,
                 start_counts, point_steps[0].copy(), 0.0, 0.0, np.zeros(1),

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from transplanter.errors import TransplanterError
 from transplanter.machine.config import Machine, power_on_joints
 from transplanter.machine.gcode import GcodeError, parse_line, split_program_lines
 from transplanter.machine.rig import DT_HOMING_S, SimulatedEndstops
@@ -22,7 +23,7 @@ __all__ = ["PlanError", "PlannedLine", "plan_program"]
 _ASCII_BLANKS = " \t\r\n"
 
 
-class PlanError(ValueError):
+class PlanError(TransplanterError, ValueError):
     """A line the SGF refused; `line_no` is its 1-based line number in the file."""
 
     def __init__(self, line_no: int, message: str):

@@ -26,12 +26,13 @@ DT_HOMING_S = 1e-3
 
 
 class SimulatedEndstops:
-    """Limit switches 1-4 computed from raw pulses: a switch is closed at or past its trip point.
+    """Limit switches computed from raw pulses: a switch is closed at or past its trip point.
 
-    Switches 1, 2, 3 trip where the SGF's homing expects them (home position, approached in
-    ``homing_dirs``); switch 4 (Z down) trips at or below ``z_down_trip_m`` (default: the
-    config's ``z_min_m``, where the machine's switch 4 sits). ``faults`` (a
-    ``firmware.faults.FaultConfig``) makes a switch read stuck closed or dead.
+    One homing switch per axis (the five-bar's 1, 2, 3) trips where the SGF's homing expects it
+    (the axis's home position, approached in the homing direction); then each lower hard
+    limit of the kinematics (the five-bar's switch 4, Z down) trips at or below its axis's
+    window start, or ``z_down_trip_m`` where given. ``faults`` (a
+    ``machine.faults.FaultConfig``) makes a switch read stuck closed or dead.
     """
 
     def __init__(
@@ -43,34 +44,50 @@ class SimulatedEndstops:
     ):
         self.config = sgf_config
         self.faults = faults
+        kinematics = sgf_config.kinematics
+        n = kinematics.n_axes
         self.initial = np.asarray(initial_joint_positions, dtype=np.float64)
-        if self.initial.shape != (3,) or not np.isfinite(self.initial).all():
-            raise ValueError("initial_joint_positions must be (theta1 rad, theta2 rad, z m)")
+        if self.initial.shape != (n,) or not np.isfinite(self.initial).all():
+            raise ValueError(
+                f"initial_joint_positions must be {n} finite joint positions (rad or m), one "
+                "per axis"
+            )
         self.unit_per_step = np.array([d.unit_per_step for d in sgf_config.drives])
         self.trip = np.asarray(sgf_config.home_joint_positions, dtype=np.float64)
-        self.dirs = np.asarray(sgf_config.homing_dirs, dtype=np.float64)
-        self.z_down_trip_m = float(sgf_config.z_min_m if z_down_trip_m is None else z_down_trip_m)
+        self.dirs = np.asarray(sgf_config.homing.dirs, dtype=np.float64)
+        self.hard_limits = [
+            (axis, kinematics.axes[axis].window[0]) for axis, _ in kinematics.lower_hard_limits
+        ]
+        if z_down_trip_m is not None and self.hard_limits:
+            self.hard_limits[0] = (self.hard_limits[0][0], float(z_down_trip_m))
         beyond = (self.initial - self.trip) * self.dirs > 0
         if beyond.any():
             raise ValueError(
                 f"motor {int(np.flatnonzero(beyond)[0]) + 1} starts beyond its limit switch"
             )
 
+    @property
+    def z_down_trip_m(self) -> float:
+        """Where the first lower hard limit (the five-bar's switch 4, Z down) trips."""
+        return self.hard_limits[0][1]
+
     def joint_positions(self, raw_pulses) -> np.ndarray:
-        """(..., 3) joint positions for (..., 3) raw pulse counts."""
+        """(..., n_axes) joint positions for (..., n_axes) raw pulse counts."""
         return self.initial + np.asarray(raw_pulses) * self.unit_per_step
 
     def trip_pulses(self) -> np.ndarray:
-        """Fewest raw pulses (signed, in the homing direction) that close switches 1-3."""
+        """Fewest raw pulses (signed, in the homing direction) that close the homing switches."""
         exact = (self.trip - self.initial) / self.unit_per_step
         return (self.dirs * np.ceil(np.abs(exact) - 1e-9)).astype(np.int64)
 
-    def read(self, raw_pulses) -> tuple[bool, bool, bool, bool]:
-        """Switch states (1, 2, 3, 4) at the given raw pulse counts."""
+    def read(self, raw_pulses) -> tuple[bool, ...]:
+        """Switch states (the homing switches, then the hard limits) at raw pulse counts."""
         raw = np.asarray(raw_pulses, dtype=np.int64)
         closed = (raw - self.trip_pulses()) * self.dirs.astype(np.int64) >= 0
-        z = self.joint_positions(raw)[2]
-        states = (bool(closed[0]), bool(closed[1]), bool(closed[2]), bool(z <= self.z_down_trip_m))
+        joints = self.joint_positions(raw)
+        states = tuple(bool(c) for c in closed) + tuple(
+            bool(joints[axis] <= trip) for axis, trip in self.hard_limits
+        )
         return states if self.faults is None else self.faults.switches(states)
 
 

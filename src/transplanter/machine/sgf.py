@@ -19,13 +19,18 @@ its reply when it is done, so replies come back in line order:
   order (a real UART loses the bytes; with N framing the next line is then out of
   sequence). A host that waits for ``ok`` before each line (the PGF) never fills them.
   A line over ``gcode.MAX_LINE_CHARS`` (256) characters gets ``error:11`` (line overflow).
-- ``G28``: two-pass homing like grbl's (:class:`transplanter.machine.homing.Homing`): seek,
-  pull off, slow locate, pull off; ``ok`` once done, ``error:69`` if a switch never closes,
+- ``G28``: two-pass homing of every axis like grbl's (:class:`~transplanter.machine.homing.Homing`):
+  seek, pull off, slow locate, pull off; ``ok`` once done, ``error:69`` if a switch never closes,
   ``error:68`` if one stays closed after the pull-off (each naming the switch and the likely
   cause), every motor stopped where it is. Moves before homing are refused (error 9, like
   grbl's alarm lock).
-- Limit switch 4 (Z down) is a hard limit: a move that would lower Z while it reads closed is
-  refused with ``error:70`` (a stuck or shorted switch, or Z lost steps downwards).
+- A lower hard-limit switch of the kinematics (the five-bar's switch 4, Z down): a move that
+  would lower its coordinate while it reads closed is refused with ``error:70`` (a stuck or
+  shorted switch, or the axis lost steps downwards).
+
+The arm is the config's :class:`~transplanter.machine.kinematics.Kinematics`, whatever its
+kind: every interpolated point goes through its IK and reach check, and its axes (any number)
+are the motors.
 - Stall (``stall()``, a driver's stall output such as Trinamic StallGuard's DIAG pin, wired
   only when ``stall_detection``): every motor stops where it is, the running line and
   every queued or buffered line are answered ``error:67``, and the position is unknown
@@ -48,59 +53,29 @@ import numpy as np
 
 from transplanter.errors import ErrorCode
 from transplanter.machine.gcode import MAX_LINE_CHARS, GcodeError, GcodeLine, parse_line
-from transplanter.machine.homing import Homing, check_homing_settings
-from transplanter.machine.kinematics.fivebar import (
-    FiveBarGeometry,
-    FiveBarKinematics,
-    KinematicLimits,
-    UnreachableError,
-)
+from transplanter.machine.homing import Homing, HomingConfig
+from transplanter.machine.kinematics import Kinematics, UnreachableError
+from transplanter.machine.kinematics.fivebar import FiveBarKinematics
 from transplanter.machine.motion import MAX_STEPS_PER_MOVE, MotionConfig, PlannedMove, plan_line
-from transplanter.machine.steppers import StepperDrive, default_drives
+from transplanter.machine.steppers import StepperDrive
 from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS, show
 
 
 @dataclass(frozen=True)
 class SGFConfig:
-    """Machine, homing and timing settings of the SGF (SI units)."""
+    """The machine the SGF drives (its kinematics, with the axes' drives), how it moves and
+    homes, and its timing and buffers (SI units). Each setting is held here once."""
 
-    geometry: FiveBarGeometry = field(default_factory=FiveBarGeometry)
-    limits: KinematicLimits = field(default_factory=KinematicLimits)
-    drives: tuple[StepperDrive, StepperDrive, StepperDrive] = field(default_factory=default_drives)
-    """(arm 1, arm 2, Z) drives."""
+    kinematics: Kinematics = field(default_factory=FiveBarKinematics)
+    """The arm: its axes (drives, homing switch positions, windows), IK, FK and limits."""
     motion: MotionConfig = field(default_factory=MotionConfig)
-    z_min_m: float = 0.005
-    z_max_m: float = 0.160
-    home_theta1_rad: float = math.radians(200.0)
-    """Motor 1 angle at which limit switch 1 trips (arms folded back, C at (0, 75) mm)."""
-    home_theta2_rad: float = math.radians(-20.0)
-    """Motor 2 angle at which limit switch 2 trips."""
-    home_z_m: float = 0.160
-    """Z at which limit switch 3 (Z up) trips."""
-    homing_rate_hz: tuple[float, float, float] = (1600.0, 1600.0, 8000.0)
-    """Step rate of each motor while it seeks its switch and pulls off."""
-    homing_locate_rate_hz: tuple[float, float, float] | None = None
-    """Step rate of the slow second approach (locate); None: homing_rate_hz / 10."""
-    homing_dirs: tuple[int, int, int] = (+1, -1, +1)
-    """Direction (+1/-1 in step counts) in which each motor seeks its switch."""
-    homing_z_first: bool = True
-    """Home Z (up) alone first, then both arms, like grbl's default HOMING_CYCLE_0 = Z:
-    jaws that stopped among the pots rise clear of them before the arms swing."""
-    homing_pulloff_steps: tuple[int, int, int] | None = None
-    """Steps each motor backs off its switch after it trips; None: 3.6 deg of each arm joint
-    and 1 mm of Z in the drives' steps (96, 96, 400 with the default drives)."""
-    homing_max_steps: tuple[int, int, int] | None = None
-    """Longest seek before homing fails; None: half an arm joint revolution and 200 mm of
-    Z in the drives' steps (4800, 4800, 80000 with the default drives)."""
-    homing_locate_scalar: float = 5.0
-    """The locate fails after this many pull-off distances (grbl's HOMING_AXIS_LOCATE_SCALAR)."""
+    homing: HomingConfig = field(default_factory=HomingConfig)
+    """How G28 homes each axis; the defaults left None are filled in from the drives."""
     default_speed_m_s: float = 0.05
     """Speed of G0/G1 moves until a move gives S or F (modal afterwards)."""
     conveyor_index_s: float = 0.6
     require_checksum: bool = False
     """Refuse lines without Marlin ``N<n> ... *<checksum>`` framing."""
-    mode: str = "+-"
-    """Five-bar working mode passed to the IK (paper: '+-', elbows out)."""
     command_queue_lines: int = 4
     """Parsed lines waiting behind the running one (Marlin's BUFSIZE = 4)."""
     stall_detection: bool = False
@@ -113,26 +88,11 @@ class SGFConfig:
     fit is dropped with error:66 (see the module docstring)."""
 
     def __post_init__(self):
-        if len(self.drives) != 3:
-            raise ValueError("SGFConfig.drives must be (arm1, arm2, z)")
-        if not (math.isfinite(self.z_min_m) and self.z_min_m < self.z_max_m):
-            raise ValueError(
-                f"SGFConfig needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
-            )
-        if len(self.drives) == 3 and all(isinstance(d, StepperDrive) for d in self.drives):
-            per_unit = [d.steps_per_unit for d in self.drives]
-            if self.homing_pulloff_steps is None:
-                joint = (math.radians(3.6), math.radians(3.6), 0.001)
-                pulloff = tuple(max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True))
-                object.__setattr__(self, "homing_pulloff_steps", pulloff)
-            if self.homing_max_steps is None:
-                joint = (math.pi, math.pi, 0.200)
-                longest = tuple(max(1, round(u * q)) for u, q in zip(per_unit, joint, strict=True))
-                object.__setattr__(self, "homing_max_steps", longest)
-        if self.homing_locate_rate_hz is None:
-            locate = tuple(float(r) / 10.0 for r in self.homing_rate_hz)
-            object.__setattr__(self, "homing_locate_rate_hz", locate)
-        check_homing_settings(self)
+        if not isinstance(self.kinematics, Kinematics):
+            raise ValueError(f"SGFConfig.kinematics must be a Kinematics, got {self.kinematics!r}")
+        if not isinstance(self.homing, HomingConfig):
+            raise ValueError(f"SGFConfig.homing must be a HomingConfig, got {self.homing!r}")
+        object.__setattr__(self, "homing", self.homing.resolved(self.kinematics.axes))
         self._check_steps_per_move()
         if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
             raise ValueError(
@@ -156,54 +116,50 @@ class SGFConfig:
             )
 
     def _check_steps_per_move(self) -> None:
-        """Refuse drives whose longest possible move (each joint across its whole range:
-        the motor windows, z_min..z_max) needs more step pulses than a move may emit
-        (motion.MAX_STEPS_PER_MOVE): the SGF could not hold such a move's step events."""
-        spans = (
-            *(hi - lo for lo, hi in (self.limits.motor_window(m) for m in (1, 2))),
-            self.z_max_m - self.z_min_m,
-        )
-        needed = [d.steps_per_unit * span for d, span in zip(self.drives, spans, strict=True)]
+        """Refuse drives whose longest possible move (each axis across its whole window)
+        needs more step pulses than a move may emit (motion.MAX_STEPS_PER_MOVE): the SGF
+        could not hold such a move's step events."""
+        axes = self.kinematics.axes
+        spans = [hi - lo for lo, hi in (axis.window for axis in axes)]
+        needed = [a.drive.steps_per_unit * span for a, span in zip(axes, spans, strict=True)]
         if sum(needed) <= MAX_STEPS_PER_MOVE:
             return
         worst = int(np.argmax(needed))
-        drive = self.drives[worst]
+        drive = axes[worst].drive
         unit = "m of Z travel" if drive.linear else "rad of its motor window"
         raise ValueError(
             f"drive {drive.name!r} with steps_per_rev={drive.steps_per_rev} and "
             f"microsteps={drive.microsteps} needs {needed[worst]:.4g} step pulses across "
-            f"{spans[worst]:.4g} {unit}; the three drives need {sum(needed):.4g} for a "
+            f"{spans[worst]:.4g} {unit}; the {len(axes)} drives need {sum(needed):.4g} for a "
             f"move across the whole workspace, more than the {MAX_STEPS_PER_MOVE} step "
             "pulses one move may emit: lower steps_per_rev or microsteps"
         )
 
     @property
-    def home_joint_positions(self) -> tuple[float, float, float]:
-        """Joint positions (rad, rad, m) at which switches 1, 2, 3 trip."""
-        return (self.home_theta1_rad, self.home_theta2_rad, self.home_z_m)
+    def drives(self) -> tuple[StepperDrive, ...]:
+        """The axes' drives, in motor order."""
+        return self.kinematics.drives
 
     @property
-    def kinematics(self) -> FiveBarKinematics:
-        """The arm's kinematics in this config's working mode."""
-        return FiveBarKinematics(self.geometry, self.limits, self.mode)
+    def n_axes(self) -> int:
+        return self.kinematics.n_axes
+
+    @property
+    def home_joint_positions(self) -> tuple[float, ...]:
+        """Joint positions (rad or m) at which the homing switches trip."""
+        return tuple(float(q) for q in self.kinematics.home_joints)
 
     @property
     def homed_steps(self) -> np.ndarray:
         """Logical step counters after G28: the switch positions less the final pull-off."""
-        return self.home_steps - np.asarray(self.homing_dirs) * np.asarray(
-            self.homing_pulloff_steps
+        return self.home_steps - np.asarray(self.homing.dirs) * np.asarray(
+            self.homing.pulloff_steps
         )
 
     @property
     def home_steps(self) -> np.ndarray:
         """Logical step counters homing sets when each switch trips (nearest step)."""
-        return np.array(
-            [
-                int(d.to_steps(q))
-                for d, q in zip(self.drives, self.home_joint_positions, strict=True)
-            ],
-            dtype=np.int64,
-        )
+        return self.kinematics.home_steps
 
 
 @dataclass
@@ -239,8 +195,9 @@ class SGF:
         self._speed_m_s = self.config.default_speed_m_s
         self._endstops: tuple[bool, ...] | None = None
         self.homed = False
-        self._raw = np.zeros(3, dtype=np.int64)  # raw pulses once the last segment ended
-        self._logical = np.zeros(3, dtype=np.int64)
+        n = self.config.n_axes
+        self._raw = np.zeros(n, dtype=np.int64)  # raw pulses once the last segment ended
+        self._logical = np.zeros(n, dtype=np.int64)
         self._position = np.full(3, np.nan)
         # motion history for pulses_at: segment start times and evaluators
         self._segment_starts: list[float] = []
@@ -388,9 +345,9 @@ class SGF:
         return None
 
     def pulses_at(self, times) -> np.ndarray:
-        """Raw pulse counts of the 3 motors at each time, shape (n, 3) int64."""
+        """Raw pulse counts of the motors at each time, shape (n, n_axes) int64."""
         times = np.atleast_1d(np.asarray(times, dtype=np.float64))
-        out = np.zeros((times.size, 3), dtype=np.int64)
+        out = np.zeros((times.size, self.config.n_axes), dtype=np.int64)
         if not self._segments:
             return out
         index = np.searchsorted(np.asarray(self._segment_starts), times, side="right") - 1
@@ -418,7 +375,7 @@ class SGF:
         return keep_from
 
     def stall(self, now: float, motor: int) -> None:
-        """A driver reports that ``motor`` (0, 1, 2) stalled at ``now``: stop everything
+        """A driver reports that ``motor`` (0 .. n_axes - 1) stalled at ``now``: stop everything
         (ignored while the position is unknown and no homing runs: already stopped).
 
         The motors hold the pulse counts they had at ``now``; the running line ends with
@@ -426,13 +383,13 @@ class SGF:
         line still gets exactly one reply, in order); the position is unknown until ``G28``.
         """
         self._check_time(now)
-        if motor not in (0, 1, 2):
-            raise ValueError(f"motor must be 0, 1 or 2, got {motor!r}")
+        if motor not in range(self.config.n_axes):
+            raise ValueError(f"motor must be 0 .. {self.config.n_axes - 1}, got {motor!r}")
         if not (self.homed or self.homing):
             return  # already stopped, or never homed: nothing runs that a stall could stop
         self.stalls.append((now, motor))
         held = self.pulses_at(now)[0]
-        self._add_segment(now, lambda t: np.broadcast_to(held, (np.size(t), 3)).copy())
+        self._add_segment(now, lambda t: np.broadcast_to(held, (np.size(t), held.size)).copy())
         self._raw = held.copy()
         self.homed = False
         self._position[:] = np.nan
@@ -491,7 +448,7 @@ class SGF:
             elif command == "G4":
                 job.t_done = t0 + words["P"] * S_PER_MS
             elif command == "G28":
-                job.homing = Homing(self.config, t0, self._raw)
+                job.homing = Homing(self.config.homing, self.config.kinematics.axes, t0, self._raw)
                 self._add_segment(t0, job.homing.pulses)
                 job.t_done = math.nan
                 job.replies = ["ok"]
@@ -519,8 +476,9 @@ class SGF:
     def _start_move(self, job: _Job, words: dict[str, float]) -> None:
         if not self.homed:
             raise GcodeError(ErrorCode.SYSTEM_LOCKED, "position unknown: home first with G28")
+        kinematics = self.config.kinematics
         target = self._position.copy()
-        for axis, letter in enumerate("XYZ"):
+        for axis, letter in enumerate(kinematics.coordinates):
             if letter in words:
                 value = words[letter] * M_PER_MM
                 target[axis] = value if self._absolute else target[axis] + value
@@ -529,29 +487,18 @@ class SGF:
             speed_m_s = words["S"] * M_PER_MM
         elif "F" in words:
             speed_m_s = words["F"] * MM_PER_MIN_TO_M_S
-        z = target[2]
-        if not self.config.z_min_m <= z <= self.config.z_max_m:
-            raise GcodeError(
-                ErrorCode.INVALID_TARGET,
-                f"Z {show(z / M_PER_MM)} mm outside [{self.config.z_min_m / M_PER_MM:.3f}, "
-                f"{self.config.z_max_m / M_PER_MM:.3f}] mm",
-            )
+        refusal = kinematics.limit_target(target)
+        if refusal is not None:
+            raise GcodeError(ErrorCode.INVALID_TARGET, refusal.text())
         switches = self._endstops or ()
-        if z < self._position[2] and len(switches) > 3 and switches[3]:
-            raise GcodeError(
-                ErrorCode.LIMIT_SWITCH_CLOSED,
-                f"limit switch 4 (Z down) reads closed at Z {self._position[2] / M_PER_MM:.3f} "
-                f"mm, above its trip point at {self.config.z_min_m / M_PER_MM:.3f} mm: the "
-                "switch is stuck closed or its wiring is shorted (M119 shows it TRIGGERED), or "
-                "Z lost steps downwards; Z will not move down. Check the switch and its "
-                "wiring, then home with G28",
-            )
+        for axis, switch in kinematics.lower_hard_limits:
+            if target[axis] < self._position[axis] and len(switches) > switch and switches[switch]:
+                raise GcodeError(ErrorCode.LIMIT_SWITCH_CLOSED, self._hard_limit(axis, switch))
         config = self.config
         try:
             move = plan_line(
-                self._logical, self._position, target, speed_m_s,
-                config.geometry, config.limits, config.drives, config.motion, config.mode,
-            )  # fmt: skip
+                self._logical, self._position, target, speed_m_s, kinematics, config.motion
+            )
         except UnreachableError as error:
             shown = ", ".join(show(v / M_PER_MM) for v in target)
             raise GcodeError(
@@ -601,9 +548,7 @@ class SGF:
             if not homing.failed:
                 self.homing_trip_raw = homing.trip_raw.copy()
                 self._logical = self.config.homed_steps
-                self._position = self.config.kinematics.point_of_steps(
-                    self._logical, self.config.drives
-                )
+                self._position = self.config.kinematics.point_of_steps(self._logical)
                 self.homed = True
                 self._machine_events.append((t, "homed"))
         elif job.move is not None:
@@ -614,10 +559,23 @@ class SGF:
         self._t_free = t
         self._current = None
 
+    def _hard_limit(self, axis: int, switch: int) -> str:
+        letter = self.config.kinematics.coordinates[axis]
+        trip = self.config.kinematics.axes[axis].window[0]
+        return (
+            f"limit switch {switch + 1} ({letter} down) reads closed at {letter} "
+            f"{self._position[axis] / M_PER_MM:.3f} mm, above its trip point at "
+            f"{trip / M_PER_MM:.3f} mm: the switch is stuck closed or its wiring is shorted "
+            f"(M119 shows it TRIGGERED), or {letter} lost steps downwards; {letter} will not "
+            "move down. Check the switch and its wiring, then home with G28"
+        )
+
     def _position_report(self) -> str:
-        x, y, z = (f"{v / M_PER_MM:.3f}".replace("-0.000", "0.000") for v in self._position)
-        a, b, c = (int(s) for s in self._logical)
-        return f"X:{x} Y:{y} Z:{z} A:{a} B:{b} C:{c}"
+        coords = (f"{v / M_PER_MM:.3f}".replace("-0.000", "0.000") for v in self._position)
+        letters = self.config.kinematics.coordinates
+        shown = [f"{c}:{v}" for c, v in zip(letters, coords, strict=True)]
+        shown += [f"{chr(ord('A') + m)}:{int(s)}" for m, s in enumerate(self._logical)]
+        return " ".join(shown)
 
     def _endstop_report(self) -> str:
         if self._endstops is None:

@@ -25,13 +25,13 @@ from transplanter.machine.eeprom import (
     Pickup,
 )
 from transplanter.machine.faults import FaultConfig
-from transplanter.machine.kinematics.fivebar import FiveBarGeometry, KinematicLimits
+from transplanter.machine.kinematics import Kinematics, UnknownKind, kinematics_class
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.pgf import PGFConfig, build_program
 from transplanter.machine.sgf import SGFConfig
-from transplanter.machine.steppers import StepperDrive
 from transplanter.scenario.schema import Scenario, ScenarioError, TaughtPickup, TaughtSection
 from transplanter.scene import SceneConfig
+from transplanter.scene import kinds as scene_kinds
 from transplanter.units import M_PER_MM
 
 __all__ = [
@@ -172,31 +172,20 @@ def machine_config(s: Scenario) -> Machine:
         ) from None
 
 
+def robot_kinematics(s: Scenario) -> Kinematics:
+    """The arm of the scenario's ``[robot] kind``, made by its kinematics class from the
+    scenario (the registry in ``transplanter.machine.kinematics``); an unknown kind is a
+    ScenarioError naming the known ones."""
+    try:
+        cls = kinematics_class(s.robot.kind)
+    except UnknownKind as exc:
+        raise ScenarioError(f"robot.kind: {exc}.") from None
+    return cls.from_scenario(s)
+
+
 def _machine(s: Scenario) -> Machine:
-    arm, lim, drv, mot, grip = s.arm, s.limits, s.drives, s.motion, s.gripper
-    geometry = FiveBarGeometry(l0_m=arm.l0_m, l1_m=arm.l1_m, l2_m=arm.l2_m)
-    limits = KinematicLimits(
-        motor1_min_rad=lim.motor1_min_rad,
-        motor1_max_rad=lim.motor1_max_rad,
-        motor2_min_rad=lim.motor2_min_rad,
-        motor2_max_rad=lim.motor2_max_rad,
-        elbow_min_rad=lim.elbow_min_rad,
-        elbow_max_rad=lim.elbow_max_rad,
-        transmission_min_rad=lim.transmission_min_rad,
-        transmission_max_rad=lim.transmission_max_rad,
-        max_condition=lim.max_condition,
-    )
-    common = dict(
-        steps_per_rev=drv.steps_per_rev,
-        microsteps=drv.microsteps,
-        max_step_rate_hz=drv.max_step_rate_hz,
-        holding_torque_nm=drv.holding_torque_nm,
-    )
-    drives = (
-        StepperDrive("arm1", ratio=drv.arm_belt_ratio, **common),
-        StepperDrive("arm2", ratio=drv.arm_belt_ratio, **common),
-        StepperDrive("z", ratio=1.0, lead_m=drv.z_lead_m, **common),
-    )
+    mot, grip = s.motion, s.gripper
+    kinematics = robot_kinematics(s)
     motion = MotionConfig(
         resolution_m=mot.resolution_m,
         accel_m_s2=mot.accel_m_s2,
@@ -204,23 +193,10 @@ def _machine(s: Scenario) -> Machine:
         compute_time_per_point_s=mot.compute_time_per_point_s,
     )
     sgf = SGFConfig(
-        geometry=geometry,
-        limits=limits,
-        drives=drives,
+        kinematics=kinematics,
         motion=motion,
-        z_min_m=lim.z_min_m,
-        z_max_m=lim.z_max_m,
-        home_theta1_rad=drv.switch1_theta1_rad,
-        home_theta2_rad=drv.switch2_theta2_rad,
-        home_z_m=drv.switch3_z_m,
-        homing_locate_rate_hz=(
-            drv.homing_locate_rate_arm_hz,
-            drv.homing_locate_rate_arm_hz,
-            drv.homing_locate_rate_z_hz,
-        ),
-        homing_rate_hz=(drv.homing_rate_arm_hz, drv.homing_rate_arm_hz, drv.homing_rate_z_hz),
+        homing=type(kinematics).homing_from_scenario(s),
         conveyor_index_s=s.conveyor.index_time_s,
-        mode=arm.working_mode,
         stall_detection=s.recovery.stall_detection,
     )
     pgf = PGFConfig(
@@ -259,9 +235,7 @@ def _machine(s: Scenario) -> Machine:
     # The PGF works from the EEPROM's bytes, as on the machine: quantised and CRC-checked.
     eeprom = EepromImage.from_bytes(taught_image.to_bytes())
     _check_quantised(taught_image, eeprom)
-    return Machine(
-        geometry, limits, arm.working_mode, drives, motion, sgf, pgf, eeprom, s.bus.baud_bps
-    )
+    return Machine(sgf, pgf, eeprom, s.bus.baud_bps)
 
 
 TAUGHT_QUANTA = {
@@ -371,10 +345,22 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
     arm, drv, grip, conv, pots, tube, phys, lim = (
         s.arm, s.drives, s.gripper, s.conveyor, s.pots, s.drop_tube, s.physics, s.limits,
     )  # fmt: skip
+    for group, kind in (
+        ("robot", s.robot.kind),
+        ("effector", s.effector.kind),
+        ("workcell", s.workcell.kind),
+    ):
+        try:
+            getattr(scene_kinds, group)(kind)
+        except scene_kinds.UnknownSceneKind as exc:
+            raise ScenarioError(f"{group}.kind: {exc}.") from None
     theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
     stop = HARD_STOP_BEYOND_WINDOW_RAD
     try:
         return SceneConfig(
+            robot_kind=s.robot.kind,
+            effector_kind=s.effector.kind,
+            workcell_kind=s.workcell.kind,
             l0=arm.l0_m,
             l1=arm.l1_m,
             l2=arm.l2_m,

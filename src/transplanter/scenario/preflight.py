@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from transplanter.machine.config import Machine
-from transplanter.machine.kinematics import fivebar as kinematics
+from transplanter.machine.kinematics import UnreachableError
 from transplanter.machine.motion import plan_line
 from transplanter.scenario.schema import ScenarioError
 from transplanter.units import M_PER_MM
@@ -41,22 +41,22 @@ def check_machine(machine: Machine) -> None:
     the EEPROM image), speed or move that fails."""
     taught = machine.eeprom
     check_taught_speeds(machine)
-    points: list[tuple[str, tuple[float, float]]] = [("taught.drop_mm", taught.drop_xy_m)]
+    z_low, z_up = taught.z_low_m, taught.z_up_m
+    points: list[tuple[str, tuple[float, float], float]] = [
+        ("taught.drop_mm", taught.drop_xy_m, z_up)
+    ]
     for i, p in enumerate(taught.pickups):
-        points.append((f"taught.pickup[{i}].approach_mm", p.approach_xy_m))
-        points.append((f"taught.pickup[{i}].grip_mm", p.grip_xy_m))
-    xy = np.array([p for _, p in points])
-    report = kinematics.check_points(
-        machine.geometry, machine.limits, xy[:, 0], xy[:, 1], mode=machine.mode
-    )
-    for (key, p), ok, reason in zip(points, report.ok, report.reasons, strict=True):
+        points.append((f"taught.pickup[{i}].approach_mm", p.approach_xy_m, z_low))
+        points.append((f"taught.pickup[{i}].grip_mm", p.grip_xy_m, z_low))
+    xyz = np.array([(*p, z) for _, p, z in points])
+    report = machine.kinematics.check(xyz)
+    for (key, p, _), ok, reason in zip(points, report.ok, report.reasons, strict=True):
         if not ok:
             raise ScenarioError(
                 f"{key} = [{p[0] / M_PER_MM:g}, {p[1] / M_PER_MM:g}] mm cannot be reached: "
                 f"{reason}. "
                 "Teach a point inside the workspace."
             )
-    z_low, z_up = taught.z_low_m, taught.z_up_m
     drop = (*taught.drop_xy_m, z_up)
     homed = _homed_xyz(machine)
     _require_line(
@@ -108,7 +108,7 @@ def _require_line(machine, a, b, what: str, hint: str) -> None:
     would refuse the straight line from a to b."""
     try:
         _check_line(machine, a, b)
-    except kinematics.UnreachableError as exc:
+    except UnreachableError as exc:
         raise ScenarioError(
             f"{what} {_mm(a)} to {_mm(b)} mm leaves the workspace: {exc.reason}. {hint}"
         ) from None
@@ -117,25 +117,15 @@ def _require_line(machine, a, b, what: str, hint: str) -> None:
 def _homed_xyz(machine) -> tuple[float, float, float]:
     """Where G28 leaves the machine: the SGF's homed step counters, through its kinematics."""
     sgf = machine.sgf
-    x, y, z = sgf.kinematics.point_of_steps(sgf.homed_steps, sgf.drives)
+    x, y, z = sgf.kinematics.point_of_steps(sgf.homed_steps)
     return (float(x), float(y), float(z))
 
 
 def _check_line(machine, a, b) -> None:
     start = np.asarray(a, dtype=float)
-    steps = machine.sgf.kinematics.steps_of_point(start, machine.drives)
+    steps = machine.kinematics.steps_of_point(start)
     speed = machine.eeprom.s_high_m_s
-    plan_line(
-        steps,
-        start,
-        np.asarray(b, dtype=float),
-        speed,
-        machine.geometry,
-        machine.limits,
-        machine.drives,
-        machine.motion,
-        mode=machine.mode,
-    )
+    plan_line(steps, start, np.asarray(b, dtype=float), speed, machine.kinematics, machine.motion)
 
 
 def longest_line_s(machine: Machine) -> tuple[float, str]:
@@ -143,12 +133,13 @@ def longest_line_s(machine: Machine) -> tuple[float, str]:
     that line is: a homing that finds each switch at the end of its seek and locate, the
     longest taught move at its speed, a dwell or a conveyor index."""
     sgf, pgf, taught = machine.sgf, machine.pgf, machine.eeprom
-    seek, locate = np.asarray(sgf.homing_rate_hz), np.asarray(sgf.homing_locate_rate_hz)
-    pulloff, longest = np.asarray(sgf.homing_pulloff_steps), np.asarray(sgf.homing_max_steps)
+    homing = sgf.homing
+    seek, locate = np.asarray(homing.rate_hz), np.asarray(homing.locate_rate_hz)
+    pulloff, longest = np.asarray(homing.pulloff_steps), np.asarray(homing.max_steps)
     per_motor = (
-        longest / seek + 2 * pulloff / seek + np.ceil(sgf.homing_locate_scalar * pulloff) / locate
+        longest / seek + 2 * pulloff / seek + np.ceil(homing.locate_scalar * pulloff) / locate
     )
-    cycles = [[2], [0, 1]] if sgf.homing_z_first else [[0, 1, 2]]
+    cycles = homing.cycles
     candidates = [(float(sum(per_motor[c].max() for c in cycles)), "G28 (homing, worst case)")]
     z_low, z_up = taught.z_low_m, taught.z_up_m
     drop = (*taught.drop_xy_m, z_up)
@@ -164,11 +155,10 @@ def longest_line_s(machine: Machine) -> tuple[float, str]:
         ]  # fmt: skip
     for a, b, speed in moves:
         start = np.asarray(a, dtype=float)
-        steps = sgf.kinematics.steps_of_point(start, machine.drives)
+        steps = sgf.kinematics.steps_of_point(start)
         move = plan_line(
-            steps, start, np.asarray(b, dtype=float), speed, machine.geometry, machine.limits,
-            machine.drives, machine.motion, mode=machine.mode,
-        )  # fmt: skip
+            steps, start, np.asarray(b, dtype=float), speed, machine.kinematics, machine.motion
+        )
         candidates.append((move.duration_s, f"the move {_mm(a)} to {_mm(b)} mm"))
     candidates += [
         (pgf.open_dwell_s, "the open dwell (gripper.open_dwell_ms)"),

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from transplanter import fileio
+from transplanter.errors import TransplanterError
 from transplanter.machine.eeprom import MAX_PICKUPS
 
 __all__ = [
@@ -38,7 +39,7 @@ __all__ = [
 ]
 
 
-class ScenarioError(ValueError):
+class ScenarioError(TransplanterError, ValueError):
     """A scenario file cannot be used; the message names the key and what to do."""
 
 
@@ -131,6 +132,28 @@ class MetaSection:
     description: str = key("str")
     seed: int = key("int", lo=0, hi=2**63 - 1, doc="random seed of the pots")
     seedlings: int = key("int", lo=1, hi=100000, doc="seedlings to pick in a trial")
+
+
+@dataclass(frozen=True)
+class RobotSection:
+    """[robot]: which arm (its kinematics, model and drives); optional, default the five-bar."""
+
+    kind: str = key("str", doc="the arm's kind: fivebar")
+
+
+@dataclass(frozen=True)
+class WorkcellSection:
+    """[workcell]: the job around the arm; optional, default paper pots on a feeding conveyor
+    into a drop tube."""
+
+    kind: str = key("str", doc="the job's kind: conveyor_tube")
+
+
+@dataclass(frozen=True)
+class EffectorSection:
+    """[effector]: the tool on the arm; optional, default servo parallel jaws with a wrist."""
+
+    kind: str = key("str", doc="the end effector's kind: parallel_jaw")
 
 
 @dataclass(frozen=True)
@@ -433,6 +456,9 @@ _FILE_SUFFIX = {"_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm", "_rad": "_deg"}
 
 SECTIONS: dict[str, type] = {
     "scenario": MetaSection,
+    "robot": RobotSection,
+    "workcell": WorkcellSection,
+    "effector": EffectorSection,
     "arm": ArmSection,
     "limits": LimitsSection,
     "drives": DrivesSection,
@@ -471,6 +497,15 @@ def _schema_of(cls: type) -> dict[str, Key]:
 
 
 SCHEMA: dict[str, dict[str, Key]] = {name: _schema_of(cls) for name, cls in SECTIONS.items()}
+
+DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
+    "robot": {"kind": "fivebar"},
+    "workcell": {"kind": "conveyor_tube"},
+    "effector": {"kind": "parallel_jaw"},
+}
+"""Sections a file may leave out, with their values then: the paper's machine and job. The
+kinds are checked against the registries when the scenario is assembled (an unknown kind is
+refused there with the known ones)."""
 PICKUP_SCHEMA: dict[str, Key] = _schema_of(TaughtPickup)
 
 
@@ -480,6 +515,9 @@ class Scenario:
 
     path: Path | None
     meta: MetaSection
+    robot: RobotSection
+    workcell: WorkcellSection
+    effector: EffectorSection
     arm: ArmSection
     limits: LimitsSection
     drives: DrivesSection
@@ -695,6 +733,8 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
             )
     for section, keys in SCHEMA.items():
         table = raw.get(section)
+        if table is None and section in DEFAULT_SECTIONS:
+            table = DEFAULT_SECTIONS[section]
         if table is None:
             raise ScenarioError(f"{source}: missing section [{section}].")
         if not isinstance(table, dict):

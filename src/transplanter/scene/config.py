@@ -81,6 +81,11 @@ POT_FILL_GAP_MAX = 0.02
 class SceneConfig:
     """Every physical number of the scene, SI units, design defaults (docs/sources.md)."""
 
+    # --- what the scene is assembled from: the kinds' scene modules (scene.kinds).
+    robot_kind: str = "fivebar"
+    effector_kind: str = "parallel_jaw"
+    workcell_kind: str = "conveyor_tube"
+
     # --- five-bar geometry (m): motors at (-l0, 0) and (+l0, 0); active l1, passive l2.
     l0: float = 0.050
     l1: float = 0.120

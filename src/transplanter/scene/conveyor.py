@@ -33,15 +33,23 @@ so a copied or rewound MjData gets the right ribs at its next index.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import mujoco
 import numpy as np
 
-from transplanter.scene.config import RIB_RGBA, row_bit
+from transplanter.scene.config import RIB_RGBA, SceneConfig, row_bit
 
-if TYPE_CHECKING:
-    from transplanter.scene.handles import Scene
+
+class ConveyorHandles(Protocol):
+    """What the drive reads of a scene (``handles.Scene`` has it): the compiled model, the
+    scene's config and the conveyor slide's addresses."""
+
+    model: mujoco.MjModel
+    config: SceneConfig
+    conveyor_qpos_adr: int
+    conveyor_dof_adr: int
+
 
 USERDATA_CONVEYOR = 6
 _U_ACTIVE, _U_T0, _U_PROFILE, _U_END, _U_Q0, _U_ERR = range(USERDATA_CONVEYOR)
@@ -55,7 +63,7 @@ def conveyor_armed(data: mujoco.MjData) -> bool:
 class ConveyorDrive:
     """Indexes the conveyor carriage of a Scene one row at a time (see the module docstring)."""
 
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: ConveyorHandles):
         self.model = scene.model
         self.config = scene.config
         self.qpos_adr = scene.conveyor_qpos_adr

@@ -122,7 +122,7 @@ class Scene:
         self._is_jaw[self.jaw_geoms] = True
         self._pot_of_geom = np.full(ngeom, -1)
         self._pot_of_geom[self.pot_geoms] = np.arange(flat.size)
-        for g in range(ngeom):  # crooked pots' feet (build.add_pots)
+        for g in range(ngeom):  # crooked pots' feet (workcells.conveyor_tube.add_pots)
             if (m.geom(g).name or "").startswith("pot_foot_"):
                 r, c = (int(x) for x in m.geom(g).name.split("_")[2:4])
                 self._pot_of_geom[g] = r * config.cols + c

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from typing import Any
 
+from transplanter.errors import TransplanterError
 from transplanter.scenario.assemble import key_quantum
 from transplanter.scenario.schema import (
     ScenarioError,
@@ -32,7 +33,7 @@ RESERVED_KEYS = ("scenario.seed", "scenario.seedlings")
 _DECIMAL_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 
 
-class SweepRefused(ValueError):
+class SweepRefused(TransplanterError, ValueError):
     """A sweep that cannot start (bad grid, output directory of another sweep); the message
     says why and what to do."""
 

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from transplanter import fileio
+from transplanter.studies.stats import aggregate
 
 __all__ = ["MAX_LINES", "pareto_plot", "sweep_plots"]
 
@@ -65,7 +66,6 @@ def _unique(values) -> list[Any]:
 
 def sweep_plots(out: Path, keys: Sequence[str], rows: Sequence[Mapping[str, Any]]) -> list[Path]:
     """The sweep's PNGs in `out`; the paths written."""
-    from transplanter.studies.sweep import aggregate
 
     plt = _pyplot()
     written = []
@@ -121,8 +121,6 @@ def sweep_plots(out: Path, keys: Sequence[str], rows: Sequence[Mapping[str, Any]
 
 def _heatmap(path: Path, kx: str, ky: str, rows: Sequence[Mapping[str, Any]]) -> Path:
     import numpy as np
-
-    from transplanter.studies.sweep import aggregate
 
     plt = _pyplot()
     xs, ys = _unique(r[kx] for r in rows), _unique(r[ky] for r in rows)

@@ -8,14 +8,16 @@ Wilson interval over all picks, which is what independent picks would give.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import json
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from transplanter.twin.results import wilson_interval
 
-__all__ = ["PooledRate", "pooled_rate", "parse_seeds"]
+__all__ = ["PooledRate", "SETTING_FIELDS", "aggregate", "pool_runs", "pooled_rate", "parse_seeds"]
 
 BOOTSTRAP_RESAMPLES = 9999
 BOOTSTRAP_SEED = 20201  # fixed: the same trials give the same interval
@@ -88,3 +90,54 @@ def parse_seeds(text: str) -> list[int]:
     if len(set(seeds)) != len(seeds):
         raise ValueError(f"seeds {text!r}: a seed is given twice")
     return seeds
+
+
+SETTING_FIELDS = (
+    "runs",
+    "errors",
+    "successes",
+    "seedlings",
+    "success_rate",
+    "ci95_low",
+    "ci95_high",
+    "ci_method",
+    "cycle_time_s",
+)
+"""The columns of a sweep's settings table after the varied keys."""
+
+
+def aggregate(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> list[dict[str, Any]]:
+    """One row per distinct value of `keys` (in first-seen order): the runs pooled with
+    `stats.pooled_rate` (runs that raised or were refused are counted in `errors` only) and
+    the mean cycle time over all their timed cycles."""
+    groups: dict[str, list[Mapping[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault(json.dumps([row[k] for k in keys]), []).append(row)
+    out = []
+    for members in groups.values():
+        agg: dict[str, Any] = {k: members[0][k] for k in keys}
+        counted = [r for r in members if r["successes"] is not None]
+        agg.update(runs=len(members), errors=sum(r["error"] is not None for r in members))
+        agg.update({f: None for f in SETTING_FIELDS[2:]})
+        if counted:
+            pooled, agg["cycle_time_s"] = pool_runs(counted)
+            agg.update(
+                successes=pooled.successes,
+                seedlings=pooled.seedlings,
+                success_rate=pooled.success_rate,
+                ci95_low=pooled.ci95[0],
+                ci95_high=pooled.ci95[1],
+                ci_method=pooled.method,
+            )
+        out.append(agg)
+    return out
+
+
+def pool_runs(rows: Sequence[Mapping[str, Any]]) -> tuple[PooledRate, float | None]:
+    """Runs that were counted (none refused or raised), pooled: their success with
+    `stats.pooled_rate`, and the mean cycle time over all their timed cycles (None if none
+    was timed)."""
+    pooled = pooled_rate([r["successes"] for r in rows], [r["seedlings"] for r in rows])
+    n = sum(r["cycles"] or 0 for r in rows)
+    cycle = sum(r["cycle_time_s"] * r["cycles"] for r in rows if r["cycles"]) / n if n else None
+    return pooled, cycle

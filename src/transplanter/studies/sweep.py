@@ -52,7 +52,7 @@ from transplanter.studies.grid import (
     parse_vary,
     run_key,
 )
-from transplanter.studies.stats import PooledRate, pooled_rate
+from transplanter.studies.stats import SETTING_FIELDS, aggregate, pool_runs
 
 __all__ = [
     "Axis",
@@ -79,20 +79,8 @@ __all__ = [
 RUNS_JSONL, RUNS_CSV, SETTINGS_CSV = "runs.jsonl", "runs.csv", "settings.csv"
 MANIFEST = "sweep.json"
 
+
 # Columns of settings.csv after the varied keys.
-SETTING_FIELDS = (
-    "runs",
-    "errors",
-    "successes",
-    "seedlings",
-    "success_rate",
-    "ci95_low",
-    "ci95_high",
-    "ci_method",
-    "cycle_time_s",
-)
-
-
 def read_runs(path: Path) -> list[dict[str, Any]]:
     """The rows of a runs.jsonl. A torn last line (killed mid-write: no newline, or not
     JSON) is cut off the file so that new rows append cleanly and its run is run again; a
@@ -216,43 +204,6 @@ def sort_rows(rows: Iterable[Mapping[str, Any]], spec: SweepSpec) -> list[dict[s
         if k in order and k not in unique:
             unique[k] = dict(row)
     return [unique[k] for k in sorted(unique, key=order.__getitem__)]
-
-
-def aggregate(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> list[dict[str, Any]]:
-    """One row per distinct value of `keys` (in first-seen order): the runs pooled with
-    `stats.pooled_rate` (runs that raised or were refused are counted in `errors` only) and
-    the mean cycle time over all their timed cycles."""
-    groups: dict[str, list[Mapping[str, Any]]] = {}
-    for row in rows:
-        groups.setdefault(json.dumps([row[k] for k in keys]), []).append(row)
-    out = []
-    for members in groups.values():
-        agg: dict[str, Any] = {k: members[0][k] for k in keys}
-        counted = [r for r in members if r["successes"] is not None]
-        agg.update(runs=len(members), errors=sum(r["error"] is not None for r in members))
-        agg.update({f: None for f in SETTING_FIELDS[2:]})
-        if counted:
-            pooled, agg["cycle_time_s"] = pool_runs(counted)
-            agg.update(
-                successes=pooled.successes,
-                seedlings=pooled.seedlings,
-                success_rate=pooled.success_rate,
-                ci95_low=pooled.ci95[0],
-                ci95_high=pooled.ci95[1],
-                ci_method=pooled.method,
-            )
-        out.append(agg)
-    return out
-
-
-def pool_runs(rows: Sequence[Mapping[str, Any]]) -> tuple[PooledRate, float | None]:
-    """Runs that were counted (none refused or raised), pooled: their success with
-    `stats.pooled_rate`, and the mean cycle time over all their timed cycles (None if none
-    was timed)."""
-    pooled = pooled_rate([r["successes"] for r in rows], [r["seedlings"] for r in rows])
-    n = sum(r["cycles"] or 0 for r in rows)
-    cycle = sum(r["cycle_time_s"] * r["cycles"] for r in rows if r["cycles"]) / n if n else None
-    return pooled, cycle
 
 
 def best_setting(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> str:

@@ -20,6 +20,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from transplanter.errors import TransplanterError
 from transplanter.machine.bus import ComBus
 from transplanter.machine.config import GRIPPER_SERVO, Machine
 from transplanter.machine.faults import LostReplyTransport
@@ -58,7 +59,7 @@ class LostStepEvent:
     detected: bool = False  # the driver reported it as a stall and the SGF stopped
 
 
-class SimulationInvalid(RuntimeError):
+class SimulationInvalid(TransplanterError, RuntimeError):
     """The physics produced a MuJoCo warning or diverged: the trial is invalid."""
 
 

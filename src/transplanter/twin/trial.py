@@ -18,6 +18,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from transplanter.scenario.assemble import TwinConfig
+from transplanter.scene import kinds as scene_kinds
 from transplanter.twin.judge import Judge
 from transplanter.twin.results import Outcome, SeedlingRecord, TrialResult
 from transplanter.twin.sim import SimulationInvalid, Twin
@@ -99,7 +100,8 @@ def run_trial(
             rate_hz=record_rate_hz,
             scalar_names=channels.channel_names(),
         )
-    judge = Judge(twin, config.judge, records, recorder.event if recorder is not None else None)
+    judge_cls = scene_kinds.judge_class(config.scene.workcell_kind)  # the workcell's job
+    judge = judge_cls(twin, config.judge, records, recorder.event if recorder is not None else None)
     twin.line_listeners.append(judge.on_line)
     monitor: Any = judge.monitor if recorder is None else _RecordingMonitor(judge, recorder)
     every = MONITOR_EVERY_STEPS if recorder is None else 1

@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
+from transplanter.errors import TransplanterError
 from transplanter.twin.results import Outcome, SeedlingRecord
 
 __all__ = ["LiveViewer", "ViewerUnavailable", "MAX_SPEED"]
@@ -21,7 +22,7 @@ MAX_SPEED = 100.0
 SYNC_HZ = 60.0  # viewer updates per second of wall time
 
 
-class ViewerUnavailable(RuntimeError):
+class ViewerUnavailable(TransplanterError, RuntimeError):
     """MuJoCo's viewer could not open a window."""
 
 

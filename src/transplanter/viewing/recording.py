@@ -32,6 +32,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from transplanter import fileio
+from transplanter.errors import TransplanterError
 
 TIMELINE = "sim_time"
 BODIES_ROOT = "world/bodies"
@@ -166,7 +167,7 @@ def _validate_scalar_names(scalar_names: Sequence[str]) -> list[str]:
     return names
 
 
-class RecordingError(RuntimeError):
+class RecordingError(TransplanterError, RuntimeError):
     """The recording could not be written (the trial's results are not affected)."""
 
 

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from transplanter import fileio
+from transplanter.errors import TransplanterError
 from transplanter.twin.results import Outcome, SeedlingRecord
 
 __all__ = [
@@ -61,15 +62,15 @@ CLIP_BUFFER_BYTES = 128 << 20
 INSTALL_HINT = "pip install 'transplanter[video]'"
 
 
-class VideoUnavailable(RuntimeError):
+class VideoUnavailable(TransplanterError, RuntimeError):
     """The optional video extra (imageio, imageio-ffmpeg) is not installed."""
 
 
-class GLUnavailable(RuntimeError):
+class GLUnavailable(TransplanterError, RuntimeError):
     """No OpenGL context could be made for offscreen rendering."""
 
 
-class RenderRefused(ValueError):
+class RenderRefused(TransplanterError, ValueError):
     """A frame size, rate, camera or seedling list that cannot be used; says why."""
 
 

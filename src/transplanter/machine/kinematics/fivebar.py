@@ -8,21 +8,30 @@ Everything is vectorised over numpy arrays and in SI units (m, rad). Unreachable
 NaN; :func:`check_points` and :func:`require_reachable` turn that (and the joint, elbow,
 transmission and conditioning limits) into per-point verdicts with reasons.
 
-:class:`FiveBarKinematics` is the firmware's kinematics seam (like RepRapFirmware's
-``Kinematics`` class or Klipper's kinematics modules): one arm in one working mode, with IK,
-the FK assembly that IK maps back, step counters <-> points and the reachability check. The
-functions below are its numeric core.
+:class:`FiveBarKinematics` is this arm's implementation of the kinematics seam
+(:class:`transplanter.machine.kinematics.base.Kinematics`): the two arm motors and the Z lead
+screw as its three axes, IK, the FK assembly that IK maps back, the reach check with typed
+refusals, Z's travel and its lower limit switch. The functions below are its numeric core.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from transplanter.units import M_PER_MM, show, show_outside
+from transplanter.errors import Refusal, RefusalReason
+from transplanter.machine.axes import Axis
+from transplanter.machine.homing import HomingConfig
+from transplanter.machine.kinematics.base import (
+    Kinematics,
+    ReachReport,
+    UnreachableError,
+    as_points,
+)
+from transplanter.machine.steppers import StepperDrive, default_drives
+from transplanter.units import M_PER_MM, show
 
 TWO_PI = 2.0 * math.pi
 MODES = ("+-", "-+", "++", "--")
@@ -126,15 +135,6 @@ class KinematicLimits:
             )
             return lo, hi
         raise ValueError(f"motor must be 1 or 2, got {motor!r}")
-
-
-class UnreachableError(ValueError):
-    """A commanded point violates the workspace or a kinematic limit."""
-
-    def __init__(self, index: int, reason: str, message: str | None = None):
-        self.index = int(index)
-        self.reason = reason
-        super().__init__(message or f"point {index} is not reachable: {reason}")
 
 
 def _out(a: np.ndarray):
@@ -301,29 +301,6 @@ def elbow_angles(geom: FiveBarGeometry, theta1, theta2, x, y):
     return _out(_angle_between(o1 - b, c - b)), _out(_angle_between(o2 - d, c - d))
 
 
-@dataclass(frozen=True)
-class ReachReport:
-    """Per-point verdict of :func:`check_points` (arrays of the points' shape, flattened)."""
-
-    theta1: np.ndarray
-    """Motor 1 angle in rad, wrapped into motor 1's window start + [0, 2 pi)."""
-    theta2: np.ndarray
-    """Motor 2 angle in rad, wrapped likewise."""
-    ok: np.ndarray
-    """True where the point passes every limit."""
-    reasons: tuple[str, ...]
-    """'' for good points, else every violated limit, joined by '; '."""
-    elbow1: np.ndarray
-    elbow2: np.ndarray
-    transmission: np.ndarray
-    condition: np.ndarray
-
-    @property
-    def failing(self) -> np.ndarray:
-        """Indices of the failing points."""
-        return np.flatnonzero(~self.ok)
-
-
 def _wrap_into(theta: np.ndarray, lo: float) -> np.ndarray:
     """Wrap angles into [lo, lo + 2 pi)."""
     return lo + np.mod(theta - lo, TWO_PI)
@@ -359,72 +336,82 @@ def _evaluate(geom, limits, x, y, mode):
     return ok, bad, arrays
 
 
-def _reason(geom, limits, bad, arrays, i) -> str:
+def _refusals(geom, limits, bad, arrays, i) -> tuple[Refusal, ...]:
     deg = math.degrees
     x, y = arrays["x"][i], arrays["y"][i]
-    parts = []
+    out: list[Refusal] = []
     if bad["reach"][i]:
         lmax, lmin = geom.l1_m + geom.l2_m, abs(geom.l1_m - geom.l2_m)
         for arm, ox in ((1, -geom.l0_m), (2, geom.l0_m)):
             dist = math.hypot(x - ox, y)
             if not math.isfinite(dist):
-                parts.append("outside workspace: coordinates are not finite")
+                out.append(Refusal(RefusalReason.NOT_FINITE, "coordinates"))
                 break
-            if dist > lmax:
-                parts.append(
-                    f"outside workspace: |C-O{arm}|={show(dist, 4)} m > L1+L2={lmax:.4f} m"
-                )
-            elif dist < lmin:
-                parts.append(f"outside workspace: |C-O{arm}|={dist:.4f} m < |L1-L2|={lmin:.4f} m")
-        return "; ".join(parts)
+            if dist > lmax or dist < lmin:
+                out.append(
+                    Refusal(
+                        RefusalReason.OUT_OF_WORKSPACE, f"|C-O{arm}|", dist, lmin, lmax, "m",
+                        bound_names=("|L1-L2|", "L1+L2"),
+                    )
+                )  # fmt: skip
+        return tuple(out)
     for motor in (1, 2):
         if bad[f"motor{motor}"][i]:
             lo, hi = limits.motor_window(motor)
             theta = arrays[f"theta{motor}"][i]
             if theta - hi > lo + TWO_PI - theta:  # closer to the lower limit: show it below
                 theta -= TWO_PI
-            v, a, b = show_outside(deg(theta), deg(lo), deg(hi))
-            parts.append(f"motor {motor} angle {v} deg outside [{a}, {b}] deg")
+            out.append(
+                Refusal(
+                    RefusalReason.JOINT_LIMIT, f"motor {motor} angle", deg(theta), deg(lo),
+                    deg(hi), "deg",
+                )
+            )  # fmt: skip
     for arm, elbow in ((1, "B"), (2, "D")):
         if bad[f"elbow{arm}"][i]:
-            v, a, b = show_outside(
-                deg(arrays[f"elbow{arm}"][i]), deg(limits.elbow_min_rad), deg(limits.elbow_max_rad)
-            )
-            parts.append(
-                f"elbow angle at {elbow} {v} deg outside [{a}, {b}] deg"
-                " (near a serial singularity at the workspace boundary)"
-            )
+            out.append(
+                Refusal(
+                    RefusalReason.SERIAL_SINGULARITY, f"elbow angle at {elbow}",
+                    deg(arrays[f"elbow{arm}"][i]), deg(limits.elbow_min_rad),
+                    deg(limits.elbow_max_rad), "deg",
+                    "near a serial singularity at the workspace boundary",
+                )
+            )  # fmt: skip
     if bad["transmission"][i]:
-        v, a, b = show_outside(
-            deg(arrays["transmission"][i]),
-            deg(limits.transmission_min_rad),
-            deg(limits.transmission_max_rad),
-        )
-        parts.append(
-            f"transmission angle {v} deg outside [{a}, {b}] deg (near parallel singularity)"
-        )
+        out.append(
+            Refusal(
+                RefusalReason.PARALLEL_SINGULARITY, "transmission angle",
+                deg(arrays["transmission"][i]), deg(limits.transmission_min_rad),
+                deg(limits.transmission_max_rad), "deg", "near parallel singularity",
+            )
+        )  # fmt: skip
     if bad["condition"][i]:
-        parts.append(f"Jacobian condition {arrays['condition'][i]:.3g} > {limits.max_condition:g}")
-    return "; ".join(parts)
+        out.append(
+            Refusal(
+                RefusalReason.ILL_CONDITIONED, "Jacobian condition",
+                float(arrays["condition"][i]), None, limits.max_condition,
+            )
+        )  # fmt: skip
+    return tuple(out)
 
 
 def check_points(
     geom: FiveBarGeometry, limits: KinematicLimits, x, y, mode: str = "+-"
 ) -> ReachReport:
-    """Check every point (flattened) against the workspace and all limits."""
+    """Check every point (flattened) of the plane against the workspace and all limits:
+    joints (N, 2) are (theta1, theta2) wrapped into the motor windows; diagnostics hold the
+    elbow angles (``elbow1``, ``elbow2``), the ``transmission`` angle (rad) and the Jacobian's
+    ``condition``."""
     ok, bad, arrays = _evaluate(geom, limits, x, y, mode)
-    reasons = [""] * ok.size
+    refusals: list[tuple[Refusal, ...]] = [()] * ok.size
     for i in np.flatnonzero(~ok):
-        reasons[i] = _reason(geom, limits, bad, arrays, i)
+        refusals[i] = _refusals(geom, limits, bad, arrays, i)
+    names = ("elbow1", "elbow2", "transmission", "condition")
     return ReachReport(
-        theta1=arrays["theta1"],
-        theta2=arrays["theta2"],
+        joints=np.column_stack([arrays["theta1"], arrays["theta2"]]),
         ok=ok,
-        reasons=tuple(reasons),
-        elbow1=arrays["elbow1"],
-        elbow2=arrays["elbow2"],
-        transmission=arrays["transmission"],
-        condition=arrays["condition"],
+        refusals=tuple(refusals),
+        diagnostics={name: arrays[name] for name in names},
     )
 
 
@@ -433,12 +420,15 @@ def require_reachable(geom: FiveBarGeometry, limits: KinematicLimits, x, y, mode
     ok, bad, arrays = _evaluate(geom, limits, x, y, mode)
     if not ok.all():
         i = int(np.flatnonzero(~ok)[0])
-        reason = _reason(geom, limits, bad, arrays, i)
-        message = (
+        refusals = _refusals(geom, limits, bad, arrays, i)
+        error = UnreachableError(i, refusals)
+        raise UnreachableError(
+            i,
+            refusals,
             f"target position not reachable: point {i} at (x, y) = "
-            f"({show(arrays['x'][i] / M_PER_MM)}, {show(arrays['y'][i] / M_PER_MM)}) mm: {reason}"
+            f"({show(arrays['x'][i] / M_PER_MM)}, {show(arrays['y'][i] / M_PER_MM)}) mm: "
+            f"{error.reason}",
         )
-        raise UnreachableError(i, reason, message)
     return arrays["theta1"], arrays["theta2"]
 
 
@@ -451,19 +441,38 @@ def _wrap_pi(angle):
     return np.pi - np.mod(np.pi - angle, TWO_PI)
 
 
+SWITCH_NAMES = ("arm 1 home", "arm 2 home", "Z up", "Z down")
+"""What each limit switch 1-4 is for (switches 1-3 home the axes; 4 is Z's lower hard limit)."""
+
+
 @dataclass(frozen=True)
-class FiveBarKinematics:
-    """The five-bar arm in one working mode: IK, FK, step counters and limits, vectorised.
+class FiveBarKinematics(Kinematics):
+    """The five-bar arm in one working mode on its Z slide: axes arm 1, arm 2 (rotary, rad)
+    and Z (lead screw, m); IK, FK, step counters and limits, vectorised.
 
     ``point`` is the FK assembly that ``joints`` maps back to the same motor angles, so
-    ``point(*joints(x, y)) == (x, y)`` for a reachable point and the firmware's position
-    after homing is the one its next move's IK starts from.
+    ``point(joints(p)) == p`` for a reachable point and the firmware's position after homing
+    is the one its next move's IK starts from.
     """
+
+    kind = "fivebar"
 
     geometry: FiveBarGeometry = field(default_factory=FiveBarGeometry)
     limits: KinematicLimits = field(default_factory=KinematicLimits)
     mode: str = "+-"
     """Working mode of the IK (see :func:`ik`); the paper's is '+-', elbows out."""
+    drives: tuple[StepperDrive, ...] = default_drives()
+    """(arm 1, arm 2, Z) drives (a plain default: it shadows the base class's property)."""
+    home_theta1_rad: float = math.radians(200.0)
+    """Motor 1 angle at which limit switch 1 trips (arms folded back, C at (0, 75) mm)."""
+    home_theta2_rad: float = math.radians(-20.0)
+    """Motor 2 angle at which limit switch 2 trips."""
+    home_z_m: float = 0.160
+    """Z at which limit switch 3 (Z up) trips."""
+    z_min_m: float = 0.005
+    """Lowest Z a move may target (limit switch 4, Z down, trips there)."""
+    z_max_m: float = 0.160
+    """Highest Z a move may target."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.geometry, FiveBarGeometry):
@@ -472,6 +481,31 @@ class FiveBarKinematics:
             raise ValueError(f"limits must be KinematicLimits, got {self.limits!r}")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
+        drives = tuple(self.drives)
+        if len(drives) != 3 or not all(isinstance(d, StepperDrive) for d in drives):
+            raise ValueError("the five-bar's drives must be 3 StepperDrive (arm 1, arm 2, Z)")
+        if drives[0].linear or drives[1].linear:
+            raise ValueError("the five-bar's arm drives (drives[0], drives[1]) must be rotary")
+        if not drives[2].linear:
+            raise ValueError("the five-bar's Z drive (drives[2]) must be a lead screw (lead_m)")
+        if not (math.isfinite(self.z_min_m) and self.z_min_m < self.z_max_m):
+            raise ValueError(
+                f"the five-bar needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
+            )
+        object.__setattr__(self, "drives", drives)
+        homes = (self.home_theta1_rad, self.home_theta2_rad, self.home_z_m)
+        windows = (*(self.limits.motor_window(m) for m in (1, 2)), (self.z_min_m, self.z_max_m))
+        axes = tuple(
+            Axis(d.name, d, float(h), w, s)
+            for d, h, w, s in zip(drives, homes, windows, SWITCH_NAMES, strict=False)
+        )
+        object.__setattr__(self, "_axes", axes)
+
+    _shown_coordinates = 2  # the plane's x and y: Z has its own range check
+
+    @property
+    def axes(self) -> tuple[Axis, ...]:
+        return self._axes
 
     @property
     def assemblies(self) -> tuple[str, str]:
@@ -479,20 +513,128 @@ class FiveBarKinematics:
         'down', the other modes mostly in 'up')."""
         return ("down", "up") if self.mode == "-+" else ("up", "down")
 
-    def joints(self, x, y):
+    # -- the seam --------------------------------------------------------------------
+    def joints(self, xyz) -> np.ndarray:
+        """(..., 3) theta1, theta2 (rad, IK in this mode; NaN if unreachable) and Z (m)."""
+        xyz = np.asarray(xyz, dtype=np.float64)
+        theta1, theta2 = self.planar_joints(xyz[..., 0], xyz[..., 1])
+        return np.stack(np.broadcast_arrays(theta1, theta2, xyz[..., 2]), axis=-1)
+
+    def point(self, joints) -> np.ndarray:
+        """(..., 3) x, y (the FK assembly that maps back, see :meth:`planar_point`) and Z."""
+        joints = np.asarray(joints, dtype=np.float64)
+        x, y = self.planar_point(joints[..., 0], joints[..., 1])
+        return np.stack(np.broadcast_arrays(x, y, joints[..., 2]), axis=-1).astype(np.float64)
+
+    def check(self, xyz) -> ReachReport:
+        """Per-point verdicts in the plane (Z's travel is :meth:`limit_target`'s): joints
+        (N, 3) with the motor angles wrapped into their windows."""
+        pts = as_points(xyz)
+        report = check_points(self.geometry, self.limits, pts[:, 0], pts[:, 1], self.mode)
+        return ReachReport(
+            joints=np.column_stack([report.joints, pts[:, 2]]),
+            ok=report.ok,
+            refusals=report.refusals,
+            diagnostics=report.diagnostics,
+        )
+
+    def limit_target(self, xyz) -> Refusal | None:
+        z = float(np.asarray(xyz, dtype=np.float64)[2])
+        if self.z_min_m <= z <= self.z_max_m:
+            return None
+        return Refusal(
+            RefusalReason.AXIS_RANGE, "Z", z / M_PER_MM, self.z_min_m / M_PER_MM,
+            self.z_max_m / M_PER_MM, "mm",
+        )  # fmt: skip
+
+    @property
+    def lower_hard_limits(self) -> tuple[tuple[int, int], ...]:
+        return ((2, 3),)  # limit switch 4 (Z down) stops Z going down
+
+    def point_lines(self, report: ReachReport, i: int) -> list[str]:
+        """The motor angles as the paper names them and the passive links' angle at C (Z
+        passes straight to its lead screw)."""
+        theta1, theta2, _ = (float(v) for v in report.joints[i])
+        transmission = float(report.diagnostics["transmission"][i])
+        return [
+            f"theta1 = {math.degrees(theta1):.4f} deg",
+            f"theta2 = {math.degrees(theta2):.4f} deg",
+            f"passive-link (transmission) angle = {math.degrees(transmission):.4f} deg",
+        ]
+
+    @classmethod
+    def from_scenario(cls, scenario) -> FiveBarKinematics:
+        """The five-bar of a scenario's [arm], [limits] and [drives] sections."""
+        arm, lim, drv = scenario.arm, scenario.limits, scenario.drives
+        common = dict(
+            steps_per_rev=drv.steps_per_rev,
+            microsteps=drv.microsteps,
+            max_step_rate_hz=drv.max_step_rate_hz,
+            holding_torque_nm=drv.holding_torque_nm,
+        )
+        drives = (
+            StepperDrive("arm1", ratio=drv.arm_belt_ratio, **common),
+            StepperDrive("arm2", ratio=drv.arm_belt_ratio, **common),
+            StepperDrive("z", ratio=1.0, lead_m=drv.z_lead_m, **common),
+        )
+        limits = KinematicLimits(
+            motor1_min_rad=lim.motor1_min_rad,
+            motor1_max_rad=lim.motor1_max_rad,
+            motor2_min_rad=lim.motor2_min_rad,
+            motor2_max_rad=lim.motor2_max_rad,
+            elbow_min_rad=lim.elbow_min_rad,
+            elbow_max_rad=lim.elbow_max_rad,
+            transmission_min_rad=lim.transmission_min_rad,
+            transmission_max_rad=lim.transmission_max_rad,
+            max_condition=lim.max_condition,
+        )
+        return cls(
+            geometry=FiveBarGeometry(l0_m=arm.l0_m, l1_m=arm.l1_m, l2_m=arm.l2_m),
+            limits=limits,
+            mode=arm.working_mode,
+            drives=drives,
+            home_theta1_rad=drv.switch1_theta1_rad,
+            home_theta2_rad=drv.switch2_theta2_rad,
+            home_z_m=drv.switch3_z_m,
+            z_min_m=lim.z_min_m,
+            z_max_m=lim.z_max_m,
+        )
+
+    @classmethod
+    def homing_from_scenario(cls, scenario) -> HomingConfig:
+        """Z first, then both arms; the arms' and Z's seek and locate rates of [drives]."""
+        drv = scenario.drives
+        return HomingConfig(
+            rate_hz=(drv.homing_rate_arm_hz, drv.homing_rate_arm_hz, drv.homing_rate_z_hz),
+            locate_rate_hz=(
+                drv.homing_locate_rate_arm_hz,
+                drv.homing_locate_rate_arm_hz,
+                drv.homing_locate_rate_z_hz,
+            ),
+            dirs=(+1, -1, +1),
+            first_cycle=(2,),
+        )
+
+    def describe(self) -> dict[str, float | str]:
+        g = self.geometry
+        return {"kind": self.kind, "l0_m": g.l0_m, "l1_m": g.l1_m, "l2_m": g.l2_m,
+                "mode": self.mode}  # fmt: skip
+
+    # -- the plane -------------------------------------------------------------------
+    def planar_joints(self, x, y):
         """(theta1, theta2) in rad of points (x, y) in m: IK in this mode; NaN if unreachable."""
         return ik(self.geometry, x, y, self.mode)
 
     def _maps_back(self, theta1, theta2, x, y) -> np.ndarray:
-        back1, back2 = (np.asarray(a) for a in self.joints(x, y))
+        back1, back2 = (np.asarray(a) for a in self.planar_joints(x, y))
         with np.errstate(invalid="ignore"):
             return (np.abs(_wrap_pi(back1 - theta1)) < _SAME_ANGLE_RAD) & (
                 np.abs(_wrap_pi(back2 - theta2)) < _SAME_ANGLE_RAD
             )
 
-    def point(self, theta1, theta2):
-        """(x, y) in m at motor angles (rad): the FK assembly that :meth:`joints` maps back
-        to these angles; the first of :attr:`assemblies` where neither does (a pose of no
+    def planar_point(self, theta1, theta2):
+        """(x, y) in m at motor angles (rad): the FK assembly that :meth:`planar_joints` maps
+        back to these angles; the first of :attr:`assemblies` where neither does (a pose of no
         single mode) or where both do. NaN where the links cannot close."""
         t1, t2 = _xy(theta1, theta2)
         first, second = self.assemblies
@@ -501,36 +643,13 @@ class FiveBarKinematics:
         use_second = ~self._maps_back(t1, t2, x, y) & self._maps_back(t1, t2, x2, y2)
         return _out(np.where(use_second, x2, x)), _out(np.where(use_second, y2, y))
 
-    def point_of_steps(self, steps, drives: Sequence) -> np.ndarray:
-        """(..., 3) xyz in m of (..., 3) step counters of the drives (arm 1, arm 2, Z)."""
-        steps = np.asarray(steps)
-        joints = [drives[m].to_position(steps[..., m]) for m in range(3)]
-        x, y = self.point(joints[0], joints[1])
-        return np.stack(np.broadcast_arrays(x, y, joints[2]), axis=-1).astype(np.float64)
-
-    def steps_of_point(self, xyz, drives: Sequence) -> np.ndarray:
-        """(..., 3) int64 step counters of the drives at (..., 3) points xyz in m (IK in this
-        mode, Z straight to its drive); ValueError where a point is unreachable."""
-        xyz = np.asarray(xyz, dtype=np.float64)
-        theta1, theta2 = self.joints(xyz[..., 0], xyz[..., 1])
-        joints = (theta1, theta2, xyz[..., 2])
-        return np.stack([drives[m].to_steps(joints[m]) for m in range(3)], axis=-1)
-
-    def check(self, x, y) -> ReachReport:
-        """Per-point verdicts, with reasons, against the workspace and :attr:`limits`."""
-        return check_points(self.geometry, self.limits, x, y, self.mode)
-
-    def require(self, x, y):
-        """(theta1, theta2) arrays if every point passes, else UnreachableError (first one)."""
-        return require_reachable(self.geometry, self.limits, x, y, self.mode)
-
     def passive_angles(self, theta1, theta2):
         """Passive joint angles (phi1, phi2) in rad at motor angles (theta1, theta2).
 
-        phi_i = direction of passive link i (elbow -> C, C from :meth:`point`) minus
+        phi_i = direction of passive link i (elbow -> C, C from :meth:`planar_point`) minus
         theta_i, wrapped to (-pi, pi]. ValueError where the chain cannot close.
         """
-        x, y = (np.asarray(a) for a in self.point(theta1, theta2))
+        x, y = (np.asarray(a) for a in self.planar_point(theta1, theta2))
         if not (np.isfinite(x).all() and np.isfinite(y).all()):
             i = int(np.flatnonzero(~(np.isfinite(x) & np.isfinite(y)).ravel())[0])
             t1, t2 = (np.broadcast_to(a, x.shape).ravel()[i] for a in _xy(theta1, theta2))

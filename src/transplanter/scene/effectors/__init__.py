@@ -1,0 +1,1 @@
+"""The end effectors of the scene, one module per kind (registered in scene.kinds)."""

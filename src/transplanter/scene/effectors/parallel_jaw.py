@@ -1,0 +1,53 @@
+"""The parallel-jaw effector's part of the scene: two jaws on slides under the robot's column,
+closed by a hobby servo whose force limit is the grip force (a pot is held by friction only),
+and the wrist servo that turns them. The bodies are drawn in the robot's model file
+(models/fivebar/fivebar.xml); this module sets their numbers from the SceneConfig.
+"""
+
+from __future__ import annotations
+
+import mujoco
+
+from transplanter.scene.config import BIT_CANOPY, JAW_HALF_THICKNESS, SceneConfig
+
+JAWS = ("jaw_left", "jaw_right")
+
+
+def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    """Jaw positions under the column, the gripper and wrist servos, jaw travel and damping;
+    with canopy contact, the jaws also meet the leaves' proxies."""
+    spec.body("jaw_left").pos = [-JAW_HALF_THICKNESS, 0, -cfg.column_height]
+    spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height]
+    grip = spec.actuator("gripper")
+    grip.gainprm = [cfg.gripper_kp] + [0] * 9
+    grip.biasprm = [0, -cfg.gripper_kp, 0] + [0] * 7
+    grip.forcerange = [-cfg.grip_force, cfg.grip_force]
+    grip.ctrlrange = [0, cfg.gripper_max_opening]
+    for jaw in ("jaw_left", "jaw_right"):
+        spec.joint(jaw).range = [0, cfg.gripper_max_opening / 2]
+        spec.joint(jaw).damping = [cfg.jaw_damping, 0, 0]
+    wrist = spec.actuator("wrist")
+    wrist.gainprm = [cfg.wrist_kp] + [0] * 9
+    wrist.biasprm = [0, -cfg.wrist_kp, 0] + [0] * 7
+    wrist.forcerange = [-cfg.wrist_torque, cfg.wrist_torque]
+
+
+def add_canopy_contact(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    """With canopy contact the jaws collide with the leaves' proxies (collision bit 8)."""
+    if cfg.canopy_contact:
+        for jaw in JAWS:
+            spec.geom(jaw).conaffinity |= BIT_CANOPY
+
+
+def home_joints(cfg: SceneConfig) -> dict[str, float]:
+    """The jaws fully open, the wrist at 0."""
+    return {
+        "wrist": 0.0,
+        "jaw_left": cfg.gripper_max_opening / 2,
+        "jaw_right": cfg.gripper_max_opening / 2,
+    }
+
+
+def home_ctrl(cfg: SceneConfig) -> list[float]:
+    """The servos' commands at power-on (gripper opening, wrist angle)."""
+    return [cfg.gripper_max_opening, 0.0]
