@@ -1,23 +1,26 @@
 """The HMI: the paper's teach mode (20x4 LCD, 4x4 keypad), as a package (docs/hmi.md)."""
 
-from transplanter.machine.hmi.states import (
-    JOG_STEPS_MM,
+from transplanter.machine.hmi.keys import (
+    KEYPAD_ROWS,
     KEYS,
-    LCD_COLS,
-    LCD_ROWS,
     MAX_KEY_SCRIPT_BYTES,
-    Hmi,
     KeyScriptError,
-    SGFPort,
-    lcd_reason,
     parse_keys,
     run_keys,
-    run_terminal,
-    terminal_key,
 )
+from transplanter.machine.hmi.states import (
+    JOG_STEPS_MM,
+    LCD_COLS,
+    LCD_ROWS,
+    Hmi,
+    SGFPort,
+    lcd_reason,
+)
+from transplanter.machine.hmi.terminal import TERMINAL_KEYS, run_terminal, terminal_key
 
 __all__ = [
     "JOG_STEPS_MM",
+    "KEYPAD_ROWS",
     "KEYS",
     "LCD_COLS",
     "LCD_ROWS",
@@ -25,6 +28,7 @@ __all__ = [
     "Hmi",
     "KeyScriptError",
     "SGFPort",
+    "TERMINAL_KEYS",
     "lcd_reason",
     "parse_keys",
     "run_keys",

@@ -35,7 +35,7 @@ import dataclasses
 import math
 import re
 import zlib
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -53,30 +53,15 @@ from transplanter.machine.eeprom import (
     Pickup,
 )
 from transplanter.machine.gcode import SERVO_MAX_DEG
+from transplanter.machine.hmi.keys import KEYS
 from transplanter.machine.kinematics import fivebar as kinematics
 from transplanter.machine.motion import plan_line
 from transplanter.machine.rig import DT_HOMING_S, SimulatedEndstops
 from transplanter.machine.sgf import SGF, SGFConfig
 from transplanter.units import M_PER_MM
 
-__all__ = [
-    "KEYS",
-    "LCD_COLS",
-    "LCD_ROWS",
-    "JOG_STEPS_MM",
-    "Hmi",
-    "KeyScriptError",
-    "SGFPort",
-    "lcd_reason",
-    "parse_keys",
-    "run_keys",
-    "run_terminal",
-]
+__all__ = ["JOG_STEPS_MM", "LCD_COLS", "LCD_ROWS", "Hmi", "SGFPort", "lcd_reason"]
 
-KEYS = "0123456789ABCD*#"
-"""The 16 keys of the 4x4 membrane keypad."""
-KEYPAD_ROWS = ("123A", "456B", "789C", "*0#D")
-"""The keypad as it is laid out."""
 LCD_COLS, LCD_ROWS = 20, 4
 JOG_STEPS_MM = (10.0, 1.0, 0.1)
 """Jog step sizes, cycled by key 5 (the first is the power-on step)."""
@@ -89,8 +74,6 @@ MAX_ENTRY_CHARS = 8
 SPEED_MAX_MM_S = MAX_SPEED_M_S / M_PER_MM
 SPEED_MIN_MM_S = 0.1
 """Speeds: the scenario's least (0.1 mm/s) up to what the EEPROM's uint16 field holds."""
-MAX_KEY_SCRIPT_BYTES = 1 << 20
-"""A key script file is at most this big (a teach session is a few hundred keys)."""
 
 _JOG_KEYS = {"4": (0, -1), "6": (0, +1), "8": (1, -1), "2": (1, +1), "9": (2, -1), "3": (2, +1)}
 _JOG_HINT = "X4/6 Y8/2 Z9/3 5stp"
@@ -98,31 +81,6 @@ _ENTRY_HINT = "D=. C=del #ok *back"
 _M114 = re.compile(
     r"X:(?P<x>\S+) Y:(?P<y>\S+) Z:(?P<z>\S+) A:(?P<a>-?\d+) B:(?P<b>-?\d+) C:(?P<c>-?\d+)"
 )
-
-
-class KeyScriptError(ValueError):
-    """A key script holds something that is not a key; the message names where."""
-
-
-def parse_keys(text: str, source: str = "keys") -> list[str]:
-    """The keys of a script: each of the 16 key characters is one press; spaces and line
-    breaks are ignored, and ``;`` starts a comment up to the end of its line. Anything else
-    is a KeyScriptError naming its line, column and the valid keys."""
-    keys: list[str] = []
-    for line_no, line in enumerate(text.splitlines() or [""], start=1):
-        for col, char in enumerate(line, start=1):
-            if char == ";":
-                break
-            if char in " \t\r\f\v":
-                continue
-            if char not in KEYS:
-                where = f"line {line_no}, column {col}" if "\n" in text else f"position {col}"
-                raise KeyScriptError(
-                    f"{source}: {char!r} at {where} is not a key; the keypad's keys are "
-                    "0-9 A B C D * # (spaces and line breaks are ignored, ';' starts a comment)"
-                )
-            keys.append(char)
-    return keys
 
 
 def lcd_reason(reason: str, width: int = LCD_COLS - 3) -> str:
@@ -878,88 +836,3 @@ def write_image(path: str | Path, data: bytes) -> None:
         fileio.discard(tmp)
         raise
     fileio.commit(tmp, target)
-
-
-# -- front ends ------------------------------------------------------------------------
-
-
-def run_keys(
-    hmi: Hmi, keys: Iterable[str], on_screen: Callable[[int, str, Hmi], None] | None = None
-) -> Hmi:
-    """Press each key in turn; ``on_screen(i, key, hmi)`` after every press."""
-    for i, key in enumerate(keys):
-        hmi.press(key)
-        if on_screen is not None:
-            on_screen(i, key, hmi)
-    return hmi
-
-
-TERMINAL_KEYS = {
-    "enter": "#",
-    "backspace": "C",
-    "escape": "*",
-    "up": "A",
-    "down": "B",
-    ".": "D",
-    "q": None,  # quit
-}
-"""Keyboard keys of the terminal UI beyond the keypad's own characters (0-9, a-d or A-D,
-* and #): Enter = #, Backspace = C, Esc = *, arrow up/down = A/B, '.' = D; q quits."""
-
-
-def terminal_key(name: str) -> str | None:
-    """The keypad key of a keyboard key (a character or a TERMINAL_KEYS name); None for
-    none. 'q' is handled by the caller (quit)."""
-    if len(name) == 1 and name.upper() in KEYS:
-        return name.upper()
-    return TERMINAL_KEYS.get(name)
-
-
-def run_terminal(hmi: Hmi) -> None:  # pragma: no cover - needs a terminal
-    """The interactive curses front end: the LCD, the keypad and the mapping; q quits."""
-    import curses
-
-    special = {
-        curses.KEY_UP: "up",
-        curses.KEY_DOWN: "down",
-        curses.KEY_BACKSPACE: "backspace",
-        127: "backspace",
-        8: "backspace",
-        curses.KEY_ENTER: "enter",
-        10: "enter",
-        13: "enter",
-        27: "escape",
-    }
-
-    def draw(screen) -> None:
-        screen.erase()
-        for row, line in enumerate(hmi.lcd_text().splitlines()):
-            screen.addstr(row, 2, line)
-        pad = ["Keypad:"] + [" ".join(r) for r in KEYPAD_ROWS]
-        for row, line in enumerate(pad):
-            screen.addstr(row, 28, line)
-        help_lines = [
-            "menus: A/up B/down #/Enter select *,Esc back, digit = item",
-            "values: digits, D or '.' point, C/Backspace delete, # save",
-            "jog: 4/6 X  8/2 Y  9/3 Z  5 step  # store  * back",
-            "q: quit (the image is written only by 6 Write EEPROM)",
-        ]
-        for row, line in enumerate(help_lines, start=7):
-            screen.addstr(row, 2, line)
-        if hmi.last_refusal:
-            screen.addstr(12, 2, ("last refusal: " + hmi.last_refusal)[: max(10, curses.COLS - 4)])
-        screen.refresh()
-
-    def loop(screen) -> None:
-        curses.curs_set(0)
-        while True:
-            draw(screen)
-            code = screen.getch()
-            name = special.get(code) or (chr(code) if 0 <= code < 256 else "")
-            if name in ("q", "Q"):
-                return
-            key = terminal_key(name)
-            if key is not None:
-                hmi.press(key)
-
-    curses.wrapper(loop)
