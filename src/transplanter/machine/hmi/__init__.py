@@ -8,12 +8,12 @@ from transplanter.machine.hmi.keys import (
     parse_keys,
     run_keys,
 )
+from transplanter.machine.hmi.port import SGFPort
 from transplanter.machine.hmi.states import (
     JOG_STEPS_MM,
     LCD_COLS,
     LCD_ROWS,
     Hmi,
-    SGFPort,
     lcd_reason,
 )
 from transplanter.machine.hmi.terminal import TERMINAL_KEYS, run_terminal, terminal_key

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from transplanter import fileio
-from transplanter.machine.config import Machine, power_on_joints
+from transplanter.machine.config import Machine
 from transplanter.machine.eeprom import (
     CRC_OFFSET,
     DATA_SIZE,
@@ -54,13 +54,12 @@ from transplanter.machine.eeprom import (
 )
 from transplanter.machine.gcode import SERVO_MAX_DEG
 from transplanter.machine.hmi.keys import KEYS
+from transplanter.machine.hmi.port import SGFPort
 from transplanter.machine.kinematics import fivebar as kinematics
 from transplanter.machine.motion import plan_line
-from transplanter.machine.rig import DT_HOMING_S, SimulatedEndstops
-from transplanter.machine.sgf import SGF, SGFConfig
 from transplanter.units import M_PER_MM
 
-__all__ = ["JOG_STEPS_MM", "LCD_COLS", "LCD_ROWS", "Hmi", "SGFPort", "lcd_reason"]
+__all__ = ["JOG_STEPS_MM", "LCD_COLS", "LCD_ROWS", "Hmi", "lcd_reason"]
 
 LCD_COLS, LCD_ROWS = 20, 4
 JOG_STEPS_MM = (10.0, 1.0, 0.1)
@@ -78,9 +77,6 @@ SPEED_MIN_MM_S = 0.1
 _JOG_KEYS = {"4": (0, -1), "6": (0, +1), "8": (1, -1), "2": (1, +1), "9": (2, -1), "3": (2, +1)}
 _JOG_HINT = "X4/6 Y8/2 Z9/3 5stp"
 _ENTRY_HINT = "D=. C=del #ok *back"
-_M114 = re.compile(
-    r"X:(?P<x>\S+) Y:(?P<y>\S+) Z:(?P<z>\S+) A:(?P<a>-?\d+) B:(?P<b>-?\d+) C:(?P<c>-?\d+)"
-)
 
 
 def lcd_reason(reason: str, width: int = LCD_COLS - 3) -> str:
@@ -148,47 +144,6 @@ def _num(value: float | None, decimals: int = 1) -> str:
         return "---"
     text = f"{value:.{decimals}f}"
     return text.rstrip("0").rstrip(".") if "." in text else text
-
-
-# -- the SGF at the other end of the COM bus --------------------------------------------
-
-
-class SGFPort:
-    """A real SGF on a simulated clock, one line at a time (the PGF's side of the COM bus,
-    without the bus's timing): ``send`` delivers a line and advances the clock until the
-    SGF has answered it (``ok`` or ``error:N``), reading the limit switches of
-    ``firmware.rig.SimulatedEndstops`` (the motors start at ``machine.power_on_joints``)."""
-
-    def __init__(self, config: SGFConfig, max_time_s: float = 1e4):
-        self.sgf = SGF(config)
-        self.endstops = SimulatedEndstops(config, power_on_joints(config))
-        self.t = 0.0
-        self.max_time_s = max_time_s
-        self.log: list[tuple[float, str, tuple[str, ...]]] = []
-        """(t, line, replies) of every line sent."""
-
-    def send(self, line: str) -> list[str]:
-        """The SGF's replies to ``line``, the last one its ``ok`` or ``error:N``."""
-        sgf = self.sgf
-        sgf.receive(line, self.t)
-        replies: list[str] = []
-        while True:
-            switches = self.endstops.read(sgf.pulses_at(self.t)[0])
-            replies.extend(sgf.poll(self.t, switches))
-            if replies and (replies[-1] == "ok" or replies[-1].startswith("error:")):
-                if not sgf.busy:
-                    break
-            t_next = sgf.next_event_time()
-            if sgf.homing:
-                t_next = (
-                    self.t + DT_HOMING_S if t_next is None else min(t_next, self.t + DT_HOMING_S)
-                )
-            if t_next is None or t_next > self.max_time_s:
-                raise RuntimeError(f"the SGF did not answer {line!r} (t = {self.t:.3f} s)")
-            self.t = max(self.t, t_next)
-        sgf.forget_before(self.t)
-        self.log.append((self.t, line, tuple(replies)))
-        return replies
 
 
 # -- the teach buffer -------------------------------------------------------------------
@@ -355,14 +310,11 @@ class Hmi:
 
     def _fetch_position(self) -> None:
         """M114: the position and the step counters, as the SGF reports them."""
-        replies = self.port.send("M114")
-        for reply in replies:
-            m = _M114.match(reply)
-            if m and m.group("x") != "nan":
-                self.position = np.array([float(m.group(a)) * M_PER_MM for a in "xyz"])
-                self.steps = np.array([int(m.group(a)) for a in "abc"], dtype=np.int64)
-                return
-        self.position = np.full(3, np.nan)
+        found = self.port.where()
+        if found is None:
+            self.position = np.full(3, np.nan)
+        else:
+            self.position, self.steps = found
 
     def _home(self) -> None:
         error = self._send("G28")
