@@ -8,14 +8,10 @@ from transplanter.machine.hmi.keys import (
     parse_keys,
     run_keys,
 )
+from transplanter.machine.hmi.lcd import LCD_COLS, LCD_ROWS, short_reason
+from transplanter.machine.hmi.lcd import short_reason as lcd_reason
 from transplanter.machine.hmi.port import SGFPort
-from transplanter.machine.hmi.states import (
-    JOG_STEPS_MM,
-    LCD_COLS,
-    LCD_ROWS,
-    Hmi,
-    lcd_reason,
-)
+from transplanter.machine.hmi.states import JOG_STEPS_MM, Hmi
 from transplanter.machine.hmi.terminal import TERMINAL_KEYS, run_terminal, terminal_key
 
 __all__ = [
@@ -33,5 +29,6 @@ __all__ = [
     "parse_keys",
     "run_keys",
     "run_terminal",
+    "short_reason",
     "terminal_key",
 ]

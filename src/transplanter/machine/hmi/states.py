@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -54,14 +53,26 @@ from transplanter.machine.eeprom import (
 )
 from transplanter.machine.gcode import SERVO_MAX_DEG
 from transplanter.machine.hmi.keys import KEYS
+from transplanter.machine.hmi.lcd import (
+    LCD_COLS,
+    LCD_ROWS,
+    crop,
+    entry_screen,
+    fit,
+    framed,
+    jog_screen,
+    menu_screen,
+    num,
+    refusal_note,
+    write_screen,
+)
 from transplanter.machine.hmi.port import SGFPort
 from transplanter.machine.kinematics import fivebar as kinematics
 from transplanter.machine.motion import plan_line
 from transplanter.units import M_PER_MM
 
-__all__ = ["JOG_STEPS_MM", "LCD_COLS", "LCD_ROWS", "Hmi", "lcd_reason"]
+__all__ = ["JOG_STEPS_MM", "Hmi"]
 
-LCD_COLS, LCD_ROWS = 20, 4
 JOG_STEPS_MM = (10.0, 1.0, 0.1)
 """Jog step sizes, cycled by key 5 (the first is the power-on step)."""
 JOG_GRID_TICKS_PER_MM = 10
@@ -75,75 +86,6 @@ SPEED_MIN_MM_S = 0.1
 """Speeds: the scenario's least (0.1 mm/s) up to what the EEPROM's uint16 field holds."""
 
 _JOG_KEYS = {"4": (0, -1), "6": (0, +1), "8": (1, -1), "2": (1, +1), "9": (2, -1), "3": (2, +1)}
-_JOG_HINT = "X4/6 Y8/2 Z9/3 5stp"
-_ENTRY_HINT = "D=. C=del #ok *back"
-
-
-def lcd_reason(reason: str, width: int = LCD_COLS - 3) -> str:
-    """A refusal reason (a kinematics reason, an SGF ``error:N`` reply) cut down to ``width``
-    characters for the LCD: the most telling form that fits ('motor1 79.97<80', else
-    'motor1 limit')."""
-    text = reason.strip()
-    m = re.match(r"error:(\d+) (.*)", text, re.S)
-    if m:
-        prefix = f"SGF{m.group(1)} "
-        inner = m.group(2)
-        if ": " in inner and not inner.startswith("motor"):
-            inner = inner.split(": ", 1)[1]
-        return prefix + lcd_reason(inner, width - len(prefix))
-    for candidate in _short_forms(text):
-        if len(candidate) <= width:
-            return candidate
-    return _crop(text, width)
-
-
-_LIMIT = re.compile(
-    r"(?P<what>motor (?P<motor>\d) angle|elbow angle at (?P<elbow>[BD])|transmission angle) "
-    r"(?P<v>-?[\d.]+) deg outside \[(?P<lo>-?[\d.]+), (?P<hi>-?[\d.]+)\]"
-)
-
-
-def _short_forms(text: str) -> list[str]:
-    m = _LIMIT.search(text)
-    if m:
-        if m.group("motor"):
-            name = f"motor{m.group('motor')}"
-        elif m.group("elbow"):
-            name = f"elbow {m.group('elbow')}"
-        else:
-            name = "transm."
-        value, lo, hi = m.group("v"), m.group("lo"), m.group("hi")
-        below = float(value) < float(lo)
-        bound = f"<{lo}" if below else f">{hi}"
-        return [f"{name} {value}{bound}", f"{name}{value}{bound}", f"{name} limit", name]
-    for needle, forms in (
-        ("outside workspace", ("out of reach", "no reach")),
-        ("Jacobian condition", ("near singularity", "singular")),
-        ("home first", ("not homed", "home")),
-        ("homing failed", ("homing failed", "home fail")),
-        ("position unknown", ("not homed", "home")),
-    ):
-        if needle in text:
-            return list(forms)
-    return []
-
-
-def _crop(text: str, width: int = LCD_COLS) -> str:
-    return text[:width]
-
-
-def _fit(text: str) -> str:
-    """One LCD line: ASCII, cut or padded to exactly LCD_COLS characters."""
-    text = text.encode("ascii", "replace").decode("ascii")
-    return text[:LCD_COLS].ljust(LCD_COLS)
-
-
-def _num(value: float | None, decimals: int = 1) -> str:
-    """A value for the LCD without trailing zeros ('60', '112.4'); '---' when not set."""
-    if value is None:
-        return "---"
-    text = f"{value:.{decimals}f}"
-    return text.rstrip("0").rstrip(".") if "." in text else text
 
 
 # -- the teach buffer -------------------------------------------------------------------
@@ -286,12 +228,11 @@ class Hmi:
         """The 4 lines of 20 characters on the LCD now."""
         lines = getattr(self, f"_render_{self.screen}")()
         assert len(lines) == LCD_ROWS
-        return tuple(_fit(line) for line in lines)
+        return tuple(fit(line) for line in lines)
 
     def lcd_text(self) -> str:
         """The LCD in a frame, for a terminal."""
-        edge = "+" + "-" * LCD_COLS + "+"
-        return "\n".join([edge, *(f"|{line}|" for line in self.lcd), edge])
+        return framed(self.lcd)
 
     # -- keys -----------------------------------------------------------------------
     def press(self, key: str) -> None:
@@ -335,10 +276,7 @@ class Hmi:
         """Keep the full reason; the LCD shows 'NO <reason>', or 'SGF<N> <reason>' for the
         SGF's own error reply, in 20 characters."""
         self._note_refusal(reason)
-        if reason.startswith("error:"):
-            self.note = lcd_reason(reason, LCD_COLS)
-        else:
-            self.note = "NO " + lcd_reason(reason, LCD_COLS - 3)
+        self.note = refusal_note(reason)
 
     # -- menus ----------------------------------------------------------------------
     def _items(self) -> list[tuple[str, str, Callable[[], None]]]:
@@ -346,7 +284,7 @@ class Hmi:
         d = self.data
         if self.menu == "main":
             return [
-                ("1", f"Pickups  Mpp {_num(d.m_pp, 0)}", lambda: self._open("pickups")),
+                ("1", f"Pickups  Mpp {num(d.m_pp, 0)}", lambda: self._open("pickups")),
                 ("2", "Drop point", lambda: self._open("drop")),
                 ("3", "Z_up / Z_low", lambda: self._open("z")),
                 ("4", "Speeds S_l S_h", lambda: self._open("speeds")),
@@ -354,7 +292,7 @@ class Hmi:
                 ("6", "Write EEPROM", lambda: self._go("write")),
             ]
         if self.menu == "pickups":
-            items = [("0", f"Mpp (count) {_num(d.m_pp, 0)}", lambda: self._entry(self._f_mpp()))]
+            items = [("0", f"Mpp (count) {num(d.m_pp, 0)}", lambda: self._entry(self._f_mpp()))]
             for k in range(d.m_pp or 0):
                 flags = "".join(
                     c if v[k] is not None else "-"
@@ -368,23 +306,23 @@ class Hmi:
             return [
                 ("1", f"Appr {self._xy(d.approach[k])}", lambda: self._jog("approach", k)),
                 ("2", f"Grip {self._xy(d.grip[k])}", lambda: self._jog("grip", k)),
-                ("3", f"Elbow {_num(d.elbow[k], 2)}", lambda: self._entry(self._f_elbow(k))),
+                ("3", f"Elbow {num(d.elbow[k], 2)}", lambda: self._entry(self._f_elbow(k))),
             ]
         if self.menu == "drop":
             return [
                 ("1", f"Pos {self._xy(d.drop)}", lambda: self._jog("drop", None)),
-                ("2", f"Elbow {_num(d.drop_elbow, 2)}", lambda: self._entry(self._f_drop_elbow())),
+                ("2", f"Elbow {num(d.drop_elbow, 2)}", lambda: self._entry(self._f_drop_elbow())),
             ]
         if self.menu == "z":
             return [
                 (
                     "1",
-                    f"Z_up  {_num(self._mm(d.z_up), 3)} mm",
+                    f"Z_up  {num(self._mm(d.z_up), 3)} mm",
                     lambda: self._entry(self._f_z("z_up")),
                 ),
                 (
                     "2",
-                    f"Z_low {_num(self._mm(d.z_low), 3)} mm",
+                    f"Z_low {num(self._mm(d.z_low), 3)} mm",
                     lambda: self._entry(self._f_z("z_low")),
                 ),
             ]
@@ -392,12 +330,12 @@ class Hmi:
             return [
                 (
                     "1",
-                    f"S_l {_num(self._mm(d.s_low))} mm/s",
+                    f"S_l {num(self._mm(d.s_low))} mm/s",
                     lambda: self._entry(self._f_speed("s_low")),
                 ),
                 (
                     "2",
-                    f"S_h {_num(self._mm(d.s_high))} mm/s",
+                    f"S_h {num(self._mm(d.s_high))} mm/s",
                     lambda: self._entry(self._f_speed("s_high")),
                 ),
             ]
@@ -444,21 +382,8 @@ class Hmi:
     def _render_menu(self) -> list[str]:
         items = self._items()
         cursor = min(self.cursor.get(self._cursor_key(), 0), len(items) - 1)
-        top = max(0, min(cursor - 1, len(items) - (LCD_ROWS - 1)))
-        title = self._title()
-        position = f"{cursor + 1}/{len(items)}"
-        if len(title) + 1 + len(position) <= LCD_COLS:
-            title = title.ljust(LCD_COLS - len(position)) + position
-        lines = [self.note if self.note is not None else title]
-        for i in range(top, top + LCD_ROWS - 1):
-            if i < len(items):
-                digit, label, _ = items[i]
-                lines.append(
-                    (">" if i == cursor else " ") + (f"{digit} " if digit else "  ") + label
-                )
-            else:
-                lines.append("")
-        return lines
+        labels = [(digit, label) for digit, label, _ in items]
+        return menu_screen(self._title(), labels, cursor, self.note)
 
     def _key_menu(self, key: str) -> None:
         items = self._items()
@@ -534,14 +459,8 @@ class Hmi:
     def _render_entry(self) -> list[str]:
         f = self.field
         title = f"{f.name} {f.unit}".strip()
-        lo, hi = _num(f.lo, f.decimals), _num(f.hi, f.decimals)
-        now = _num(self._current(f), f.decimals)
-        return [
-            title,
-            f"{lo}-{hi} now {now}",
-            f"new {self.typed}_",
-            self.note if self.note is not None else _ENTRY_HINT,
-        ]
+        now = self._current(f)
+        return entry_screen(title, f.lo, f.hi, now, f.decimals, self.typed, self.note)
 
     def _key_entry(self, key: str) -> None:
         f = self.field
@@ -564,7 +483,7 @@ class Hmi:
                 self.note = error
             else:
                 self._open(self.menu)
-                self.note = f"Saved {f.short} {_num(self._current(f), f.decimals)}"
+                self.note = f"Saved {f.short} {num(self._current(f), f.decimals)}"
         else:
             self.note = f"Key {key}: no use here"
 
@@ -578,13 +497,13 @@ class Hmi:
             return f"Max {f.decimals} decimals" if f.decimals else "Whole number"
         value = float(text)
         if not f.lo <= value <= f.hi:
-            return f"Range {_num(f.lo, f.decimals)}-{_num(f.hi, f.decimals)}"
+            return f"Range {num(f.lo, f.decimals)}-{num(f.hi, f.decimals)}"
         si = value * f.scale
         d = self.data
         if f.attr == "z_up" and d.z_low is not None and si <= d.z_low:
-            return f"Z_up<=Z_low {_num(self._mm(d.z_low), 3)}"
+            return f"Z_up<=Z_low {num(self._mm(d.z_low), 3)}"
         if f.attr == "z_low" and d.z_up is not None and si >= d.z_up:
-            return f"Z_low>=Z_up {_num(self._mm(d.z_up), 3)}"
+            return f"Z_low>=Z_up {num(self._mm(d.z_up), 3)}"
         if f.attr == "m_pp":
             d.m_pp = int(value)
         elif f.index is not None:
@@ -605,15 +524,8 @@ class Hmi:
         return name if k is None else f"P{k + 1} {name}"
 
     def _render_jog(self) -> list[str]:
-        x, y, z = (self.position / M_PER_MM).tolist()
-        step = f"s{_num(JOG_STEPS_MM[self.step_index])}"
-        title = self._jog_title()
-        return [
-            title.ljust(LCD_COLS - len(step)) + step,
-            f"X{x:7.1f}  Y{y:7.1f}",
-            f"Z{z:7.1f}  #sto *bk",
-            self.note if self.note is not None else _JOG_HINT,
-        ]
+        step_mm = JOG_STEPS_MM[self.step_index]
+        return jog_screen(self._jog_title(), self.position.tolist(), step_mm, self.note)
 
     def _key_jog(self, key: str) -> None:
         if key in _JOG_KEYS:
@@ -621,7 +533,7 @@ class Hmi:
             self._jog_move(axis, direction)
         elif key == "5":
             self.step_index = (self.step_index + 1) % len(JOG_STEPS_MM)
-            self.note = f"Step {_num(JOG_STEPS_MM[self.step_index])} mm"
+            self.note = f"Step {num(JOG_STEPS_MM[self.step_index])} mm"
         elif key == "#":
             self._store_position()
         elif key == "*":
@@ -668,14 +580,7 @@ class Hmi:
         target = self.jog_target_of(axis, direction)
         reason = self.check_move(target)
         if reason is not None:
-            if reason.startswith("Z ") and "Z range" in reason:
-                z = target[2] / M_PER_MM
-                bound = self.config.z_max_m if direction > 0 else self.config.z_min_m
-                sign = ">" if direction > 0 else "<"
-                self._note_refusal(reason)
-                self.note = f"NO Z {z:g} {sign} {bound / M_PER_MM:g}"
-            else:
-                self._refuse(reason)
+            self._refuse(reason)
             return
         x, y, z = (target / M_PER_MM).tolist()
         error = self._send(f"G1 X{x:.1f} Y{y:.1f} Z{z:.1f} S{JOG_SPEED_MM_S:g}")
@@ -701,12 +606,7 @@ class Hmi:
     # -- writing the EEPROM ----------------------------------------------------------
     def _render_write(self) -> list[str]:
         target = "file" if self.out_path is not None else "memory"
-        return [
-            "WRITE EEPROM",
-            f"Mpp {_num(self.data.m_pp, 0)} to {target}",
-            "#=check+write *back",
-            self.note if self.note is not None else "",
-        ]
+        return write_screen(self.data.m_pp, target, self.note)
 
     def _key_write(self, key: str) -> None:
         if key == "*":
@@ -727,13 +627,12 @@ class Hmi:
             image = self.data.image()
         except EepromError as error:
             self._note_refusal(str(error))
-            self.note = "NO " + _crop(str(error), LCD_COLS - 3)
+            self.note = "NO " + crop(str(error), LCD_COLS - 3)
             return False
         try:
             check_machine(dataclasses.replace(self.machine, eeprom=image))
         except ScenarioError as error:
             self._refuse(str(error))
-            self.note = "NO " + _preflight_short(str(error))
             return False
         data = image.to_bytes()
         if self.out_path is not None:
@@ -760,21 +659,6 @@ class Hmi:
         if xy is None:
             return "---"
         return f"{xy[0] / M_PER_MM:.1f} {xy[1] / M_PER_MM:.1f}"
-
-
-def _preflight_short(message: str) -> str:
-    """A preflight refusal in 17 characters: which taught point or move fails."""
-    m = re.match(r"taught\.pickup\[(\d+)\]\.(approach|grip)_mm", message)
-    if m:
-        return f"P{int(m.group(1)) + 1} {m.group(2)[:4]} unreach."
-    m = re.match(r"taught\.pickup\[(\d+)\]: ", message)
-    if m:
-        return f"P{int(m.group(1)) + 1} move unreach."
-    if message.startswith("taught.drop_mm: "):
-        return "home>drop unreach"
-    if message.startswith("taught.drop_mm"):
-        return "drop unreachable"
-    return _crop(message, LCD_COLS - 3)
 
 
 def write_image(path: str | Path, data: bytes) -> None:
