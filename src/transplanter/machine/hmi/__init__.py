@@ -12,6 +12,7 @@ from transplanter.machine.hmi.lcd import LCD_COLS, LCD_ROWS, short_reason
 from transplanter.machine.hmi.lcd import short_reason as lcd_reason
 from transplanter.machine.hmi.port import SGFPort
 from transplanter.machine.hmi.states import JOG_STEPS_MM, Hmi
+from transplanter.machine.hmi.teach import TeachData, write_image
 from transplanter.machine.hmi.terminal import TERMINAL_KEYS, run_terminal, terminal_key
 
 __all__ = [
@@ -25,10 +26,12 @@ __all__ = [
     "KeyScriptError",
     "SGFPort",
     "TERMINAL_KEYS",
+    "TeachData",
     "lcd_reason",
     "parse_keys",
     "run_keys",
     "run_terminal",
     "short_reason",
     "terminal_key",
+    "write_image",
 ]

@@ -35,23 +35,17 @@ import dataclasses
 import math
 import zlib
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from transplanter import fileio
 from transplanter.machine.config import Machine
 from transplanter.machine.eeprom import (
     CRC_OFFSET,
     DATA_SIZE,
-    MAX_PICKUPS,
-    MAX_SPEED_M_S,
     EepromError,
     EepromImage,
-    Pickup,
 )
-from transplanter.machine.gcode import SERVO_MAX_DEG
 from transplanter.machine.hmi.keys import KEYS
 from transplanter.machine.hmi.lcd import (
     LCD_COLS,
@@ -67,6 +61,17 @@ from transplanter.machine.hmi.lcd import (
     write_screen,
 )
 from transplanter.machine.hmi.port import SGFPort
+from transplanter.machine.hmi.teach import (
+    Field,
+    TeachData,
+    drop_elbow_field,
+    elbow_field,
+    mm,
+    pickups_field,
+    speed_field,
+    write_image,
+    z_field,
+)
 from transplanter.machine.kinematics import fivebar as kinematics
 from transplanter.machine.motion import plan_line
 from transplanter.units import M_PER_MM
@@ -81,105 +86,7 @@ JOG_SPEED_MM_S = 20.0
 """Speed of a jog move (the ``S`` word of its G1 line)."""
 MAX_ENTRY_CHARS = 8
 """Characters a numeric entry takes."""
-SPEED_MAX_MM_S = MAX_SPEED_M_S / M_PER_MM
-SPEED_MIN_MM_S = 0.1
-"""Speeds: the scenario's least (0.1 mm/s) up to what the EEPROM's uint16 field holds."""
-
 _JOG_KEYS = {"4": (0, -1), "6": (0, +1), "8": (1, -1), "2": (1, +1), "9": (2, -1), "3": (2, +1)}
-
-
-# -- the teach buffer -------------------------------------------------------------------
-
-
-@dataclass
-class TeachData:
-    """What the EEPROM will hold, as taught so far (SI; None: not taught yet)."""
-
-    m_pp: int | None = None
-    approach: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
-    grip: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
-    elbow: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
-    drop: tuple[float, float] | None = None
-    drop_elbow: float | None = None
-    z_up: float | None = None
-    z_low: float | None = None
-    s_low: float | None = None
-    s_high: float | None = None
-
-    @classmethod
-    def of_image(cls, image: EepromImage) -> TeachData:
-        data = cls(
-            m_pp=image.m_pp,
-            drop=image.drop_xy_m,
-            drop_elbow=image.drop_elbow_deg,
-            z_up=image.z_up_m,
-            z_low=image.z_low_m,
-            s_low=image.s_low_m_s,
-            s_high=image.s_high_m_s,
-        )
-        for k, p in enumerate(image.pickups):
-            data.approach[k], data.grip[k], data.elbow[k] = (
-                p.approach_xy_m,
-                p.grip_xy_m,
-                p.elbow_deg,
-            )
-        return data
-
-    def missing(self) -> str | None:
-        """The first value still to teach, for the LCD; None when the image is complete."""
-        checks = [
-            (self.m_pp, "M_pp"),
-            (self.z_up, "Z_up"),
-            (self.z_low, "Z_low"),
-            (self.s_low, "S_l"),
-            (self.s_high, "S_h"),
-            (self.drop, "drop point"),
-            (self.drop_elbow, "drop elbow"),
-        ]
-        for value, name in checks:
-            if value is None:
-                return f"{name} not set"
-        for k in range(self.m_pp):
-            for values, name in (
-                (self.approach, "appr"),
-                (self.grip, "grip"),
-                (self.elbow, "elbow"),
-            ):
-                if values[k] is None:
-                    return f"P{k + 1} {name} not set"
-        return None
-
-    def image(self) -> EepromImage:
-        """The EEPROM image (EepromError if something is missing or out of range)."""
-        missing = self.missing()
-        if missing is not None:
-            raise EepromError(missing)
-        return EepromImage(
-            pickups=tuple(
-                Pickup(self.approach[k], self.grip[k], self.elbow[k]) for k in range(self.m_pp)
-            ),
-            drop_xy_m=self.drop,
-            drop_elbow_deg=self.drop_elbow,
-            z_up_m=self.z_up,
-            z_low_m=self.z_low,
-            s_low_m_s=self.s_low,
-            s_high_m_s=self.s_high,
-        )
-
-
-@dataclass(frozen=True)
-class Field:
-    """A value entered with the digits: its LCD name, unit, range and decimals."""
-
-    name: str
-    unit: str
-    lo: float
-    hi: float
-    decimals: int
-    scale: float  # SI per unit entered
-    attr: str
-    index: int | None = None  # pickup slot for the per-pickup elbow angle
-    short: str = ""  # the name in the 'Saved' note
 
 
 # -- the state machine ------------------------------------------------------------------
@@ -292,7 +199,7 @@ class Hmi:
                 ("6", "Write EEPROM", lambda: self._go("write")),
             ]
         if self.menu == "pickups":
-            items = [("0", f"Mpp (count) {num(d.m_pp, 0)}", lambda: self._entry(self._f_mpp()))]
+            items = [("0", f"Mpp (count) {num(d.m_pp, 0)}", lambda: self._entry(pickups_field()))]
             for k in range(d.m_pp or 0):
                 flags = "".join(
                     c if v[k] is not None else "-"
@@ -306,37 +213,37 @@ class Hmi:
             return [
                 ("1", f"Appr {self._xy(d.approach[k])}", lambda: self._jog("approach", k)),
                 ("2", f"Grip {self._xy(d.grip[k])}", lambda: self._jog("grip", k)),
-                ("3", f"Elbow {num(d.elbow[k], 2)}", lambda: self._entry(self._f_elbow(k))),
+                ("3", f"Elbow {num(d.elbow[k], 2)}", lambda: self._entry(elbow_field(k))),
             ]
         if self.menu == "drop":
             return [
                 ("1", f"Pos {self._xy(d.drop)}", lambda: self._jog("drop", None)),
-                ("2", f"Elbow {num(d.drop_elbow, 2)}", lambda: self._entry(self._f_drop_elbow())),
+                ("2", f"Elbow {num(d.drop_elbow, 2)}", lambda: self._entry(drop_elbow_field())),
             ]
         if self.menu == "z":
             return [
                 (
                     "1",
-                    f"Z_up  {num(self._mm(d.z_up), 3)} mm",
-                    lambda: self._entry(self._f_z("z_up")),
+                    f"Z_up  {num(mm(d.z_up), 3)} mm",
+                    lambda: self._entry(z_field("z_up", self.config)),
                 ),
                 (
                     "2",
-                    f"Z_low {num(self._mm(d.z_low), 3)} mm",
-                    lambda: self._entry(self._f_z("z_low")),
+                    f"Z_low {num(mm(d.z_low), 3)} mm",
+                    lambda: self._entry(z_field("z_low", self.config)),
                 ),
             ]
         if self.menu == "speeds":
             return [
                 (
                     "1",
-                    f"S_l {num(self._mm(d.s_low))} mm/s",
-                    lambda: self._entry(self._f_speed("s_low")),
+                    f"S_l {num(mm(d.s_low))} mm/s",
+                    lambda: self._entry(speed_field("s_low")),
                 ),
                 (
                     "2",
-                    f"S_h {num(self._mm(d.s_high))} mm/s",
-                    lambda: self._entry(self._f_speed("s_high")),
+                    f"S_h {num(mm(d.s_high))} mm/s",
+                    lambda: self._entry(speed_field("s_high")),
                 ),
             ]
         raise AssertionError(self.menu)
@@ -414,52 +321,15 @@ class Hmi:
             self.note = f"Key {key}: no use here"
 
     # -- numeric entry (paper Fig. 11) ---------------------------------------------
-    def _f_mpp(self) -> Field:
-        return Field("Pickups M_pp", "", 1, MAX_PICKUPS, 0, 1.0, "m_pp", short="M_pp")
-
-    def _f_elbow(self, k: int) -> Field:
-        return Field(
-            f"P{k + 1} elbow M_pep",
-            "deg",
-            0.0,
-            SERVO_MAX_DEG,
-            2,
-            1.0,
-            "elbow",
-            k,
-            f"P{k + 1} elbow",
-        )
-
-    def _f_drop_elbow(self) -> Field:
-        return Field(
-            "Drop elbow M_dep", "deg", 0.0, SERVO_MAX_DEG, 2, 1.0, "drop_elbow", short="M_dep"
-        )
-
-    def _f_z(self, attr: str) -> Field:
-        name = "Z_up" if attr == "z_up" else "Z_low"
-        lo, hi = self.config.z_min_m / M_PER_MM, self.config.z_max_m / M_PER_MM
-        return Field(name, "mm", lo, hi, 3, M_PER_MM, attr, short=name)
-
-    def _f_speed(self, attr: str) -> Field:
-        name = "S_l low speed" if attr == "s_low" else "S_h high speed"
-        short = name.split()[0]
-        return Field(name, "mm/s", SPEED_MIN_MM_S, SPEED_MAX_MM_S, 1, M_PER_MM, attr, short=short)
-
     def _entry(self, field: Field) -> None:
         self.field = field
         self.typed = ""
         self.screen = "entry"
 
-    def _current(self, field: Field) -> float | None:
-        value = getattr(self.data, field.attr)
-        if field.index is not None:
-            value = value[field.index]
-        return None if value is None else value / field.scale
-
     def _render_entry(self) -> list[str]:
         f = self.field
         title = f"{f.name} {f.unit}".strip()
-        now = self._current(f)
+        now = self.data.current(f)
         return entry_screen(title, f.lo, f.hi, now, f.decimals, self.typed, self.note)
 
     def _key_entry(self, key: str) -> None:
@@ -477,40 +347,15 @@ class Hmi:
         elif key == "*":
             self._open(self.menu)
         elif key == "#":
-            error = self._store_entry(f)
+            error = self.data.store(f, self.typed)
             if error is not None:
                 self._note_refusal(error)
                 self.note = error
             else:
                 self._open(self.menu)
-                self.note = f"Saved {f.short} {num(self._current(f), f.decimals)}"
+                self.note = f"Saved {f.short} {num(self.data.current(f), f.decimals)}"
         else:
             self.note = f"Key {key}: no use here"
-
-    def _store_entry(self, f: Field) -> str | None:
-        """Store the typed value; the LCD's reason (<= 20 characters) if it is refused."""
-        text = self.typed
-        if not text or text == ".":
-            return "Type a value"
-        decimals = len(text.partition(".")[2])
-        if decimals > f.decimals:
-            return f"Max {f.decimals} decimals" if f.decimals else "Whole number"
-        value = float(text)
-        if not f.lo <= value <= f.hi:
-            return f"Range {num(f.lo, f.decimals)}-{num(f.hi, f.decimals)}"
-        si = value * f.scale
-        d = self.data
-        if f.attr == "z_up" and d.z_low is not None and si <= d.z_low:
-            return f"Z_up<=Z_low {num(self._mm(d.z_low), 3)}"
-        if f.attr == "z_low" and d.z_up is not None and si >= d.z_up:
-            return f"Z_low>=Z_up {num(self._mm(d.z_up), 3)}"
-        if f.attr == "m_pp":
-            d.m_pp = int(value)
-        elif f.index is not None:
-            getattr(d, f.attr)[f.index] = si
-        else:
-            setattr(d, f.attr, si)
-        return None
 
     # -- jogging (paper Fig. 12) ---------------------------------------------------
     def _jog(self, what: str, k: int | None) -> None:
@@ -594,11 +439,7 @@ class Hmi:
             self._refuse("position unknown: home first (menu 5)")
             return
         xy = (float(self.position[0]), float(self.position[1]))
-        what, k = self.jog_target
-        if what == "drop":
-            self.data.drop = xy
-        else:
-            getattr(self.data, what)[k] = xy
+        self.data.set_point(*self.jog_target, xy)
         title = self._jog_title()
         self._open(self.menu)
         self.note = f"{title} stored"
@@ -651,24 +492,7 @@ class Hmi:
 
     # -- helpers ---------------------------------------------------------------------
     @staticmethod
-    def _mm(value: float | None) -> float | None:
-        return None if value is None else value / M_PER_MM
-
-    @staticmethod
     def _xy(xy) -> str:
         if xy is None:
             return "---"
         return f"{xy[0] / M_PER_MM:.1f} {xy[1] / M_PER_MM:.1f}"
-
-
-def write_image(path: str | Path, data: bytes) -> None:
-    """Write an EEPROM image atomically (``fileio``: an exclusive temporary file beside the
-    target, moved into place when complete)."""
-    target = Path(path)
-    tmp = fileio.temp_beside(target)
-    try:
-        tmp.write_bytes(data)
-    except BaseException:
-        fileio.discard(tmp)
-        raise
-    fileio.commit(tmp, target)
