@@ -1,5 +1,6 @@
 """The HMI: the paper's teach mode (20x4 LCD, 4x4 keypad), as a package (docs/hmi.md)."""
 
+from transplanter.machine.hmi.jog import JOG_STEPS_MM
 from transplanter.machine.hmi.keys import (
     KEYPAD_ROWS,
     KEYS,
@@ -11,7 +12,7 @@ from transplanter.machine.hmi.keys import (
 from transplanter.machine.hmi.lcd import LCD_COLS, LCD_ROWS, short_reason
 from transplanter.machine.hmi.lcd import short_reason as lcd_reason
 from transplanter.machine.hmi.port import SGFPort
-from transplanter.machine.hmi.states import JOG_STEPS_MM, Hmi
+from transplanter.machine.hmi.states import Hmi
 from transplanter.machine.hmi.teach import TeachData, write_image
 from transplanter.machine.hmi.terminal import TERMINAL_KEYS, run_terminal, terminal_key
 

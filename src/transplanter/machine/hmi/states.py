@@ -32,9 +32,7 @@ Pure Python and numpy: no MuJoCo.
 from __future__ import annotations
 
 import dataclasses
-import math
 import zlib
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +43,14 @@ from transplanter.machine.eeprom import (
     DATA_SIZE,
     EepromError,
     EepromImage,
+)
+from transplanter.machine.hmi.jog import (
+    JOG_KEYS,
+    JOG_STEPS_MM,
+    check_move,
+    jog_line,
+    jog_target,
+    jog_title,
 )
 from transplanter.machine.hmi.keys import KEYS
 from transplanter.machine.hmi.lcd import (
@@ -60,35 +66,19 @@ from transplanter.machine.hmi.lcd import (
     refusal_note,
     write_screen,
 )
+from transplanter.machine.hmi.menus import PARENT, Action, Item, menu_items, menu_title
 from transplanter.machine.hmi.port import SGFPort
 from transplanter.machine.hmi.teach import (
     Field,
     TeachData,
-    drop_elbow_field,
-    elbow_field,
-    mm,
-    pickups_field,
-    speed_field,
     write_image,
-    z_field,
 )
-from transplanter.machine.kinematics import fivebar as kinematics
-from transplanter.machine.motion import plan_line
 from transplanter.units import M_PER_MM
 
-__all__ = ["JOG_STEPS_MM", "Hmi"]
+__all__ = ["Hmi"]
 
-JOG_STEPS_MM = (10.0, 1.0, 0.1)
-"""Jog step sizes, cycled by key 5 (the first is the power-on step)."""
-JOG_GRID_TICKS_PER_MM = 10
-"""Jog targets lie on a 0.1 mm grid: a jog goes to the next multiple of the step."""
-JOG_SPEED_MM_S = 20.0
-"""Speed of a jog move (the ``S`` word of its G1 line)."""
 MAX_ENTRY_CHARS = 8
 """Characters a numeric entry takes."""
-_JOG_KEYS = {"4": (0, -1), "6": (0, +1), "8": (1, -1), "2": (1, +1), "9": (2, -1), "3": (2, +1)}
-
-
 # -- the state machine ------------------------------------------------------------------
 
 
@@ -186,111 +176,43 @@ class Hmi:
         self.note = refusal_note(reason)
 
     # -- menus ----------------------------------------------------------------------
-    def _items(self) -> list[tuple[str, str, Callable[[], None]]]:
-        """(digit, label, action) of the current menu."""
-        d = self.data
-        if self.menu == "main":
-            return [
-                ("1", f"Pickups  Mpp {num(d.m_pp, 0)}", lambda: self._open("pickups")),
-                ("2", "Drop point", lambda: self._open("drop")),
-                ("3", "Z_up / Z_low", lambda: self._open("z")),
-                ("4", "Speeds S_l S_h", lambda: self._open("speeds")),
-                ("5", "Home arm (G28)", self._home),
-                ("6", "Write EEPROM", lambda: self._go("write")),
-            ]
-        if self.menu == "pickups":
-            items = [("0", f"Mpp (count) {num(d.m_pp, 0)}", lambda: self._entry(pickups_field()))]
-            for k in range(d.m_pp or 0):
-                flags = "".join(
-                    c if v[k] is not None else "-"
-                    for c, v in (("A", d.approach), ("G", d.grip), ("E", d.elbow))
-                )
-                digit = str(k + 1) if k < 9 else ""
-                items.append((digit, f"Pickup {k + 1:<2}  {flags}", self._opener(k)))
-            return items
-        if self.menu == "pickup":
-            k = self.pickup
-            return [
-                ("1", f"Appr {self._xy(d.approach[k])}", lambda: self._jog("approach", k)),
-                ("2", f"Grip {self._xy(d.grip[k])}", lambda: self._jog("grip", k)),
-                ("3", f"Elbow {num(d.elbow[k], 2)}", lambda: self._entry(elbow_field(k))),
-            ]
-        if self.menu == "drop":
-            return [
-                ("1", f"Pos {self._xy(d.drop)}", lambda: self._jog("drop", None)),
-                ("2", f"Elbow {num(d.drop_elbow, 2)}", lambda: self._entry(drop_elbow_field())),
-            ]
-        if self.menu == "z":
-            return [
-                (
-                    "1",
-                    f"Z_up  {num(mm(d.z_up), 3)} mm",
-                    lambda: self._entry(z_field("z_up", self.config)),
-                ),
-                (
-                    "2",
-                    f"Z_low {num(mm(d.z_low), 3)} mm",
-                    lambda: self._entry(z_field("z_low", self.config)),
-                ),
-            ]
-        if self.menu == "speeds":
-            return [
-                (
-                    "1",
-                    f"S_l {num(mm(d.s_low))} mm/s",
-                    lambda: self._entry(speed_field("s_low")),
-                ),
-                (
-                    "2",
-                    f"S_h {num(mm(d.s_high))} mm/s",
-                    lambda: self._entry(speed_field("s_high")),
-                ),
-            ]
-        raise AssertionError(self.menu)
-
-    def _opener(self, k: int) -> Callable[[], None]:
-        def open_pickup():
-            self.pickup = k
-            self._open("pickup")
-
-        return open_pickup
-
-    _TITLES = {
-        "main": "MENU A^ Bv #ok",
-        "pickups": "PICKUPS   *back",
-        "drop": "DROP POINT *back",
-        "z": "Z LEVELS  *back",
-        "speeds": "SPEEDS    *back",
-    }
-    _PARENT = {
-        "pickups": "main",
-        "pickup": "pickups",
-        "drop": "main",
-        "z": "main",
-        "speeds": "main",
-    }
-
-    def _title(self) -> str:
-        if self.menu == "pickup":
-            return f"PICKUP {self.pickup + 1}  *back"
-        return self._TITLES[self.menu]
-
     def _open(self, menu: str) -> None:
         self.menu = menu
         self.screen = "menu"
         self.cursor.setdefault(self._cursor_key(), 0)
 
-    def _go(self, screen: str) -> None:
-        self.screen = screen
-
     def _cursor_key(self) -> str:
         return f"pickup{self.pickup}" if self.menu == "pickup" else self.menu
+
+    def _items(self) -> list[Item]:
+        """(digit, label, action) of the current menu."""
+        return menu_items(self.menu, self.pickup, self.data, self.config)
+
+    def _select(self, action: Action) -> None:
+        """Carry out a menu item's action (``menus``)."""
+        kind, *args = action
+        if kind == "open":
+            self._open(*args)
+        elif kind == "pickup":
+            self.pickup = args[0]
+            self._open("pickup")
+        elif kind == "entry":
+            self._entry(*args)
+        elif kind == "jog":
+            self._jog(*args)
+        elif kind == "home":
+            self._home()
+        elif kind == "write":
+            self.screen = "write"
+        else:
+            raise AssertionError(action)
 
     def _render_menu(self) -> list[str]:
         items = self._items()
         cursor = min(self.cursor.get(self._cursor_key(), 0), len(items) - 1)
         labels = [(digit, label) for digit, label, _ in items]
-        return menu_screen(self._title(), labels, cursor, self.note)
+        title = menu_title(self.menu, self.pickup)
+        return menu_screen(title, labels, cursor, self.note)
 
     def _key_menu(self, key: str) -> None:
         items = self._items()
@@ -301,17 +223,17 @@ class Hmi:
         elif key == "B":
             self.cursor[where] = min(len(items) - 1, cursor + 1)
         elif key == "#":
-            items[cursor][2]()
+            self._select(items[cursor][2])
         elif key == "*":
             if self.menu == "main":
                 self.note = "Main menu"
             else:
-                self._open(self._PARENT[self.menu])
+                self._open(PARENT[self.menu])
         elif key.isdigit():
             for i, (digit, _, action) in enumerate(items):
                 if digit == key:
                     self.cursor[where] = i
-                    action()
+                    self._select(action)
                     return
             if self.menu == "pickups" and not self.data.m_pp:
                 self.note = "Set M_pp first: 0"
@@ -363,18 +285,13 @@ class Hmi:
         self.screen = "jog"
         self._fetch_position()
 
-    def _jog_title(self) -> str:
-        what, k = self.jog_target
-        name = {"approach": "appr", "grip": "grip", "drop": "Drop pos"}[what]
-        return name if k is None else f"P{k + 1} {name}"
-
     def _render_jog(self) -> list[str]:
         step_mm = JOG_STEPS_MM[self.step_index]
-        return jog_screen(self._jog_title(), self.position.tolist(), step_mm, self.note)
+        return jog_screen(jog_title(*self.jog_target), self.position.tolist(), step_mm, self.note)
 
     def _key_jog(self, key: str) -> None:
-        if key in _JOG_KEYS:
-            axis, direction = _JOG_KEYS[key]
+        if key in JOG_KEYS:
+            axis, direction = JOG_KEYS[key]
             self._jog_move(axis, direction)
         elif key == "5":
             self.step_index = (self.step_index + 1) % len(JOG_STEPS_MM)
@@ -388,35 +305,12 @@ class Hmi:
 
     def jog_target_of(self, axis: int, direction: int) -> np.ndarray:
         """Where a jog goes: the next multiple of the step along the axis (0.1 mm grid)."""
-        step = round(JOG_STEPS_MM[self.step_index] * JOG_GRID_TICKS_PER_MM)
-        ticks = self.position[axis] / M_PER_MM * JOG_GRID_TICKS_PER_MM
-        if direction > 0:
-            n = math.floor(ticks / step + 1e-6) + 1
-        else:
-            n = math.ceil(ticks / step - 1e-6) - 1
-        target = self.position.copy()
-        target[axis] = n * step / JOG_GRID_TICKS_PER_MM * M_PER_MM
-        return target
+        return jog_target(self.position, JOG_STEPS_MM[self.step_index], axis, direction)
 
     def check_move(self, target: np.ndarray) -> str | None:
         """Why the SGF would refuse the straight move from here to ``target`` (None: it
         would not): Z range, then every interpolated point (``motion.plan_line``)."""
-        c = self.config
-        z = float(target[2])
-        if z > c.z_max_m + 1e-12:
-            return f"Z {z / M_PER_MM:g} mm above the Z range max {c.z_max_m / M_PER_MM:g} mm"
-        if z < c.z_min_m - 1e-12:
-            return f"Z {z / M_PER_MM:g} mm below the Z range min {c.z_min_m / M_PER_MM:g} mm"
-        try:
-            plan_line(
-                self.steps, self.position, target, JOG_SPEED_MM_S * M_PER_MM,
-                c.geometry, c.limits, c.drives, c.motion, c.mode,
-            )  # fmt: skip
-        except kinematics.UnreachableError as error:
-            return error.reason
-        except ValueError as error:
-            return str(error)
-        return None
+        return check_move(self.config, self.steps, self.position, target)
 
     def _jog_move(self, axis: int, direction: int) -> None:
         if not np.isfinite(self.position).all():
@@ -427,8 +321,7 @@ class Hmi:
         if reason is not None:
             self._refuse(reason)
             return
-        x, y, z = (target / M_PER_MM).tolist()
-        error = self._send(f"G1 X{x:.1f} Y{y:.1f} Z{z:.1f} S{JOG_SPEED_MM_S:g}")
+        error = self._send(jog_line(target))
         self._fetch_position()
         if error is not None:
             self._refuse(error)
@@ -440,7 +333,7 @@ class Hmi:
             return
         xy = (float(self.position[0]), float(self.position[1]))
         self.data.set_point(*self.jog_target, xy)
-        title = self._jog_title()
+        title = jog_title(*self.jog_target)
         self._open(self.menu)
         self.note = f"{title} stored"
 
@@ -489,10 +382,3 @@ class Hmi:
         assert crc == zlib.crc32(data[:DATA_SIZE])
         self.note = f"Written CRC {crc:08x}"
         return True
-
-    # -- helpers ---------------------------------------------------------------------
-    @staticmethod
-    def _xy(xy) -> str:
-        if xy is None:
-            return "---"
-        return f"{xy[0] / M_PER_MM:.1f} {xy[1] / M_PER_MM:.1f}"
