@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, paper_scenario
+from transplanter.errors import Refusal, RefusalReason
 from transplanter.machine.eeprom import EepromImage
 from transplanter.machine.hmi import (
     KEYS,
@@ -17,9 +18,10 @@ from transplanter.machine.hmi import (
     LCD_ROWS,
     Hmi,
     KeyScriptError,
-    lcd_reason,
     parse_keys,
+    refusal_note,
     run_keys,
+    sgf_note,
     terminal_key,
 )
 from transplanter.scenario.assemble import EEPROM_OVERRIDE, assemble, machine_config, with_eeprom
@@ -168,7 +170,7 @@ def test_a_jog_past_the_z_range_is_refused(hmi):
     assert hmi.position[2] == pytest.approx(0.160)
     keys(hmi, "3")
     assert hmi.lcd[3] == "NO Z 170 > 160".ljust(20)
-    assert "above the Z range max 160 mm" in hmi.last_refusal
+    assert hmi.last_refusal == "Z 170.000 mm outside [5.000, 160.000] mm"
     assert hmi.position[2] == pytest.approx(0.160)
     keys(hmi, "5 5")  # step 0.1: still above
     keys(hmi, "3")
@@ -189,20 +191,27 @@ def test_the_sgfs_own_refusal_is_shown(hmi, monkeypatch):
     keys(hmi, "4")
     assert moves(hmi) == ["G1 X-10.0 Y79.0 Z159.0 S20"]
     assert hmi.port.log[-2][2][-1].startswith("error:33")
-    assert hmi.lcd[3] == "SGF33 elbow B limit "
+    assert hmi.lcd[3] == "SGF33 bad target".ljust(20)  # the pendant reads the wire's code
     assert hmi.last_refusal.startswith("error:33 target position not reachable")
     np.testing.assert_array_equal(hmi.position, before)
 
 
-def test_lcd_reasons_fit():
-    assert lcd_reason("outside workspace: |C-O1|=0.4 m > L1+L2=0.32 m") == "out of reach"
-    assert lcd_reason("Jacobian condition 12.3 > 10") == "near singularity"
-    assert (
-        lcd_reason("transmission angle 151.2 deg outside [30, 150] deg (near parallel)")
-        == "transm. 151.2>150"
+def test_refusals_fit_the_lcd_from_their_numbers():
+    unreach = Refusal(RefusalReason.OUT_OF_WORKSPACE, "|C-O1|", 0.4, 0.08, 0.32, "m")
+    assert unreach.short() == "out of reach"
+    assert Refusal(RefusalReason.ILL_CONDITIONED, "condition", 12.3, None, 10).short() == (
+        "near singularity"
     )
-    assert lcd_reason("error:9 position unknown: home first with G28", 20) == "SGF9 not homed"
-    assert len(lcd_reason("x" * 50)) == 17
+    transmission = Refusal(
+        RefusalReason.PARALLEL_SINGULARITY, "transmission angle", 151.2, 30.0, 150.0, "deg",
+        label="transm.",
+    )  # fmt: skip
+    assert transmission.short() == "transm. 151.2>150"
+    assert transmission.short(16) == "transm.151.2>150"
+    assert transmission.short(13) == "transm. limit"
+    assert transmission.short(12) == "transm."
+    assert sgf_note("error:9 position unknown: home first with G28") == "SGF9 not homed"
+    assert refusal_note("x" * 50) == "NO " + "x" * 17
 
 
 # -- numeric entry --------------------------------------------------------------------------

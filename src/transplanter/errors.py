@@ -92,6 +92,8 @@ class Refusal:
     unit: str = ""
     note: str = ""
     bound_names: tuple[str, str] = ("", "")
+    label: str = ""
+    """A short name for the 20-column LCD ("motor1", "elbow B"); default: the subject."""
 
     def text(self) -> str:
         """The refusal as the command line, the firmware's error reply and the JSON show it."""
@@ -119,17 +121,27 @@ class Refusal:
         note = f" ({self.note})" if self.note else ""
         return f"{self.subject} {value} {unit} outside [{low}, {high}] {unit}{note}"
 
-    def short(self) -> str:
-        """At most 20 characters, for a line of the teach pendant's LCD."""
-        if self.reason in (RefusalReason.NOT_FINITE, RefusalReason.OUT_OF_WORKSPACE):
-            return "out of reach"
-        if self.reason is RefusalReason.SERIAL_SINGULARITY:
-            return "near singularity"
-        if self.reason is RefusalReason.PARALLEL_SINGULARITY:
-            return "parallel singular"
-        if self.reason is RefusalReason.ILL_CONDITIONED:
-            return "ill-conditioned"
-        return f"{self.subject.removesuffix(' angle')} limit"[:20]
+    def short(self, width: int = 17) -> str:
+        """The most telling form that fits ``width`` characters (a line of the teach
+        pendant's LCD less its 'NO '): 'motor1 79.97<80', else 'motor1 limit', else the name;
+        'Z 170 > 160' for a coordinate's range; a word or two for reach and singularity."""
+        reason = self.reason
+        if reason in (RefusalReason.NOT_FINITE, RefusalReason.OUT_OF_WORKSPACE):
+            forms = ["out of reach", "no reach"]
+        elif reason is RefusalReason.ILL_CONDITIONED:
+            forms = ["near singularity", "singular"]
+        else:
+            name = self.label or self.subject
+            if reason is RefusalReason.AXIS_RANGE:
+                above = self.value > self.high
+                bound = self.high if above else self.low
+                forms = [f"{name} {self.value:g} {'>' if above else '<'} {bound:g}"]
+            else:
+                value, low, high = show_outside(self.value, self.low, self.high)
+                bound = f"<{low}" if self.value < self.low else f">{high}"
+                forms = [f"{name} {value}{bound}", f"{name}{value}{bound}"]
+            forms += [f"{name} limit", name]
+        return next((form for form in forms if len(form) <= width), forms[-1][:width])
 
     def as_dict(self) -> dict:
         """The refusal for JSON: reason, subject, value and bounds (None where not set)."""

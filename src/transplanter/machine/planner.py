@@ -1,8 +1,9 @@
 """Plans a G-code program through the SGF on a simulated clock (`transplanter plan`).
 
-Each line goes to the SGF exactly as over the bus, one at a time after the previous reply;
-homing reads simulated limit switches. For every line it reports how long the SGF took to
-answer and the net step pulses each motor made, or stops at the first error reply.
+Each line goes to the SGF exactly as over the bus, one at a time after the previous reply
+(``rig.DirectLink``, as the HMI drives it); homing reads simulated limit switches. For every
+line it reports how long the SGF took to answer and the net step pulses each motor made, or
+stops at the first error reply.
 """
 
 from __future__ import annotations
@@ -15,12 +16,14 @@ import numpy as np
 from transplanter.errors import TransplanterError
 from transplanter.machine.config import Machine, power_on_joints
 from transplanter.machine.gcode import GcodeError, parse_line, split_program_lines
-from transplanter.machine.rig import DT_HOMING_S, SimulatedEndstops
+from transplanter.machine.rig import DirectLink, NoAnswer, SimulatedEndstops
 from transplanter.machine.sgf import SGF
 
 __all__ = ["PlanError", "PlannedLine", "plan_program"]
 
 _ASCII_BLANKS = " \t\r\n"
+MAX_LINE_S = 3600.0
+"""Machine time one line may take before the planner gives up on it (s)."""
 
 
 class PlanError(TransplanterError, ValueError):
@@ -49,11 +52,8 @@ def plan_program(machine: Machine, lines: str | Iterable[str]) -> list[PlannedLi
     if isinstance(lines, str):
         lines = split_program_lines(lines)
     config = machine.sgf
-    sgf = SGF(config)
-    endstops = SimulatedEndstops(config, power_on_joints(config))
-    t = 0.0
+    link = DirectLink(SGF(config), SimulatedEndstops(config, power_on_joints(config)))
     rows: list[PlannedLine] = []
-    pulses_t = None  # raw pulses at t, once computed
     for line_no, raw in enumerate(lines, start=1):
         text = raw.strip(_ASCII_BLANKS)  # a Unicode space is not a blank: the SGF refuses it
         try:
@@ -61,25 +61,15 @@ def plan_program(machine: Machine, lines: str | Iterable[str]) -> list[PlannedLi
                 continue
         except GcodeError as exc:
             raise PlanError(line_no, exc.reply) from None
-        if pulses_t is None:
-            pulses_t = sgf.pulses_at(np.array([t]))[0]
-        pulses0 = pulses_t  # receive() adds no motion: the pulses at t are still these
-        t0 = t
-        sgf.receive(text, t)
-        replies: list[str] = []
-        while True:
-            replies += sgf.poll(t, endstops.read(pulses_t))
-            if replies and (replies[-1] == "ok" or replies[-1].startswith("error")):
-                break
-            t_next = sgf.next_event_time()
-            t = t + DT_HOMING_S if sgf.homing or t_next is None else max(t_next, t)
-            if t - t0 > 3600.0:
-                raise PlanError(line_no, f"{text!r} did not finish within an hour of machine time")
-            pulses_t = sgf.pulses_at(np.array([t]))[0]
+        t0, pulses0 = link.t, link.pulses
+        try:
+            replies = link.send(text, until_s=t0 + MAX_LINE_S)
+        except NoAnswer:
+            raise PlanError(
+                line_no, f"{text!r} did not finish within an hour of machine time"
+            ) from None
         if replies[-1].startswith("error"):
             raise PlanError(line_no, replies[-1])
-        pulses_t = sgf.pulses_at(np.array([t]))[0]
-        steps = pulses_t - pulses0
-        sgf.forget_before(t)  # the clock only moves on: constant memory per move
-        rows.append(PlannedLine(line_no, text, t - t0, steps, tuple(replies[:-1])))
+        steps = link.pulses - pulses0
+        rows.append(PlannedLine(line_no, text, link.t - t0, steps, tuple(replies[:-1])))
     return rows

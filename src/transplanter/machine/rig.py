@@ -5,7 +5,9 @@ next one is due; the physics twin and ``run_firmware`` both drive it. ``run_firm
 jumps from event to event (a bus delivery, the end of the SGF's current line) and steps
 ``dt_homing_s`` only while the SGF homes, reading the limit switches from
 ``SimulatedEndstops``, which places each switch at the SGF's home position and computes the
-motors' joint positions from their raw pulses since power-on.
+motors' joint positions from their raw pulses since power-on. ``DirectLink`` is the SGF
+answering one line at a time straight from its host, without the bus (the planner's and the
+HMI's way of driving it).
 """
 
 from __future__ import annotations
@@ -89,6 +91,56 @@ class SimulatedEndstops:
             bool(joints[axis] <= trip) for axis, trip in self.hard_limits
         )
         return states if self.faults is None else self.faults.switches(states)
+
+
+class NoAnswer(RuntimeError):
+    """The SGF did not answer a line: nothing left to wait for, or not by the deadline."""
+
+
+class DirectLink:
+    """An SGF answering one line at a time on a simulated clock, without the bus's timing.
+
+    ``send`` delivers a line at ``t`` and advances the clock until the SGF has answered it
+    (``ok`` or ``error:N``): from event to event, and at most ``dt_homing_s`` at a time while
+    it homes, reading the limit switches of ``endstops`` at every step. ``pulses`` is the raw
+    pulse count of the 3 motors at ``t``.
+    """
+
+    def __init__(self, sgf: SGF, endstops: SimulatedEndstops, dt_homing_s: float = DT_HOMING_S):
+        self.sgf = sgf
+        self.endstops = endstops
+        self.dt_homing_s = dt_homing_s
+        self.t = 0.0
+        self._pulses: np.ndarray | None = None  # raw pulses at t, once computed
+
+    @property
+    def pulses(self) -> np.ndarray:
+        """Raw pulse counts of the 3 motors at ``t``."""
+        if self._pulses is None:
+            self._pulses = self.sgf.pulses_at(np.array([self.t]))[0]
+        return self._pulses
+
+    def send(self, line: str, until_s: float = math.inf) -> list[str]:
+        """The SGF's replies to ``line``, the last one its ``ok`` or ``error:N``; NoAnswer if
+        it has nothing left to wait for, or would answer only after ``until_s``."""
+        sgf = self.sgf
+        sgf.receive(line, self.t)  # receive() adds no motion: the pulses at t are still these
+        replies: list[str] = []
+        while True:
+            replies.extend(sgf.poll(self.t, self.endstops.read(self.pulses)))
+            self._pulses = None  # the poll may have started or ended a segment at t
+            if replies and (replies[-1] == "ok" or replies[-1].startswith("error:")):
+                if not sgf.busy:
+                    break
+            t_next = sgf.next_event_time()
+            if sgf.homing:
+                t_homing = self.t + self.dt_homing_s
+                t_next = t_homing if t_next is None else min(t_next, t_homing)
+            if t_next is None or t_next > until_s:
+                raise NoAnswer(f"the SGF did not answer {line!r} (t = {self.t:.3f} s)")
+            self.t = max(self.t, t_next)
+        sgf.forget_before(self.t)  # the clock only moves on: constant memory per line
+        return replies
 
 
 class FirmwareLink:

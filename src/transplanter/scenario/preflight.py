@@ -36,27 +36,52 @@ REPLY_TIMEOUT_MARGIN_S = 1.0
 MAX_OMEGA_DT = 1.0
 
 
+class TaughtRefused(ScenarioError):
+    """A taught point or move the SGF would refuse, with what it is: the scenario ``key``, the
+    pickup's index (None for the drop point), the ``point`` ('approach', 'grip', 'drop'; None
+    for a move) and the kinematics' typed ``refusals``."""
+
+    def __init__(self, message: str, key: str, pickup: int | None, point: str | None, refusals):
+        super().__init__(message)
+        self.key, self.pickup, self.point = key, pickup, point
+        self.refusals = tuple(refusals)
+
+    def short(self, width: int = 17) -> str:
+        """The refusal in ``width`` characters (the teach pendant's LCD)."""
+        if self.pickup is not None:
+            what = f"{self.point[:4]} unreach." if self.point else "move unreach."
+            text = f"P{self.pickup + 1} {what}"
+        elif self.point is None:
+            text = "home>drop unreach"
+        else:
+            text = "drop unreachable"
+        return text[:width]
+
+
 def check_machine(machine: Machine) -> None:
     """Raise ScenarioError naming the scenario key of the first taught point (as stored in
     the EEPROM image), speed or move that fails."""
     taught = machine.eeprom
     check_taught_speeds(machine)
     z_low, z_up = taught.z_low_m, taught.z_up_m
-    points: list[tuple[str, tuple[float, float], float]] = [
-        ("taught.drop_mm", taught.drop_xy_m, z_up)
+    points: list[tuple[str, int | None, str, tuple[float, float], float]] = [
+        ("taught.drop_mm", None, "drop", taught.drop_xy_m, z_up)
     ]
     for i, p in enumerate(taught.pickups):
-        points.append((f"taught.pickup[{i}].approach_mm", p.approach_xy_m, z_low))
-        points.append((f"taught.pickup[{i}].grip_mm", p.grip_xy_m, z_low))
-    xyz = np.array([(*p, z) for _, p, z in points])
+        points.append((f"taught.pickup[{i}].approach_mm", i, "approach", p.approach_xy_m, z_low))
+        points.append((f"taught.pickup[{i}].grip_mm", i, "grip", p.grip_xy_m, z_low))
+    xyz = np.array([(*p[3], p[4]) for p in points])
     report = machine.kinematics.check(xyz)
-    for (key, p, _), ok, reason in zip(points, report.ok, report.reasons, strict=True):
+    for (key, pickup, point, p, _), ok, reason, refusals in zip(
+        points, report.ok, report.reasons, report.refusals, strict=True
+    ):
         if not ok:
-            raise ScenarioError(
+            raise TaughtRefused(
                 f"{key} = [{p[0] / M_PER_MM:g}, {p[1] / M_PER_MM:g}] mm cannot be reached: "
                 f"{reason}. "
-                "Teach a point inside the workspace."
-            )
+                "Teach a point inside the workspace.",
+                key, pickup, point, refusals,
+            )  # fmt: skip
     drop = (*taught.drop_xy_m, z_up)
     homed = _homed_xyz(machine)
     _require_line(
@@ -65,6 +90,7 @@ def check_machine(machine: Machine) -> None:
         drop,
         "taught.drop_mm: the first move, from the homed position",
         "Move the drop point or the limit switches (drives.home_*).",
+        ("taught.drop_mm", None),
     )
     for i, p in enumerate(taught.pickups):
         approach_low, grip_low = (*p.approach_xy_m, z_low), (*p.grip_xy_m, z_low)
@@ -77,6 +103,7 @@ def check_machine(machine: Machine) -> None:
                 b,
                 f"taught.pickup[{i}]: the move from",
                 "Move the approach or grip point.",
+                (f"taught.pickup[{i}]", i),
             )
 
 
@@ -103,15 +130,16 @@ def check_taught_speeds(machine: Machine) -> None:
             )
 
 
-def _require_line(machine, a, b, what: str, hint: str) -> None:
-    """ScenarioError '<what> a to b mm leaves the workspace: <reason>. <hint>' if the SGF
-    would refuse the straight line from a to b."""
+def _require_line(machine, a, b, what: str, hint: str, where: tuple[str, int | None]) -> None:
+    """TaughtRefused '<what> a to b mm leaves the workspace: <reason>. <hint>' if the SGF
+    would refuse the straight line from a to b (``where``: the key and pickup index)."""
     try:
         _check_line(machine, a, b)
     except UnreachableError as exc:
-        raise ScenarioError(
-            f"{what} {_mm(a)} to {_mm(b)} mm leaves the workspace: {exc.reason}. {hint}"
-        ) from None
+        raise TaughtRefused(
+            f"{what} {_mm(a)} to {_mm(b)} mm leaves the workspace: {exc.reason}. {hint}",
+            where[0], where[1], None, exc.refusals,
+        ) from None  # fmt: skip
 
 
 def _homed_xyz(machine) -> tuple[float, float, float]:

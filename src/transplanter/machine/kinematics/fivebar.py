@@ -364,7 +364,7 @@ def _refusals(geom, limits, bad, arrays, i) -> tuple[Refusal, ...]:
             out.append(
                 Refusal(
                     RefusalReason.JOINT_LIMIT, f"motor {motor} angle", deg(theta), deg(lo),
-                    deg(hi), "deg",
+                    deg(hi), "deg", label=f"motor{motor}",
                 )
             )  # fmt: skip
     for arm, elbow in ((1, "B"), (2, "D")):
@@ -374,7 +374,7 @@ def _refusals(geom, limits, bad, arrays, i) -> tuple[Refusal, ...]:
                     RefusalReason.SERIAL_SINGULARITY, f"elbow angle at {elbow}",
                     deg(arrays[f"elbow{arm}"][i]), deg(limits.elbow_min_rad),
                     deg(limits.elbow_max_rad), "deg",
-                    "near a serial singularity at the workspace boundary",
+                    "near a serial singularity at the workspace boundary", label=f"elbow {elbow}",
                 )
             )  # fmt: skip
     if bad["transmission"][i]:
@@ -383,6 +383,7 @@ def _refusals(geom, limits, bad, arrays, i) -> tuple[Refusal, ...]:
                 RefusalReason.PARALLEL_SINGULARITY, "transmission angle",
                 deg(arrays["transmission"][i]), deg(limits.transmission_min_rad),
                 deg(limits.transmission_max_rad), "deg", "near parallel singularity",
+                label="transm.",
             )
         )  # fmt: skip
     if bad["condition"][i]:
