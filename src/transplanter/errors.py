@@ -103,12 +103,12 @@ class Refusal:
         if reason is RefusalReason.OUT_OF_WORKSPACE:
             if self.high is not None and self.value > self.high:
                 return (
-                    f"outside workspace: {self.subject}={show(self.value, 4)} {unit} > "
-                    f"{self.bound_names[1]}={self.high:.4f} {unit}"
+                    f"outside workspace: {self.subject}={show(self.value, 1)} {unit} > "
+                    f"{self.bound_names[1]}={self.high:.1f} {unit}"
                 )
             return (
-                f"outside workspace: {self.subject}={self.value:.4f} {unit} < "
-                f"{self.bound_names[0]}={self.low:.4f} {unit}"
+                f"outside workspace: {self.subject}={self.value:.1f} {unit} < "
+                f"{self.bound_names[0]}={self.low:.1f} {unit}"
             )
         if reason is RefusalReason.ILL_CONDITIONED:
             return f"{self.subject} {self.value:.3g} > {self.high:g}"

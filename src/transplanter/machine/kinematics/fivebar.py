@@ -350,8 +350,8 @@ def _refusals(geom, limits, bad, arrays, i) -> tuple[Refusal, ...]:
             if dist > lmax or dist < lmin:
                 out.append(
                     Refusal(
-                        RefusalReason.OUT_OF_WORKSPACE, f"|C-O{arm}|", dist, lmin, lmax, "m",
-                        bound_names=("|L1-L2|", "L1+L2"),
+                        RefusalReason.OUT_OF_WORKSPACE, f"|C-O{arm}|", dist / M_PER_MM,
+                        lmin / M_PER_MM, lmax / M_PER_MM, "mm", bound_names=("|L1-L2|", "L1+L2"),
                     )
                 )  # fmt: skip
         return tuple(out)
