@@ -330,8 +330,9 @@ class Hmi:
 
     def write(self) -> bool:
         """Check the taught data (complete, in range, every point and move of the cycle
-        reachable, the reply timeout: ``preflight.check_program``, as the trial does) and write the image; False (the LCD says
-        why) if refused or the file could not be written."""
+        reachable, the reply timeout: ``preflight.check_program``, as the trial does) and
+        write the image; False (the LCD says why) if refused or the file could not be
+        written."""
         from transplanter.scenario.preflight import TaughtRefused, check_program
         from transplanter.scenario.schema import ScenarioError
 
