@@ -250,3 +250,13 @@ def test_a_lost_reply_beyond_the_program_and_a_short_reply_timeout_are_refused()
     # a conveyor index longer than the timeout is the longest line then
     with pytest.raises(ScenarioError, match=r"M710 \(conveyor.index_time_s\) can take 40.00 s"):
         assemble(load_scenario(PAPER, {"conveyor.index_time_s": 40.0}))
+
+
+@pytest.mark.parametrize(
+    "key", ["gripper.open_dwell_ms", "gripper.close_dwell_ms", "gripper.close_deg"]
+)
+def test_a_dwell_or_angle_finer_than_the_firmware_carries_out_is_refused_in_one_line(key):
+    """1e-300 ms used to end in a 312-character G-code line and a traceback."""
+    with pytest.raises(ScenarioError, match=r"1e-300 is finer than the firmware carries out"):
+        load_scenario("paper", {key: 1e-300})
+    load_scenario("paper", {key: 0.001})  # the finest step is taken as given

@@ -53,9 +53,16 @@ class Key:
     hi: float | None = None
     choices: tuple[str, ...] = ()
     doc: str = ""
+    quantum: float | None = None
+    """The smallest nonzero magnitude (file units) the firmware can carry out (a dwell's or a
+    servo angle's resolution in its G-code word): anything between 0 and it is refused."""
 
 
 _DEG = math.pi / 180.0
+
+GCODE_QUANTUM = 0.001
+"""The finest dwell (ms, ``G4 P``) and servo angle (deg, ``M280 S``) a scenario may set: the
+firmware's words carry three decimals; a value between 0 and this is refused, not rounded."""
 
 # SI scale of each unit suffix a file key may carry (the key's unit is its suffix).
 _SCALE = {
@@ -111,11 +118,12 @@ def key(
     hi: float | None = None,
     doc: str = "",
     choices: tuple[str, ...] = (),
+    quantum: float | None = None,
 ):
     """A section dataclass field that is a scenario key: its kind, allowed range (in the
     file's unit) and meaning. The file key is the field name with its file unit (the field
     `l1_m` is read from `l1_mm`; see FILE_KEYS), the scale follows from that unit."""
-    return field(metadata={"key": Key(kind, 1.0, lo, hi, choices, doc)})
+    return field(metadata={"key": Key(kind, 1.0, lo, hi, choices, doc, quantum)})
 
 
 # ---------------------------------------------------------------------------------------
@@ -243,13 +251,13 @@ class GripperSection:
 
     servo_s_per_60deg: float = key("float", 0.01, 10, doc="hobby servo speed")
     max_opening_m: float = key("float", 1, 200, doc="jaw opening at 180 deg servo angle")
-    open_rad: float = key("float", 0, 180)
-    close_rad: float = key("float", 0, 180)
+    open_rad: float = key("float", 0, 180, quantum=GCODE_QUANTUM)
+    close_rad: float = key("float", 0, 180, quantum=GCODE_QUANTUM)
     grip_force_n: float = key("float", 0.01, 1000, doc="servo force limit at the jaws")
     wrist_servo_s_per_60deg: float = key("float", 0.01, 10)
-    open_dwell_s: float = key("float", 0, 10000)
-    close_dwell_s: float = key("float", 0, 10000)
-    release_dwell_s: float = key("float", 0, 10000)
+    open_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
+    close_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
+    release_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
 
 
 @dataclass(frozen=True)
@@ -608,6 +616,11 @@ def _number(name: str, spec: Key, raw: Any) -> float:
     if not math.isfinite(value):
         raise ScenarioError(f"{name}: {raw!r} is not a finite number.")
     _check_range(name, spec, value)
+    if spec.quantum is not None and 0 < abs(value) < spec.quantum:
+        raise ScenarioError(
+            f"{name}: {value!r} is finer than the firmware carries out ({spec.quantum:g}); "
+            f"use 0 or at least {spec.quantum:g}."
+        )
     return value * spec.scale
 
 
