@@ -81,3 +81,18 @@ def test_tune_writes_the_front_and_a_tuned_scenario_that_runs(tmp_path, capsys):
     assert main([*args, "--trials", "4", "--seeds", "1-2"]) == 2
     assert "differs in: seeds" in capsys.readouterr().err
     assert main(["trial", str(out / "tuned.toml"), "--seedlings", "2", "--quiet"]) == 0
+
+
+def test_a_storage_that_cannot_hold_a_study_is_refused_in_one_line(tmp_path, capsys):
+    """A text file, or a path under a regular file, ended in SQLAlchemy tracebacks."""
+    text = tmp_path / "notes.txt"
+    text.write_text("not a database\n")
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    base = ["tune", "paper", "--param", "taught.z_low_mm=30..40", "--seeds", "1"]
+    base += ["--seedlings", "1", "--trials", "1", "--out", str(tmp_path / "out")]
+    for storage, why in ((text, "is not a SQLite database"), (blocker / "s.db", "cannot hold")):
+        assert main([*base, "--storage", str(storage)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and why in err[0]
+    assert text.read_text() == "not a database\n"  # untouched

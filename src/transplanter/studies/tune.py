@@ -202,6 +202,10 @@ def scenario_digest(scenario) -> str:
     ).hexdigest()
 
 
+SQLITE_HEADER = b"SQLite format 3\x00"
+"""The first 16 bytes of every SQLite database file."""
+
+
 def open_study(
     optuna,
     storage: str | os.PathLike | None,
@@ -220,14 +224,29 @@ def open_study(
         storage = Path(storage)
         if storage.exists() and not storage.is_file():
             raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
-        storage.parent.mkdir(parents=True, exist_ok=True)
-        url = f"sqlite:///{storage.resolve()}"
-        study = optuna.create_study(
-            study_name=study_name,
-            storage=url,
-            directions=list(directions),
-            load_if_exists=True,
-        )
+        if storage.is_file() and storage.stat().st_size > 0:
+            with storage.open("rb") as handle:
+                if handle.read(len(SQLITE_HEADER)) != SQLITE_HEADER:
+                    raise SweepRefused(
+                        f"--storage {storage} is not a SQLite database (an Optuna study's "
+                        "file); give a new .db path or the study's own file"
+                    )
+        try:
+            storage.parent.mkdir(parents=True, exist_ok=True)
+            url = f"sqlite:///{storage.resolve()}"
+            study = optuna.create_study(
+                study_name=study_name,
+                storage=url,
+                directions=list(directions),
+                load_if_exists=True,
+            )
+        except Exception as exc:  # SQLAlchemy's and OSError's: the file cannot hold a study
+            if isinstance(exc, SweepRefused):
+                raise
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise SweepRefused(
+                f"--storage {storage} cannot hold the study ({reason}); give a writable .db path"
+            ) from None
     held = study.user_attrs.get(attr)
     plain = json.loads(json.dumps(identity))
     if held is None:
