@@ -61,6 +61,10 @@ def test_tune_writes_the_front_and_a_tuned_scenario_that_runs(tmp_path, capsys):
     assert main([*args, "--trials", "3"]) == 0
     printed = capsys.readouterr().out
     assert "study s: 3 trials (3 run now)" in printed
+    import optuna
+
+    stored = optuna.load_study(study_name="s", storage=f"sqlite:///{db}")
+    assert stored.metric_names == ["success_ci95_low", "cycle_time_s"]  # not values_0/1
     assert "optuna-dashboard sqlite:///" in printed
     trials = list(csv.DictReader((out / "trials.csv").open()))
     assert [t["state"] for t in trials] == ["COMPLETE"] * 3

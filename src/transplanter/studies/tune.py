@@ -20,6 +20,7 @@ import importlib.resources
 import json
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -202,6 +203,9 @@ def scenario_digest(scenario) -> str:
     ).hexdigest()
 
 
+TUNE_METRICS = ("success_ci95_low", "cycle_time_s")
+"""The tune study's objectives by name: the lower end of the pooled success's 95 % interval
+(maximised) and the mean cycle time in s (minimised)."""
 SQLITE_HEADER = b"SQLite format 3\x00"
 """The first 16 bytes of every SQLite database file."""
 
@@ -343,6 +347,9 @@ def run_tune(
     study, url = open_study(
         optuna, storage, study_name, ["maximize", "minimize"], "tune", spec.identity(digest)
     )
+    with warnings.catch_warnings():  # "experimental" since Optuna 3.2, and stable in use
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        study.set_metric_names(list(TUNE_METRICS))  # optuna-dashboard's and the plots' axes
 
     def objective(scored):
         if scored["ci95_low"] is None or scored["cycle_time_s"] is None:
