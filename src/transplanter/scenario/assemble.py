@@ -220,12 +220,12 @@ def _machine(s: Scenario) -> Machine:
             Pickup(
                 approach_xy_m=p.approach_m,
                 grip_xy_m=p.grip_m,
-                elbow_deg=math.degrees(p.wrist_rad),
+                wrist_deg=math.degrees(p.wrist_rad),
             )
             for p in taught.pickup
         ),
         drop_xy_m=taught.drop_m,
-        drop_elbow_deg=math.degrees(taught.drop_wrist_rad),
+        drop_wrist_deg=math.degrees(taught.drop_wrist_rad),
         z_up_m=taught.z_up_m,
         z_low_m=taught.z_low_m,
         s_low_m_s=taught.s_low_m_s,
@@ -264,7 +264,7 @@ def _check_quantised(given: EepromImage, stored: EepromImage) -> None:
         ("taught.z_low_mm", given.z_low_m, stored.z_low_m, 1e3, "1 um", 3),
         ("taught.s_low_mm_s", given.s_low_m_s, stored.s_low_m_s, 1e3, "0.1 mm/s", 1),
         ("taught.s_high_mm_s", given.s_high_m_s, stored.s_high_m_s, 1e3, "0.1 mm/s", 1),
-        ("taught.drop_wrist_deg", given.drop_elbow_deg, stored.drop_elbow_deg, 1, "0.01 deg", 2),
+        ("taught.drop_wrist_deg", given.drop_wrist_deg, stored.drop_wrist_deg, 1, "0.01 deg", 2),
     ]
     for axis, (a, b) in enumerate(zip(given.drop_xy_m, stored.drop_xy_m, strict=True)):
         pairs.append((f"taught.drop_mm[{axis}]", a, b, 1e3, "1 um", 3))
@@ -276,7 +276,7 @@ def _check_quantised(given: EepromImage, stored: EepromImage) -> None:
             for axis in (0, 1):
                 key = f"taught.pickup[{k}].{name}[{axis}]"
                 pairs.append((key, xy[axis], xy_stored[axis], 1e3, "1 um", 3))
-        pairs.append((f"taught.pickup[{k}].wrist_deg", p.elbow_deg, q.elbow_deg, 1, "0.01 deg", 2))
+        pairs.append((f"taught.pickup[{k}].wrist_deg", p.wrist_deg, q.wrist_deg, 1, "0.01 deg", 2))
     for key, value, kept, scale, quantum, places in pairs:
         if not math.isclose(value, kept, rel_tol=1e-9, abs_tol=1e-12):
             raise ScenarioError(
@@ -320,10 +320,10 @@ def with_eeprom(scenario: Scenario, image: EepromImage, source: str) -> Scenario
         s_low_m_s=image.s_low_m_s,
         s_high_m_s=image.s_high_m_s,
         drop_m=image.drop_xy_m,
-        drop_wrist_rad=math.radians(image.drop_elbow_deg),
+        drop_wrist_rad=math.radians(image.drop_wrist_deg),
         pickup=tuple(
             TaughtPickup(
-                approach_m=p.approach_xy_m, grip_m=p.grip_xy_m, wrist_rad=math.radians(p.elbow_deg)
+                approach_m=p.approach_xy_m, grip_m=p.grip_xy_m, wrist_rad=math.radians(p.wrist_deg)
             )
             for p in image.pickups
         ),
