@@ -48,7 +48,7 @@ def main() -> None:
     )
 
     # Working on row 0: pick the centre pot, lift, move over the neighbours and back.
-    y0, z_low = cfg.pickup_row_y, 0.032
+    y0, z_low = cfg.pickup_row_y_m, 0.032
     t1, t2 = ik(cfg, 0.0, y0 - 0.03)
     scene.set_wrist_angle(data, math.pi / 2 - (t1 + cfg.kinematics().passive_angles(t1, t2)[0]))
     scene.set_gripper_opening(data, 0.041)

@@ -189,7 +189,7 @@ def main() -> None:
     result = results[0]
     wall = statistics.median(r.wall_time_s for r in results)
     d = result.to_dict()
-    steps = round(result.sim_time_s / config.scene.timestep)
+    steps = round(result.sim_time_s / config.scene.timestep_s)
     print(f"paper trial, {d['seedlings']} seedlings, seed {d['seed']}, median of {args.repeats}")
     print(f"  success rate         {100 * d['success_rate']:.1f} %  failures {d['failures']}")
     print(f"  cycle time           {d['cycle_time_s']:.3f} s (sd {d['cycle_time_sd_s']:.3f})")

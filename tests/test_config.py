@@ -19,10 +19,10 @@ def test_paper_assembly_maps_each_section(paper, paper_twin_config):
     assert m.drives[2].lead_m == pytest.approx(0.008) and m.drives[0].ratio == 3.0
     assert m.pgf.gripper_open_deg == pytest.approx(155.0) and m.pgf.seedlings == 40
     assert m.eeprom.m_pp == 5 and m.eeprom.s_high_m_s == pytest.approx(0.150)
-    assert cfg.scene.pot_mass == pytest.approx(0.047) and cfg.scene.grip_force == 6.0
+    assert cfg.scene.pot_mass_kg == pytest.approx(0.047) and cfg.scene.grip_force_n == 6.0
     # the scene's power-on pose is short of the switches, its hard stops beyond the windows
-    assert cfg.scene.power_on_theta1 == pytest.approx(math.radians(195))
-    assert cfg.scene.theta1_range[1] == pytest.approx(math.radians(240))
+    assert cfg.scene.power_on_theta1_rad == pytest.approx(math.radians(195))
+    assert cfg.scene.theta1_range_rad[1] == pytest.approx(math.radians(240))
     assert cfg.gripper_servo.speed_deg_s == pytest.approx(400.0)
     assert cfg.gripper_servo.max_opening_m == pytest.approx(0.050)
     assert cfg.judge.knocked_tilt_rad == pytest.approx(math.radians(25))
@@ -32,7 +32,7 @@ def test_paper_assembly_maps_each_section(paper, paper_twin_config):
 def test_an_override_reaches_the_physics_and_the_firmware():
     s = paper_scenario(**{"drives.holding_torque_nm": 0.3, "taught.z_low_mm": 30.0})
     cfg = assemble(s)
-    assert cfg.scene.holding_torque == 0.3
+    assert cfg.scene.holding_torque_nm == 0.3
     assert cfg.machine.drives[0].holding_torque_nm == 0.3
     assert cfg.machine.eeprom.z_low_m == pytest.approx(0.030)
 

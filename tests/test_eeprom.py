@@ -18,13 +18,13 @@ from transplanter.machine.eeprom import (
 def paper_image(m_pp: int = 5) -> EepromImage:
     xs = [-0.090, -0.045, 0.0, 0.045, 0.090, -0.090, -0.045, 0.0, 0.045, 0.090][:m_pp]
     pickups = tuple(
-        Pickup(approach_xy_m=(x, 0.175), grip_xy_m=(x, 0.215), elbow_deg=90.0 + 7.25 * k)
+        Pickup(approach_xy_m=(x, 0.175), grip_xy_m=(x, 0.215), wrist_deg=90.0 + 7.25 * k)
         for k, x in enumerate(xs)
     )
     return EepromImage(
         pickups=pickups,
         drop_xy_m=(0.0, 0.140),
-        drop_elbow_deg=12.34,
+        drop_wrist_deg=12.34,
         z_up_m=0.100,
         z_low_m=0.032,
         s_low_m_s=0.040,
@@ -54,7 +54,7 @@ def test_round_trip_within_quantisation():
             Pickup(
                 approach_xy_m=tuple(rng.uniform(-0.3, 0.3, 2)),
                 grip_xy_m=tuple(rng.uniform(-0.3, 0.3, 2)),
-                elbow_deg=float(rng.uniform(0, 180)),
+                wrist_deg=float(rng.uniform(0, 180)),
             )
             for _ in range(m_pp)
         )
@@ -62,7 +62,7 @@ def test_round_trip_within_quantisation():
         image = EepromImage(
             pickups=pickups,
             drop_xy_m=tuple(rng.uniform(-0.3, 0.3, 2)),
-            drop_elbow_deg=float(rng.uniform(0, 180)),
+            drop_wrist_deg=float(rng.uniform(0, 180)),
             z_up_m=z_up,
             z_low_m=z_low,
             s_low_m_s=float(rng.uniform(0.001, 0.5)),
@@ -73,7 +73,7 @@ def test_round_trip_within_quantisation():
         for a, b in zip(image.pickups, back.pickups, strict=True):
             assert np.allclose(a.approach_xy_m, b.approach_xy_m, atol=0.5e-6, rtol=0)
             assert np.allclose(a.grip_xy_m, b.grip_xy_m, atol=0.5e-6, rtol=0)
-            assert abs(a.elbow_deg - b.elbow_deg) <= 0.005 + 1e-12
+            assert abs(a.wrist_deg - b.wrist_deg) <= 0.005 + 1e-12
         assert np.allclose(image.drop_xy_m, back.drop_xy_m, atol=0.5e-6, rtol=0)
         assert abs(image.z_up_m - back.z_up_m) <= 0.5e-6 + 1e-15
         assert abs(image.s_low_m_s - back.s_low_m_s) <= 0.5e-4 + 1e-15
@@ -155,7 +155,7 @@ def test_m_pp_out_of_range_in_image(m_pp):
 def test_values_out_of_range_in_image():
     image = bytearray(paper_image().to_bytes())
     struct.pack_into("<h", image, 28, -500)  # drop elbow -5 deg
-    with pytest.raises(EepromError, match="drop_elbow_deg"):
+    with pytest.raises(EepromError, match="drop_wrist_deg"):
         EepromImage.from_bytes(_with_crc(image))
     image = bytearray(paper_image().to_bytes())
     struct.pack_into("<H", image, 16, 0)  # S_l = 0
@@ -196,7 +196,7 @@ def test_flip_in_free_area_is_ignored():
         ({"drop_xy_m": (0.0, 140.0)}, "not mm"),
         ({"drop_xy_m": (0.0,)}, "two numbers"),
         ({"drop_xy_m": (float("nan"), 0.1)}, "drop_xy_m"),
-        ({"drop_elbow_deg": 181}, "0-180"),
+        ({"drop_wrist_deg": 181}, "0-180"),
         ({"z_low_m": 0.2}, "above z_up_m"),
         ({"z_up_m": -0.01}, "z_up_m"),
         ({"s_low_m_s": 40.0}, "not mm/s"),
@@ -209,7 +209,7 @@ def test_constructor_validation(change, match):
     fields = {
         "pickups": base.pickups,
         "drop_xy_m": base.drop_xy_m,
-        "drop_elbow_deg": base.drop_elbow_deg,
+        "drop_wrist_deg": base.drop_wrist_deg,
         "z_up_m": base.z_up_m,
         "z_low_m": base.z_low_m,
         "s_low_m_s": base.s_low_m_s,
@@ -221,7 +221,7 @@ def test_constructor_validation(change, match):
 
 
 def test_pickup_validation():
-    with pytest.raises(EepromError, match="elbow_deg"):
+    with pytest.raises(EepromError, match="wrist_deg"):
         Pickup((0.0, 0.175), (0.0, 0.215), -1.0)
     with pytest.raises(EepromError, match="grip_xy_m"):
         Pickup((0.0, 0.175), (0.0, 215.0), 90.0)

@@ -259,7 +259,7 @@ def test_angles_and_speeds_have_their_eeprom_ranges(hmi):
     keys(hmi, "2 2 180D5#")
     assert hmi.lcd[3] == "Range 0-180".ljust(20)
     keys(hmi, "CC#")
-    assert hmi.data.drop_elbow == 180.0
+    assert hmi.data.drop_wrist == 180.0
     keys(hmi, "2 1D234#")
     assert hmi.lcd[3] == "Max 2 decimals".ljust(20)
     keys(hmi, "* * 4 2 6553D6#")

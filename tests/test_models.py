@@ -116,7 +116,7 @@ def test_merging_refuses_an_include_and_two_assets_of_one_name(tmp_path):
 
 def test_another_config_is_applied_over_the_files():
     """Longer links move the elbow and get heavier inertia; the keyframe closes the chain."""
-    cfg = SceneConfig(l1=0.14, active_link_mass=0.08, rows=1, cols=1)
+    cfg = SceneConfig(l1_m=0.14, active_link_mass_kg=0.08, rows=1, cols=1)
     model = build_scene(cfg, seed=0).model
     files = mujoco.MjModel.from_xml_path(str(robot_xml()))
     assert model.body("passive1").pos.tolist() == [0.14, 0, -0.015]
@@ -149,7 +149,7 @@ def test_home_keyframe_closes_the_loop_and_matches_fk():
     mujoco.mj_forward(model, data)
     gap = np.linalg.norm(data.site("c1").xpos - data.site("c2").xpos)
     assert gap < 1e-5
-    phi1, phi2 = CFG.kinematics().passive_angles(CFG.power_on_theta1, CFG.power_on_theta2)
+    phi1, phi2 = CFG.kinematics().passive_angles(CFG.power_on_theta1_rad, CFG.power_on_theta2_rad)
     assert data.joint("phi1").qpos[0] == pytest.approx(phi1, abs=1e-5)
     assert data.joint("phi2").qpos[0] == pytest.approx(phi2, abs=1e-5)
     assert data.site("grip_center").xpos[2] == pytest.approx(0.150, abs=1e-9)
@@ -163,8 +163,8 @@ def workspace_points(n, seed=0):
     for _ in range(n):
         x, y = rng.uniform(-0.1, 0.1), rng.uniform(0.12, 0.24)
         t1, t2 = ik(CFG, x, y)
-        assert CFG.theta1_range[0] < t1 < CFG.theta1_range[1]
-        assert CFG.theta2_range[0] < t2 < CFG.theta2_range[1]
+        assert CFG.theta1_range_rad[0] < t1 < CFG.theta1_range_rad[1]
+        assert CFG.theta2_range_rad[0] < t2 < CFG.theta2_range_rad[1]
         points.append((x, y))
     return np.array(points)
 
@@ -209,7 +209,7 @@ def max_motor_lag(speed_rad_s):
     return the max lag of motor 1 behind its command (motor rad)."""
     scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
     model, data = scene.model, scene.make_data()
-    t0, t1 = CFG.power_on_theta1, math.radians(100)
+    t0, t1 = CFG.power_on_theta1_rad, math.radians(100)
     q = scene.joint_positions(data)  # theta2 and Z stay here; the chain closes all the way
     lag = 0.0
     n = int(abs(t1 - t0) / speed_rad_s / model.opt.timestep)

@@ -15,7 +15,7 @@ def five_pickup_image() -> EepromImage:
             for x, e in zip(CELL_X_MM, ELBOW_DEG, strict=True)
         ),
         drop_xy_m=(0.0, 0.140),
-        drop_elbow_deg=12.5,
+        drop_wrist_deg=12.5,
         z_up_m=0.100,
         z_low_m=0.032,
         s_low_m_s=0.040,

@@ -61,7 +61,7 @@ def test_a_timestep_too_coarse_for_the_stepper_servos_is_refused():
         assemble(load_scenario("paper", {"physics.timestep_ms": 2.0}))
     # without the preflight the user takes the step as given
     config = assemble(load_scenario("paper", {"physics.timestep_ms": 2.0}), preflight=False)
-    assert config.scene.timestep == 0.002
+    assert config.scene.timestep_s == 0.002
 
 
 def test_a_timestep_finer_than_the_validated_range_is_refused():
@@ -74,7 +74,7 @@ def test_a_timestep_finer_than_the_validated_range_is_refused():
         with pytest.raises(ScenarioError, match=r"below the validated range \(from 0.5 ms"):
             assemble(load_scenario("paper", {"physics.timestep_ms": fine}))
     config = assemble(load_scenario("paper", {"physics.timestep_ms": 0.05}), preflight=False)
-    assert config.scene.timestep == pytest.approx(5e-5)
+    assert config.scene.timestep_s == pytest.approx(5e-5)
 
 
 def test_a_taught_speed_the_sgf_cannot_reach_is_refused():

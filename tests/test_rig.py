@@ -25,7 +25,7 @@ def taught_image(approach_y_m: float = 0.175) -> EepromImage:
     return EepromImage(
         pickups=tuple(Pickup((x / 1000, approach_y_m), (x / 1000, 0.215), 90.0) for x in CELL_X_MM),
         drop_xy_m=(0.0, 0.140),
-        drop_elbow_deg=30.0,
+        drop_wrist_deg=30.0,
         z_up_m=0.100,
         z_low_m=0.032,
         s_low_m_s=0.040,

@@ -62,7 +62,7 @@ def grasp_and_carry(scene, cell_x=0.0, z_low=0.032, lift=0.04):
     """Grip the pot of the pickup row's cell at cell_x, lift it `lift`, carry it 150 mm."""
     run = Runner(scene)
     run.step(300)  # let the pots settle (and fall asleep)
-    cfg, y0 = scene.config, scene.config.pickup_row_y
+    cfg, y0 = scene.config, scene.config.pickup_row_y_m
     t1, t2 = ik(cfg, cell_x, y0 - 0.03)
     psi1 = t1 + cfg.kinematics().passive_angles(t1, t2)[0]
     scene.set_wrist_angle(run.data, math.pi / 2 - psi1)
@@ -84,8 +84,8 @@ def one_heavy_pot(friction):
     return SceneConfig(
         rows=1,
         cols=1,
-        pot_mass=0.08,
-        pot_mass_sd=0.0,
+        pot_mass_kg=0.08,
+        pot_mass_sd_kg=0.0,
         pot_friction=friction,
         pot_friction_sd=0.0,
     )
@@ -95,7 +95,7 @@ def one_heavy_pot(friction):
 def test_friction_grasp_carries_an_80g_pot_and_frictionless_pot_is_lost():
     scene = build_scene(one_heavy_pot(0.6), seed=0)
     run, grip_force = grasp_and_carry(scene)
-    assert grip_force == pytest.approx(2 * scene.config.grip_force, rel=0.05)
+    assert grip_force == pytest.approx(2 * scene.config.grip_force_n, rel=0.05)
     pot = scene.pot_positions(run.data)[0]
     grip = run.data.site_xpos[scene.grip_site]
     assert np.linalg.norm(pot[:2] - grip[:2]) < 0.005
@@ -115,7 +115,7 @@ def test_pot_released_above_funnel_lands_in_tube(offset, inside):
     scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
     data = scene.make_data()
     adr = scene.pot_qpos_adr[0]
-    x, y = scene.config.drop_tube_xy
+    x, y = scene.config.drop_tube_xy_m
     data.qpos[adr : adr + 3] = [x + offset, y, 0.06]
     for _ in range(800):
         mujoco.mj_step(scene.model, data)
@@ -147,8 +147,8 @@ def test_dense_jacobian_gives_the_same_grasp():
 
 @pytest.mark.parametrize("pot_diameter", [0.035, 0.033, 0.030])
 def test_conveyor_index_moves_pots_one_row_and_they_rest(pot_diameter):
-    cfg = SceneConfig(rows=3, cols=3, pot_diameter=pot_diameter)
-    assert cfg.index_overshoot == pytest.approx((0.045 - 0.002 - pot_diameter) / 2)
+    cfg = SceneConfig(rows=3, cols=3, pot_diameter_m=pot_diameter)
+    assert cfg.index_overshoot_m == pytest.approx((0.045 - 0.002 - pot_diameter) / 2)
     scene = build_scene(cfg, seed=5)
     run = Runner(scene)
     # the pickup row has been emptied (its pots moved away onto the ground)
@@ -169,26 +169,26 @@ def test_conveyor_index_moves_pots_one_row_and_they_rest(pot_diameter):
     # the ribs re-centre each pot in its cell (whatever the pot size): displacement = pitch +
     # its placement offset; a fixed 4 mm overshoot left 30 mm pots 2.8 mm off centre
     offset_y = scene.pots.offset[back_rows, 1]
-    assert np.abs(moved[:, 1] - cfg.row_pitch - offset_y).max() < 0.001
+    assert np.abs(moved[:, 1] - cfg.row_pitch_m - offset_y).max() < 0.001
     # sideways the smaller pots have more play in their cells (5 mm each side for 33 mm)
     assert np.abs(moved[:, 0]).max() < 0.003
-    cells = scene.pots.cell_xy[back_rows] - [0, cfg.row_pitch]
+    cells = scene.pots.cell_xy[back_rows] - [0, cfg.row_pitch_m]
     assert np.abs(after[:, 1] - cells[:, 1]).max() < 0.001
-    assert np.abs(after[:, 0] - cells[:, 0]).max() < cfg.pot_offset_max + 0.003
+    assert np.abs(after[:, 0] - cells[:, 0]).max() < cfg.pot_offset_max_m + 0.003
     assert np.abs(run.data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]).max() < 1e-3
     assert run.data.ntree_awake == 1  # all asleep again
-    assert scene.conveyor_position(run.data) == pytest.approx(-cfg.row_pitch, abs=1e-3)
+    assert scene.conveyor_position(run.data) == pytest.approx(-cfg.row_pitch_m, abs=1e-3)
 
 
 def test_conveyor_overshoot_can_be_set():
-    assert SceneConfig(conveyor_overshoot=0.002).index_overshoot == 0.002
+    assert SceneConfig(conveyor_overshoot_m=0.002).index_overshoot_m == 0.002
     # by default it is the cell clearance, whatever the pot size
     for diameter in (0.030, 0.035):
-        cfg = SceneConfig(pot_diameter=diameter)
-        assert cfg.index_overshoot == cfg.cell_clearance
-        assert diameter + 2 * cfg.index_overshoot + cfg.rib_thickness == pytest.approx(0.045)
-    with pytest.raises(ValueError, match="conveyor_overshoot"):
-        SceneConfig(conveyor_overshoot=-0.001)
+        cfg = SceneConfig(pot_diameter_m=diameter)
+        assert cfg.index_overshoot_m == cfg.cell_clearance_m
+        assert diameter + 2 * cfg.index_overshoot_m + cfg.rib_thickness_m == pytest.approx(0.045)
+    with pytest.raises(ValueError, match="conveyor_overshoot_m"):
+        SceneConfig(conveyor_overshoot_m=-0.001)
 
 
 def rollout_qpos(seed, steps=200):
@@ -275,7 +275,7 @@ def test_canopy_contact_lets_the_leaves_touch_the_jaws_and_nothing_else():
     the physics model has no leaves at all."""
     off = build_scene(SceneConfig(rows=1, cols=1), seed=2)
     assert not any(off.model.geom(g).name.startswith("leaf_") for g in range(off.model.ngeom))
-    cfg = SceneConfig(rows=1, cols=1, canopy_contact=True, canopy_timeconst=0.1)
+    cfg = SceneConfig(rows=1, cols=1, canopy_contact=True, canopy_timeconst_s=0.1)
     scene = build_scene(cfg, seed=2)
     m = scene.model
     leaves = [g for g in range(m.ngeom) if m.geom(g).name.startswith("leaf_")]
@@ -312,9 +312,9 @@ def test_canopy_contact_lets_the_leaves_touch_the_jaws_and_nothing_else():
 
 def test_soaked_pots_are_drawn_last_and_get_a_wall_that_gives():
     """pots.soft_share: a share of the pots soaked, drawn after everything else (a seed's
-    other draws do not change), their contacts giving over pot_soft_wall (solimp width)."""
+    other draws do not change), their contacts giving over pot_soft_wall_m (solimp width)."""
     firm = PotBatch.draw(SceneConfig(rows=4, cols=5), seed=3)
-    cfg = SceneConfig(rows=4, cols=5, pot_soft_share=0.5, pot_soft_wall=0.03)
+    cfg = SceneConfig(rows=4, cols=5, pot_soft_share=0.5, pot_soft_wall_m=0.03)
     soaked = PotBatch.draw(cfg, seed=3)
     for name in ("diameter", "mass", "friction", "offset", "bond_force", "leaf_yaw0"):
         np.testing.assert_array_equal(getattr(firm, name), getattr(soaked, name))
@@ -346,10 +346,10 @@ def test_shoot_sway_frequencies_are_drawn_last_from_a_gamma():
 
 def test_crooked_pots_stand_on_their_foot_with_the_wall_and_seedling_leaning():
     """pots.crooked_share: a share of the pots (drawn last) get a flat foot and a wall that
-    leans by up to pot_crooked_max towards a random side; the pot stands upright on its foot
+    leans by up to pot_crooked_max_rad towards a random side; the pot stands upright on its foot
     while its wall and its seedling's leaves lean (in the physics and in the decor alike)."""
     straight = PotBatch.draw(SceneConfig(rows=4, cols=5), seed=5)
-    cfg = SceneConfig(rows=4, cols=5, pot_crooked_share=0.5, pot_crooked_max=0.15)
+    cfg = SceneConfig(rows=4, cols=5, pot_crooked_share=0.5, pot_crooked_max_rad=0.15)
     scene = build_scene(cfg, seed=5)
     pots = scene.pots
     for name in ("diameter", "mass", "friction", "offset", "stem_length", "sway_hz"):
@@ -383,15 +383,15 @@ def test_crooked_pots_stand_on_their_foot_with_the_wall_and_seedling_leaning():
         np.testing.assert_allclose(
             mirror.geom_xpos[g], data.xpos[bodies[pot]] + rot @ centre, atol=1e-12
         )
-    with pytest.raises(ValueError, match="pot_crooked_max"):
-        SceneConfig(pot_crooked_max=1.0)
+    with pytest.raises(ValueError, match="pot_crooked_max_rad"):
+        SceneConfig(pot_crooked_max_rad=1.0)
 
 
 def test_an_uneven_fill_lowers_the_pots_mass_and_its_seedling():
     """pots.fill_gap: each pot's soil lies a drawn gap below its rim (drawn last): the pot's
     centre of mass sits half the gap lower, its seedling's leaves the whole gap lower."""
     full = build_scene(SceneConfig(rows=2, cols=5), seed=6)
-    cfg = SceneConfig(rows=2, cols=5, pot_fill_gap=0.008, pot_fill_gap_sd=0.004)
+    cfg = SceneConfig(rows=2, cols=5, pot_fill_gap_m=0.008, pot_fill_gap_sd_m=0.004)
     uneven = build_scene(cfg, seed=6)
     gap = uneven.pots.fill_gap
     assert not full.pots.fill_gap.any() and gap.min() >= 0 and 0.004 < gap.mean() < 0.012
@@ -402,25 +402,25 @@ def test_an_uneven_fill_lowers_the_pots_mass_and_its_seedling():
     np.testing.assert_array_equal(full.model.body_ipos[full.pot_bodies.ravel()], 0.0)
     drop = full.leaves.centre[:, 2] - uneven.leaves.centre[:, 2]
     np.testing.assert_allclose(drop, gap[uneven.leaves.pot], rtol=1e-9)
-    with pytest.raises(ValueError, match="pot_fill_gap"):
-        SceneConfig(pot_fill_gap=0.05)
+    with pytest.raises(ValueError, match="pot_fill_gap_m"):
+        SceneConfig(pot_fill_gap_m=0.05)
 
 
 def test_canopy_softness_below_two_timesteps_is_refused():
-    with pytest.raises(ValueError, match="canopy_timeconst must be at least twice the timestep"):
-        SceneConfig(canopy_contact=True, canopy_timeconst=0.0015)
-    SceneConfig(canopy_contact=False, canopy_timeconst=0.0015)  # unused: not checked
+    with pytest.raises(ValueError, match="canopy_timeconst_s must be at least twice the timestep"):
+        SceneConfig(canopy_contact=True, canopy_timeconst_s=0.0015)
+    SceneConfig(canopy_contact=False, canopy_timeconst_s=0.0015)  # unused: not checked
 
 
 def test_bad_config_is_rejected():
-    with pytest.raises(ValueError, match="pot_diameter"):
-        SceneConfig(pot_diameter=0.044)
+    with pytest.raises(ValueError, match="pot_diameter_m"):
+        SceneConfig(pot_diameter_m=0.044)
     with pytest.raises(ValueError, match="rows"):
         SceneConfig(rows=0)
 
 
 def test_joint_ranges_come_from_the_config():
-    cfg = SceneConfig(rows=1, cols=1, z_range=(0.002, 0.170), theta2_range=(-1.2, 1.9))
+    cfg = SceneConfig(rows=1, cols=1, z_range_m=(0.002, 0.170), theta2_range_rad=(-1.2, 1.9))
     model = build_scene(cfg, seed=0).model
     assert model.joint("z").range.tolist() == [0.002, 0.170]
     assert model.joint("theta2").range.tolist() == [-1.2, 1.9]
@@ -432,13 +432,13 @@ def test_joint_ranges_come_from_the_config():
 @pytest.mark.parametrize(
     "fields, names",
     [
-        ({"switch1_theta1_min": math.radians(245.0)}, "switch1_theta1_min.*theta1_range"),
-        ({"switch2_theta2_max": math.radians(-65.0)}, "switch2_theta2_max.*theta2_range"),
-        ({"switch3_z_min": 0.170}, "switch3_z_min.*z_range"),
-        ({"z_range": (0.010, 0.165)}, "switch4_z_max.*z_range"),
-        ({"power_on_z": -0.001}, "power_on_z.*z_range"),
-        ({"power_on_theta1": math.radians(241.0)}, "power_on_theta1.*theta1_range"),
-        ({"theta2_range": (0.5, -0.5)}, "theta2_range"),
+        ({"switch1_theta1_rad": math.radians(245.0)}, "switch1_theta1_rad.*theta1_range_rad"),
+        ({"switch2_theta2_rad": math.radians(-65.0)}, "switch2_theta2_rad.*theta2_range_rad"),
+        ({"switch3_z_m": 0.170}, "switch3_z_m.*z_range_m"),
+        ({"z_range_m": (0.010, 0.165)}, "switch4_z_m.*z_range_m"),
+        ({"power_on_z_m": -0.001}, "power_on_z_m.*z_range_m"),
+        ({"power_on_theta1_rad": math.radians(241.0)}, "power_on_theta1_rad.*theta1_range_rad"),
+        ({"theta2_range_rad": (0.5, -0.5)}, "theta2_range_rad"),
     ],
 )
 def test_switches_and_home_outside_the_joint_ranges_are_rejected(fields, names):
@@ -469,16 +469,16 @@ def test_passive_angles_of_the_model_assembly(theta1, theta2, phi1, phi2):
 
 
 def test_passive_angles_close_the_chain_and_reject_an_open_one():
-    cfg = SceneConfig(l0=0.04, l1=0.1, l2=0.18)
+    cfg = SceneConfig(l0_m=0.04, l1_m=0.1, l2_m=0.18)
     theta1, theta2 = 2.2, 0.8
     phi1, phi2 = cfg.kinematics().passive_angles(theta1, theta2)
     assert (phi1, phi2) == pytest.approx((-1.2913393613934392, 1.3455715703266806), abs=1e-12)
     b, d = kinematics.elbow_points(cfg.geometry(), theta1, theta2)
-    c1 = b + cfg.l2 * np.array([math.cos(theta1 + phi1), math.sin(theta1 + phi1)])
-    c2 = d + cfg.l2 * np.array([math.cos(theta2 + phi2), math.sin(theta2 + phi2)])
+    c1 = b + cfg.l2_m * np.array([math.cos(theta1 + phi1), math.sin(theta1 + phi1)])
+    c2 = d + cfg.l2_m * np.array([math.cos(theta2 + phi2), math.sin(theta2 + phi2)])
     assert np.linalg.norm(c1 - c2) < 1e-12
     with pytest.raises(ValueError, match="cannot close"):
-        SceneConfig(l2=0.1).kinematics().passive_angles(math.pi, 0.0)
+        SceneConfig(l2_m=0.1).kinematics().passive_angles(math.pi, 0.0)
 
 
 def test_conveyor_index_is_done_within_the_index_time():
@@ -508,7 +508,7 @@ def test_conveyor_index_is_done_within_the_index_time():
         back_rows = slice(index * cfg.cols, None)
         pot_vel = data.qvel[scene.pot_dof_adr[back_rows, None] + np.arange(3)]
         assert np.abs(pot_vel).max() < 5e-3  # a few mm/s of rocking, asleep soon after
-        assert scene.conveyor_position(data) == pytest.approx(-index * cfg.row_pitch, abs=2e-4)
+        assert scene.conveyor_position(data) == pytest.approx(-index * cfg.row_pitch_m, abs=2e-4)
         conveyor.apply(data, data.time)
         assert data.qfrc_applied[dof] == 0.0
     run.step(300)
@@ -560,7 +560,7 @@ def test_pot_batch_is_what_the_scene_is_built_from_and_is_read_only():
     for i in range(len(pots)):
         body = m.body(f"pot_{i // cfg.cols}_{i % cfg.cols}")
         geom = m.geom(f"pot_{i // cfg.cols}_{i % cfg.cols}")
-        assert body.mass[0] == pots.mass[i] + cfg.seedling_mass
+        assert body.mass[0] == pots.mass[i] + cfg.shoot_mass_kg
         assert geom.size[:2].tolist() == [pots.diameter[i] / 2, pots.height[i] / 2]
         assert geom.friction[0] == pots.friction[i]
         decor = scene.render_model
@@ -582,7 +582,7 @@ def test_rows_past_the_edge_follow_the_carriage_position_of_each_index():
     """Ribs of rows carried past the front edge stop colliding; which rows are off depends on
     the state being indexed, so a rewound (copied) MjData gets its rows back."""
     scene = build_scene(SceneConfig(rows=3, cols=1), seed=0)
-    drive, pitch = ConveyorDrive(scene), scene.config.row_pitch
+    drive, pitch = ConveyorDrive(scene), scene.config.row_pitch_m
     data = scene.make_data()
     snapshot = copy.copy(data)  # MjData copies with its userdata: the drive's whole state
     assert rib_rows_colliding(scene) == [True, True, True]
@@ -623,7 +623,7 @@ def test_a_conveyor_of_100_rows_builds_and_runs():
     assert data.warning.number.sum() == 0
     pots = scene.pot_positions(data)
     assert pots.shape == (100, 3)
-    assert np.abs(pots[:, 2] - scene.config.pot_height / 2).max() < 0.003  # all standing
+    assert np.abs(pots[:, 2] - scene.config.pot_height_m / 2).max() < 0.003  # all standing
     m = scene.model
     assert (m.geom_contype >= 0).all() and (m.geom_conaffinity >= 0).all()
 
@@ -634,7 +634,7 @@ def test_the_conveyor_drive_holds_the_carriage_between_indexes():
     its slide friction alone allowed, and it comes back when the push ends; after an index the
     drive holds the new position, and the carriage still falls asleep."""
     cfg = SceneConfig(rows=3, cols=3)
-    k = cfg.conveyor_hold_stiffness
+    k = cfg.conveyor_hold_stiffness_n_m
     assert k == pytest.approx(0.40 * (math.pi / 2) / (2 * math.pi / 200) / 0.00637**2)
     assert 4.9e5 < k < 5.0e5
     scene = build_scene(cfg, seed=5)
@@ -646,7 +646,7 @@ def test_the_conveyor_drive_holds_the_carriage_between_indexes():
     for sign in (+1, -1):
         data.qfrc_applied[dof] = sign * push
         run.step(200)
-        friction = cfg.conveyor_frictionloss  # the slide's dry friction holds up to 5 N
+        friction = cfg.conveyor_frictionloss_n  # the slide's dry friction holds up to 5 N
         moved = sign * conveyor.displacement(data)
         assert (push - friction) / k * 0.99 <= moved <= (push + friction) / k * 1.01
         assert moved == pytest.approx(1.0e-4, rel=0.15)
@@ -661,8 +661,8 @@ def test_the_conveyor_drive_holds_the_carriage_between_indexes():
     assert conveyor.displacement(data) == 0.0
     run.step_until(data.time + 0.6)
     conveyor.apply(data, data.time)
-    assert conveyor.hold_position() == pytest.approx(-cfg.row_pitch)
-    assert model_hold(scene) == pytest.approx((k, cfg.conveyor_hold_damping))
+    assert conveyor.hold_position() == pytest.approx(-cfg.row_pitch_m)
+    assert model_hold(scene) == pytest.approx((k, cfg.conveyor_hold_damping_n_s_m))
     run.step(400)
     assert abs(conveyor.displacement(data)) < 2e-4
     assert data.ntree_awake == 1  # the hold lets it sleep (a passive force, no actuator)
@@ -677,7 +677,7 @@ def test_bonded_pots_get_an_adhesion_pad_that_touches_only_the_belt_and_still_sl
     import dataclasses
 
     cfg = dataclasses.replace(
-        SceneConfig(), pot_bond_share=0.5, pot_bond_force=5.0, pot_bond_sd_log=0.5
+        SceneConfig(), pot_bond_share=0.5, pot_bond_force_n=5.0, pot_bond_sd_log=0.5
     )
     scene = build_scene(cfg, seed=3)
     m = scene.model
@@ -711,7 +711,7 @@ def test_bond_draws_leave_the_other_pot_draws_unchanged():
 
     plain = PotBatch.draw(SceneConfig(), 5)
     bonded = PotBatch.draw(
-        dataclasses.replace(SceneConfig(), pot_bond_share=0.3, pot_bond_force=4.0), 5
+        dataclasses.replace(SceneConfig(), pot_bond_share=0.3, pot_bond_force_n=4.0), 5
     )
     for name in ("diameter", "height", "mass", "friction", "offset", "stem_length"):
         np.testing.assert_array_equal(getattr(plain, name), getattr(bonded, name))

@@ -120,7 +120,7 @@ def test_conveyor_index_ends_at_one_pitch_and_at_rest():
     assert index.reply == "ok"
     assert index.t_reply - index.t_sent == pytest.approx(0.6, abs=0.01)
     scene, d = twin.scene, twin.data
-    pitch = five.scene.row_pitch
+    pitch = five.scene.row_pitch_m
     assert scene.conveyor_position(d) == pytest.approx(-pitch, abs=0.0005)
     # the emptied row went round the front drum: its ribs no longer touch anything (they
     # would otherwise sweep through the drop tube and jam on the pot dropped last)
@@ -134,8 +134,8 @@ def test_conveyor_index_ends_at_one_pitch_and_at_rest():
     # the next row stands in the pickup row, upright, every pot in its cell
     pots = scene.pot_positions(d).reshape(scene.pot_bodies.shape + (3,))
     row1 = pots[1]
-    assert np.abs(row1[:, 1] - five.scene.pickup_row_y).max() < 0.004
-    assert np.abs(row1[:, 2] - five.scene.pot_height / 2).max() < 0.003
+    assert np.abs(row1[:, 1] - five.scene.pickup_row_y_m).max() < 0.004
+    assert np.abs(row1[:, 2] - five.scene.pot_height_m / 2).max() < 0.003
 
 
 def test_servos_hold_their_power_on_pose_until_commanded(scenario):

@@ -109,12 +109,12 @@ class Pickup:
 
     approach_xy_m: tuple[float, float]
     grip_xy_m: tuple[float, float]
-    elbow_deg: float
+    wrist_deg: float
 
     def __post_init__(self):
         object.__setattr__(self, "approach_xy_m", _check_xy("approach_xy_m", self.approach_xy_m))
         object.__setattr__(self, "grip_xy_m", _check_xy("grip_xy_m", self.grip_xy_m))
-        object.__setattr__(self, "elbow_deg", _check_angle("elbow_deg", self.elbow_deg))
+        object.__setattr__(self, "wrist_deg", _check_angle("wrist_deg", self.wrist_deg))
 
 
 @dataclass(frozen=True)
@@ -123,7 +123,7 @@ class EepromImage:
 
     pickups: tuple[Pickup, ...]
     drop_xy_m: tuple[float, float]
-    drop_elbow_deg: float
+    drop_wrist_deg: float
     z_up_m: float
     z_low_m: float
     s_low_m_s: float
@@ -141,7 +141,7 @@ class EepromImage:
         object.__setattr__(self, "pickups", pickups)
         object.__setattr__(self, "drop_xy_m", _check_xy("drop_xy_m", self.drop_xy_m))
         object.__setattr__(
-            self, "drop_elbow_deg", _check_angle("drop_elbow_deg", self.drop_elbow_deg)
+            self, "drop_wrist_deg", _check_angle("drop_wrist_deg", self.drop_wrist_deg)
         )
         for name in ("z_up_m", "z_low_m"):
             value = _as_float(name, getattr(self, name))
@@ -182,7 +182,7 @@ class EepromImage:
             _decimm_s(self.s_high_m_s),
             _um(self.drop_xy_m[0]),
             _um(self.drop_xy_m[1]),
-            _centideg(self.drop_elbow_deg),
+            _centideg(self.drop_wrist_deg),
             0,
         )
         for index, pickup in enumerate(self.pickups):
@@ -193,7 +193,7 @@ class EepromImage:
                 _um(pickup.approach_xy_m[1]),
                 _um(pickup.grip_xy_m[0]),
                 _um(pickup.grip_xy_m[1]),
-                _centideg(pickup.elbow_deg),
+                _centideg(pickup.wrist_deg),
                 0,
             )
         _CRC.pack_into(image, CRC_OFFSET, zlib.crc32(image[:DATA_SIZE]))
@@ -232,7 +232,7 @@ class EepromImage:
             )
         if not 1 <= m_pp <= MAX_PICKUPS:
             raise EepromError(f"M_pp = {m_pp} is out of range 1..{MAX_PICKUPS}")
-        _, _, _, reserved7, z_up, z_low, s_low, s_high, drop_x, drop_y, drop_elbow, reserved30 = (
+        _, _, _, reserved7, z_up, z_low, s_low, s_high, drop_x, drop_y, drop_wrist, reserved30 = (
             header
         )
         for offset, value in ((7, reserved7), (30, reserved30)):
@@ -244,7 +244,7 @@ class EepromImage:
         pickups = []
         for index in range(m_pp):
             record_offset = PICKUPS_OFFSET + index * _PICKUP.size
-            ax, ay, gx, gy, elbow, reserved = _PICKUP.unpack_from(data, record_offset)
+            ax, ay, gx, gy, wrist, reserved = _PICKUP.unpack_from(data, record_offset)
             if reserved != 0:
                 raise EepromError(
                     f"pickup {index}: reserved field at byte {record_offset + _PICKUP.size - 2} "
@@ -254,13 +254,13 @@ class EepromImage:
                 Pickup(
                     approach_xy_m=(ax / POSITION_COUNTS_PER_M, ay / POSITION_COUNTS_PER_M),
                     grip_xy_m=(gx / POSITION_COUNTS_PER_M, gy / POSITION_COUNTS_PER_M),
-                    elbow_deg=elbow / ANGLE_COUNTS_PER_DEG,
+                    wrist_deg=wrist / ANGLE_COUNTS_PER_DEG,
                 )
             )
         return cls(
             pickups=tuple(pickups),
             drop_xy_m=(drop_x / POSITION_COUNTS_PER_M, drop_y / POSITION_COUNTS_PER_M),
-            drop_elbow_deg=drop_elbow / ANGLE_COUNTS_PER_DEG,
+            drop_wrist_deg=drop_wrist / ANGLE_COUNTS_PER_DEG,
             z_up_m=z_up / POSITION_COUNTS_PER_M,
             z_low_m=z_low / POSITION_COUNTS_PER_M,
             s_low_m_s=s_low / SPEED_COUNTS_PER_M_S,

@@ -218,7 +218,7 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
     lines: list[tuple[int | None, LinePhase, str, dict]] = [
         (None, LinePhase.HOME, "G28", {}),
         (None, LinePhase.ABSOLUTE, "G90", {}),
-        (None, LinePhase.START_ELBOW, "M280", {"P": wrist, "S": eeprom.drop_elbow_deg}),
+        (None, LinePhase.START_ELBOW, "M280", {"P": wrist, "S": eeprom.drop_wrist_deg}),
         (None, LinePhase.TO_START, "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
     ]
 
@@ -235,7 +235,7 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
         ] if rehome else []  # fmt: skip
         cycle += [
             (LinePhase.APPROACH, "G1", {"X": ax, "Y": ay, "Z": z_low, "S": s_high}),
-            (LinePhase.ELBOW, "M280", {"P": wrist, "S": pickup.elbow_deg}),
+            (LinePhase.ELBOW, "M280", {"P": wrist, "S": pickup.wrist_deg}),
             (LinePhase.OPEN, "M280", {"P": gripper, "S": open_deg}),
             (LinePhase.OPEN_WAIT, "G4", {"P": _ms(config.open_dwell_s)}),
             (LinePhase.GRIP, "G1", {"X": gx, "Y": gy, "Z": z_low, "S": s_low}),
@@ -243,7 +243,7 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
             (LinePhase.CLOSE_WAIT, "G4", {"P": _ms(config.close_dwell_s)}),
             (LinePhase.LIFT, "G1", {"X": gx, "Y": gy, "Z": z_up, "S": s_low}),
             (LinePhase.RETRACT, "G1", {"X": ax, "Y": ay, "Z": z_up, "S": s_high}),
-            (LinePhase.DROP_ELBOW, "M280", {"P": wrist, "S": eeprom.drop_elbow_deg}),
+            (LinePhase.DROP_ELBOW, "M280", {"P": wrist, "S": eeprom.drop_wrist_deg}),
             (LinePhase.TO_DROP, "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
             (LinePhase.RELEASE, "M280", {"P": gripper, "S": open_deg}),
             (LinePhase.RELEASE_WAIT, "G4", {"P": _ms(config.release_dwell_s)}),

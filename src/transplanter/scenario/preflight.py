@@ -247,9 +247,9 @@ def check_timestep(scene_config) -> None:
 
     from transplanter.scene import build_scene
 
-    if scene_config.timestep < MIN_TIMESTEP_S * (1 - 1e-9):
+    if scene_config.timestep_s < MIN_TIMESTEP_S * (1 - 1e-9):
         raise ScenarioError(
-            f"physics.timestep_ms = {scene_config.timestep * 1e3:g} is below the validated "
+            f"physics.timestep_ms = {scene_config.timestep_s * 1e3:g} is below the validated "
             f"range (from {MIN_TIMESTEP_S * 1e3:g} ms up to the drives' limit, 1.23 ms with "
             "the paper's drives): below it the stepper servos lag their step count further "
             "as the step shrinks and lose steps the machine would not (docs/edge_trials.md). "

@@ -202,7 +202,7 @@ def home_ctrl(cfg: SceneConfig) -> list[float]:
 
 def apply_options(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     opt = spec.option
-    opt.timestep = cfg.timestep
+    opt.timestep = cfg.timestep_s
     opt.impratio = cfg.impratio
     opt.iterations = cfg.solver_iterations
     opt.tolerance = cfg.solver_tolerance
@@ -211,6 +211,6 @@ def apply_options(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         "dense": mujoco.mjtJacobian.mjJAC_DENSE,
         "sparse": mujoco.mjtJacobian.mjJAC_SPARSE,
     }[cfg.jacobian]
-    opt.sleep_tolerance = cfg.sleep_tolerance
+    opt.sleep_tolerance = cfg.sleep_tolerance_m_s
     bit = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
     opt.enableflags = (opt.enableflags | bit) if cfg.sleep else (opt.enableflags & ~bit)

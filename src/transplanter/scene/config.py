@@ -36,7 +36,7 @@ TORSIONAL_FRICTION = 0.005
 ROLLING_FRICTION = 0.0001
 
 # A soaked pot's contact impedance at no penetration and once it has given
-# SceneConfig.pot_soft_wall (MuJoCo solimp d0, dwidth; midpoint and power as the firm pots').
+# SceneConfig.pot_soft_wall_m (MuJoCo solimp d0, dwidth; midpoint and power as the firm pots').
 SOFT_WALL_IMPEDANCE = (0.05, 0.95)
 
 # Colours (rgba) of the geoms the scene adds: ribs, pot collision cylinders (shown in group
@@ -73,7 +73,7 @@ SHOOT_COM_SHARE = 0.85
 SHOOT_SPREAD = 0.085
 # A crooked pot's flat foot (m): the wall above it leans (SceneConfig.pot_crooked_share).
 CROOKED_FOOT_HEIGHT = 0.006
-# The deepest a pot's soil may lie below its rim (m; SceneConfig.pot_fill_gap).
+# The deepest a pot's soil may lie below its rim (m; SceneConfig.pot_fill_gap_m).
 POT_FILL_GAP_MAX = 0.02
 
 
@@ -87,22 +87,22 @@ class SceneConfig:
     workcell_kind: str = "conveyor_tube"
 
     # --- five-bar geometry (m): motors at (-l0, 0) and (+l0, 0); active l1, passive l2.
-    l0: float = 0.050
-    l1: float = 0.120
-    l2: float = 0.200
+    l0_m: float = 0.050
+    l1_m: float = 0.120
+    l2_m: float = 0.200
     # Vertical distance from the arm plane (C) down to the grip centre (m).
-    column_height: float = 0.120
+    column_height_m: float = 0.120
 
     # --- stepper drives. Torque of a NEMA17 held at standstill (N*m), rotor inertia
     # (kg*m^2), motor speed (rev/s) at which the pull-out torque reaches zero.
-    holding_torque: float = 0.45
-    rotor_inertia: float = 5.4e-6
+    holding_torque_nm: float = 0.45
+    rotor_inertia_kgm2: float = 5.4e-6
     # Full steps per motor revolution (200 for a 1.8 deg stepper): the torque of a stepper
     # peaks about one full step of error, so it sets the position stiffness.
     steps_per_rev: int = 200
     pullout_zero_speed_rev_s: float = 15.0
     arm_belt_ratio: float = 3.0
-    screw_lead: float = 0.008
+    z_lead_m: float = 0.008
     # Fraction of the motor torque that reaches the Z slide through the T8 lead screw.
     screw_efficiency: float = 0.35
     # kp = holding torque / full_step_rad, times this factor (1 for the arms; the Z drive is
@@ -113,55 +113,57 @@ class SceneConfig:
     # it damps the ringing about the commanded step without touching the torque limit.
     stepper_dampratio: float = 0.5
     # Mass of the Z carriage with motors and belts (kg), masses of active/passive links (kg).
-    platform_mass: float = 1.0
-    active_link_mass: float = 0.06
-    passive_link_mass: float = 0.06
+    platform_mass_kg: float = 1.0
+    active_link_mass_kg: float = 0.06
+    passive_link_mass_kg: float = 0.06
 
     # --- gripper: jaw opening range (m), servo force limit = grip force per jaw (N),
     # servo stiffness on the opening (N/m), jaw slide damping (N*s/m).
-    gripper_max_opening: float = 0.050
-    grip_force: float = 6.0
-    gripper_kp: float = 3000.0
-    jaw_damping: float = 2.0
+    gripper_max_opening_m: float = 0.050
+    grip_force_n: float = 6.0
+    gripper_kp_n_m: float = 3000.0
+    jaw_damping_n_s_m: float = 2.0
     # (No jaw friction: the pots' contact priority makes every jaw-pot contact take the pot's
     # friction, the scenario's pots.friction; a jaw friction would never act.)
     # Wrist (elbow) servo: stiffness (N*m/rad), torque limit (N*m).
-    wrist_kp: float = 3.0
-    wrist_torque: float = 0.25
+    wrist_kp_nm_rad: float = 3.0
+    wrist_torque_nm: float = 0.25
 
     # --- active joint travel (rad): the elbows-out workspace needs theta1 in [95, 219] deg
     # and theta2 in [-39, 85] deg; the hard stops sit beyond the limit switches.
-    theta1_range: tuple[float, float] = (math.radians(75.0), math.radians(240.0))
-    theta2_range: tuple[float, float] = (math.radians(-60.0), math.radians(105.0))
+    theta1_range_rad: tuple[float, float] = (math.radians(75.0), math.radians(240.0))
+    theta2_range_rad: tuple[float, float] = (math.radians(-60.0), math.radians(105.0))
     # Z slide travel (m) of the grip centre above the belt; its ends are the hard stops.
-    z_range: tuple[float, float] = (0.0, 0.165)
+    z_range_m: tuple[float, float] = (0.0, 0.165)
 
     # --- limit switches (firmware homing positions; rad, rad, m, m): the arms fold back.
-    switch1_theta1_min: float = math.radians(200.0)
-    switch2_theta2_max: float = math.radians(-20.0)
-    switch3_z_min: float = 0.160
-    switch4_z_max: float = 0.005
+    # Each trips at its position: closed at theta1 >= switch1, theta2 <= switch2, z >= switch3
+    # and z <= switch4 (Scene.limit_switches).
+    switch1_theta1_rad: float = math.radians(200.0)
+    switch2_theta2_rad: float = math.radians(-20.0)
+    switch3_z_m: float = 0.160
+    switch4_z_m: float = 0.005
 
     # --- home keyframe (power-on pose): active angles (rad), Z (m), a little short of the
     # limit switches; the gripper is fully open.
-    power_on_theta1: float = math.radians(195.0)
-    power_on_theta2: float = math.radians(-15.0)
-    power_on_z: float = 0.150
+    power_on_theta1_rad: float = math.radians(195.0)
+    power_on_theta2_rad: float = math.radians(-15.0)
+    power_on_z_m: float = 0.150
 
     # --- conveyor layout: rows x cols cells, cell pitch in x, row pitch in y (m); the pickup
-    # row (row 0) is centred at pickup_row_y; rows further back at + row_pitch each.
+    # row (row 0) is centred at pickup_row_y_m; rows further back at + row_pitch_m each.
     rows: int = 8
     cols: int = 5
-    cell_pitch: float = 0.045
-    row_pitch: float = 0.045
-    pickup_row_y: float = 0.215
-    rib_height: float = 0.005
-    rib_thickness: float = 0.002
+    cell_pitch_m: float = 0.045
+    row_pitch_m: float = 0.045
+    pickup_row_y_m: float = 0.215
+    rib_height_m: float = 0.005
+    rib_thickness_m: float = 0.002
     # Sliding friction of the ribs' smooth plastic on a paper pot; the ribs' contact priority
     # wins over the pots', so this, not the pot's friction with the jaws, acts at the ribs.
     rib_friction: float = 0.2
     # The static belt table reaches this far (m) beyond the outer ribs on either side.
-    table_side_margin: float = 0.02
+    table_side_margin_m: float = 0.02
     # Conveyor carriage: mass (kg), dry friction of its slide (N), PD gains of the index drive
     # (N/m, N*s/m), settle time held after the profile before the force is released (s; at
     # most a quarter of the index time, see ConveyorDrive.index_phases), the share of the
@@ -169,77 +171,77 @@ class SceneConfig:
     # the paper's 0.6 s index that is a 0.425 s push; a 0.34 s push (settle 0.15 s, share
     # 0.75) tipped 1-8 back-row pots per 40-pot trial onto the ribs. Last, the
     # overshoot (m) past one row pitch before coming back; None: the cell clearance
-    # (SceneConfig.cell_clearance), which leaves every nominal pot centred in its new cell.
-    conveyor_mass: float = 1.0
-    conveyor_frictionloss: float = 5.0
-    conveyor_kp: float = 20000.0
-    conveyor_kd: float = 400.0
+    # (SceneConfig.cell_clearance_m), which leaves every nominal pot centred in its new cell.
+    conveyor_mass_kg: float = 1.0
+    conveyor_frictionloss_n: float = 5.0
+    conveyor_kp_n_m: float = 20000.0
+    conveyor_kd_n_s_m: float = 400.0
     conveyor_settle_s: float = 0.10
     conveyor_push_share: float = 0.85
-    conveyor_overshoot: float | None = None
+    conveyor_overshoot_m: float | None = None
     # Between indexes the carriage is held by its drive: a NEMA17 stepper (holding torque
     # 0.40 N*m, 17HS4401 datasheet; 1.8 deg full step) through a GT2 20-tooth pulley (pitch
     # radius 6.37 mm). A hybrid stepper's torque near a detent is T_hold * sin(pi/2 * angle /
     # full step), so its stiffness is T_hold * (pi/2) / full step (20 N*m/rad), and at the
     # belt / r^2: about 493 kN/m, up to T_hold / r = 63 N. The damping ratio of that hold.
-    conveyor_holding_torque: float = 0.40
-    conveyor_pulley_radius: float = 0.00637
+    conveyor_holding_torque_nm: float = 0.40
+    conveyor_pulley_radius_m: float = 0.00637
     conveyor_hold_damping_ratio: float = 0.5
 
     # --- paper pots: nominal size (m), mass (kg) and their spreads (normal sd, clipped),
-    # placement offset sd in the cell (m, a normal truncated to +-pot_offset_max), friction
+    # placement offset sd in the cell (m, a normal truncated to +-pot_offset_max_m), friction
     # of the paper against jaws and belt (mean and sd of a gamma distribution: never < 0).
-    pot_diameter: float = 0.035
-    pot_diameter_sd: float = 0.0003
-    pot_height: float = 0.052
-    pot_height_sd: float = 0.0008
-    pot_mass: float = 0.047
-    pot_mass_sd: float = 0.006
-    pot_mass_range: tuple[float, float] = (0.040, 0.080)
-    pot_offset_sd: float = 0.001
-    pot_offset_max: float = 0.003
+    pot_diameter_m: float = 0.035
+    pot_diameter_sd_m: float = 0.0003
+    pot_height_m: float = 0.052
+    pot_height_sd_m: float = 0.0008
+    pot_mass_kg: float = 0.047
+    pot_mass_sd_kg: float = 0.006
+    pot_mass_range_kg: tuple[float, float] = (0.040, 0.080)
+    pot_offset_sd_m: float = 0.001
+    pot_offset_max_m: float = 0.003
     pot_friction: float = 0.6
     pot_friction_sd: float = 0.05
     # Pots bonded to the belt (roots through the drainage hole, wet paper): the share of pots
     # with a bond, its median strength (N) and the spread (sd of ln strength, log-normal).
     # A bond is MuJoCo adhesion at the pot's base, acting on its contact with the belt only.
     pot_bond_share: float = 0.0
-    pot_bond_force: float = 0.0
+    pot_bond_force_n: float = 0.0
     pot_bond_sd_log: float = 0.0
     # Soaked pots: a share of the pots whose wall gives under the jaws: their contacts are
     # MuJoCo soft contacts whose impedance rises from SOFT_WALL_IMPEDANCE[0] to [1] over
-    # pot_soft_wall of penetration (m; solimp width) instead of the firm pots' 0.5 mm. The
+    # pot_soft_wall_m of penetration (m; solimp width) instead of the firm pots' 0.5 mm. The
     # jaws close towards their commanded opening (25 mm) into such a pot, and once the
     # servo is near it the squeeze falls: a pot that gives more than the jaws' travel is
     # barely held. Estimates, no source.
     pot_soft_share: float = 0.0
-    pot_soft_wall: float = 0.02
+    pot_soft_wall_m: float = 0.02
     # Crooked pots: a share of the pots whose wall is bent over its foot: the wall leans by
-    # an angle drawn uniformly up to pot_crooked_max (rad) towards a random side, on a flat
+    # an angle drawn uniformly up to pot_crooked_max_rad (rad) towards a random side, on a flat
     # foot CROOKED_FOOT_HEIGHT tall (the pot stands flat; its top and seedling lean).
     # Estimates, no source.
     pot_crooked_share: float = 0.0
-    pot_crooked_max: float = 0.1
+    pot_crooked_max_rad: float = 0.1
     # Uneven fill: how far below the rim a pot's soil lies (m): a normal truncated to
     # [0, POT_FILL_GAP_MAX]. The pot's centre of mass sits half of it lower and its seedling
     # stands on the soil, all of it lower. Estimates, no source.
-    pot_fill_gap: float = 0.0
-    pot_fill_gap_sd: float = 0.0
+    pot_fill_gap_m: float = 0.0
+    pot_fill_gap_sd_m: float = 0.0
     # Seedling canopies touching the jaws: each leaf's capsule proxy collides with the jaws
     # only (nothing else), with a soft contact (time constant, s: leaves bend away) and its
     # own friction; a push or a drag on a leaf moves its pot. Off: leaves are only tested
     # geometrically (leaf_hit_pots). Estimates, no source.
     canopy_contact: bool = False
-    canopy_timeconst: float = 0.8
+    canopy_timeconst_s: float = 0.8
     canopy_friction: float = 0.5
     # Where an index leaves the row along the belt: normal sd (m) of the error of each index
     # (belt stretch, rib play); the next index's ribs take it back.
-    conveyor_index_error_sd: float = 0.0
+    conveyor_index_error_sd_m: float = 0.0
     # Seedling: stem length above the pot (m, uniform range), leaves per seedling (range),
     # the shoot's mass (kg; on top of the pot's).
-    stem_length_range: tuple[float, float] = (0.035, 0.045)
+    stem_length_range_m: tuple[float, float] = (0.035, 0.045)
     leaves_range: tuple[int, int] = (2, 3)
-    seedling_mass: float = 0.003
+    shoot_mass_kg: float = 0.003
     # The shoot sways on its stem (transplanter.twin.shoot: a hinge at the centre of the pot's
     # top) at this natural frequency (Hz, upright, gravity included) with this damping
     # ratio. Estimates: a 40 mm shoot flicked sideways swings a few times a second and stops
@@ -249,37 +251,38 @@ class SceneConfig:
     stem_damping_ratio: float = 0.2
     # Stem radius (m; visual), and the capsule proxy of each leaf (radius, half length of
     # its axis, m) that leaf_hit_pots tests against the gripper.
-    stem_radius: float = 0.0015
-    leaf_radius: float = 0.006
-    leaf_half_length: float = 0.0165
+    stem_radius_m: float = 0.0015
+    leaf_radius_m: float = 0.006
+    leaf_half_length_m: float = 0.0165
 
     # --- drop tube: funnel centre (x, y), funnel top height, top and throat diameters,
     # funnel height, tube length below the throat, wall thickness (m), segments per ring.
-    drop_tube_xy: tuple[float, float] = (0.0, 0.140)
-    funnel_top_z: float = 0.010
-    funnel_top_diameter: float = 0.060
-    funnel_throat_diameter: float = 0.042
-    funnel_height: float = 0.020
-    tube_length: float = 0.140
-    tube_wall: float = 0.003
+    drop_tube_xy_m: tuple[float, float] = (0.0, 0.140)
+    funnel_top_z_m: float = 0.010
+    funnel_top_diameter_m: float = 0.060
+    funnel_throat_diameter_m: float = 0.042
+    funnel_height_m: float = 0.020
+    tube_length_m: float = 0.140
+    tube_wall_m: float = 0.003
     tube_segments: int = 12
 
     # --- simulation: timestep (s), solver settings, sleeping.
-    timestep: float = 0.001
+    timestep_s: float = 0.001
     impratio: float = 10.0
     solver_iterations: int = 50
     solver_tolerance: float = 1e-8
     jacobian: str = "auto"  # "auto", "dense" or "sparse"
     sleep: bool = True
-    sleep_tolerance: float = 1e-3  # m/s
+    sleep_tolerance_m_s: float = 1e-3
     contact_solref: tuple[float, float] = (0.004, 1.0)
     contact_solimp: tuple[float, float, float, float, float] = (0.95, 0.99, 0.0005, 0.5, 2.0)
 
     def __post_init__(self) -> None:
         positive = (
-            "l0 l1 l2 column_height holding_torque rotor_inertia pullout_zero_speed_rev_s "
-            "arm_belt_ratio screw_lead screw_efficiency gripper_max_opening grip_force "
-            "cell_pitch row_pitch pot_diameter pot_height pot_mass timestep"
+            "l0_m l1_m l2_m column_height_m holding_torque_nm rotor_inertia_kgm2 "
+            "pullout_zero_speed_rev_s arm_belt_ratio z_lead_m screw_efficiency "
+            "gripper_max_opening_m grip_force_n cell_pitch_m row_pitch_m pot_diameter_m "
+            "pot_height_m pot_mass_kg timestep_s"
         ).split()
         for name in positive:
             if not getattr(self, name) > 0:
@@ -292,18 +295,18 @@ class SceneConfig:
             raise ValueError(
                 f"SceneConfig needs rows >= 1 and cols >= 1, got {self.rows}x{self.cols}"
             )
-        if self.pot_diameter + 2 * self.pot_offset_max + self.rib_thickness >= min(
-            self.cell_pitch, self.row_pitch
+        if self.pot_diameter_m + 2 * self.pot_offset_max_m + self.rib_thickness_m >= min(
+            self.cell_pitch_m, self.row_pitch_m
         ):
             raise ValueError(
-                "pots do not fit their cells: pot_diameter + 2*pot_offset_max + rib_thickness "
-                "must be below cell_pitch and row_pitch"
+                "pots do not fit their cells: pot_diameter_m + 2*pot_offset_max_m + "
+                "rib_thickness_m must be below cell_pitch_m and row_pitch_m"
             )
         if not 0 <= self.pot_bond_share <= 1:
             raise ValueError(
                 f"SceneConfig.pot_bond_share must be in [0, 1], got {self.pot_bond_share}"
             )
-        for name in ("pot_bond_force", "pot_bond_sd_log", "conveyor_index_error_sd"):
+        for name in ("pot_bond_force_n", "pot_bond_sd_log", "conveyor_index_error_sd_m"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"SceneConfig.{name} must be >= 0, got {getattr(self, name)}")
         if not 0 <= self.pot_soft_share <= 1:
@@ -314,28 +317,30 @@ class SceneConfig:
             raise ValueError(
                 f"SceneConfig.pot_crooked_share must be in [0, 1], got {self.pot_crooked_share}"
             )
-        if not 0 < self.pot_crooked_max < np.pi / 4:
+        if not 0 < self.pot_crooked_max_rad < np.pi / 4:
             raise ValueError(
-                "SceneConfig.pot_crooked_max must be in (0, pi/4) rad (a wall bent further "
-                f"would not stand), got {self.pot_crooked_max}"
+                "SceneConfig.pot_crooked_max_rad must be in (0, pi/4) rad (a wall bent further "
+                f"would not stand), got {self.pot_crooked_max_rad}"
             )
-        if not (0 <= self.pot_fill_gap <= POT_FILL_GAP_MAX and self.pot_fill_gap_sd >= 0):
+        if not (0 <= self.pot_fill_gap_m <= POT_FILL_GAP_MAX and self.pot_fill_gap_sd_m >= 0):
             raise ValueError(
-                f"SceneConfig.pot_fill_gap must be in [0, {POT_FILL_GAP_MAX}] m and "
-                f"pot_fill_gap_sd >= 0, got {self.pot_fill_gap} and {self.pot_fill_gap_sd}"
+                f"SceneConfig.pot_fill_gap_m must be in [0, {POT_FILL_GAP_MAX}] m and "
+                f"pot_fill_gap_sd_m >= 0, got {self.pot_fill_gap_m} and {self.pot_fill_gap_sd_m}"
             )
-        if not self.pot_soft_wall > 0:
-            raise ValueError(f"SceneConfig.pot_soft_wall must be > 0 m, got {self.pot_soft_wall}")
-        if self.canopy_contact and not self.canopy_timeconst >= 2 * self.timestep:
+        if not self.pot_soft_wall_m > 0:
             raise ValueError(
-                f"SceneConfig.canopy_timeconst must be at least twice the timestep "
-                f"({2 * self.timestep} s; MuJoCo would silently stiffen a shorter one), got "
-                f"{self.canopy_timeconst}"
+                f"SceneConfig.pot_soft_wall_m must be > 0 m, got {self.pot_soft_wall_m}"
             )
-        if not self.seedling_mass > 0 or not self.stem_damping_ratio >= 0:
+        if self.canopy_contact and not self.canopy_timeconst_s >= 2 * self.timestep_s:
             raise ValueError(
-                "SceneConfig.seedling_mass must be > 0 kg and stem_damping_ratio >= 0, got "
-                f"{self.seedling_mass} and {self.stem_damping_ratio}"
+                f"SceneConfig.canopy_timeconst_s must be at least twice the timestep "
+                f"({2 * self.timestep_s} s; MuJoCo would silently stiffen a shorter one), got "
+                f"{self.canopy_timeconst_s}"
+            )
+        if not self.shoot_mass_kg > 0 or not self.stem_damping_ratio >= 0:
+            raise ValueError(
+                "SceneConfig.shoot_mass_kg must be > 0 kg and stem_damping_ratio >= 0, got "
+                f"{self.shoot_mass_kg} and {self.stem_damping_ratio}"
             )
         if not self.stem_sway_hz > 0 or not self.stem_sway_sd_hz >= 0:
             raise ValueError(
@@ -354,33 +359,33 @@ class SceneConfig:
             raise ValueError(
                 f"SceneConfig.conveyor_settle_s must be >= 0 s, got {self.conveyor_settle_s}"
             )
-        if self.conveyor_overshoot is not None and not self.conveyor_overshoot >= 0:
+        if self.conveyor_overshoot_m is not None and not self.conveyor_overshoot_m >= 0:
             raise ValueError(
-                "SceneConfig.conveyor_overshoot must be >= 0 m (or None for the cell "
-                f"clearance), got {self.conveyor_overshoot}"
+                "SceneConfig.conveyor_overshoot_m must be >= 0 m (or None for the cell "
+                f"clearance), got {self.conveyor_overshoot_m}"
             )
         if self.jacobian not in ("auto", "dense", "sparse"):
             raise ValueError(
                 f"SceneConfig.jacobian must be auto, dense or sparse, got {self.jacobian!r}"
             )
-        if self.l1 + self.l2 <= self.l0:
-            raise ValueError("five-bar links too short: need l1 + l2 > l0")
+        if self.l1_m + self.l2_m <= self.l0_m:
+            raise ValueError("five-bar links too short: need l1_m + l2_m > l0_m")
         self._check_joint_positions()
 
     def _check_joint_positions(self) -> None:
         """Limit switches and the home keyframe must lie inside the joint travel."""
-        for range_name in ("theta1_range", "theta2_range", "z_range"):
+        for range_name in ("theta1_range_rad", "theta2_range_rad", "z_range_m"):
             lo, hi = getattr(self, range_name)
             if not lo < hi:
                 raise ValueError(f"SceneConfig.{range_name} must be (low, high), got {(lo, hi)}")
         for name, range_name in (
-            ("switch1_theta1_min", "theta1_range"),
-            ("switch2_theta2_max", "theta2_range"),
-            ("switch3_z_min", "z_range"),
-            ("switch4_z_max", "z_range"),
-            ("power_on_theta1", "theta1_range"),
-            ("power_on_theta2", "theta2_range"),
-            ("power_on_z", "z_range"),
+            ("switch1_theta1_rad", "theta1_range_rad"),
+            ("switch2_theta2_rad", "theta2_range_rad"),
+            ("switch3_z_m", "z_range_m"),
+            ("switch4_z_m", "z_range_m"),
+            ("power_on_theta1_rad", "theta1_range_rad"),
+            ("power_on_theta2_rad", "theta2_range_rad"),
+            ("power_on_z_m", "z_range_m"),
         ):
             lo, hi = getattr(self, range_name)
             value = getattr(self, name)
@@ -397,27 +402,27 @@ class SceneConfig:
 
     def geometry(self) -> FiveBarGeometry:
         """The five-bar's link lengths for the pure-numpy kinematics."""
-        return FiveBarGeometry(l0_m=self.l0, l1_m=self.l1, l2_m=self.l2)
+        return FiveBarGeometry(l0_m=self.l0_m, l1_m=self.l1_m, l2_m=self.l2_m)
 
     # Derived drive numbers (documented in models/fivebar/README.md).
     @property
-    def screw_gear(self) -> float:
+    def screw_gear_rad_m(self) -> float:
         """Motor radians per metre of Z travel."""
-        return 2.0 * math.pi / self.screw_lead
+        return 2.0 * math.pi / self.z_lead_m
 
     @property
-    def cell_clearance(self) -> float:
+    def cell_clearance_m(self) -> float:
         """Gap (m) along y between a centred nominal pot and each cross rib of its cell.
 
-        The cross ribs of a row sit at +-row_pitch/2 from the cell centre, rib_thickness thick.
+        The cross ribs of a row sit at +-row_pitch_m/2 from the cell centre, rib_thickness_m thick.
         """
-        return (self.row_pitch - self.rib_thickness - self.pot_diameter) / 2
+        return (self.row_pitch_m - self.rib_thickness_m - self.pot_diameter_m) / 2
 
     @property
-    def index_overshoot(self) -> float:
-        """Overshoot (m) of the conveyor index: conveyor_overshoot, or the cell clearance.
+    def index_overshoot_m(self) -> float:
+        """Overshoot (m) of the conveyor index: conveyor_overshoot_m, or the cell clearance.
 
-        The back rib pushes each pot row_pitch + overshoot - clearance - its offset, so with
+        The back rib pushes each pot row_pitch_m + overshoot - clearance - its offset, so with
         overshoot = clearance a pot ends exactly one row pitch forward, centred in its cell;
         the carriage then comes back by the overshoot, leaving the pot clear of both ribs.
         """
@@ -429,25 +434,25 @@ class SceneConfig:
             raise ValueError(
                 f"SceneConfig.conveyor_settle_s must be >= 0 s, got {self.conveyor_settle_s}"
             )
-        if self.conveyor_overshoot is not None:
-            return self.conveyor_overshoot
-        return self.cell_clearance
+        if self.conveyor_overshoot_m is not None:
+            return self.conveyor_overshoot_m
+        return self.cell_clearance_m
 
     @property
-    def conveyor_hold_stiffness(self) -> float:
+    def conveyor_hold_stiffness_n_m(self) -> float:
         """Stiffness (N/m) of the conveyor drive holding the carriage between indexes."""
         full_step = 2.0 * math.pi / 200.0  # the conveyor stepper's 1.8 deg
         return (
-            self.conveyor_holding_torque
+            self.conveyor_holding_torque_nm
             * (math.pi / 2)
             / full_step
-            / self.conveyor_pulley_radius**2
+            / self.conveyor_pulley_radius_m**2
         )
 
     @property
-    def conveyor_hold_damping(self) -> float:
+    def conveyor_hold_damping_n_s_m(self) -> float:
         """Damping (N*s/m) of that hold: the damping ratio of the carriage on it."""
-        k, m = self.conveyor_hold_stiffness, self.conveyor_mass
+        k, m = self.conveyor_hold_stiffness_n_m, self.conveyor_mass_kg
         return 2.0 * self.conveyor_hold_damping_ratio * math.sqrt(k * m)
 
     @property
@@ -456,6 +461,6 @@ class SceneConfig:
         return 2.0 * math.pi / self.steps_per_rev
 
     @property
-    def pullout_zero_speed(self) -> float:
+    def pullout_zero_speed_rad_s(self) -> float:
         """Motor speed (rad/s) where the pull-out torque reaches zero."""
         return 2.0 * math.pi * self.pullout_zero_speed_rev_s

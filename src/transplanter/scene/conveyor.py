@@ -4,7 +4,7 @@ The belt table is static (it ends at the front edge of the pickup row); the pots
 and are pushed by the 5 mm ribs of the `conveyor` carriage, an UNACTUATED slide (so it
 sleeps with its resting pots). Between indexes its drive holds it: the joint's stiffness and
 damping (a stepper's detent stiffness through its pulley,
-SceneConfig.conveyor_hold_stiffness) pull it back to ``qpos_spring``, the position the last
+SceneConfig.conveyor_hold_stiffness_n_m) pull it back to ``qpos_spring``, the position the last
 index ended at; a passive force lets the tree sleep at rest, an actuator would not.
 `ConveyorDrive.start(data, now, total_s)` arms a smooth profile followed by a short hold,
 all within total_s (the carriage is at rest and released by now + total_s, when the firmware
@@ -85,7 +85,7 @@ class ConveyorDrive:
         # as built: each row's own collision bit, opaque
         self._rib_conaffinity = [row_bit(r) for r in range(rows)]
         self._rib_alpha = [RIB_RGBA[3]] * rows
-        self._row_y = self.config.pickup_row_y + np.arange(rows) * self.config.row_pitch
+        self._row_y = self.config.pickup_row_y_m + np.arange(rows) * self.config.row_pitch_m
 
     def index_phases(self, total_s: float) -> tuple[float, float]:
         """Split an index's total time (s) into (profile, settle) durations (s).
@@ -117,7 +117,7 @@ class ConveyorDrive:
                 )
             self._release(data)
         profile_s, _ = self.index_phases(total_s)
-        pitch = self.config.row_pitch
+        pitch = self.config.row_pitch_m
         q0 = round(data.qpos[self.qpos_adr] / pitch) * pitch
         self.model.jnt_stiffness[self._joint] = 0.0
         self.model.dof_damping[self.dof_adr] = 0.0
@@ -146,7 +146,7 @@ class ConveyorDrive:
     def reference(self, data: mujoco.MjData, now: float) -> tuple[float, float]:
         """Reference position (m) and velocity (m/s) of the carriage at `now`.
 
-        Min-jerk push by row_pitch + overshoot over conveyor_push_share of the profile, then
+        Min-jerk push by row_pitch_m + overshoot over conveyor_push_share of the profile, then
         min-jerk return by the overshoot; after the profile it holds the end position.
         """
         u = data.userdata
@@ -154,8 +154,8 @@ class ConveyorDrive:
         cfg = self.config
         push_share = cfg.conveyor_push_share
         t = min(max(now - t0, 0.0), duration)
-        overshoot = cfg.index_overshoot
-        travel = cfg.row_pitch + u[_U_ERR] + overshoot
+        overshoot = cfg.index_overshoot_m
+        travel = cfg.row_pitch_m + u[_U_ERR] + overshoot
         if t < push_share * duration:
             T = push_share * duration
             s, ds = _min_jerk(t / T)
@@ -175,12 +175,12 @@ class ConveyorDrive:
         q_ref, v_ref = self.reference(data, now)
         q = data.qpos[self.qpos_adr]
         v = data.qvel[self.dof_adr]
-        force = cfg.conveyor_kp * (q_ref - q) + cfg.conveyor_kd * (v_ref - v)
+        force = cfg.conveyor_kp_n_m * (q_ref - q) + cfg.conveyor_kd_n_s_m * (v_ref - v)
         # -0.0 would also wake the tree; an exact zero would let it sleep mid-index.
         data.qfrc_applied[self.dof_adr] = force if force != 0.0 else 1e-12
 
     def position(self, data: mujoco.MjData) -> float:
-        """Carriage position (m; 0 at build, -row_pitch after one index)."""
+        """Carriage position (m; 0 at build, -row_pitch_m after one index)."""
         return float(data.qpos[self.qpos_adr])
 
     def _done(self, data: mujoco.MjData, now: float) -> bool:
@@ -192,7 +192,7 @@ class ConveyorDrive:
         data.qfrc_applied[self.dof_adr] = 0.0
         data.userdata[_U_ACTIVE] = 0.0
         u = data.userdata
-        self.model.qpos_spring[self.qpos_adr] = u[_U_Q0] - self.config.row_pitch - u[_U_ERR]
+        self.model.qpos_spring[self.qpos_adr] = u[_U_Q0] - self.config.row_pitch_m - u[_U_ERR]
         self.model.jnt_stiffness[self._joint], self.model.dof_damping[self.dof_adr] = self._hold
 
     def hold_position(self) -> float:
@@ -208,7 +208,7 @@ class ConveyorDrive:
     def grid_offset(self, data: mujoco.MjData) -> float:
         """How far (m) the carriage is off its nominal row grid (whole row pitches): what
         the next index takes back (the hold's own error and any index error)."""
-        pitch = self.config.row_pitch
+        pitch = self.config.row_pitch_m
         q = float(data.qpos[self.qpos_adr])
         return q - round(q / pitch) * pitch
 
@@ -217,7 +217,7 @@ class ConveyorDrive:
         their ribs stop touching anything and are no longer drawn; the other rows' ribs are
         as built. Without this the ribs of emptied rows would sweep on through the drop tube
         and jam on the pot dropped last."""
-        edge = self.config.pickup_row_y - self.config.row_pitch / 2
+        edge = self.config.pickup_row_y_m - self.config.row_pitch_m / 2
         rows = zip(
             self._row_y, self._rib_geoms_by_row, self._rib_conaffinity, self._rib_alpha,
             strict=True,

@@ -57,18 +57,18 @@ def ring_boxes(
 
 def drop_tube_boxes(config: SceneConfig) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Funnel and tube collision boxes in the drop_tube body frame (origin at the funnel top)."""
-    r_top = config.funnel_top_diameter / 2
-    r_throat = config.funnel_throat_diameter / 2
+    r_top = config.funnel_top_diameter_m / 2
+    r_throat = config.funnel_throat_diameter_m / 2
     funnel = ring_boxes(
-        r_top, 0.0, r_throat, -config.funnel_height, config.tube_wall, config.tube_segments
+        r_top, 0.0, r_throat, -config.funnel_height_m, config.tube_wall_m, config.tube_segments
     )
-    z_throat = -config.funnel_height
+    z_throat = -config.funnel_height_m
     tube = ring_boxes(
         r_throat,
         z_throat,
         r_throat,
-        z_throat - config.tube_length,
-        config.tube_wall,
+        z_throat - config.tube_length_m,
+        config.tube_wall_m,
         config.tube_segments,
     )
     return funnel + tube
@@ -97,12 +97,12 @@ def crook_frame(
 
 def cell_columns_x(config: SceneConfig) -> np.ndarray:
     """x (m) of the centres of the cols cells of a row, symmetric about x = 0."""
-    return (np.arange(config.cols) - (config.cols - 1) / 2) * config.cell_pitch
+    return (np.arange(config.cols) - (config.cols - 1) / 2) * config.cell_pitch_m
 
 
 def row_y(config: SceneConfig) -> np.ndarray:
     """y (m) of the centres of the rows at conveyor position 0 (row 0 is the pickup row)."""
-    return config.pickup_row_y + np.arange(config.rows) * config.row_pitch
+    return config.pickup_row_y_m + np.arange(config.rows) * config.row_pitch_m
 
 
 def cell_centres(config: SceneConfig) -> np.ndarray:
@@ -113,30 +113,30 @@ def cell_centres(config: SceneConfig) -> np.ndarray:
 
 def belt_table(config: SceneConfig, half_thickness: float) -> tuple[list, list]:
     """Size (half sizes) and pos of the static belt table box: from the front edge of the
-    pickup row to one row pitch behind the last row, table_side_margin wider than the ribs;
+    pickup row to one row pitch behind the last row, table_side_margin_m wider than the ribs;
     its top face is the belt top (z = 0)."""
-    half_width = config.cols * config.cell_pitch / 2
-    front = config.pickup_row_y - config.row_pitch / 2
-    back = row_y(config)[-1] + config.row_pitch
-    size = [half_width + config.table_side_margin, (back - front) / 2, half_thickness]
+    half_width = config.cols * config.cell_pitch_m / 2
+    front = config.pickup_row_y_m - config.row_pitch_m / 2
+    back = row_y(config)[-1] + config.row_pitch_m
+    size = [half_width + config.table_side_margin_m, (back - front) / 2, half_thickness]
     pos = [0, (front + back) / 2, -half_thickness]
     return size, pos
 
 
 def rib_boxes(config: SceneConfig, row: int) -> list[tuple[list, list]]:
     """(half sizes, pos) of the ribs of one conveyor row in the carriage frame: the two cross
-    ribs at +-row_pitch/2 from the row's centre line, then the cols + 1 ribs between cells."""
-    half_width = config.cols * config.cell_pitch / 2
+    ribs at +-row_pitch_m/2 from the row's centre line, then the cols + 1 ribs between cells."""
+    half_width = config.cols * config.cell_pitch_m / 2
     y = row_y(config)[row]
-    rib_half_h = config.rib_height / 2
-    rib_half_t = config.rib_thickness / 2
+    rib_half_h = config.rib_height_m / 2
+    rib_half_t = config.rib_thickness_m / 2
     ribs = [
-        ([half_width, rib_half_t, rib_half_h], [0, y + side * config.row_pitch / 2, rib_half_h])
+        ([half_width, rib_half_t, rib_half_h], [0, y + side * config.row_pitch_m / 2, rib_half_h])
         for side in (-1, 1)
     ]
     ribs += [
-        ([rib_half_t, config.row_pitch / 2, rib_half_h], [x, y, rib_half_h])
-        for x in (np.arange(config.cols + 1) - config.cols / 2) * config.cell_pitch
+        ([rib_half_t, config.row_pitch_m / 2, rib_half_h], [x, y, rib_half_h])
+        for x in (np.arange(config.cols + 1) - config.cols / 2) * config.cell_pitch_m
     ]
     return ribs
 
@@ -145,7 +145,7 @@ def column_box(config: SceneConfig) -> tuple[float, float]:
     """Half length and centre z (m, gripper frame, C at 0) of the gripper's column: from
     just under the wrist servo down to the top of the palm."""
     column_top = -WRIST_SERVO_BOTTOM
-    column_bottom = -(config.column_height - JAW_HALF_HEIGHT - PALM_HEIGHT)
+    column_bottom = -(config.column_height_m - JAW_HALF_HEIGHT - PALM_HEIGHT)
     if column_bottom >= column_top:
-        raise ValueError("SceneConfig.column_height too small for the wrist servo and palm")
+        raise ValueError("SceneConfig.column_height_m too small for the wrist servo and palm")
     return (column_top - column_bottom) / 2, (column_top + column_bottom) / 2

@@ -162,10 +162,10 @@ class Scene:
             leaves.half_length
         )
 
-        tube_x, tube_y = config.drop_tube_xy
+        tube_x, tube_y = config.drop_tube_xy_m
         self._tube_xy = np.array([tube_x, tube_y])
-        self._tube_inner_radius = config.funnel_throat_diameter / 2
-        self._throat_z = config.funnel_top_z - config.funnel_height
+        self._tube_inner_radius = config.funnel_throat_diameter_m / 2
+        self._throat_z = config.funnel_top_z_m - config.funnel_height_m
 
     # ----- state -----
     def make_data(self) -> mujoco.MjData:
@@ -213,8 +213,10 @@ class Scene:
         return data.qpos[self.motor_qpos_adr].copy()
 
     def set_gripper_opening(self, data: mujoco.MjData, opening_m: float) -> None:
-        """Servo target for the jaw opening (m), clipped to [0, gripper_max_opening]."""
-        data.ctrl[self.gripper_actuator] = min(max(opening_m, 0.0), self.config.gripper_max_opening)
+        """Servo target for the jaw opening (m), clipped to [0, gripper_max_opening_m]."""
+        data.ctrl[self.gripper_actuator] = min(
+            max(opening_m, 0.0), self.config.gripper_max_opening_m
+        )
 
     def gripper_opening(self, data: mujoco.MjData) -> float:
         return float(data.ten_length[self.jaw_tendon])
@@ -324,7 +326,7 @@ class Scene:
 
     # ----- conveyor (read only; ConveyorDrive drives it) -----
     def conveyor_position(self, data: mujoco.MjData) -> float:
-        """Carriage position (m; 0 at build, -row_pitch after one index)."""
+        """Carriage position (m; 0 at build, -row_pitch_m after one index)."""
         return float(data.qpos[self.conveyor_qpos_adr])
 
     def conveyor_armed(self, data: mujoco.MjData) -> bool:

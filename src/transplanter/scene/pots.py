@@ -91,29 +91,29 @@ class PotBatch:
         """The pots drawn from rng, in the fixed order of the module docstring."""
         cfg = config
         n = cfg.rows * cfg.cols
-        diameter = cfg.pot_diameter + cfg.pot_diameter_sd * rng.standard_normal(n)
-        height = cfg.pot_height + cfg.pot_height_sd * rng.standard_normal(n)
+        diameter = cfg.pot_diameter_m + cfg.pot_diameter_sd_m * rng.standard_normal(n)
+        height = cfg.pot_height_m + cfg.pot_height_sd_m * rng.standard_normal(n)
         mass = truncated_normal(
-            rng.standard_normal(n), cfg.pot_mass, cfg.pot_mass_sd, *cfg.pot_mass_range
+            rng.standard_normal(n), cfg.pot_mass_kg, cfg.pot_mass_sd_kg, *cfg.pot_mass_range_kg
         )
         friction = gamma_of(rng.standard_normal(n), cfg.pot_friction, cfg.pot_friction_sd)
         offset = truncated_normal(
-            rng.standard_normal((n, 2)), 0.0, cfg.pot_offset_sd, -cfg.pot_offset_max,
-            cfg.pot_offset_max,
+            rng.standard_normal((n, 2)), 0.0, cfg.pot_offset_sd_m, -cfg.pot_offset_max_m,
+            cfg.pot_offset_max_m,
         )  # fmt: skip
-        stem_length = rng.uniform(*cfg.stem_length_range, n)
+        stem_length = rng.uniform(*cfg.stem_length_range_m, n)
         n_leaves = rng.integers(cfg.leaves_range[0], cfg.leaves_range[1] + 1, n)
         leaf_yaw0 = rng.uniform(0, 2 * np.pi, n)
         bonded = rng.random(n) < cfg.pot_bond_share
-        strength = cfg.pot_bond_force * np.exp(cfg.pot_bond_sd_log * rng.standard_normal(n))
+        strength = cfg.pot_bond_force_n * np.exp(cfg.pot_bond_sd_log * rng.standard_normal(n))
         bond_force = np.where(bonded, strength, 0.0)
         soft = rng.random(n) < cfg.pot_soft_share
         sway_hz = gamma_of(rng.standard_normal(n), cfg.stem_sway_hz, cfg.stem_sway_sd_hz)
         crooked = rng.random(n) < cfg.pot_crooked_share
-        crook = np.where(crooked, rng.uniform(0.0, cfg.pot_crooked_max, n), 0.0)
+        crook = np.where(crooked, rng.uniform(0.0, cfg.pot_crooked_max_rad, n), 0.0)
         crook_azimuth = rng.uniform(0.0, 2 * np.pi, n)
         fill_gap = truncated_normal(
-            rng.standard_normal(n), cfg.pot_fill_gap, cfg.pot_fill_gap_sd, 0.0, POT_FILL_GAP_MAX
+            rng.standard_normal(n), cfg.pot_fill_gap_m, cfg.pot_fill_gap_sd_m, 0.0, POT_FILL_GAP_MAX
         )
         return cls(
             diameter=diameter,

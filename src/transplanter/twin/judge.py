@@ -181,7 +181,7 @@ class Judge:
             pivot, mount, _ = wall
             hinge = pivot + mount @ (hinge - pivot)
         params = shoot_params(
-            mass=cfg.seedling_mass,
+            mass=cfg.shoot_mass_kg,
             com_height=SHOOT_COM_SHARE * float(pots.stem_length[pot]),
             spread=SHOOT_SPREAD,
             sway_hz=float(pots.sway_hz[pot]),

@@ -154,7 +154,7 @@ class Twin:
         self.wrist = _ServoRamp(cfg.wrist_servo.speed_deg_s, wrist_deg)
         self.conveyor = ConveyorDrive(self.scene)  # its state lives in self.data.userdata
         # where each index leaves the row (belt stretch, rib play): its own seeded stream
-        self._index_error_sd = cfg.scene.conveyor_index_error_sd
+        self._index_error_sd = cfg.scene.conveyor_index_error_sd_m
         self._index_rng = np.random.default_rng((cfg.seed, _INDEX_ERROR_STREAM))
         # Stepper positions are relative to where each motor was at power-on: the SGF's raw
         # pulse counters start at zero there, and homing only changes its logical counters.

@@ -12,11 +12,11 @@ from __future__ import annotations
 from transplanter.machine.hmi.lcd import num
 from transplanter.machine.hmi.teach import (
     TeachData,
-    drop_elbow_field,
-    elbow_field,
+    drop_wrist_field,
     mm,
     pickups_field,
     speed_field,
+    wrist_field,
     z_field,
 )
 from transplanter.machine.sgf import SGFConfig
@@ -75,7 +75,7 @@ def menu_items(menu: str, pickup: int, d: TeachData, config: SGFConfig) -> list[
         for k in range(d.m_pp or 0):
             flags = "".join(
                 c if v[k] is not None else "-"
-                for c, v in (("A", d.approach), ("G", d.grip), ("E", d.elbow))
+                for c, v in (("A", d.approach), ("G", d.grip), ("E", d.wrist))
             )
             digit = str(k + 1) if k < 9 else ""
             items.append((digit, f"Pickup {k + 1:<2}  {flags}", ("pickup", k)))
@@ -85,12 +85,12 @@ def menu_items(menu: str, pickup: int, d: TeachData, config: SGFConfig) -> list[
         return [
             ("1", f"Appr {_xy(d.approach[k])}", ("jog", "approach", k)),
             ("2", f"Grip {_xy(d.grip[k])}", ("jog", "grip", k)),
-            ("3", f"Elbow {num(d.elbow[k], 2)}", ("entry", elbow_field(k))),
+            ("3", f"Elbow {num(d.wrist[k], 2)}", ("entry", wrist_field(k))),
         ]
     if menu == "drop":
         return [
             ("1", f"Pos {_xy(d.drop)}", ("jog", "drop", None)),
-            ("2", f"Elbow {num(d.drop_elbow, 2)}", ("entry", drop_elbow_field())),
+            ("2", f"Elbow {num(d.drop_wrist, 2)}", ("entry", drop_wrist_field())),
         ]
     if menu == "z":
         return [

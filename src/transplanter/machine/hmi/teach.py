@@ -26,11 +26,11 @@ __all__ = [
     "SPEED_MIN_MM_S",
     "Field",
     "TeachData",
-    "drop_elbow_field",
-    "elbow_field",
+    "drop_wrist_field",
     "mm",
     "pickups_field",
     "speed_field",
+    "wrist_field",
     "write_image",
     "z_field",
 ]
@@ -56,7 +56,7 @@ class Field:
     decimals: int
     scale: float  # SI per unit entered
     attr: str
-    index: int | None = None  # pickup slot for the per-pickup elbow angle
+    index: int | None = None  # pickup slot for the per-pickup wrist angle
     short: str = ""  # the name in the 'Saved' note
 
 
@@ -67,9 +67,9 @@ class TeachData:
     m_pp: int | None = None
     approach: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
     grip: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
-    elbow: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
+    wrist: list = dataclasses.field(default_factory=lambda: [None] * MAX_PICKUPS)
     drop: tuple[float, float] | None = None
-    drop_elbow: float | None = None
+    drop_wrist: float | None = None
     z_up: float | None = None
     z_low: float | None = None
     s_low: float | None = None
@@ -80,17 +80,17 @@ class TeachData:
         data = cls(
             m_pp=image.m_pp,
             drop=image.drop_xy_m,
-            drop_elbow=image.drop_elbow_deg,
+            drop_wrist=image.drop_wrist_deg,
             z_up=image.z_up_m,
             z_low=image.z_low_m,
             s_low=image.s_low_m_s,
             s_high=image.s_high_m_s,
         )
         for k, p in enumerate(image.pickups):
-            data.approach[k], data.grip[k], data.elbow[k] = (
+            data.approach[k], data.grip[k], data.wrist[k] = (
                 p.approach_xy_m,
                 p.grip_xy_m,
-                p.elbow_deg,
+                p.wrist_deg,
             )
         return data
 
@@ -103,7 +103,7 @@ class TeachData:
             (self.s_low, "S_l"),
             (self.s_high, "S_h"),
             (self.drop, "drop point"),
-            (self.drop_elbow, "drop elbow"),
+            (self.drop_wrist, "drop elbow"),
         ]
         for value, name in checks:
             if value is None:
@@ -112,7 +112,7 @@ class TeachData:
             for values, name in (
                 (self.approach, "appr"),
                 (self.grip, "grip"),
-                (self.elbow, "elbow"),
+                (self.wrist, "elbow"),
             ):
                 if values[k] is None:
                     return f"P{k + 1} {name} not set"
@@ -125,10 +125,10 @@ class TeachData:
             raise EepromError(missing)
         return EepromImage(
             pickups=tuple(
-                Pickup(self.approach[k], self.grip[k], self.elbow[k]) for k in range(self.m_pp)
+                Pickup(self.approach[k], self.grip[k], self.wrist[k]) for k in range(self.m_pp)
             ),
             drop_xy_m=self.drop,
-            drop_elbow_deg=self.drop_elbow,
+            drop_wrist_deg=self.drop_wrist,
             z_up_m=self.z_up,
             z_low_m=self.z_low,
             s_low_m_s=self.s_low,
@@ -182,8 +182,8 @@ def pickups_field() -> Field:
     return Field("Pickups M_pp", "", 1, MAX_PICKUPS, 0, 1.0, "m_pp", short="M_pp")
 
 
-def elbow_field(k: int) -> Field:
-    """M_pep, the elbow angle of pickup k."""
+def wrist_field(k: int) -> Field:
+    """M_pep, the wrist (the paper's elbow) angle of pickup k."""
     return Field(
         f"P{k + 1} elbow M_pep",
         "deg",
@@ -191,15 +191,15 @@ def elbow_field(k: int) -> Field:
         SERVO_MAX_DEG,
         2,
         1.0,
-        "elbow",
+        "wrist",
         k,
         f"P{k + 1} elbow",
     )
 
 
-def drop_elbow_field() -> Field:
-    """M_dep, the elbow angle at the drop point."""
-    return Field("Drop elbow M_dep", "deg", 0.0, SERVO_MAX_DEG, 2, 1.0, "drop_elbow", short="M_dep")
+def drop_wrist_field() -> Field:
+    """M_dep, the wrist (the paper's elbow) angle at the drop point."""
+    return Field("Drop elbow M_dep", "deg", 0.0, SERVO_MAX_DEG, 2, 1.0, "drop_wrist", short="M_dep")
 
 
 def z_field(attr: str, config: SGFConfig) -> Field:

@@ -16,20 +16,20 @@ JAWS = ("jaw_left", "jaw_right")
 def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     """Jaw positions under the column, the gripper and wrist servos, jaw travel and damping;
     with canopy contact, the jaws also meet the leaves' proxies."""
-    spec.body("jaw_left").pos = [-JAW_HALF_THICKNESS, 0, -cfg.column_height]
-    spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height]
+    spec.body("jaw_left").pos = [-JAW_HALF_THICKNESS, 0, -cfg.column_height_m]
+    spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height_m]
     grip = spec.actuator("gripper")
-    grip.gainprm = [cfg.gripper_kp] + [0] * 9
-    grip.biasprm = [0, -cfg.gripper_kp, 0] + [0] * 7
-    grip.forcerange = [-cfg.grip_force, cfg.grip_force]
-    grip.ctrlrange = [0, cfg.gripper_max_opening]
+    grip.gainprm = [cfg.gripper_kp_n_m] + [0] * 9
+    grip.biasprm = [0, -cfg.gripper_kp_n_m, 0] + [0] * 7
+    grip.forcerange = [-cfg.grip_force_n, cfg.grip_force_n]
+    grip.ctrlrange = [0, cfg.gripper_max_opening_m]
     for jaw in ("jaw_left", "jaw_right"):
-        spec.joint(jaw).range = [0, cfg.gripper_max_opening / 2]
-        spec.joint(jaw).damping = [cfg.jaw_damping, 0, 0]
+        spec.joint(jaw).range = [0, cfg.gripper_max_opening_m / 2]
+        spec.joint(jaw).damping = [cfg.jaw_damping_n_s_m, 0, 0]
     wrist = spec.actuator("wrist")
-    wrist.gainprm = [cfg.wrist_kp] + [0] * 9
-    wrist.biasprm = [0, -cfg.wrist_kp, 0] + [0] * 7
-    wrist.forcerange = [-cfg.wrist_torque, cfg.wrist_torque]
+    wrist.gainprm = [cfg.wrist_kp_nm_rad] + [0] * 9
+    wrist.biasprm = [0, -cfg.wrist_kp_nm_rad, 0] + [0] * 7
+    wrist.forcerange = [-cfg.wrist_torque_nm, cfg.wrist_torque_nm]
 
 
 def add_canopy_contact(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
@@ -43,11 +43,11 @@ def home_joints(cfg: SceneConfig) -> dict[str, float]:
     """The jaws fully open, the wrist at 0."""
     return {
         "wrist": 0.0,
-        "jaw_left": cfg.gripper_max_opening / 2,
-        "jaw_right": cfg.gripper_max_opening / 2,
+        "jaw_left": cfg.gripper_max_opening_m / 2,
+        "jaw_right": cfg.gripper_max_opening_m / 2,
     }
 
 
 def home_ctrl(cfg: SceneConfig) -> list[float]:
     """The servos' commands at power-on (gripper opening, wrist angle)."""
-    return [cfg.gripper_max_opening, 0.0]
+    return [cfg.gripper_max_opening_m, 0.0]

@@ -21,24 +21,24 @@ INERTIAL_BODIES = (
 
 def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     """Five-bar links, column and palm, stepper drives and limit switches."""
-    spec.body("link1").pos = [-cfg.l0, 0, 0]
-    spec.body("link2").pos = [cfg.l0, 0, 0]
-    spec.geom("motor1").pos = [-cfg.l0, 0, spec.geom("motor1").pos[2]]
-    spec.geom("motor2").pos = [cfg.l0, 0, spec.geom("motor2").pos[2]]
+    spec.body("link1").pos = [-cfg.l0_m, 0, 0]
+    spec.body("link2").pos = [cfg.l0_m, 0, 0]
+    spec.geom("motor1").pos = [-cfg.l0_m, 0, spec.geom("motor1").pos[2]]
+    spec.geom("motor2").pos = [cfg.l0_m, 0, spec.geom("motor2").pos[2]]
     for i in (1, 2):
-        spec.geom(f"link{i}").fromto = [0, 0, 0, cfg.l1, 0, 0]
-        spec.geom(f"link{i}").mass = cfg.active_link_mass
-        spec.body(f"passive{i}").pos = [cfg.l1, 0, -PASSIVE_DROP]
-        spec.geom(f"passive{i}").fromto = [0, 0, 0, cfg.l2, 0, 0]
-        spec.geom(f"passive{i}").mass = cfg.passive_link_mass
-        spec.site(f"c{i}").pos = [cfg.l2, 0, 0]
-    spec.body("gripper").pos = [cfg.l2, 0, PASSIVE_DROP]
-    spec.geom("platform").mass = cfg.platform_mass
-    # Column: arm plane at column_height above the grip centre. The palm is laid out for the
+        spec.geom(f"link{i}").fromto = [0, 0, 0, cfg.l1_m, 0, 0]
+        spec.geom(f"link{i}").mass = cfg.active_link_mass_kg
+        spec.body(f"passive{i}").pos = [cfg.l1_m, 0, -PASSIVE_DROP]
+        spec.geom(f"passive{i}").fromto = [0, 0, 0, cfg.l2_m, 0, 0]
+        spec.geom(f"passive{i}").mass = cfg.passive_link_mass_kg
+        spec.site(f"c{i}").pos = [cfg.l2_m, 0, 0]
+    spec.body("gripper").pos = [cfg.l2_m, 0, PASSIVE_DROP]
+    spec.geom("platform").mass = cfg.platform_mass_kg
+    # Column: arm plane at column_height_m above the grip centre. The palm is laid out for the
     # column height the file is drawn for (the platform's height there) and moves with it.
     platform = spec.body("platform")
-    shift = cfg.column_height - platform.pos[2]
-    platform.pos = [0, 0, cfg.column_height]
+    shift = cfg.column_height_m - platform.pos[2]
+    platform.pos = [0, 0, cfg.column_height_m]
     for geom_name in ("palm", "palm_visual"):
         g = spec.geom(geom_name)
         g.pos = [g.pos[0], g.pos[1], g.pos[2] - shift]
@@ -46,16 +46,16 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     half_length, centre_z = column_box(cfg)
     column.size = [column.size[0], half_length, 0]
     column.pos = [0, 0, centre_z]
-    spec.site("grip_center").pos = [0, 0, -cfg.column_height]
+    spec.site("grip_center").pos = [0, 0, -cfg.column_height_m]
 
     # Stepper drives: position servos on the motor shaft through the gear, torque-limited,
     # with the pull-out curve as joint damping (models/fivebar/README.md).
-    arm_gear, screw_gear = cfg.arm_belt_ratio, cfg.screw_gear
-    screw_torque = cfg.holding_torque * cfg.screw_efficiency
-    for joint_name, gear, torque, scale in (
-        ("theta1", arm_gear, cfg.holding_torque, cfg.arm_stiffness_scale),
-        ("theta2", arm_gear, cfg.holding_torque, cfg.arm_stiffness_scale),
-        ("z", screw_gear, screw_torque, cfg.z_stiffness_scale),
+    arm_gear, screw_gear = cfg.arm_belt_ratio, cfg.screw_gear_rad_m
+    screw_torque = cfg.holding_torque_nm * cfg.screw_efficiency
+    for joint_name, gear, torque, scale, travel in (
+        ("theta1", arm_gear, cfg.holding_torque_nm, cfg.arm_stiffness_scale, cfg.theta1_range_rad),
+        ("theta2", arm_gear, cfg.holding_torque_nm, cfg.arm_stiffness_scale, cfg.theta2_range_rad),
+        ("z", screw_gear, screw_torque, cfg.z_stiffness_scale, cfg.z_range_m),
     ):
         act = spec.actuator(joint_name)
         kp = scale * torque / cfg.full_step_rad
@@ -64,15 +64,15 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         act.biasprm = [0, -kp, cfg.stepper_dampratio] + [0] * 7
         act.forcerange = [-torque, torque]
         joint = spec.joint(joint_name)
-        joint.range = list(getattr(cfg, f"{joint_name}_range"))
-        joint.damping = [torque / cfg.pullout_zero_speed * gear**2, 0, 0]
-        joint.armature = cfg.rotor_inertia * gear**2
+        joint.range = list(travel)
+        joint.damping = [torque / cfg.pullout_zero_speed_rad_s * gear**2, 0, 0]
+        joint.armature = cfg.rotor_inertia_kgm2 * gear**2
 
     spec.numeric("limit_switch_trip").data = [
-        cfg.switch1_theta1_min,
-        cfg.switch2_theta2_max,
-        cfg.switch3_z_min,
-        cfg.switch4_z_max,
+        cfg.switch1_theta1_rad,
+        cfg.switch2_theta2_rad,
+        cfg.switch3_z_m,
+        cfg.switch4_z_m,
     ]
 
 
@@ -94,12 +94,13 @@ def apply_inertials(spec: mujoco.MjSpec) -> None:
 def home_joints(cfg: SceneConfig) -> dict[str, float]:
     """The power-on pose of the robot's joints: the passive angles close the chain."""
     phi1, phi2 = (
-        float(a) for a in cfg.kinematics().passive_angles(cfg.power_on_theta1, cfg.power_on_theta2)
+        float(a)
+        for a in cfg.kinematics().passive_angles(cfg.power_on_theta1_rad, cfg.power_on_theta2_rad)
     )
     return {
-        "z": cfg.power_on_z,
-        "theta1": cfg.power_on_theta1,
-        "theta2": cfg.power_on_theta2,
+        "z": cfg.power_on_z_m,
+        "theta1": cfg.power_on_theta1_rad,
+        "theta2": cfg.power_on_theta2_rad,
         "phi1": phi1,
         "phi2": phi2,
     }
@@ -108,7 +109,7 @@ def home_joints(cfg: SceneConfig) -> dict[str, float]:
 def home_ctrl(cfg: SceneConfig) -> list[float]:
     """The motors' commands at power-on (theta1, theta2, Z): gear * joint position."""
     return [
-        cfg.arm_belt_ratio * cfg.power_on_theta1,
-        cfg.arm_belt_ratio * cfg.power_on_theta2,
-        cfg.screw_gear * cfg.power_on_z,
+        cfg.arm_belt_ratio * cfg.power_on_theta1_rad,
+        cfg.arm_belt_ratio * cfg.power_on_theta2_rad,
+        cfg.screw_gear_rad_m * cfg.power_on_z_m,
     ]

@@ -74,14 +74,14 @@ def home_joints(cfg: SceneConfig) -> dict[str, float]:
 def apply_drop_tube(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     """Funnel position, its tube walls (regenerated: drop_tube_boxes) and the plate."""
     body = spec.body("drop_tube")
-    x, y = cfg.drop_tube_xy
-    body.pos = [x, y, cfg.funnel_top_z]
+    x, y = cfg.drop_tube_xy_m
+    body.pos = [x, y, cfg.funnel_top_z_m]
     for geom in list(body.geoms):
         if geom.name.startswith("tube_wall_"):
             spec.delete(geom)
     for k, (half, pos, quat) in enumerate(drop_tube_boxes(cfg)):
         _add_static_box(body, f"tube_wall_{k}", half, pos, quat)
-    bottom_z = -cfg.funnel_height - cfg.tube_length
+    bottom_z = -cfg.funnel_height_m - cfg.tube_length_m
     plate = spec.geom("planting_plate")
     plate.pos = [0, 0, bottom_z - plate.size[2]]
 
@@ -102,10 +102,14 @@ def _add_static_box(body, name, half, pos, quat) -> None:
 def apply_conveyor_layout(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     """Carriage mass, slide friction and drive hold, and the belt table sized for rows x cols."""
     joint = spec.joint("conveyor")
-    joint.frictionloss = cfg.conveyor_frictionloss
-    joint.stiffness = [cfg.conveyor_hold_stiffness, 0.0, 0.0]  # held by its drive at springref 0
-    joint.damping = [cfg.conveyor_hold_damping, 0.0, 0.0]
-    spec.body("conveyor").mass = cfg.conveyor_mass
+    joint.frictionloss = cfg.conveyor_frictionloss_n
+    joint.stiffness = [
+        cfg.conveyor_hold_stiffness_n_m,
+        0.0,
+        0.0,
+    ]  # held by its drive at springref 0
+    joint.damping = [cfg.conveyor_hold_damping_n_s_m, 0.0, 0.0]
+    spec.body("conveyor").mass = cfg.conveyor_mass_kg
     table = spec.geom("belt_table")
     table.size, table.pos = belt_table(cfg, table.size[2])
 
@@ -140,7 +144,7 @@ def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool 
         body.name = f"pot_{r}_{c}"
         body.pos = [xs[c] + pots.offset[i, 0], ys[r] + pots.offset[i, 1], h / 2]
         body.add_freejoint()
-        total_mass = pots.mass[i] + cfg.seedling_mass
+        total_mass = pots.mass[i] + cfg.shoot_mass_kg
         body.mass = total_mass
         body.ipos = [0, 0, 0.0 - pots.fill_gap[i] / 2]  # the soil sits below the gap
         body.inertia = pot_inertia(total_mass, radius, h)
@@ -195,8 +199,8 @@ def _add_pot_geom(body, cfg: SceneConfig, pots: PotBatch, i: int, name, pos, hal
     g.friction = [pots.friction[i], TORSIONAL_FRICTION, ROLLING_FRICTION]
     g.solref = list(cfg.contact_solref)
     g.solimp = list(cfg.contact_solimp)
-    if pots.soft[i]:  # soaked: the wall gives over pot_soft_wall before it resists
-        g.solimp = [*SOFT_WALL_IMPEDANCE, cfg.pot_soft_wall, *cfg.contact_solimp[3:]]
+    if pots.soft[i]:  # soaked: the wall gives over pot_soft_wall_m before it resists
+        g.solimp = [*SOFT_WALL_IMPEDANCE, cfg.pot_soft_wall_m, *cfg.contact_solimp[3:]]
     g.group = 3
     g.rgba = list(POT_COLLISION_RGBA)
     return g
@@ -253,7 +257,7 @@ def _add_seedling(body, cfg: SceneConfig, r, c, top, stem, n_leaves, leaf_yaw0, 
     base, _ = _crooked([0, 0, top], [1, 0, 0, 0], crook)
     tip, _ = _crooked([0, 0, top + stem], [1, 0, 0, 0], crook)
     stem_geom.fromto = [*base, *tip]
-    stem_geom.size = [cfg.stem_radius, 0, 0]
+    stem_geom.size = [cfg.stem_radius_m, 0, 0]
     stem_geom.contype = stem_geom.conaffinity = 0
     stem_geom.group = 2
     stem_geom.mass = 0
@@ -280,7 +284,7 @@ def _add_leaf_proxy(body, cfg: SceneConfig, name: str, centre, along_x) -> None:
     # A capsule along the leaf's length: capsule-box contacts with the gripper are
     # analytic, ellipsoids would take the general convex solver (3x the narrowphase).
     proxy.type = mujoco.mjtGeom.mjGEOM_CAPSULE
-    proxy.size = [cfg.leaf_radius, cfg.leaf_half_length, 0]
+    proxy.size = [cfg.leaf_radius_m, cfg.leaf_half_length_m, 0]
     proxy.pos = centre
     proxy.quat = along_x
     proxy.contype = proxy.conaffinity = 0
@@ -289,7 +293,7 @@ def _add_leaf_proxy(body, cfg: SceneConfig, name: str, centre, along_x) -> None:
         proxy.condim = 3
         proxy.priority = 3  # the leaf's softness and friction decide the contact
         proxy.friction = [cfg.canopy_friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
-        proxy.solref = [cfg.canopy_timeconst, 1.0]
+        proxy.solref = [cfg.canopy_timeconst_s, 1.0]
     proxy.group = 4
     proxy.mass = 0
     proxy.rgba = list(LEAF_PROXY_RGBA)
@@ -332,6 +336,6 @@ def leaf_proxies(cfg: SceneConfig, pots: PotBatch) -> LeafProxies:
         pot=np.array(pot, dtype=int),
         centre=np.array(centre, dtype=float).reshape(-1, 3),
         axis=np.array(axis, dtype=float).reshape(-1, 3),
-        radius=cfg.leaf_radius,
-        half_length=cfg.leaf_half_length,
+        radius=cfg.leaf_radius_m,
+        half_length=cfg.leaf_half_length_m,
     )
