@@ -144,7 +144,8 @@ def _single_trial_config(args: argparse.Namespace):
 
 def _output_targets(args: argparse.Namespace) -> dict[str, Path | None] | None:
     """The checked --json and --record paths (None where not given), or None after saying
-    why one is refused (trial and serve)."""
+    why one is refused (trial and serve): a path that cannot be written, or one that names
+    an input or the other output (_clash)."""
     from transplanter import fileio
 
     targets: dict[str, Path | None] = {"--json": None, "--record": None}
@@ -155,7 +156,51 @@ def _output_targets(args: argparse.Namespace) -> dict[str, Path | None] | None:
             except fileio.FileRefused as exc:
                 _err(f"{option}: {exc}")
                 return None
+    outputs = [(o, getattr(args, o[2:])) for o in targets if targets[o] is not None]
+    clash = _clash(outputs, _inputs(args))
+    if clash is not None:
+        _err(clash)
+        return None
     return targets
+
+
+def _inputs(args: argparse.Namespace) -> list[tuple[str, Path]]:
+    """The files a command reads, named for a message: the scenario and its base chain,
+    and --eeprom and --keys-file where given."""
+    from transplanter.scenario.schema import scenario_files
+
+    found: list[tuple[str, Path]] = []
+    scenario = getattr(args, "scenario", None)
+    if scenario is not None:
+        found += [("the scenario file", path) for path in scenario_files(scenario)]
+    for option, what in (("eeprom", "the --eeprom image"), ("keys_file", "the --keys-file")):
+        path = getattr(args, option, None)
+        if path is not None:
+            found.append((what, Path(path)))
+    return found
+
+
+def _clash(
+    outputs: Sequence[tuple[str, Path]], inputs: Sequence[tuple[str, Path]] = ()
+) -> str | None:
+    """The one line that refuses an output naming an input (the scenario, --eeprom; through
+    a link or a hard link too) or the same file as another output; None when all differ."""
+    from transplanter import fileio
+
+    for i, (option, path) in enumerate(outputs):
+        for what, source in inputs:
+            if fileio.same_file(path, source):
+                return (
+                    f"{option} {_show(path)} is {what} {_show(source)}: an output never "
+                    "replaces an input; give the output another name"
+                )
+        for other, other_path in outputs[i + 1 :]:
+            if fileio.same_file(path, other_path):
+                return (
+                    f"{option} {_show(path)} and {other} {_show(other_path)} name the same "
+                    "file: give each output its own name"
+                )
+    return None
 
 
 def _progress(args: argparse.Namespace) -> bool:

@@ -6,15 +6,19 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 from pathlib import Path
 from typing import Any
 
 from transplanter.cli.common import (
     EXIT_OK,
+    EXIT_OUTPUT_FAILED,
     EXIT_REFUSED,
     Output,
+    _clash,
     _err,
     _finish,
+    _inputs,
     _output_targets,
     _progress,
     _run,
@@ -325,6 +329,11 @@ def cmd_render(args: argparse.Namespace) -> int:
         json_target = None if args.json is None else fileio.check_output(args.json)
     except (video.VideoUnavailable, video.RenderRefused, fileio.FileRefused) as exc:
         _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    outputs = [("--out", args.out)] + ([] if args.json is None else [("--json", args.json)])
+    clash = _clash(outputs, _inputs(args))
+    if clash is not None:
+        _err(f"render refused: {clash}")
         return EXIT_REFUSED
     try:
         config = _single_trial_config(args)
