@@ -20,6 +20,7 @@ DEFAULT_SCENARIO = "paper"  # the packaged paper scenario
 EXIT_OK, EXIT_REFUSED, EXIT_INVALID_PHYSICS, EXIT_FIRMWARE_FAULT = 0, 2, 3, 4
 EXIT_OUTPUT_FAILED = 5  # a result file or the recording could not be written
 EXIT_INTERRUPTED = 130  # Ctrl-C, as shells report SIGINT
+EXIT_TERMINATED = 143  # SIGTERM (a scheduler, `timeout`, a container stop), as shells report it
 
 
 _FLOAT_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:inf|nan)", re.I)
@@ -210,7 +211,8 @@ def _progress(args: argparse.Namespace) -> bool:
 
 def _run(config, progress: bool = False, **kwargs: Any):
     """run_trial(config, **kwargs) with a progress bar when `progress`: (result, interrupted),
-    an interrupted trial's result being the part that ran."""
+    an interrupted trial's result being the part that ran (a stop signal that came once the
+    trial had finished is left pending: the result is whole, `interrupted` False)."""
     from transplanter.twin.report import progress_bar
     from transplanter.twin.trial import TrialInterrupted, run_trial
 
@@ -218,7 +220,7 @@ def _run(config, progress: bool = False, **kwargs: Any):
     try:
         return run_trial(config, progress=update, **kwargs), False
     except TrialInterrupted as stop:
-        return stop.result, True
+        return stop.result, stop.result.interrupted
     finally:
         if bar is not None:
             bar.close()
@@ -244,7 +246,28 @@ def _finish(
     print the summary, write `payload` to --json, report a --record error of any result and
     the command's other `outputs` in order, then the exit status: 130 interrupted (after
     `note` on stderr, where given), 5 an output could not be written, 3 a trial not valid,
-    4 a firmware fault, else 0."""
+    4 a firmware fault, else 0. A stop signal while the results are written is held until
+    they are (interrupts.held): the command line's exit status then says it came."""
+    from transplanter import interrupts
+
+    with interrupts.held():
+        return _finish_held(
+            args, results, summary, payload, json_target, interrupted=interrupted, note=note,
+            outputs=outputs,
+        )  # fmt: skip
+
+
+def _finish_held(
+    args: argparse.Namespace,
+    results: Sequence[Any],
+    summary: str | None,
+    payload: Any,
+    json_target: Path | None,
+    *,
+    interrupted: bool,
+    note: str | None,
+    outputs: Sequence[Output],
+) -> int:
     from transplanter import fileio
 
     if summary is not None:

@@ -46,7 +46,10 @@ def _trial_parser(sub) -> None:
         epilog="exit status: 0 done, 2 scenario or output path refused, 3 the trial is not valid "
         "(a MuJoCo warning or divergence, or the program did not finish in its simulated "
         "time: 60 s + 30 s per seedling), 4 the firmware faulted (a line was refused), 5 a "
-        "result file or the recording could not be written, 130 interrupted (Ctrl-C)",
+        "result file or the recording could not be written, 130 interrupted (Ctrl-C), 143 "
+        "stopped by SIGTERM (as Ctrl-C: the JSON says interrupted, a partial recording goes "
+        "to NAME.partial.rrd); a Ctrl-C or SIGTERM once the trial has finished waits until "
+        "its results are written, then exits 130/143 with them complete",
     )
     add_options(p, "scenario", "--set", "--seedlings", "--seed", "--seeds")
     add_options(p, "--json", "--record", "--record-rate", "--quiet")
@@ -291,7 +294,7 @@ def _render_parser(sub) -> None:
         "pip install 'transplanter[video]'.",
         epilog="exit status: 0 done, 2 refused (options, scenario, output path, no video "
         "extra, no OpenGL context), 3 invalid physics, 4 firmware fault, 5 the video could "
-        "not be written, 130 interrupted (no video is written)",
+        "not be written, 130 interrupted (no video is written), 143 SIGTERM (as Ctrl-C)",
     )
     add_options(p, "scenario")
     p.add_argument("--out", type=Path, required=True, help="the .mp4 file to write")
@@ -384,7 +387,7 @@ def _view_parser(sub) -> None:
         "the trial. Dragging bodies in the viewer pushes them: the results then differ "
         "from `transplanter trial`.",
         epilog="exit status: 0 done or window closed, 2 refused (no display, scenario), 3 "
-        "invalid physics, 4 firmware fault, 130 interrupted (Ctrl-C)",
+        "invalid physics, 4 firmware fault, 130 interrupted (Ctrl-C), 143 SIGTERM",
     )
     add_options(p, "scenario")
     p.add_argument("--speed", type=ascii_float, default=1.0, help="simulated s per wall s (1.0)")
