@@ -153,6 +153,29 @@ def cmd_trial(args: argparse.Namespace) -> int:
     )  # fmt: skip
 
 
+def _move_exported(staging: Path, target: Path) -> None:
+    """Move an exported scene from `staging` to `target` and its mesh folders beside it:
+    FileRefused (nothing moved) if a mesh folder there is a link or not a folder; each mesh
+    replaces what is at its name, a planted link included, never writing through it."""
+    from transplanter import fileio
+
+    folders = sorted(p for p in staging.iterdir() if p.is_dir())
+    for folder in folders:
+        there = target.parent / folder.name
+        if there.is_symlink() or (there.exists() and not there.is_dir()):
+            kind = "a symbolic link" if there.is_symlink() else "not a directory"
+            raise fileio.FileRefused(
+                f"{there} is {kind}; export writes its meshes into {folder.name}/ itself: "
+                "remove it or export elsewhere"
+            )
+    for folder in folders:
+        there = target.parent / folder.name
+        there.mkdir(exist_ok=True)
+        for mesh in sorted(folder.iterdir()):
+            os.replace(mesh, there / mesh.name)
+    fileio.commit(staging / target.name, target)
+
+
 def _recording_written(where: Path, interrupted: bool) -> Output:
     """Where the recording went (an interrupted trial's is .partial.rrd)."""
     if interrupted:
@@ -441,17 +464,38 @@ def _export_parser(sub) -> None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
+    import shutil
+    import tempfile
+
     from transplanter import fileio
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.scene import export_scene
 
     try:
+        path = fileio.check_output(args.out, ".xml")  # the user's name: a link is followed
+        clash = _clash([("OUT", args.out)], _inputs(args))
+        if clash is not None:
+            raise fileio.FileRefused(clash)
         config = assemble(load_scenario(args.scenario, _trial_overrides(args)), preflight=False)
-        path = export_scene(config.scene, config.seed, args.out)
     except (ScenarioError, fileio.FileRefused) as exc:
         _err(f"export refused: {exc}")
         return EXIT_REFUSED
+    # The scene is written into a fresh directory beside the target and moved into place, so
+    # that no mesh is ever written through a link planted at assets/NAME.stl (a name the
+    # program derives): os.replace puts the file in the link's place.
+    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    try:
+        export_scene(config.scene, config.seed, staging / path.name)
+        _move_exported(staging, path)
+    except (ScenarioError, fileio.FileRefused) as exc:
+        _err(f"export refused: {exc}")
+        return EXIT_REFUSED
+    except OSError as exc:
+        _err(f"export: the scene could not be written to {_show(path.parent)}: {exc}")
+        return EXIT_OUTPUT_FAILED
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     print(f"scene of {_show(config.name)} (seed {config.seed}) written to {_show(path)}")
     print(f"view it with: python -m mujoco.viewer --mjcf {_show(path)}")
     return EXIT_OK
