@@ -170,7 +170,7 @@ def test_a_jog_past_the_z_range_is_refused(hmi):
     assert hmi.position[2] == pytest.approx(0.160)
     keys(hmi, "3")
     assert hmi.lcd[3] == "NO Z 170 > 160".ljust(20)
-    assert hmi.last_refusal == "Z 170.000 mm outside [5.000, 160.000] mm"
+    assert hmi.last_refusal == "Z 170.000 mm outside [5, 160] mm"
     assert hmi.position[2] == pytest.approx(0.160)
     keys(hmi, "5 5")  # step 0.1: still above
     keys(hmi, "3")
@@ -306,6 +306,19 @@ def test_write_runs_the_preflight(machine):
     assert hmi.lcd[3] == "NO P3 grip unreach.".ljust(20)
     assert hmi.last_refusal.startswith("taught.pickup[2].grip_mm = [0, 400] mm cannot be reached")
     assert hmi.image_bytes is None
+
+
+def test_write_refuses_what_the_trial_would_refuse(machine, tmp_path):
+    """S_l = S_h = 0.1 mm/s lie in the pendant's range, but a move then outlasts the PGF's
+    30 s reply timeout, so `trial --eeprom` would refuse the image: the pendant runs the
+    trial's whole check of the program and writes nothing."""
+    out = tmp_path / "slow.eeprom"
+    hmi = Hmi(machine, out, image=machine.eeprom)
+    hmi.data.s_low = hmi.data.s_high = 0.0001
+    keys(hmi, "6#")
+    assert hmi.writes == 0 and not out.exists()
+    assert hmi.last_refusal.startswith("bus.reply_timeout_s = 30 s is too short")
+    assert hmi.lcd[3].startswith("NO bus.reply_timeou")
 
 
 def test_a_session_from_an_image_rewrites_it_unchanged(machine, tmp_path):

@@ -156,8 +156,8 @@ def test_rejects_outside_workspace_with_reason():
     report = kin.check_points(GEOM, LIMITS, [0.0, 0.0, 0.0], [0.2, 0.4, 0.03])
     assert report.ok.tolist() == [True, False, False]
     assert report.reasons[0] == ""
-    assert "outside workspace: |C-O1|=0.4031 m > L1+L2" in report.reasons[1]
-    assert "outside workspace: |C-O1|=0.0583 m < |L1-L2|" in report.reasons[2]
+    assert "outside workspace: |C-O1|=403.1 mm > L1+L2=320.0 mm" in report.reasons[1]
+    assert "outside workspace: |C-O1|=58.3 mm < |L1-L2|=80.0 mm" in report.reasons[2]
 
 
 def test_rejects_motor_limit_with_reason():

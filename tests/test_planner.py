@@ -159,3 +159,18 @@ def test_forget_before_keeps_later_pulses(machine):
     assert sgf.forget_before(t_mid) == 1
     later = times >= t_mid
     assert np.array_equal(sgf.pulses_at(times[later]), before[later])
+
+
+def test_relative_steps_reach_the_z_limit_and_the_next_is_refused_with_its_digits(machine):
+    """154 relative 1 mm steps down from the homed Z (159 mm) end on the 5 mm limit, a hair
+    below it in floating point: within half a microstep the target is on the limit and runs;
+    the 155th is refused, showing the value that lies outside (no 'Z 5.000 outside [5.000')."""
+    rows = plan_program(machine, "G28\nG91\n" + "G1 Z-1 S20\n" * 154)
+    assert len(rows) == 156
+    with pytest.raises(PlanError) as info:
+        plan_program(machine, "G28\nG91\n" + "G1 Z-1 S20\n" * 155)
+    assert info.value.line_no == 157
+    assert "error:33 Z 4.000 mm outside [5, 160] mm" in str(info.value)
+    with pytest.raises(PlanError) as info:
+        plan_program(machine, "G28\nG90\nG1 X0 Y200 Z4.998 S20\n")
+    assert "Z 4.998 mm outside [5, 160] mm" in str(info.value)

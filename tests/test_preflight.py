@@ -64,6 +64,19 @@ def test_a_timestep_too_coarse_for_the_stepper_servos_is_refused():
     assert config.scene.timestep == 0.002
 
 
+def test_a_timestep_finer_than_the_validated_range_is_refused():
+    """0.05 ms used to run as 'valid' with hundreds of lost-step events the machine would not
+    have (the servos' lag grows as the step shrinks): it is refused, naming the range."""
+    from transplanter.scenario.assemble import assemble
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+
+    for fine in (0.05, 0.25, 0.49):
+        with pytest.raises(ScenarioError, match=r"below the validated range \(from 0.5 ms"):
+            assemble(load_scenario("paper", {"physics.timestep_ms": fine}))
+    config = assemble(load_scenario("paper", {"physics.timestep_ms": 0.05}), preflight=False)
+    assert config.scene.timestep == pytest.approx(5e-5)
+
+
 def test_a_taught_speed_the_sgf_cannot_reach_is_refused():
     """The SGF solves the kinematics of each 0.1 mm point in 198 us: no move exceeds
     505 mm/s, so a faster taught speed would silently run slower; it is refused, naming the

@@ -301,6 +301,20 @@ def test_replay_and_read_summary_reject_missing_or_wrong_files(tmp_path, capsys)
         read_summary(tmp_path / "nope.rrd")
 
 
+def test_replay_says_a_file_is_not_a_recording_even_without_a_display(
+    tmp_path, monkeypatch, capsys
+):
+    """A text file named .rrd used to get the 'no display' advice, never that it is no
+    recording."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    fake = tmp_path / "x.rrd"
+    fake.write_text("not a recording")
+    assert replay(fake) == 1
+    err = capsys.readouterr().err
+    assert "is not a rerun recording" in err and "no display" not in err
+
+
 def test_read_summary_rejects_a_cut_off_file(trial, tmp_path):
     cut = tmp_path / "cut.rrd"
     cut.write_bytes(trial[0].read_bytes()[:3000])

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from transplanter.scenario.assemble import assemble
-from transplanter.scenario.schema import ScenarioError, load_scenario, si_key
+from transplanter.scenario.schema import ScenarioError, load_scenario, parse_value, si_key
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper.toml"
 
@@ -250,3 +250,26 @@ def test_a_lost_reply_beyond_the_program_and_a_short_reply_timeout_are_refused()
     # a conveyor index longer than the timeout is the longest line then
     with pytest.raises(ScenarioError, match=r"M710 \(conveyor.index_time_s\) can take 40.00 s"):
         assemble(load_scenario(PAPER, {"conveyor.index_time_s": 40.0}))
+
+
+@pytest.mark.parametrize(
+    "key", ["gripper.open_dwell_ms", "gripper.close_dwell_ms", "gripper.close_deg"]
+)
+def test_a_dwell_or_angle_finer_than_the_firmware_carries_out_is_refused_in_one_line(key):
+    """1e-300 ms used to end in a 312-character G-code line and a traceback."""
+    with pytest.raises(ScenarioError, match=r"1e-300 is finer than the firmware carries out"):
+        load_scenario("paper", {key: 1e-300})
+    load_scenario("paper", {key: 0.001})  # the finest step is taken as given
+
+
+def test_a_scenario_nested_beyond_any_use_is_refused_in_one_line(tmp_path):
+    """100,000 nested arrays used to end in a RecursionError traceback."""
+    deep = tmp_path / "deep.toml"
+    deep.write_text('[scenario]\nbase = "paper"\n[pots]\nmass_g = ' + "[" * 100_000 + "]" * 100_000)
+    with pytest.raises(ScenarioError, match="nested too deeply for a scenario"):
+        load_scenario(deep)
+    with pytest.raises(ScenarioError, match="nested too deeply to be a scenario value"):
+        parse_value("[" * 5000 + "]" * 5000)
+    # a value nested a little is refused with a bounded picture of it
+    with pytest.raises(ScenarioError, match=r"expected a number, got \[\[\[\[\.\.\.\]\]\]\]\."):
+        load_scenario("paper", {"pots.mass_g": [[[[[[[[1]]]]]]]]})

@@ -717,3 +717,16 @@ def test_bond_draws_leave_the_other_pot_draws_unchanged():
         np.testing.assert_array_equal(getattr(plain, name), getattr(bonded, name))
     assert (plain.bond_force == 0).all()
     assert set(np.unique(bonded.bond_force)) >= {0.0, 4.0}  # sd_log 0: every bond 4 N
+
+
+def test_a_vanishing_spread_draws_its_normal_limit_not_an_overflow():
+    """pots.friction_sd = 1e-300 overflowed the gamma's shape (mean/sd)^2; below 1e-6 of the
+    mean the gamma is drawn as its normal limit, which it equals to float precision."""
+    from transplanter.scene.pots import gamma_of
+
+    z = np.array([-2.0, 0.0, 1.5])
+    np.testing.assert_array_equal(gamma_of(z, 0.6, 1e-300), [0.6, 0.6, 0.6])
+    tiny = gamma_of(z, 0.6, 1e-9)
+    np.testing.assert_allclose(tiny, 0.6 + 1e-9 * z, rtol=0, atol=1e-15)
+    # just above the switch the gamma and its normal limit agree to float precision
+    np.testing.assert_allclose(gamma_of(z, 0.6, 0.6 * 1.01e-6), 0.6 + 0.6 * 1.01e-6 * z, rtol=1e-9)

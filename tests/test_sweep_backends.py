@@ -1,5 +1,6 @@
 """transplanter.studies.backends: one run as a row (never an exception) and the backends by name."""
 
+import os
 import sys
 
 import pytest
@@ -83,3 +84,43 @@ def test_a_row_names_the_fault_by_kind_and_carries_the_warnings():
     warnings = paper["warnings"].split(WARNING_SEPARATOR)
     assert len(warnings) == 2
     assert all("motor 3 reaches its top step rate" in w for w in warnings)
+
+
+def test_a_process_pool_far_larger_than_the_machine_is_refused():
+    """--workers 10000 spawned a process (about 90 MB) per run."""
+    from transplanter.studies.backends import MAX_WORKERS_PER_CPU, check_backend
+
+    cpus = len(os.sched_getaffinity(0))
+    check_backend("process", MAX_WORKERS_PER_CPU * cpus)
+    with pytest.raises(SweepRefused, match=r"--workers 10000 is far more than this machine"):
+        check_backend("process", 10000)
+    check_backend("ray", 10000)  # a cluster's size is its own
+
+
+def test_the_process_pool_submits_a_bounded_number_of_tasks_at_a_time(monkeypatch):
+    """A long sweep used to submit every run before the first one started."""
+    from transplanter.studies import backends
+
+    submitted_before_first_row = []
+    tasks_read = []
+
+    def tasks():
+        for i in range(50):
+            tasks_read.append(i)
+            yield {"i": i}
+
+    monkeypatch.setattr(backends, "run_one", _echo)
+    runner = backends.ProcessBackend(1)
+    try:
+        rows = runner.run(tasks())
+        first = next(rows)
+        submitted_before_first_row.append(len(tasks_read))
+        rest = list(rows)
+    finally:
+        runner.close()
+    assert submitted_before_first_row[0] <= backends.IN_FLIGHT_PER_WORKER + 1
+    assert sorted(r["i"] for r in [first, *rest]) == list(range(50))
+
+
+def _echo(task):
+    return dict(task)

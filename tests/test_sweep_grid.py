@@ -114,3 +114,23 @@ def test_a_taught_range_is_on_the_eeprom_grid():
 
     dist = Param("taught.s_high_mm_s", "float", 120.0, 250.0).distribution()
     assert dist.step == 0.1
+
+
+@pytest.mark.parametrize(
+    "text, refusal",
+    [
+        ("taught.z_low_mm=30:40:1e-30", "makes more than 10000 values"),
+        ("taught.z_low_mm=30:1e30:1", "makes more than 10000 values"),
+        ("conveyor.rows=1:1e300:1", "makes more than 10000 values"),
+    ],
+)
+def test_ranges_of_absurd_size_are_refused_in_one_line(text, refusal):
+    """These ended in decimal.InvalidOperation tracebacks (a division of the span by a step
+    too fine to count)."""
+    with pytest.raises(SweepRefused, match=refusal):
+        parse_vary(text)
+
+
+def test_a_tuning_range_beyond_the_keys_range_is_refused_before_any_division():
+    with pytest.raises(SweepRefused, match=r"1e\+30 is outside the allowed range"):
+        parse_param_range("taught.z_low_mm=30..1e30")

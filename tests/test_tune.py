@@ -61,6 +61,10 @@ def test_tune_writes_the_front_and_a_tuned_scenario_that_runs(tmp_path, capsys):
     assert main([*args, "--trials", "3"]) == 0
     printed = capsys.readouterr().out
     assert "study s: 3 trials (3 run now)" in printed
+    import optuna
+
+    stored = optuna.load_study(study_name="s", storage=f"sqlite:///{db}")
+    assert stored.metric_names == ["success_ci95_low", "cycle_time_s"]  # not values_0/1
     assert "optuna-dashboard sqlite:///" in printed
     trials = list(csv.DictReader((out / "trials.csv").open()))
     assert [t["state"] for t in trials] == ["COMPLETE"] * 3
@@ -103,3 +107,18 @@ def test_tune_refuses_an_out_it_cannot_write_before_any_trial(tmp_path, capsys, 
     assert main(args) == 2
     assert "pareto.csv is a symbolic link" in capsys.readouterr().err
     assert not db.exists()
+
+
+def test_a_storage_that_cannot_hold_a_study_is_refused_in_one_line(tmp_path, capsys):
+    """A text file, or a path under a regular file, ended in SQLAlchemy tracebacks."""
+    text = tmp_path / "notes.txt"
+    text.write_text("not a database\n")
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    base = ["tune", "paper", "--param", "taught.z_low_mm=30..40", "--seeds", "1"]
+    base += ["--seedlings", "1", "--trials", "1", "--out", str(tmp_path / "out")]
+    for storage, why in ((text, "is not a SQLite database"), (blocker / "s.db", "cannot hold")):
+        assert main([*base, "--storage", str(storage)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and why in err[0]
+    assert text.read_text() == "not a database\n"  # untouched

@@ -103,20 +103,19 @@ class Refusal:
         if reason is RefusalReason.OUT_OF_WORKSPACE:
             if self.high is not None and self.value > self.high:
                 return (
-                    f"outside workspace: {self.subject}={show(self.value, 4)} {unit} > "
-                    f"{self.bound_names[1]}={self.high:.4f} {unit}"
+                    f"outside workspace: {self.subject}={show(self.value, 1)} {unit} > "
+                    f"{self.bound_names[1]}={self.high:.1f} {unit}"
                 )
             return (
-                f"outside workspace: {self.subject}={self.value:.4f} {unit} < "
-                f"{self.bound_names[0]}={self.low:.4f} {unit}"
+                f"outside workspace: {self.subject}={self.value:.1f} {unit} < "
+                f"{self.bound_names[0]}={self.low:.1f} {unit}"
             )
         if reason is RefusalReason.ILL_CONDITIONED:
             return f"{self.subject} {self.value:.3g} > {self.high:g}"
         if reason is RefusalReason.AXIS_RANGE:
-            return (
-                f"{self.subject} {show(self.value)} {unit} outside "
-                f"[{self.low:.3f}, {self.high:.3f}] {unit}"
-            )
+            # enough digits that the value visibly lies outside (4.9999999, not 5.000)
+            value, low, high = show_outside(self.value, self.low, self.high, decimals=3)
+            return f"{self.subject} {value} {unit} outside [{low}, {high}] {unit}"
         value, low, high = show_outside(self.value, self.low, self.high)
         note = f" ({self.note})" if self.note else ""
         return f"{self.subject} {value} {unit} outside [{low}, {high}] {unit}{note}"

@@ -13,7 +13,7 @@ G1 X-10 Y20 Z-20 ; expect: ok
 M114 ; expect: X:40.000 Y:200.000 Z:40.000 A:3479 B:545 C:16000 | ok
 G90 ; expect: ok
 G1 X0 Y400 Z50 ; expect: error:33 target position not reachable
-G1 X0 Y200 Z200 ; expect: error:33 Z 200.000 mm outside [5.000, 160.000] mm
+G1 X0 Y200 Z200 ; expect: error:33 Z 200.000 mm outside [5, 160] mm
 G1 X0 Y200 Z1 ; expect: error:33
 ; a refused move leaves the position (and the modal speed) as it was
 M114 ; expect: X:40.000 Y:200.000 Z:40.000 A:3479 B:545 C:16000 | ok

@@ -12,6 +12,7 @@ command's options beside its handler; the work is done by the domain modules
   studies      sweep, tune, calibrate
   serial_link  serve, pgf
   replay       replay
+  scenarios    scenarios (the packaged scenarios, a line each)
 """
 
 from __future__ import annotations
@@ -21,17 +22,22 @@ import os
 import signal
 import sys
 
-from transplanter.cli import hmi, kinematics, replay, serial_link, studies, trials
+import transplanter
+from transplanter.cli import hmi, kinematics, replay, scenarios, serial_link, studies, trials
 from transplanter.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, _err
 
 # The command groups in the order `transplanter --help` lists their commands.
-COMMAND_GROUPS = (kinematics, trials, hmi, studies, serial_link, replay)
+COMMAND_GROUPS = (kinematics, trials, hmi, studies, serial_link, replay, scenarios)
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="transplanter",
-        description="MuJoCo digital twin of a five-bar pot-seedling transplanter.",
+        description="MuJoCo digital twin of robotic seedling transplanters, driven by their "
+        "own firmware.",
+    )
+    parser.add_argument(
+        "--version", action="version", version=f"%(prog)s {transplanter.__version__}"
     )
     sub = parser.add_subparsers(dest="command", required=True)
     for group in COMMAND_GROUPS:

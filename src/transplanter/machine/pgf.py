@@ -42,7 +42,7 @@ Reply timeout (``PGFConfig.reply_timeout_s``): every line the PGF sends or recei
 a timer; when it runs out with a line outstanding (its reply was lost on the wire, or the
 SGF is dead) the PGF stops with the fault ``bus timeout: no reply to line <n> ...``.
 ``next_event_time`` tells the caller when that is due. ``fault_kind`` names why the PGF
-stopped (``firmware.faults.FaultKind``): from the code of the refused line's reply, or
+stopped (``machine.faults.FaultKind``): from the code of the refused line's reply, or
 ``bus_timeout``.
 """
 

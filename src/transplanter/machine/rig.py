@@ -161,7 +161,7 @@ class FirmwareLink:
         self.pgf, self.bus, self.sgf = pgf, bus, sgf
         self.log = log
         # what receives the host's lines and answers them: the SGF itself, or a dialect layer
-        # in front of it with the same receive/poll (firmware.marlin.MarlinDevice)
+        # in front of it with the same receive/poll (machine.marlin.MarlinDevice)
         self.device = sgf if device is None else device
 
     def _note(self, t: float, text: str) -> None:

@@ -1,6 +1,6 @@
 """The PGF on a real serial line: streams the taught cycle to any Marlin-style SGF.
 
-`SerialPGF` runs the PGF state machine (`firmware.pgf.PGF`, Algorithm 2) on the wall clock
+`SerialPGF` runs the PGF state machine (`machine.pgf.PGF`, Algorithm 2) on the wall clock
 and talks to a port: the twin's `transplanter serve`, or a board running the paper's SGF.
 It keeps the PGF's handshake (one line outstanding, the next after its ``ok``) and adds what
 a serial line needs:

@@ -95,10 +95,9 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
     checked first (ScenarioError naming the key)."""
     machine = machine_config(scenario)
     if preflight:
-        from transplanter.scenario.preflight import check_machine, check_reply_timeout
+        from transplanter.scenario.preflight import check_program
 
-        check_machine(machine)
-        check_reply_timeout(machine)
+        check_program(machine)
     s = scenario
     faults = fault_config(s, machine)
     scene = scene_config(s, machine)

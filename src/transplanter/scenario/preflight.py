@@ -16,12 +16,14 @@ from transplanter.scenario.schema import ScenarioError
 from transplanter.units import M_PER_MM
 
 __all__ = [
+    "check_program",
     "check_machine",
     "check_taught_speeds",
     "check_reply_timeout",
     "check_timestep",
     "longest_line_s",
     "MAX_OMEGA_DT",
+    "MIN_TIMESTEP_S",
     "REPLY_TIMEOUT_MARGIN_S",
 ]
 
@@ -34,6 +36,22 @@ REPLY_TIMEOUT_MARGIN_S = 1.0
 # docs/edge_trials.md: Z has omega*dt = 0.81 at 1 ms (0.5 and 1 ms agree on every setting),
 # 1.62 at 2 ms (the paper setting falls from 100 % to 78 %, with 300 lost-step events).
 MAX_OMEGA_DT = 1.0
+
+MIN_TIMESTEP_S = 0.5e-3
+"""The finest step the outcomes were validated at (docs/edge_trials.md: 0.5 and 1 ms agree).
+Below it the stepper servos' lag behind their step count grows with the step (0.86 full steps
+at 1 ms, 1.49 at 0.5 ms, 1.80 at 0.25 ms, 2.02 at 0.06 ms at Z's 50 mm/s lift, against the
+2-step slip threshold), so a finer step loses steps the machine would not: a finer step is
+refused rather than reported as valid (docs/edge_trials.md, "The timestep")."""
+
+
+def check_program(machine: Machine) -> None:
+    """Every check a trial makes of a machine's taught program before it starts (the teach
+    pendant runs the same before it writes an image): the points and moves
+    (:func:`check_machine`) and the reply timeout against its longest line
+    (:func:`check_reply_timeout`)."""
+    check_machine(machine)
+    check_reply_timeout(machine)
 
 
 class TaughtRefused(ScenarioError):
@@ -228,6 +246,15 @@ def check_timestep(scene_config) -> None:
     import mujoco
 
     from transplanter.scene import build_scene
+
+    if scene_config.timestep < MIN_TIMESTEP_S * (1 - 1e-9):
+        raise ScenarioError(
+            f"physics.timestep_ms = {scene_config.timestep * 1e3:g} is below the validated "
+            f"range (from {MIN_TIMESTEP_S * 1e3:g} ms up to the drives' limit, 1.23 ms with "
+            "the paper's drives): below it the stepper servos lag their step count further "
+            "as the step shrinks and lose steps the machine would not (docs/edge_trials.md). "
+            f"Use at least {MIN_TIMESTEP_S * 1e3:g} ms."
+        )
 
     scene = build_scene(dataclasses.replace(scene_config, rows=1, cols=1), seed=0)
     m = scene.model

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import importlib.resources
 import math
+import reprlib
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
@@ -54,9 +55,16 @@ class Key:
     hi: float | None = None
     choices: tuple[str, ...] = ()
     doc: str = ""
+    quantum: float | None = None
+    """The smallest nonzero magnitude (file units) the firmware can carry out (a dwell's or a
+    servo angle's resolution in its G-code word): anything between 0 and it is refused."""
 
 
 _DEG = math.pi / 180.0
+
+GCODE_QUANTUM = 0.001
+"""The finest dwell (ms, ``G4 P``) and servo angle (deg, ``M280 S``) a scenario may set: the
+firmware's words carry three decimals; a value between 0 and this is refused, not rounded."""
 
 # SI scale of each unit suffix a file key may carry (the key's unit is its suffix).
 _SCALE = {
@@ -88,6 +96,15 @@ _SI_SUFFIX = {
 }
 
 
+_REPR = reprlib.Repr()  # attributes, not arguments: Python 3.11's Repr takes none
+_REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother = 3, 6, 6, 60, 60
+
+
+def _shown(value: Any) -> str:
+    """A value for a message, bounded in depth and length (a file may hold anything)."""
+    return _REPR.repr(value)
+
+
 def _unit_of(key: str) -> str | None:
     for suffix in _UNIT_SUFFIXES:
         if key.endswith(suffix):
@@ -112,11 +129,12 @@ def key(
     hi: float | None = None,
     doc: str = "",
     choices: tuple[str, ...] = (),
+    quantum: float | None = None,
 ):
     """A section dataclass field that is a scenario key: its kind, allowed range (in the
     file's unit) and meaning. The file key is the field name with its file unit (the field
     `l1_m` is read from `l1_mm`; see FILE_KEYS), the scale follows from that unit."""
-    return field(metadata={"key": Key(kind, 1.0, lo, hi, choices, doc)})
+    return field(metadata={"key": Key(kind, 1.0, lo, hi, choices, doc, quantum)})
 
 
 # ---------------------------------------------------------------------------------------
@@ -244,13 +262,13 @@ class GripperSection:
 
     servo_s_per_60deg: float = key("float", 0.01, 10, doc="hobby servo speed")
     max_opening_m: float = key("float", 1, 200, doc="jaw opening at 180 deg servo angle")
-    open_rad: float = key("float", 0, 180)
-    close_rad: float = key("float", 0, 180)
+    open_rad: float = key("float", 0, 180, quantum=GCODE_QUANTUM)
+    close_rad: float = key("float", 0, 180, quantum=GCODE_QUANTUM)
     grip_force_n: float = key("float", 0.01, 1000, doc="servo force limit at the jaws")
     wrist_servo_s_per_60deg: float = key("float", 0.01, 10)
-    open_dwell_s: float = key("float", 0, 10000)
-    close_dwell_s: float = key("float", 0, 10000)
-    release_dwell_s: float = key("float", 0, 10000)
+    open_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
+    close_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
+    release_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
 
 
 @dataclass(frozen=True)
@@ -580,35 +598,41 @@ def _convert(where: str, key: str, spec: Key, raw: Any) -> Any:
     name = f"{where}.{key}"
     if spec.kind == "str":
         if not isinstance(raw, str):
-            raise ScenarioError(f"{name}: expected a string, got {raw!r}.")
+            raise ScenarioError(f"{name}: expected a string, got {_shown(raw)}.")
         if spec.choices and raw not in spec.choices:
-            raise ScenarioError(f"{name}: {raw!r} is not one of {', '.join(spec.choices)}.")
+            raise ScenarioError(f"{name}: {_shown(raw)} is not one of {', '.join(spec.choices)}.")
         return raw
     if spec.kind == "bool":
         if not isinstance(raw, bool):
-            raise ScenarioError(f"{name}: expected true or false, got {raw!r}.")
+            raise ScenarioError(f"{name}: expected true or false, got {_shown(raw)}.")
         return raw
     if spec.kind == "int":
         if isinstance(raw, bool) or not isinstance(raw, int):
-            raise ScenarioError(f"{name}: expected a whole number, got {raw!r}.")
+            raise ScenarioError(f"{name}: expected a whole number, got {_shown(raw)}.")
         _check_range(name, spec, raw)
         return raw
     if spec.kind == "float":
         return _number(name, spec, raw)
     if spec.kind == "xy":
         if not isinstance(raw, list) or len(raw) != 2:
-            raise ScenarioError(f"{name}: expected a pair [x, y], got {raw!r}.")
+            raise ScenarioError(f"{name}: expected a pair [x, y], got {_shown(raw)}.")
         return tuple(_number(f"{name}[{i}]", spec, v) for i, v in enumerate(raw))
     raise AssertionError(spec.kind)
 
 
 def _number(name: str, spec: Key, raw: Any) -> float:
     if isinstance(raw, bool) or not isinstance(raw, int | float):
-        raise ScenarioError(f"{name}: expected a number, got {raw!r}.")
+        raise ScenarioError(f"{name}: expected a number, got {_shown(raw)}.")
     value = float(raw)
     if not math.isfinite(value):
-        raise ScenarioError(f"{name}: {raw!r} is not a finite number.")
+        raise ScenarioError(f"{name}: {_shown(raw)} is not a finite number.")
     _check_range(name, spec, value)
+    if spec.quantum is not None and 0 < abs(value) < spec.quantum:
+        raise ScenarioError(
+            f"{name}: {_shown(value)} is finer than the firmware carries out "
+            f"({spec.quantum:g}); "
+            f"use 0 or at least {spec.quantum:g}."
+        )
     return value * spec.scale
 
 
@@ -620,7 +644,7 @@ def _check_range(name: str, spec: Key, value: float) -> None:
             allowed = f"must be at most {spec.hi:g}"
         else:
             allowed = f"is outside the allowed range [{spec.lo:g}, {spec.hi:g}]"
-        raise ScenarioError(f"{name}: {value!r} {allowed}.")
+        raise ScenarioError(f"{name}: {_shown(value)} {allowed}.")
 
 
 def _merge(base: dict, over: Mapping) -> dict:
@@ -648,9 +672,16 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
         raise ScenarioError(str(exc)) from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}.") from None
+    except RecursionError:
+        raise ScenarioError(
+            f"{path}: nested too deeply for a scenario (arrays or tables within each other "
+            "beyond Python's recursion limit); a scenario holds numbers, pairs and tables."
+        ) from None
     for section, table in raw.items():
         if not isinstance(table, dict):
-            raise ScenarioError(f"{path}: [{section}] must be a table of keys, got {table!r}.")
+            raise ScenarioError(
+                f"{path}: [{section}] must be a table of keys, got {_shown(table)}."
+            )
     base = raw.get("scenario", {}).pop("base", None)
     if base is None:
         return raw
@@ -662,13 +693,13 @@ def _base_path(path: Path, base: Any) -> Path:
     an absolute path (as `transplanter tune` writes for a scenario kept elsewhere), else a
     packaged scenario by name; never a relative path out of the directory ('../x.toml')."""
     if not isinstance(base, str) or not base:
-        raise ScenarioError(f"{path}: scenario.base must be a file name, got {base!r}.")
+        raise ScenarioError(f"{path}: scenario.base must be a file name, got {_shown(base)}.")
     if Path(base).is_absolute():
         return Path(base)
     candidate = (path.parent / base).resolve()
     if not candidate.is_relative_to(path.parent):
         raise ScenarioError(
-            f"{path}: scenario.base = {base!r} points outside the scenario's directory; "
+            f"{path}: scenario.base = {_shown(base)} points outside the scenario's directory; "
             "name a file beside it, an absolute path or a packaged scenario (e.g. 'paper.toml')."
         )
     if candidate.exists() or len(Path(base).parts) != 1:
@@ -696,6 +727,11 @@ def parse_value(text: str) -> Any:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text.strip()
+    except RecursionError:
+        raise ScenarioError(
+            f"{_shown(text)}: nested too deeply to be a scenario value (a number, a pair "
+            "[x, y], true/false or a string)."
+        ) from None
 
 
 def key_spec(dotted: str) -> Key:
@@ -739,7 +775,9 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
         if table is None:
             raise ScenarioError(f"{source}: missing section [{section}].")
         if not isinstance(table, dict):
-            raise ScenarioError(f"{source}: [{section}] must be a table of keys, got {table!r}.")
+            raise ScenarioError(
+                f"{source}: [{section}] must be a table of keys, got {_shown(table)}."
+            )
         for key_name in table:
             if key_name not in keys:
                 raise _unknown_key_error(section, key_name, keys)

@@ -29,11 +29,19 @@ def truncated_normal(z: np.ndarray, mean: float, sd: float, lo: float, hi: float
     return np.clip(mean + sd * ndtri(u), lo, hi)  # only float rounding at the very ends
 
 
+GAMMA_NORMAL_BELOW = 1e-6
+"""A gamma whose sd is below this share of its mean is drawn as its normal limit."""
+
+
 def gamma_of(z: np.ndarray, mean: float, sd: float) -> np.ndarray:
     """A gamma distribution with this mean and sd (never negative: a friction coefficient),
     one value per standard normal draw z (its quantile); mean 0 gives exactly 0."""
     if sd == 0 or mean == 0:
         return np.full(np.shape(z), float(mean))
+    if sd < mean * GAMMA_NORMAL_BELOW:
+        # shape (mean/sd)^2 past 1e12: the gamma is its normal limit to far below float
+        # precision, and its shape would overflow a float for a tiny sd such as 1e-300
+        return np.maximum(mean + sd * np.asarray(z, dtype=np.float64), 0.0)
     shape, scale = (mean / sd) ** 2, sd * sd / mean
     return scale * gammaincinv(shape, ndtr(np.asarray(z)))
 

@@ -5,6 +5,7 @@ on a backend that yields the rows as they finish, in any order: `inline` (this p
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import time
 from collections.abc import Iterable, Iterator, Mapping
@@ -124,6 +125,13 @@ def _ignore_stop_signals() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
+MAX_WORKERS_PER_CPU = 4
+"""The process pool takes at most this many workers per CPU the process may run on (more only
+wait for a core and hold memory: `--workers 10000` spawned 10,000 processes)."""
+IN_FLIGHT_PER_WORKER = 2
+"""Tasks submitted ahead per worker of the process pool (one running, one waiting)."""
+
+
 class ProcessBackend:
     """A `ProcessPoolExecutor` of spawned processes (MuJoCo and fork do not mix)."""
 
@@ -141,12 +149,27 @@ class ProcessBackend:
     def run(self, tasks: Iterable[Mapping[str, Any]]) -> Iterator[dict[str, Any]]:
         from concurrent.futures import FIRST_COMPLETED, wait
 
-        pending = {self.pool.submit(run_one, dict(t)) for t in tasks}
+        # Streamed: at most IN_FLIGHT_PER_WORKER tasks per worker are submitted at a time, so a
+        # long sweep starts at once and holds a bounded number of futures.
+        queue = iter(tasks)
+        pending: set = set()
+
+        def top_up() -> None:
+            while len(pending) < IN_FLIGHT_PER_WORKER * self.workers:
+                task = next(queue, None)
+                if task is None:
+                    return
+                pending.add(self.pool.submit(run_one, dict(task)))
+
         try:
+            top_up()
             while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                done, pending_left = wait(pending, return_when=FIRST_COMPLETED)
+                pending.clear()
+                pending.update(pending_left)
                 for future in done:
                     yield future.result()
+                top_up()
         finally:
             for future in pending:
                 future.cancel()
@@ -212,6 +235,14 @@ def check_backend(name: str, workers: int, address: str | None = None) -> None:
         raise SweepRefused(f"--backend {name!r}: choose one of {', '.join(BACKENDS)}")
     if workers < 1:
         raise SweepRefused(f"--workers must be at least 1, got {workers}")
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    most = MAX_WORKERS_PER_CPU * (cpus or 1)
+    if name == "process" and workers > most:
+        raise SweepRefused(
+            f"--workers {workers} is far more than this machine's {cpus} CPUs: each worker is "
+            f"a process of about 90 MB running trials on a core; use --workers auto ({cpus}), "
+            f"at most {most}, or a Ray cluster (--backend ray --address ...) for more"
+        )
     if address is not None and name != "ray":
         raise SweepRefused("--address names a Ray cluster: use it with --backend ray")
 

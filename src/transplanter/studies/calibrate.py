@@ -32,6 +32,7 @@ import math
 import os
 import re
 import shlex
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -385,6 +386,9 @@ def run_calibrate(
     study, url = open_study(
         optuna, storage, study_name, ["minimize"], "calibrate", spec.identity(digest)
     )
+    with warnings.catch_warnings():  # "experimental" since Optuna 3.2, and stable in use
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        study.set_metric_names(["deviance_g2"])  # optuna-dashboard's and the plots' axis
     observed = spec.observed
 
     def objective(scored: Mapping[str, Any]) -> float | None:

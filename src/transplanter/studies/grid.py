@@ -117,6 +117,11 @@ def _grid_range(key: str, kind: str, spec: str, where: str) -> list[Any]:
         raise SweepRefused(f"{where}: the step must be above 0, got {step}")
     if hi < lo:
         raise SweepRefused(f"{where}: HI {hi} is below LO {lo}; write LO:HI:STEP with LO <= HI")
+    if (hi - lo) > step * MAX_GRID_VALUES:  # before divmod: 10/1e-30 is too many to divide
+        raise SweepRefused(
+            f"{where}: the step {step} makes more than {MAX_GRID_VALUES} values of "
+            f"{lo}..{hi}; use a coarser step"
+        )
     count, rest = divmod(hi - lo, step)
     if rest != 0:
         raise SweepRefused(
@@ -158,17 +163,17 @@ def parse_param_range(text: str, option: str = "--param") -> tuple[str, str, Any
         ends: tuple[Any, Any] = (int(lo), int(hi))
     else:
         ends = (float(lo), float(hi))
-        step = key_quantum(key)
-        if step is not None and any(v % Decimal(str(step)) for v in (lo, hi)):
-            raise SweepRefused(
-                f"{where}: the EEPROM stores {key} in steps of {step:g}; give LO and HI as "
-                "whole multiples of it"
-            )
-    for v in ends:
+    for v in ends:  # the key's own range first: 1e30 is refused as such
         try:
             check_value(key, v)
         except ScenarioError as exc:
             raise SweepRefused(f"{option} {key}: {exc}") from None
+    step = key_quantum(key) if kind == "float" else None
+    if step is not None and any(v % Decimal(str(step)) for v in (lo, hi)):
+        raise SweepRefused(
+            f"{where}: the EEPROM stores {key} in steps of {step:g}; give LO and HI as "
+            "whole multiples of it"
+        )
     return key, kind, ends[0], ends[1]
 
 

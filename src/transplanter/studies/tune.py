@@ -20,6 +20,7 @@ import importlib.resources
 import json
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -211,6 +212,13 @@ def scenario_digest(scenario) -> str:
     ).hexdigest()
 
 
+TUNE_METRICS = ("success_ci95_low", "cycle_time_s")
+"""The tune study's objectives by name: the lower end of the pooled success's 95 % interval
+(maximised) and the mean cycle time in s (minimised)."""
+SQLITE_HEADER = b"SQLite format 3\x00"
+"""The first 16 bytes of every SQLite database file."""
+
+
 def open_study(
     optuna,
     storage: str | os.PathLike | None,
@@ -229,14 +237,29 @@ def open_study(
         storage = Path(storage)
         if storage.exists() and not storage.is_file():
             raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
-        storage.parent.mkdir(parents=True, exist_ok=True)
-        url = f"sqlite:///{storage.resolve()}"
-        study = optuna.create_study(
-            study_name=study_name,
-            storage=url,
-            directions=list(directions),
-            load_if_exists=True,
-        )
+        if storage.is_file() and storage.stat().st_size > 0:
+            with storage.open("rb") as handle:
+                if handle.read(len(SQLITE_HEADER)) != SQLITE_HEADER:
+                    raise SweepRefused(
+                        f"--storage {storage} is not a SQLite database (an Optuna study's "
+                        "file); give a new .db path or the study's own file"
+                    )
+        try:
+            storage.parent.mkdir(parents=True, exist_ok=True)
+            url = f"sqlite:///{storage.resolve()}"
+            study = optuna.create_study(
+                study_name=study_name,
+                storage=url,
+                directions=list(directions),
+                load_if_exists=True,
+            )
+        except Exception as exc:  # SQLAlchemy's and OSError's: the file cannot hold a study
+            if isinstance(exc, SweepRefused):
+                raise
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise SweepRefused(
+                f"--storage {storage} cannot hold the study ({reason}); give a writable .db path"
+            ) from None
     held = study.user_attrs.get(attr)
     plain = json.loads(json.dumps(identity))
     if held is None:
@@ -334,6 +357,9 @@ def run_tune(
     study, url = open_study(
         optuna, storage, study_name, ["maximize", "minimize"], "tune", spec.identity(digest)
     )
+    with warnings.catch_warnings():  # "experimental" since Optuna 3.2, and stable in use
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        study.set_metric_names(list(TUNE_METRICS))  # optuna-dashboard's and the plots' axes
 
     def objective(scored):
         if scored["ci95_low"] is None or scored["cycle_time_s"] is None:

@@ -124,7 +124,7 @@ class TrialResult:
     valid: bool = True
     invalid_reason: str | None = None
     fault: str | None = None
-    fault_kind: FaultKind | None = None  # why the firmware stopped (firmware.faults.FaultKind)
+    fault_kind: FaultKind | None = None  # why the firmware stopped (machine.faults.FaultKind)
     interrupted: bool = False  # stopped by the user: seedlings not yet judged are not_run
     recording_error: str | None = None  # the recording failed; the results stand
     lost_step_events: list[dict[str, Any]] = field(default_factory=list)

@@ -2,7 +2,7 @@
 
 `transplanter serve` puts the whole machine (SGF, physics, judge, recording) behind a
 POSIX pty (its path is printed: connect any host to it) or a real serial port (pyserial),
-speaking Marlin's conventions (`firmware.marlin.MarlinDevice`). An external host takes the
+speaking Marlin's conventions (`machine.marlin.MarlinDevice`). An external host takes the
 PGF's place: `RemoteHost` is the PGF's stand-in inside the twin. Its lines go onto the
 twin's simulated UART at the simulated time they are read, and the replies come back to the
 host when the UART delivers them, so the timing on the wire is the same as in `trial`.

@@ -1,6 +1,6 @@
 """The twin's simulation loop: the firmware's step events drive the MuJoCo physics.
 
-PGF -> COM bus -> SGF run on the simulated clock exactly as in `firmware.rig`, but the
+PGF -> COM bus -> SGF run on the simulated clock exactly as in `machine.rig`, but the
 limit switches come from the model's sensors and, at every physics step, each stepper's
 position servo is commanded to the position its SGF step pulses have reached at that time
 (`SGF.pulses_at`), never to a smoothed trajectory. Per-move work is done once per firmware

@@ -27,12 +27,23 @@ def _has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
+RRD_MAGIC = b"RRF2"
+"""The first bytes of a rerun 0.41 recording file (its file header's magic)."""
+
+
 def _check_rrd(path: str | os.PathLike) -> Path:
     rrd = Path(path)
     if not rrd.is_file():
         raise FileNotFoundError(f"recording {str(rrd)!r} does not exist")
     if rrd.suffix != ".rrd":
         raise ValueError(f"{str(rrd)!r} is not a rerun recording: expected a .rrd file")
+    with rrd.open("rb") as handle:
+        head = handle.read(len(RRD_MAGIC))
+    if head != RRD_MAGIC:
+        raise ValueError(
+            f"{str(rrd)!r} is not a rerun recording: it does not start as an .rrd file does "
+            f"({RRD_MAGIC!r}); was it written by `transplanter trial --record`?"
+        )
     return rrd
 
 

@@ -330,9 +330,10 @@ class Hmi:
 
     def write(self) -> bool:
         """Check the taught data (complete, in range, every point and move of the cycle
-        reachable: ``preflight.check_machine``) and write the image; False (the LCD says
-        why) if refused or the file could not be written."""
-        from transplanter.scenario.preflight import TaughtRefused, check_machine
+        reachable, the reply timeout: ``preflight.check_program``, as the trial does) and
+        write the image; False (the LCD says why) if refused or the file could not be
+        written."""
+        from transplanter.scenario.preflight import TaughtRefused, check_program
         from transplanter.scenario.schema import ScenarioError
 
         try:
@@ -342,7 +343,7 @@ class Hmi:
             self.note = "NO " + crop(str(error), LCD_COLS - 3)
             return False
         try:
-            check_machine(dataclasses.replace(self.machine, eeprom=image))
+            check_program(dataclasses.replace(self.machine, eeprom=image))
         except TaughtRefused as error:
             self._refuse(str(error), error.short(LCD_COLS - 3))
             return False

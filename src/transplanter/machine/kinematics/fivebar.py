@@ -350,8 +350,8 @@ def _refusals(geom, limits, bad, arrays, i) -> tuple[Refusal, ...]:
             if dist > lmax or dist < lmin:
                 out.append(
                     Refusal(
-                        RefusalReason.OUT_OF_WORKSPACE, f"|C-O{arm}|", dist, lmin, lmax, "m",
-                        bound_names=("|L1-L2|", "L1+L2"),
+                        RefusalReason.OUT_OF_WORKSPACE, f"|C-O{arm}|", dist / M_PER_MM,
+                        lmin / M_PER_MM, lmax / M_PER_MM, "mm", bound_names=("|L1-L2|", "L1+L2"),
                     )
                 )  # fmt: skip
         return tuple(out)
@@ -540,8 +540,11 @@ class FiveBarKinematics(Kinematics):
         )
 
     def limit_target(self, xyz) -> Refusal | None:
+        """Z outside [z_min_m, z_max_m] by more than half a microstep of Z's drive (so a
+        target that relative moves bring onto a limit in floating point is on it)."""
         z = float(np.asarray(xyz, dtype=np.float64)[2])
-        if self.z_min_m <= z <= self.z_max_m:
+        tolerance = 0.5 * self.drives[2].unit_per_step
+        if self.z_min_m - tolerance <= z <= self.z_max_m + tolerance:
             return None
         return Refusal(
             RefusalReason.AXIS_RANGE, "Z", z / M_PER_MM, self.z_min_m / M_PER_MM,
