@@ -345,3 +345,24 @@ def test_cli_calibrates_with_the_physics_and_the_result_runs(tmp_path, capsys):
     assert (tmp_path / "again" / "calibration.csv").read_text() == (
         out / "calibration.csv"
     ).read_text()
+
+
+def test_cli_refuses_an_out_it_cannot_write_before_any_trial(tmp_path, capsys, monkeypatch):
+    def never(task):  # pragma: no cover - a refusal runs nothing
+        raise AssertionError("ran")
+
+    monkeypatch.setattr(sweep_backends, "run_one", never)
+    out = tmp_path / "out"
+    args = ["calibrate", "paper", "--observed", "1/2", "--fit", "taught.z_low_mm=18..40",
+            "--seeds", "1", "--seedlings", "2", "--backend", "inline",
+            "--out", str(out)]  # fmt: skip
+    for name in ("calibration.csv", "calibration.json", "calibrated.toml"):
+        (out / name).mkdir(parents=True)
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert "calibrate refused" in err and name in err and "is a directory" in err
+        (out / name).rmdir()
+    (out / "calibration.json").symlink_to(tmp_path / "elsewhere.json")
+    assert main(args) == 2
+    assert "calibration.json is a symbolic link" in capsys.readouterr().err
+    assert not (tmp_path / "elsewhere.json").exists()

@@ -6,7 +6,6 @@ import re
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -149,8 +148,10 @@ def test_a_recording_that_cannot_be_written_loses_no_results(tmp_path):
 def test_ctrl_c_stops_cleanly_and_never_replaces_a_complete_recording(tmp_path):
     rrd, out = tmp_path / "r.rrd", tmp_path / "r.json"
     rrd.write_text("a complete earlier recording")
-    child = _cli(["trial", "paper", "--quiet", "--record", str(rrd), "--json", str(out)])
-    time.sleep(5.0)  # imports and homing done, the 40-seedling trial (~150 s simulated) runs
+    child = _cli_with_progress(
+        ["trial", "paper", "--quiet", "--record", str(rrd), "--json", str(out)]
+    )
+    _wait_for_progress(child)  # the 40-seedling trial (~150 s simulated) runs
     child.send_signal(signal.SIGINT)
     stdout, stderr = child.communicate(timeout=60)
     assert child.returncode == 130, stderr
@@ -323,3 +324,176 @@ def test_serve_and_pgf_refuse_bad_options_before_opening_anything(tmp_path, caps
     assert f"cannot open {missing}" in capsys.readouterr().err
     assert main(["pgf", "paper", "--port", str(missing)]) == 2
     assert f"cannot open {missing}" in capsys.readouterr().err
+
+
+# -- nothing finished is lost; no write over an input or through a derived link ------------
+
+# Runs the command line with a progress callback that says, on stderr, how many seedlings are
+# done: the readiness line a test waits for before it sends a signal (never a fixed sleep).
+_WITH_PROGRESS = (
+    "import sys\n"
+    "from transplanter.twin import report\n"
+    "def bar(total, enabled):\n"
+    "    def update(done, t):\n"
+    "        print(f'progress {done}', file=sys.stderr, flush=True)\n"
+    "    return None, update\n"
+    "report.progress_bar = bar\n"
+    "from transplanter.cli import main\n"
+    "sys.exit(main(sys.argv[1:]))\n"
+)
+
+
+def _cli_with_progress(args):
+    return subprocess.Popen(
+        [sys.executable, "-c", _WITH_PROGRESS, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _wait_for_progress(child, done=1):
+    """Read the child's stderr until it says `done` seedlings are finished."""
+    seen = []
+    for line in child.stderr:
+        seen.append(line)
+        m = re.fullmatch(r"progress (\d+)\n", line)
+        if m and int(m.group(1)) >= done:
+            return "".join(seen)
+    child.kill()
+    raise AssertionError("the trial ended before it was ready: " + "".join(seen))
+
+
+def test_trial_refuses_to_write_an_output_over_an_input(tmp_path, capsys):
+    scenario = variant(tmp_path, {}, "my.toml")
+    base = variant(tmp_path, {}, "base.toml")
+    child = tmp_path / "child.toml"
+    child.write_text('[scenario]\nbase = "base.toml"\n')
+    image = tmp_path / "img.eeprom"
+    image.write_bytes(b"not read: refused before")
+    (tmp_path / "link.json").symlink_to(scenario)
+    os.link(scenario, tmp_path / "hard.json")
+    before = {p: p.read_bytes() for p in (scenario, base, child, image)}
+    quick = ["--seedlings", "1", "--quiet"]
+    for argv, named in (
+        (["trial", str(scenario), *quick, "--json", str(scenario)], ("--json", "my.toml")),
+        (["trial", str(scenario), *quick, "--json", str(tmp_path / "link.json")], ("link.json",)),
+        (["trial", str(scenario), *quick, "--json", str(tmp_path / "hard.json")], ("hard.json",)),
+        (["trial", str(child), *quick, "--json", str(base)], ("--json", "base.toml")),
+        (["trial", "paper", *quick, "--eeprom", str(image), "--json", str(image)], ("img",)),
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "an output never replaces an input" in err, err
+        assert all(n in err for n in named), err
+    assert {p: p.read_bytes() for p in before} == before
+    assert main(["export", str(scenario), str(scenario)]) == 2  # .xml checked first
+    capsys.readouterr()
+    xml = tmp_path / "scene.xml"
+    xml.write_text(scenario.read_text())
+    assert main(["export", str(xml), str(xml)]) == 2
+    assert "an output never replaces an input" in capsys.readouterr().err
+
+
+def test_two_outputs_naming_one_file_are_refused(tmp_path, capsys):
+    rrd = tmp_path / "r.rrd"
+    (tmp_path / "r.json").symlink_to(rrd)
+    quick = ["trial", "paper", "--seedlings", "1", "--quiet"]
+    for json_path in (rrd, tmp_path / "r.json"):
+        assert main([*quick, "--json", str(json_path), "--record", str(rrd)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "--json" in err and "--record" in err
+        assert "name the same file" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]  # the link only
+
+
+def _signal_when(monkeypatch, where, name, signum=signal.SIGINT):
+    """Patch `where.name` to send this process `signum` and then do its work: a Ctrl-C at
+    exactly that point, driven by the code, not by a clock."""
+    original = getattr(where, name)
+
+    def interrupted(*args, **kwargs):
+        os.kill(os.getpid(), signum)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(where, name, interrupted)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("point", ["judge", "recording", "json"])
+def test_ctrl_c_after_the_last_seedling_loses_nothing(tmp_path, capsys, monkeypatch, point):
+    """Ctrl-C while the judge gives its last verdicts, the recording closes or the JSON is
+    written: the finished trial is printed and written whole, the recording at its own name,
+    no temporary file left; the exit status says it was interrupted."""
+    from transplanter import fileio
+    from transplanter.twin.judge import Judge
+    from transplanter.viewing.recording import TrialRecorder
+
+    where, name = {
+        "judge": (Judge, "finish"),
+        "recording": (TrialRecorder, "close"),
+        "json": (fileio, "write_json_atomic"),
+    }[point]
+    _signal_when(monkeypatch, where, name)
+    rrd, out = tmp_path / "r.rrd", tmp_path / "r.json"
+    args = ["trial", "paper", "--seedlings", "1", "--quiet", "--record", str(rrd)]
+    assert main([*args, "--json", str(out)]) == 130
+    captured = capsys.readouterr()
+    assert "success rate               100.0 % (1/1)" in captured.out
+    assert f"recording written to {rrd}" in captured.out
+    assert "the results are complete" in captured.err
+    result = json.loads(out.read_text())
+    assert result["successes"] == 1 and result["interrupted"] is False
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "r.rrd"]
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_trial_as_ctrl_c_does_with_exit_143(tmp_path):
+    rrd, out = tmp_path / "r.rrd", tmp_path / "r.json"
+    child = _cli_with_progress(
+        ["trial", "paper", "--quiet", "--record", str(rrd), "--json", str(out)]
+    )
+    _wait_for_progress(child, done=2)  # the first seedling judged (the second released)
+    child.send_signal(signal.SIGTERM)
+    stdout, stderr = child.communicate(timeout=120)
+    assert child.returncode == 143, stderr
+    assert "Traceback" not in stderr
+    done = int(re.search(r"interrupted after (\d+) seedlings", stderr).group(1))
+    assert 1 <= done < 40
+    result = json.loads(out.read_text())
+    assert result["interrupted"] is True
+    assert sum(s["outcome"] != "not_run" for s in result["per_seedling"]) == done
+    assert (tmp_path / "r.partial.rrd").stat().st_size > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "r.partial.rrd"]
+
+
+@pytest.mark.slow
+def test_ctrl_c_never_writes_the_partial_recording_through_a_planted_link(
+    tmp_path, capsys, monkeypatch
+):
+    """NAME.partial.rrd is a name the program derives: a link planted there is replaced by
+    the partial recording itself, its target left as it was."""
+    from transplanter.twin import report
+
+    victim = tmp_path / "victim.txt"
+    victim.write_text("someone else's file")
+    (tmp_path / "r.partial.rrd").symlink_to(victim)
+    (tmp_path / "gone.partial.rrd").symlink_to(tmp_path / "created.txt")
+
+    def bar(total, enabled):
+        def update(done, t):
+            if t > 2.0:
+                os.kill(os.getpid(), signal.SIGINT)
+
+        return None, update
+
+    monkeypatch.setattr(report, "progress_bar", bar)
+    for name in ("r", "gone"):
+        args = ["trial", "paper", "--quiet", "--record", str(tmp_path / f"{name}.rrd")]
+        assert main(args) == 130
+    capsys.readouterr()
+    assert victim.read_text() == "someone else's file"
+    assert not (tmp_path / "created.txt").exists()
+    for name in ("r", "gone"):
+        partial = tmp_path / f"{name}.partial.rrd"
+        assert not partial.is_symlink() and partial.stat().st_size > 0

@@ -9,7 +9,9 @@ import pytest
 from transplanter.fileio import (
     FileRefused,
     check_output,
+    commit,
     read_text_input,
+    same_file,
     temp_beside,
     write_json_atomic,
 )
@@ -98,3 +100,41 @@ def test_inputs_must_be_bounded_regular_files(tmp_path):
     text = tmp_path / "ok.toml"
     text.write_text("a = 1\n")
     assert read_text_input(text, 1000, "scenario") == "a = 1\n"
+
+
+def test_a_derived_name_never_follows_a_link(tmp_path):
+    """Names the program makes up (NAME.partial.rrd, a sweep's files, assets/*.stl): a link
+    planted there is replaced itself, never written through; check_output refuses it."""
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    link = tmp_path / "runs.csv"
+    link.symlink_to(victim)
+    with pytest.raises(FileRefused, match="runs.csv is a symbolic link"):
+        check_output(link, derived=True)
+    write_json_atomic(link, {"d": 4}, follow=False)
+    assert not link.is_symlink() and json.loads(link.read_text()) == {"d": 4}
+    assert victim.read_text() == "keep me"
+    dangling = tmp_path / "x.partial.rrd"
+    dangling.symlink_to(tmp_path / "created.txt")
+    tmp = temp_beside(dangling)
+    tmp.write_text("partial")
+    commit(tmp, dangling, follow=False)
+    assert not dangling.is_symlink() and dangling.read_text() == "partial"
+    assert not (tmp_path / "created.txt").exists()
+    assert dangling.stat().st_mode & 0o777 == 0o666 & ~_umask()
+
+
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def test_same_file_sees_through_links_and_hard_links(tmp_path):
+    a = tmp_path / "a.toml"
+    a.write_text("x")
+    (tmp_path / "link").symlink_to(a)
+    os.link(a, tmp_path / "hard")
+    assert same_file(a, tmp_path / "link") and same_file(a, tmp_path / "hard")
+    assert same_file(tmp_path / "new.json", tmp_path / "sub" / ".." / "new.json")
+    assert not same_file(a, tmp_path / "b.toml")

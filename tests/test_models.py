@@ -278,6 +278,36 @@ def test_exported_scene_is_the_scene_a_trial_builds(tmp_path):
     )  # the robot's and the workcell's meshes
 
 
+def test_export_never_writes_a_mesh_through_a_planted_link(tmp_path, capsys):
+    """assets/NAME.stl are names export derives: a link planted there is replaced by the mesh
+    itself (its target untouched, a dangling one's target not created); an assets/ that is
+    a link is refused."""
+    from transplanter.cli import main
+
+    assert main(["export", "paper", str(tmp_path / "a" / "scene.xml")]) == 2  # no a/ yet
+    (tmp_path / "a").mkdir()
+    assert main(["export", "paper", str(tmp_path / "a" / "scene.xml")]) == 0
+    first, second = sorted((tmp_path / "a" / "assets").iterdir())[:2]
+    victim = tmp_path / "victim.txt"
+    victim.write_text("someone else's file")
+    (tmp_path / "b" / "assets").mkdir(parents=True)
+    (tmp_path / "b" / "assets" / first.name).symlink_to(victim)
+    (tmp_path / "b" / "assets" / second.name).symlink_to(tmp_path / "created.txt")
+    assert main(["export", "paper", str(tmp_path / "b" / "scene.xml")]) == 0
+    assert victim.read_text() == "someone else's file"
+    assert not (tmp_path / "created.txt").exists()
+    for mesh in (first, second):
+        written = tmp_path / "b" / "assets" / mesh.name
+        assert not written.is_symlink() and written.read_bytes() == mesh.read_bytes()
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["assets", "scene.xml"]
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "assets").symlink_to(tmp_path / "b" / "assets", target_is_directory=True)
+    capsys.readouterr()
+    assert main(["export", "paper", str(tmp_path / "c" / "scene.xml")]) == 2
+    assert "assets is a symbolic link" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["assets"]
+
+
 def test_named_cameras_look_at_what_they_are_named_for():
     model = files_model()
     data = mujoco.MjData(model)

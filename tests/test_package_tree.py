@@ -84,7 +84,7 @@ def test_the_top_level_holds_packages_and_a_handful_of_modules():
     packages = {p.name for p in top.iterdir() if (p / "__init__.py").is_file()}
     modules = {p.stem for p in top.glob("*.py")} - {"__init__"}
     assert PACKAGES <= packages
-    assert modules <= {"errors", "units", "fileio"}
+    assert modules <= {"errors", "units", "fileio", "interrupts"}
 
 
 def test_the_public_api_is_declared():

@@ -87,6 +87,28 @@ def test_tune_writes_the_front_and_a_tuned_scenario_that_runs(tmp_path, capsys):
     assert main(["trial", str(out / "tuned.toml"), "--seedlings", "2", "--quiet"]) == 0
 
 
+def test_tune_refuses_an_out_it_cannot_write_before_any_trial(tmp_path, capsys, monkeypatch):
+    from transplanter.studies import tune
+
+    def never(*args, **kwargs):  # pragma: no cover - a refusal runs nothing
+        raise AssertionError("a trial ran")
+
+    monkeypatch.setattr(tune, "drive_study", never)
+    out, db = tmp_path / "out", tmp_path / "t.db"
+    args = ["tune", "paper", "--param", "taught.z_low_mm=28..40", "--trials", "1", "--seeds",
+            "1", "--seedlings", "1", "--storage", str(db), "--out", str(out)]  # fmt: skip
+    for name in ("trials.csv", "tuned.toml", "pareto.png"):
+        (out / name).mkdir(parents=True)
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert "tune refused" in err and name in err and "is a directory" in err
+        (out / name).rmdir()
+    (out / "pareto.csv").symlink_to(tmp_path / "elsewhere.csv")  # a name tune derives
+    assert main(args) == 2
+    assert "pareto.csv is a symbolic link" in capsys.readouterr().err
+    assert not db.exists()
+
+
 def test_a_storage_that_cannot_hold_a_study_is_refused_in_one_line(tmp_path, capsys):
     """A text file, or a path under a regular file, ended in SQLAlchemy tracebacks."""
     text = tmp_path / "notes.txt"

@@ -7,6 +7,13 @@ really be written: a symlink's target). `temp_beside(target)` creates the tempor
 exclusively (`tempfile.mkstemp`: unpredictable name, O_EXCL) in the target's directory and
 `commit(tmp, target)` moves it into place, keeping an existing file's mode. A failure leaves
 the old file as it was and no temporary file behind.
+
+Links: a name the user gave (`--json r.json`) that is a symlink is written through to its
+target (the user's choice). A name the program derives (`NAME.partial.rrd`, a sweep's
+`runs.csv`, `assets/*.stl`) never is: `check_output(path, derived=True)` refuses a link
+there, and `commit(..., follow=False)` replaces a link planted later by the file itself.
+`same_file(a, b)` says whether two paths are one file (links resolved, hard links by inode),
+so that no output replaces an input or another output.
 """
 
 from __future__ import annotations
@@ -26,6 +33,7 @@ __all__ = [
     "commit",
     "discard",
     "read_text_input",
+    "same_file",
     "temp_beside",
     "write_json_atomic",
 ]
@@ -76,12 +84,31 @@ def read_text_input(path: str | os.PathLike, max_bytes: int, what: str) -> str:
         raise FileRefused(f"{path}: not a text file (UTF-8 expected for a {what}).") from None
 
 
-def check_output(path: str | os.PathLike, suffix: str | None = None) -> Path:
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Whether paths a and b name one file: the same path once links and '..' are resolved,
+    or (both existing) the same inode, as a hard link is."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet)
+        return False
+
+
+def check_output(
+    path: str | os.PathLike, suffix: str | None = None, *, derived: bool = False
+) -> Path:
     """The file that writing `path` will replace (a symlink's target), after proving that it
-    can be written there; FileRefused with the reason otherwise. Call it before any work."""
+    can be written there; FileRefused with the reason otherwise. Call it before any work.
+    `derived`: a name the program made up, where a symlink is refused, never followed."""
     path = Path(path)
     if suffix is not None and path.suffix != suffix:
         raise FileRefused(f"{path} must end in {suffix}")
+    if derived and path.is_symlink():
+        raise FileRefused(
+            f"{path} is a symbolic link; the program writes this name itself and never "
+            "through a link: remove the link"
+        )
     target = Path(os.path.realpath(path)) if path.is_symlink() else path
     try:
         st = target.stat()
@@ -113,13 +140,21 @@ def discard(tmp: Path) -> None:
     Path(tmp).unlink(missing_ok=True)
 
 
-def commit(tmp: Path, target: Path) -> None:
+def commit(tmp: Path, target: Path, *, follow: bool = True) -> None:
     """Move a finished temporary file onto target: synced, with the mode target had (a new
-    file: readable by others as the umask allows), atomically replacing it."""
-    target = Path(os.path.realpath(target)) if Path(target).is_symlink() else Path(target)
+    file: readable by others as the umask allows), atomically replacing it. A symlink at
+    target is written through to its target (`follow`, a name the user gave) or replaced
+    itself (`follow=False`, a name the program derived)."""
+    target = Path(target)
+    if follow and target.is_symlink():
+        target = Path(os.path.realpath(target))
     try:
-        mode = stat.S_IMODE(target.stat().st_mode)
+        st = target.stat() if follow else target.lstat()
     except FileNotFoundError:
+        st = None
+    if st is not None and stat.S_ISREG(st.st_mode):
+        mode = stat.S_IMODE(st.st_mode)
+    else:
         umask = os.umask(0)
         os.umask(umask)
         mode = 0o666 & ~umask  # mkstemp makes files private; results are for sharing
@@ -133,19 +168,23 @@ def commit(tmp: Path, target: Path) -> None:
         raise
 
 
-def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+def write_text_atomic(path: str | os.PathLike, text: str, *, follow: bool = True) -> None:
     """Write text so that the file is either the old one or the complete new one (through a
-    symlink: its target, with the temporary file beside the target)."""
-    target = Path(os.path.realpath(path)) if Path(path).is_symlink() else Path(path)
+    symlink: its target, with the temporary file beside the target; with `follow=False`
+    the link itself is replaced)."""
+    path = Path(path)
+    target = Path(os.path.realpath(path)) if follow and path.is_symlink() else path
     tmp = temp_beside(target)
     try:
         tmp.write_text(text, encoding="utf-8")
     except BaseException:
         discard(tmp)
         raise
-    commit(tmp, target)
+    commit(tmp, target, follow=follow)
 
 
-def write_json_atomic(path: str | os.PathLike, payload: dict[str, Any]) -> None:
+def write_json_atomic(
+    path: str | os.PathLike, payload: dict[str, Any], *, follow: bool = True
+) -> None:
     """Write JSON so that the file is either the old one or the complete new one."""
-    write_text_atomic(path, json.dumps(payload, indent=2, sort_keys=True) + "\n")
+    write_text_atomic(path, json.dumps(payload, indent=2, sort_keys=True) + "\n", follow=follow)

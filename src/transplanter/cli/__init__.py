@@ -19,11 +19,12 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 import transplanter
 from transplanter.cli import hmi, kinematics, replay, scenarios, serial_link, studies, trials
-from transplanter.cli.common import EXIT_INTERRUPTED, _err
+from transplanter.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, _err
 
 # The command groups in the order `transplanter --help` lists their commands.
 COMMAND_GROUPS = (kinematics, trials, hmi, studies, serial_link, replay, scenarios)
@@ -52,11 +53,21 @@ def main(argv: list[str] | None = None) -> int:
         from transplanter.viewing.video import prepare_gl
 
         prepare_gl()  # MuJoCo reads MUJOCO_GL when it is first imported
-    try:
-        return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        _err("interrupted")
-        return EXIT_INTERRUPTED
+    from transplanter import interrupts
+
+    with interrupts.handling():  # SIGTERM stops a command as Ctrl-C does
+        try:
+            status = int(args.func(args) or 0)
+        except KeyboardInterrupt:
+            _err("interrupted")
+            status = EXIT_INTERRUPTED
+        if interrupts.take_pending() is not None and status == 0:
+            # held while the work finished and was written: nothing was cut
+            _err("interrupted when the work had finished: the results are complete and written")
+            status = EXIT_INTERRUPTED
+        if status == EXIT_INTERRUPTED and interrupts.received() == signal.SIGTERM:
+            status = EXIT_TERMINATED
+    return status
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ DEFAULT_SCENARIO = "paper"  # the packaged paper scenario
 EXIT_OK, EXIT_REFUSED, EXIT_INVALID_PHYSICS, EXIT_FIRMWARE_FAULT = 0, 2, 3, 4
 EXIT_OUTPUT_FAILED = 5  # a result file or the recording could not be written
 EXIT_INTERRUPTED = 130  # Ctrl-C, as shells report SIGINT
+EXIT_TERMINATED = 143  # SIGTERM (a scheduler, `timeout`, a container stop), as shells report it
 
 
 _FLOAT_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:inf|nan)", re.I)
@@ -144,7 +145,8 @@ def _single_trial_config(args: argparse.Namespace):
 
 def _output_targets(args: argparse.Namespace) -> dict[str, Path | None] | None:
     """The checked --json and --record paths (None where not given), or None after saying
-    why one is refused (trial and serve)."""
+    why one is refused (trial and serve): a path that cannot be written, or one that names
+    an input or the other output (_clash)."""
     from transplanter import fileio
 
     targets: dict[str, Path | None] = {"--json": None, "--record": None}
@@ -155,7 +157,51 @@ def _output_targets(args: argparse.Namespace) -> dict[str, Path | None] | None:
             except fileio.FileRefused as exc:
                 _err(f"{option}: {exc}")
                 return None
+    outputs = [(o, getattr(args, o[2:])) for o in targets if targets[o] is not None]
+    clash = _clash(outputs, _inputs(args))
+    if clash is not None:
+        _err(clash)
+        return None
     return targets
+
+
+def _inputs(args: argparse.Namespace) -> list[tuple[str, Path]]:
+    """The files a command reads, named for a message: the scenario and its base chain,
+    and --eeprom and --keys-file where given."""
+    from transplanter.scenario.schema import scenario_files
+
+    found: list[tuple[str, Path]] = []
+    scenario = getattr(args, "scenario", None)
+    if scenario is not None:
+        found += [("the scenario file", path) for path in scenario_files(scenario)]
+    for option, what in (("eeprom", "the --eeprom image"), ("keys_file", "the --keys-file")):
+        path = getattr(args, option, None)
+        if path is not None:
+            found.append((what, Path(path)))
+    return found
+
+
+def _clash(
+    outputs: Sequence[tuple[str, Path]], inputs: Sequence[tuple[str, Path]] = ()
+) -> str | None:
+    """The one line that refuses an output naming an input (the scenario, --eeprom; through
+    a link or a hard link too) or the same file as another output; None when all differ."""
+    from transplanter import fileio
+
+    for i, (option, path) in enumerate(outputs):
+        for what, source in inputs:
+            if fileio.same_file(path, source):
+                return (
+                    f"{option} {_show(path)} is {what} {_show(source)}: an output never "
+                    "replaces an input; give the output another name"
+                )
+        for other, other_path in outputs[i + 1 :]:
+            if fileio.same_file(path, other_path):
+                return (
+                    f"{option} {_show(path)} and {other} {_show(other_path)} name the same "
+                    "file: give each output its own name"
+                )
+    return None
 
 
 def _progress(args: argparse.Namespace) -> bool:
@@ -165,7 +211,8 @@ def _progress(args: argparse.Namespace) -> bool:
 
 def _run(config, progress: bool = False, **kwargs: Any):
     """run_trial(config, **kwargs) with a progress bar when `progress`: (result, interrupted),
-    an interrupted trial's result being the part that ran."""
+    an interrupted trial's result being the part that ran (a stop signal that came once the
+    trial had finished is left pending: the result is whole, `interrupted` False)."""
     from transplanter.twin.report import progress_bar
     from transplanter.twin.trial import TrialInterrupted, run_trial
 
@@ -173,7 +220,7 @@ def _run(config, progress: bool = False, **kwargs: Any):
     try:
         return run_trial(config, progress=update, **kwargs), False
     except TrialInterrupted as stop:
-        return stop.result, True
+        return stop.result, stop.result.interrupted
     finally:
         if bar is not None:
             bar.close()
@@ -199,7 +246,28 @@ def _finish(
     print the summary, write `payload` to --json, report a --record error of any result and
     the command's other `outputs` in order, then the exit status: 130 interrupted (after
     `note` on stderr, where given), 5 an output could not be written, 3 a trial not valid,
-    4 a firmware fault, else 0."""
+    4 a firmware fault, else 0. A stop signal while the results are written is held until
+    they are (interrupts.held): the command line's exit status then says it came."""
+    from transplanter import interrupts
+
+    with interrupts.held():
+        return _finish_held(
+            args, results, summary, payload, json_target, interrupted=interrupted, note=note,
+            outputs=outputs,
+        )  # fmt: skip
+
+
+def _finish_held(
+    args: argparse.Namespace,
+    results: Sequence[Any],
+    summary: str | None,
+    payload: Any,
+    json_target: Path | None,
+    *,
+    interrupted: bool,
+    note: str | None,
+    outputs: Sequence[Output],
+) -> int:
     from transplanter import fileio
 
     if summary is not None:

@@ -6,7 +6,16 @@ import argparse
 import sys
 from pathlib import Path
 
-from transplanter.cli.common import EXIT_OK, EXIT_REFUSED, _err, _machine, _show, add_options
+from transplanter.cli.common import (
+    EXIT_OK,
+    EXIT_REFUSED,
+    _clash,
+    _err,
+    _inputs,
+    _machine,
+    _show,
+    add_options,
+)
 
 
 def register(sub) -> None:
@@ -66,6 +75,12 @@ def cmd_hmi(args: argparse.Namespace) -> int:
         target = fileio.check_output(args.out, ".eeprom")
     except fileio.FileRefused as exc:
         _err(f"--out: {exc}")
+        return EXIT_REFUSED
+    # (--from IMAGE --out IMAGE edits the image in place: it is read whole before, replaced
+    # atomically after)
+    clash = _clash([("--out", args.out)], _inputs(args))
+    if clash is not None:
+        _err(clash)
         return EXIT_REFUSED
     try:
         if args.keys is not None:

@@ -34,7 +34,7 @@ def _serve_parser(sub) -> None:
         epilog="one host session: it ends when the host closes the pty (or, with --until-done, "
         "when the taught program is done); exit status 0 done, 2 refused, 3 physics not "
         "valid, 4 the machine stopped on a fault (a stall, a homing failure), 5 a result "
-        "file could not be written, 130 interrupted",
+        "file could not be written, 130 interrupted (Ctrl-C), 143 SIGTERM (as Ctrl-C)",
     )
     add_options(p, "scenario", "--set", "--seedlings", "--seed")
     p.add_argument("--port", default=None, help="a serial port (pyserial) instead of a new pty")

@@ -82,8 +82,10 @@ def _sweep_parser(sub) -> None:
         "same command resumes (finished runs are skipped); a different sweep into the same "
         "directory is refused.",
         epilog="exit status: 0 done (runs that failed are rows with their error), 2 refused "
-        "before any run, 5 a result file could not be written, 130 interrupted (Ctrl-C: "
-        "finished runs are kept; rerun to finish)",
+        "before any run (another sweep writing --out included: nothing is touched), 5 a "
+        "result file could not be written, 130 interrupted (Ctrl-C: finished runs are kept, "
+        "runs.csv and settings.csv hold them; rerun to finish), 143 the same for SIGTERM "
+        "(the pool's workers are stopped)",
     )
     _add(p, "scenario")
     p.add_argument(
@@ -210,8 +212,9 @@ def _tune_parser(sub) -> None:
         "trials.csv, pareto.csv, pareto.png and tuned.toml (the point with the highest lower "
         "bound, ties: the shortest cycle; `transplanter trial OUT/tuned.toml` runs it). Needs "
         "pip install 'transplanter[tune]'.",
-        epilog="exit status: 0 done, 2 refused before any trial, 5 a result file could not be "
-        "written, 130 interrupted (finished trials stay in the study)",
+        epilog="exit status: 0 done, 2 refused before any trial (--out's files are checked "
+        "first), 5 a result file could not be written, 130 interrupted (finished trials stay "
+        "in the study), 143 the same for SIGTERM",
     )
     _add(p, "scenario")
     p.add_argument(
@@ -291,8 +294,9 @@ def _calibrate_parser(sub) -> None:
         "evaluated values whose twin rate lies inside the observation's Wilson 95 % interval. "
         "Writes calibration.csv, calibration.json and calibrated.toml (base = the scenario, "
         "only the fitted and --set keys) into --out. Needs pip install 'transplanter[tune]'.",
-        epilog="exit status: 0 done, 2 refused before any trial, 5 a result file could not be "
-        "written, 130 interrupted (the files hold the trials that finished)",
+        epilog="exit status: 0 done, 2 refused before any trial (--out's files are checked "
+        "first), 5 a result file could not be written, 130 interrupted (the files hold the "
+        "trials that finished), 143 the same for SIGTERM",
     )
     _add(p, "scenario")
     p.add_argument(

@@ -6,15 +6,19 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 from pathlib import Path
 from typing import Any
 
 from transplanter.cli.common import (
     EXIT_OK,
+    EXIT_OUTPUT_FAILED,
     EXIT_REFUSED,
     Output,
+    _clash,
     _err,
     _finish,
+    _inputs,
     _output_targets,
     _progress,
     _run,
@@ -42,7 +46,10 @@ def _trial_parser(sub) -> None:
         epilog="exit status: 0 done, 2 scenario or output path refused, 3 the trial is not valid "
         "(a MuJoCo warning or divergence, or the program did not finish in its simulated "
         "time: 60 s + 30 s per seedling), 4 the firmware faulted (a line was refused), 5 a "
-        "result file or the recording could not be written, 130 interrupted (Ctrl-C)",
+        "result file or the recording could not be written, 130 interrupted (Ctrl-C), 143 "
+        "stopped by SIGTERM (as Ctrl-C: the JSON says interrupted, a partial recording goes "
+        "to NAME.partial.rrd); a Ctrl-C or SIGTERM once the trial has finished waits until "
+        "its results are written, then exits 130/143 with them complete",
     )
     add_options(p, "scenario", "--set", "--seedlings", "--seed", "--seeds")
     add_options(p, "--json", "--record", "--record-rate", "--quiet")
@@ -144,6 +151,29 @@ def cmd_trial(args: argparse.Namespace) -> int:
         args, [result], summary, payload, targets["--json"], interrupted=interrupted,
         note=f"interrupted after {result.judged} seedlings", outputs=outputs,
     )  # fmt: skip
+
+
+def _move_exported(staging: Path, target: Path) -> None:
+    """Move an exported scene from `staging` to `target` and its mesh folders beside it:
+    FileRefused (nothing moved) if a mesh folder there is a link or not a folder; each mesh
+    replaces what is at its name, a planted link included, never writing through it."""
+    from transplanter import fileio
+
+    folders = sorted(p for p in staging.iterdir() if p.is_dir())
+    for folder in folders:
+        there = target.parent / folder.name
+        if there.is_symlink() or (there.exists() and not there.is_dir()):
+            kind = "a symbolic link" if there.is_symlink() else "not a directory"
+            raise fileio.FileRefused(
+                f"{there} is {kind}; export writes its meshes into {folder.name}/ itself: "
+                "remove it or export elsewhere"
+            )
+    for folder in folders:
+        there = target.parent / folder.name
+        there.mkdir(exist_ok=True)
+        for mesh in sorted(folder.iterdir()):
+            os.replace(mesh, there / mesh.name)
+    fileio.commit(staging / target.name, target)
 
 
 def _recording_written(where: Path, interrupted: bool) -> Output:
@@ -287,7 +317,7 @@ def _render_parser(sub) -> None:
         "pip install 'transplanter[video]'.",
         epilog="exit status: 0 done, 2 refused (options, scenario, output path, no video "
         "extra, no OpenGL context), 3 invalid physics, 4 firmware fault, 5 the video could "
-        "not be written, 130 interrupted (no video is written)",
+        "not be written, 130 interrupted (no video is written), 143 SIGTERM (as Ctrl-C)",
     )
     add_options(p, "scenario")
     p.add_argument("--out", type=Path, required=True, help="the .mp4 file to write")
@@ -325,6 +355,11 @@ def cmd_render(args: argparse.Namespace) -> int:
         json_target = None if args.json is None else fileio.check_output(args.json)
     except (video.VideoUnavailable, video.RenderRefused, fileio.FileRefused) as exc:
         _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    outputs = [("--out", args.out)] + ([] if args.json is None else [("--json", args.json)])
+    clash = _clash(outputs, _inputs(args))
+    if clash is not None:
+        _err(f"render refused: {clash}")
         return EXIT_REFUSED
     try:
         config = _single_trial_config(args)
@@ -375,7 +410,7 @@ def _view_parser(sub) -> None:
         "the trial. Dragging bodies in the viewer pushes them: the results then differ "
         "from `transplanter trial`.",
         epilog="exit status: 0 done or window closed, 2 refused (no display, scenario), 3 "
-        "invalid physics, 4 firmware fault, 130 interrupted (Ctrl-C)",
+        "invalid physics, 4 firmware fault, 130 interrupted (Ctrl-C), 143 SIGTERM",
     )
     add_options(p, "scenario")
     p.add_argument("--speed", type=ascii_float, default=1.0, help="simulated s per wall s (1.0)")
@@ -429,17 +464,38 @@ def _export_parser(sub) -> None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
+    import shutil
+    import tempfile
+
     from transplanter import fileio
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.scene import export_scene
 
     try:
+        path = fileio.check_output(args.out, ".xml")  # the user's name: a link is followed
+        clash = _clash([("OUT", args.out)], _inputs(args))
+        if clash is not None:
+            raise fileio.FileRefused(clash)
         config = assemble(load_scenario(args.scenario, _trial_overrides(args)), preflight=False)
-        path = export_scene(config.scene, config.seed, args.out)
     except (ScenarioError, fileio.FileRefused) as exc:
         _err(f"export refused: {exc}")
         return EXIT_REFUSED
+    # The scene is written into a fresh directory beside the target and moved into place, so
+    # that no mesh is ever written through a link planted at assets/NAME.stl (a name the
+    # program derives): os.replace puts the file in the link's place.
+    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    try:
+        export_scene(config.scene, config.seed, staging / path.name)
+        _move_exported(staging, path)
+    except (ScenarioError, fileio.FileRefused) as exc:
+        _err(f"export refused: {exc}")
+        return EXIT_REFUSED
+    except OSError as exc:
+        _err(f"export: the scene could not be written to {_show(path.parent)}: {exc}")
+        return EXIT_OUTPUT_FAILED
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     print(f"scene of {_show(config.name)} (seed {config.seed}) written to {_show(path)}")
     print(f"view it with: python -m mujoco.viewer --mjcf {_show(path)}")
     return EXIT_OK

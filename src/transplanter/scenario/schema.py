@@ -35,6 +35,7 @@ __all__ = [
     "parse_value",
     "resolve_scenario_path",
     "packaged_scenarios",
+    "scenario_files",
     "SCHEMA",
     "SECTIONS",
 ]
@@ -929,6 +930,25 @@ def resolve_scenario_path(name: str | Path) -> Path:
         f"{name}: no such scenario file, and no packaged scenario of that name "
         f"(packaged: {', '.join(packaged_scenarios())})."
     )
+
+
+def scenario_files(name: str | Path) -> list[Path]:
+    """The files a scenario is read from: its own and its `base` chain's, in that order (the
+    files no command may write over). Stops quietly where the chain cannot be followed:
+    load_scenario says why."""
+    files: list[Path] = []
+    try:
+        path = resolve_scenario_path(name)
+        while path.resolve() not in files:
+            files.append(path.resolve())
+            text = fileio.read_text_input(path, MAX_SCENARIO_BYTES, "scenario")
+            base = tomllib.loads(text).get("scenario", {}).get("base")
+            if base is None:
+                break
+            path = _base_path(path.resolve(), base)
+    except (ScenarioError, fileio.FileRefused, tomllib.TOMLDecodeError, AttributeError):
+        pass
+    return files
 
 
 def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:

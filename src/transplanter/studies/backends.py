@@ -118,9 +118,11 @@ class InlineBackend:
         pass
 
 
-def _ignore_sigint() -> None:
-    # Ctrl-C goes to the whole process group: the parent decides, workers are terminated.
+def _ignore_stop_signals() -> None:
+    # Ctrl-C goes to the whole process group, and so may SIGTERM (`timeout`, a scheduler):
+    # the parent decides, and stops the workers itself (terminate: SIGKILL).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 MAX_WORKERS_PER_CPU = 4
@@ -141,7 +143,7 @@ class ProcessBackend:
         self.pool = ProcessPoolExecutor(
             max_workers=workers,
             mp_context=multiprocessing.get_context("spawn"),
-            initializer=_ignore_sigint,
+            initializer=_ignore_stop_signals,
         )
 
     def run(self, tasks: Iterable[Mapping[str, Any]]) -> Iterator[dict[str, Any]]:
@@ -176,11 +178,12 @@ class ProcessBackend:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
     def terminate(self) -> None:
-        """Stop at once (Ctrl-C): running trials are lost, finished rows are kept."""
+        """Stop at once (Ctrl-C, SIGTERM): running trials are lost, finished rows are kept.
+        The workers ignore both signals, so they are killed (none is left orphaned)."""
         processes = list(getattr(self.pool, "_processes", {}).values())
         self.pool.shutdown(wait=False, cancel_futures=True)
         for p in processes:
-            p.terminate()
+            p.kill()
         for p in processes:
             p.join(5)
 

@@ -38,9 +38,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from transplanter import fileio
+from transplanter import fileio, interrupts
 from transplanter.scenario.schema import ScenarioError, load_scenario
-from transplanter.studies.sweep import SweepRefused, check_backend, format_value, write_csv_atomic
+from transplanter.studies.sweep import (
+    SweepRefused,
+    check_backend,
+    check_out_files,
+    format_value,
+    write_csv_atomic,
+)
 from transplanter.studies.tune import (
     MAX_TRIALS,
     TuneSpec,
@@ -376,6 +382,7 @@ def run_calibrate(
     if storage is not None and Path(storage).exists() and not Path(storage).is_file():
         raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
     out.mkdir(parents=True, exist_ok=True)
+    check_out_files(out, (CSV_NAME, JSON_NAME, TOML_NAME), search.scenario)  # before any trial
     study, url = open_study(
         optuna, storage, study_name, ["minimize"], "calibrate", spec.identity(digest)
     )
@@ -410,7 +417,13 @@ def run_calibrate(
         describe=describe,
     )
     command = command_text(spec, trials, out, storage, study_name)
-    return _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted, command)
+    with interrupts.held():  # a stop signal now waits until the files are written
+        report = _write_outputs(
+            spec, study, out, url, study_name, finished, ran, interrupted, command
+        )
+    if interrupts.take_pending() is not None:
+        report.interrupted = True
+    return report
 
 
 def _on_grid(key: str, value: Any) -> Any:
@@ -500,11 +513,13 @@ def _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted
         "consistent_ranges": ranges,
         "command": command,
     }
-    fileio.write_json_atomic(out / JSON_NAME, payload)
+    fileio.write_json_atomic(out / JSON_NAME, payload, follow=False)
     report.files.append(out / JSON_NAME)
     if best is not None:
         path = out / TOML_NAME
-        fileio.write_text_atomic(path, calibrated_toml(spec, best, ranges, command, out))
+        fileio.write_text_atomic(
+            path, calibrated_toml(spec, best, ranges, command, out), follow=False
+        )
         try:
             load_scenario(path)
         except ScenarioError as exc:  # pragma: no cover - a bug here, never the user's input

@@ -45,7 +45,7 @@ def _save(fig, path: Path) -> Path:
         raise
     finally:
         _pyplot().close(fig)
-    fileio.commit(tmp, path)
+    fileio.commit(tmp, path, follow=False)  # plots are named by the program: never via a link
     return path
 
 

@@ -14,13 +14,20 @@ Files in the output directory:
   already in `runs.jsonl` are skipped (resume).
 - `runs.jsonl`: one JSON line per finished run, appended, flushed and fsynced as it finishes.
   A torn last line (killed mid-write) is dropped and that run is run again.
-- `runs.csv`, `settings.csv`: rewritten atomically from the rows at the end and on Ctrl-C;
-  `settings.csv` pools each setting's seeds with `stats.pooled_rate`.
+- `runs.csv`, `settings.csv`: rewritten atomically from the rows at the end and on Ctrl-C
+  (or SIGTERM); `settings.csv` pools each setting's seeds with `stats.pooled_rate`.
+
+One sweep at a time per directory: the directory itself is locked (`DirLock`) before any of
+its files is read or written; a second sweep is refused and touches nothing. These names
+are the program's own: a symbolic link at any of them is refused before anything runs, and
+no file is ever opened or replaced through a link (O_NOFOLLOW; atomic writes replace the
+name itself).
 """
 
 from __future__ import annotations
 
 import csv
+import errno
 import itertools
 import json
 import math
@@ -30,7 +37,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from transplanter import fileio
+from transplanter import fileio, interrupts
 from transplanter.studies.backends import (
     BACKENDS,
     RESULT_FIELDS,
@@ -73,6 +80,8 @@ __all__ = [
     "run_key",
     "run_one",
     "run_sweep",
+    "DirLock",
+    "check_out_files",
     "write_csv_atomic",
 ]
 
@@ -81,13 +90,31 @@ MANIFEST = "sweep.json"
 
 
 # Columns of settings.csv after the varied keys.
+def _open_own(path: Path, flags: int) -> int:
+    """A file descriptor of one of the sweep's own files, never through a symlink."""
+    try:
+        return os.open(path, flags | os.O_NOFOLLOW, 0o666)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise SweepRefused(_link_refused(path)) from None
+        raise
+
+
+def _link_refused(path: Path) -> str:
+    return (
+        f"{path} is a symbolic link; a sweep writes its own files and never through a link: "
+        "remove the link or use another --out"
+    )
+
+
 def read_runs(path: Path) -> list[dict[str, Any]]:
     """The rows of a runs.jsonl. A torn last line (killed mid-write: no newline, or not
     JSON) is cut off the file so that new rows append cleanly and its run is run again; a
     damaged line before the last is refused."""
-    if not path.exists():
+    if not os.path.lexists(path):
         return []
-    data = path.read_bytes()
+    with os.fdopen(_open_own(path, os.O_RDONLY), "rb") as f:
+        data = f.read()
     rows: list[dict[str, Any]] = []
     pos = 0
     while pos < len(data):
@@ -110,26 +137,40 @@ def read_runs(path: Path) -> list[dict[str, Any]]:
             rows.append(row)
         pos = nl + 1
     if pos < len(data):
-        with open(path, "r+b") as f:
+        with os.fdopen(_open_own(path, os.O_RDWR), "r+b") as f:
             f.truncate(pos)
             os.fsync(f.fileno())
     return rows
 
 
-class RunLog:
-    """runs.jsonl opened for appending, locked against a second sweep writing it."""
+class DirLock:
+    """A sweep's hold on its output directory (flock on the directory itself: no file is
+    made for it); SweepRefused if another sweep holds it. Released by `release`, or when
+    the process ends however it ends."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, out: Path) -> None:
         import fcntl
 
-        self.f = open(path, "a", encoding="utf-8")
+        self.fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
         try:
-            fcntl.flock(self.f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            self.f.close()
+            os.close(self.fd)
             raise SweepRefused(
-                f"{path} is being written by another sweep; wait for it or use another --out"
+                f"another sweep is writing {out}; wait for it to end or use another --out "
+                "(nothing was written)"
             ) from None
+
+    def release(self) -> None:
+        os.close(self.fd)  # closing the descriptor releases the lock
+
+
+class RunLog:
+    """runs.jsonl opened for appending (never through a link; the directory is locked)."""
+
+    def __init__(self, path: Path) -> None:
+        fd = _open_own(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT)
+        self.f = os.fdopen(fd, "a", encoding="utf-8")
 
     def append(self, row: Mapping[str, Any]) -> None:
         self.f.write(json.dumps(row) + "\n")
@@ -145,6 +186,8 @@ def _cell(value: Any) -> Any:
 
 
 def write_csv_atomic(path: Path, fields: Sequence[str], rows: Iterable[Mapping[str, Any]]) -> None:
+    """A CSV table replacing `path` atomically; its names are the program's own (runs.csv,
+    trials.csv ...): a link at `path` is replaced itself, never written through."""
     tmp = fileio.temp_beside(path)
     try:
         with open(tmp, "w", encoding="utf-8", newline="") as f:
@@ -155,7 +198,28 @@ def write_csv_atomic(path: Path, fields: Sequence[str], rows: Iterable[Mapping[s
     except BaseException:
         fileio.discard(tmp)
         raise
-    fileio.commit(tmp, path)
+    fileio.commit(tmp, path, follow=False)
+
+
+def check_out_files(out: Path, names: Iterable[str], scenario: str | os.PathLike) -> None:
+    """SweepRefused (before any trial runs) if one of a study's own files in `out` cannot be
+    written there (a directory, a symbolic link, no permission) or is one of the files the
+    scenario is read from."""
+    from transplanter.scenario.schema import scenario_files
+
+    inputs = scenario_files(scenario)
+    for name in names:
+        path = out / name
+        try:
+            fileio.check_output(path, derived=True)
+        except fileio.FileRefused as exc:
+            raise SweepRefused(str(exc)) from None
+        for source in inputs:
+            if fileio.same_file(path, source):
+                raise SweepRefused(
+                    f"{path} is the scenario file {source}: an output never replaces an "
+                    "input; use another --out"
+                )
 
 
 def check_manifest(out: Path, manifest: Mapping[str, Any]) -> bool:
@@ -268,14 +332,27 @@ def run_sweep(
     on_row: Callable[[dict[str, Any]], None] | None = None,
 ) -> SweepReport:
     """Run every (setting, seed) of the grid not yet in `out`, writing each row as it
-    finishes; then the CSVs and the plots. Ctrl-C: the finished rows stay, the CSVs are
-    rewritten and the report says `interrupted`."""
+    finishes; then the CSVs and the plots. Ctrl-C (or SIGTERM): the finished rows stay, the
+    CSVs are rewritten and the report says `interrupted`. `out` is locked first: a second
+    sweep into it is refused (SweepRefused) before it reads or writes anything there."""
     out = Path(out)
     manifest = spec.manifest()  # ScenarioError here: nothing runs
-    resumed = check_manifest(out, manifest)
+    if out.exists() and not out.is_dir():
+        raise SweepRefused(f"--out {out} is a file; give a directory")
     out.mkdir(parents=True, exist_ok=True)
+    lock = DirLock(out)
+    try:
+        return _run_locked(spec, out, manifest, backend, workers, address, progress, plots, on_row)
+    finally:
+        lock.release()
+
+
+def _run_locked(spec, out, manifest, backend, workers, address, progress, plots, on_row):
+    """run_sweep once `out` is locked."""
+    check_out_files(out, (MANIFEST, RUNS_JSONL, RUNS_CSV, SETTINGS_CSV), spec.scenario)
+    resumed = check_manifest(out, manifest)
     if not resumed:
-        fileio.write_json_atomic(out / MANIFEST, manifest)
+        fileio.write_json_atomic(out / MANIFEST, manifest, follow=False)
     log = RunLog(out / RUNS_JSONL)
     try:
         done = sort_rows(read_runs(out / RUNS_JSONL), spec)
@@ -301,18 +378,21 @@ def run_sweep(
                 if bar is not None:
                     bar.set_postfix_str(best_setting(rows, spec.keys), refresh=False)
                     bar.update(1)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt:  # Ctrl-C, or SIGTERM on the command line
             interrupted = True
-            getattr(runner, "terminate", runner.close)()
-        else:
-            runner.close()
-        finally:
+        with interrupts.held():  # the workers stopped and the tables written, whatever comes
+            if interrupted:
+                getattr(runner, "terminate", runner.close)()
+            else:
+                runner.close()
             if bar is not None:
                 bar.close()
-        rows = sort_rows(rows, spec)
-        settings = aggregate(rows, spec.keys)
-        write_csv_atomic(out / RUNS_CSV, (*spec.keys, *RESULT_FIELDS), rows)
-        write_csv_atomic(out / SETTINGS_CSV, (*spec.keys, *SETTING_FIELDS), settings)
+            rows = sort_rows(rows, spec)
+            settings = aggregate(rows, spec.keys)
+            write_csv_atomic(out / RUNS_CSV, (*spec.keys, *RESULT_FIELDS), rows)
+            write_csv_atomic(out / SETTINGS_CSV, (*spec.keys, *SETTING_FIELDS), settings)
+        if interrupts.take_pending() is not None:
+            interrupted = True  # it came while the tables were written: they are whole
     finally:
         log.close()
     report = SweepReport(

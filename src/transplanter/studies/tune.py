@@ -26,10 +26,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from transplanter import fileio
+from transplanter import fileio, interrupts
 from transplanter.scenario.schema import ScenarioError, load_scenario, resolve_scenario_path
 from transplanter.studies.grid import task
-from transplanter.studies.sweep import SweepRefused, backend_of, pool_runs, write_csv_atomic
+from transplanter.studies.sweep import (
+    SweepRefused,
+    backend_of,
+    check_out_files,
+    pool_runs,
+    write_csv_atomic,
+)
+
+# The files tune writes into --out (checked writable before the first trial).
+OUT_FILES = ("trials.csv", "pareto.csv", "pareto.png", "tuned.toml")
 
 __all__ = [
     "Param",
@@ -344,6 +353,7 @@ def run_tune(
     if storage.exists() and not storage.is_file():
         raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
     out.mkdir(parents=True, exist_ok=True)
+    check_out_files(out, OUT_FILES, spec.scenario)  # not found out after every trial ran
     study, url = open_study(
         optuna, storage, study_name, ["maximize", "minimize"], "tune", spec.identity(digest)
     )
@@ -360,7 +370,11 @@ def run_tune(
         optuna, study, spec, trials, objective, workers=workers, backend=backend,
         progress=progress, describe=_best_text,
     )  # fmt: skip
-    return _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted)
+    with interrupts.held():  # a stop signal now waits until the files are written
+        report = _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted)
+    if interrupts.take_pending() is not None:
+        report.interrupted = True
+    return report
 
 
 def _best_text(study) -> str:
@@ -415,7 +429,7 @@ def _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted
     if chosen is not None:
         path = out / "tuned.toml"
         text = tuned_toml(spec, {k: chosen[k] for k in keys}, out, chosen, study_name)
-        fileio.write_text_atomic(path, text)
+        fileio.write_text_atomic(path, text, follow=False)
         try:
             load_scenario(path)
         except ScenarioError as exc:  # pragma: no cover - a bug here, never the user's input

@@ -17,6 +17,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from transplanter import interrupts
 from transplanter.scenario.assemble import TwinConfig
 from transplanter.scene import kinds as scene_kinds
 from transplanter.twin.judge import Judge
@@ -63,8 +64,11 @@ class TrialObserver(Protocol):
 
 
 class TrialInterrupted(KeyboardInterrupt):
-    """The user stopped the trial (Ctrl-C); `result` holds what was judged until then (the
-    seedling in progress and later ones are not_run, `result.interrupted` is True)."""
+    """The user stopped the trial (Ctrl-C, or SIGTERM on the command line); `result` holds
+    what was judged until then (the seedling in progress and later ones are not_run,
+    `result.interrupted` is True). Outside the command line, a Ctrl-C that came while the
+    finished trial was being closed is raised as TrialInterrupted too, its `result` whole
+    (`result.interrupted` False)."""
 
     def __init__(self, result: TrialResult) -> None:
         super().__init__(f"interrupted after {result.judged} seedlings")
@@ -85,34 +89,41 @@ def run_trial(
     `twin_factory` builds the Twin (a subclass may add observers or disturbances);
     `observers` watch every physics step without changing the physics (TrialObserver);
     `horizon_s` replaces the simulated time the program must finish in (FIRMWARE_HORIZON_S;
-    `math.inf` for a remote host's session)."""
+    `math.inf` for a remote host's session).
+
+    Stop signals (interrupts.held) are held from the moment files are created until the
+    loop runs, and from the end of the loop until the result is built: a Ctrl-C there never
+    leaves a temporary file or loses a finished trial."""
     t_wall = time.perf_counter()
     twin = twin_factory(config)
     m_pp = twin.machine.eeprom.m_pp
     records = [SeedlingRecord(index=i, pickup=i % m_pp) for i in range(config.seedlings)]
     recorder = None
-    if record_path is not None:
-        from transplanter.viewing.recording import TrialRecorder
+    with interrupts.held():
+        if record_path is not None:
+            from transplanter.viewing.recording import TrialRecorder
 
-        recorder = TrialRecorder(
-            twin.scene.render_model,
-            record_path,
-            rate_hz=record_rate_hz,
-            scalar_names=channels.channel_names(),
-        )
-    judge_cls = scene_kinds.judge_class(config.scene.workcell_kind)  # the workcell's job
-    judge = judge_cls(twin, config.judge, records, recorder.event if recorder is not None else None)
-    twin.line_listeners.append(judge.on_line)
-    monitor: Any = judge.monitor if recorder is None else _RecordingMonitor(judge, recorder)
-    every = MONITOR_EVERY_STEPS if recorder is None else 1
-    if recorder is not None:
-        monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state at t = 0
-    recording_monitor = monitor
-    if observers:
-        _attach(observers, twin, records, recorder)
-        monitor, every = _ObservingMonitor(monitor, every, observers), 1
+            recorder = TrialRecorder(
+                twin.scene.render_model,
+                record_path,
+                rate_hz=record_rate_hz,
+                scalar_names=channels.channel_names(),
+            )
+        judge_cls = scene_kinds.judge_class(config.scene.workcell_kind)  # the workcell's job
+        event = recorder.event if recorder is not None else None
+        judge = judge_cls(twin, config.judge, records, event)
+        twin.line_listeners.append(judge.on_line)
+        monitor: Any = judge.monitor if recorder is None else _RecordingMonitor(judge, recorder)
+        every = MONITOR_EVERY_STEPS if recorder is None else 1
+        if recorder is not None:
+            monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state at t = 0
+        recording_monitor = monitor
+        if observers:
+            _attach(observers, twin, records, recorder)
+            monitor, every = _ObservingMonitor(monitor, every, observers), 1
     valid, reason, interrupted = True, None, False
     try:
+        interrupts.raise_pending()  # a stop signal held while the files were set up
         horizon = FIRMWARE_HORIZON_S[0] + FIRMWARE_HORIZON_S[1] * len(records)
         if horizon_s is not None:  # a remote host decides how long it runs
             horizon = horizon_s
@@ -138,6 +149,32 @@ def run_trial(
     except BaseException:
         _abort(observers, recorder)  # an unexpected error leaves no temporary file behind
         raise
+    with interrupts.held():
+        result = _finish_trial(
+            config, twin, judge, records, observers, recorder, recording_monitor, t_wall,
+            valid, reason, interrupted,
+        )  # fmt: skip
+    if interrupted:
+        raise TrialInterrupted(result)
+    if not interrupts.commanded() and interrupts.take_pending() is not None:
+        raise TrialInterrupted(result)  # no command line acts on it: the caller hears of it
+    return result
+
+
+def _finish_trial(
+    config: TwinConfig,
+    twin: Twin,
+    judge: Judge,
+    records: list[SeedlingRecord],
+    observers: Sequence[TrialObserver],
+    recorder: Any,
+    recording_monitor: Any,
+    t_wall: float,
+    valid: bool,
+    reason: str | None,
+    interrupted: bool,
+) -> TrialResult:
+    """The last verdicts, the observers finished, the recording closed and the result."""
     judge.finish(twin.time, valid and not interrupted)
     try:
         for observer in observers:
@@ -148,7 +185,7 @@ def run_trial(
     recording_error = None
     if recorder is not None:
         recording_error = _finish_recording(recorder, recording_monitor, twin, interrupted)
-    result = TrialResult(
+    return TrialResult(
         scenario=config.name,
         seed=config.seed,
         per_seedling=records,
@@ -167,9 +204,6 @@ def run_trial(
         overrides=dict(config.overrides),
         warnings=twin.sgf.speed_warnings(),
     )
-    if interrupted:
-        raise TrialInterrupted(result)
-    return result
 
 
 def _attach(
@@ -216,9 +250,9 @@ def _finish_recording(recorder: Any, monitor: Any, twin: Twin, interrupted: bool
     try:
         if twin.block is not None:
             monitor.record(twin, twin.block.pulses[-1], force=True)
-        if interrupted:
+        if interrupted:  # a name derived from the user's: a link there is replaced, not followed
             path = Path(recorder.path)
-            recorder.close(path.with_name(path.stem + ".partial.rrd"))
+            recorder.close(path.with_name(path.stem + ".partial.rrd"), follow=False)
         else:
             recorder.close()
     except RecordingError as exc:

@@ -413,10 +413,12 @@ class TrialRecorder:
             collapse_panels=True,
         )
 
-    def close(self, path: str | os.PathLike | None = None) -> None:
+    def close(self, path: str | os.PathLike | None = None, follow: bool = True) -> None:
         """Write everything buffered, finish the file and move it to ``path`` (by default the
         path given at creation). Idempotent. On failure (disk full, say) the temporary file
         is removed, an older file at the path is left as it was, and RecordingError says why.
+        A symlink at ``path`` is written through (the user's name) or, with ``follow`` False
+        (a name the program derived), replaced by the recording itself.
         """
         if self.closed:
             return
@@ -431,7 +433,7 @@ class TrialRecorder:
             finally:
                 self._stream.disconnect()
             target = self._target if path is None else Path(path)
-            fileio.commit(self._tmp_path, target)
+            fileio.commit(self._tmp_path, target, follow=follow)
         except BaseException as exc:
             fileio.discard(self._tmp_path)
             if isinstance(exc, Exception):

@@ -241,10 +241,15 @@ def annotate(frame: np.ndarray, lines: list[str]) -> np.ndarray:
 
 class Mp4Writer:
     """An H.264 MP4 written atomically: frames go to a temporary file beside the target,
-    which `commit` moves into place; `discard` (or any failure) leaves no file behind."""
+    which `commit` moves into place; `discard` (or any failure) leaves no file behind. A
+    symlink at the target is written through (`follow`: the user's name) or replaced itself
+    (a name the program derives: a failure clip's)."""
 
-    def __init__(self, target: Path, size: tuple[int, int], fps: float, ffmpeg: Any) -> None:
+    def __init__(
+        self, target: Path, size: tuple[int, int], fps: float, ffmpeg: Any, follow: bool = True
+    ) -> None:
         self.target, self.size, self.fps, self.frames = Path(target), size, fps, 0
+        self.follow = follow
         self.tmp = fileio.temp_beside(self.target)
         try:
             self._gen = ffmpeg.write_frames(
@@ -272,7 +277,7 @@ class Mp4Writer:
         except BaseException:
             fileio.discard(self.tmp)
             raise
-        fileio.commit(self.tmp, self.target)
+        fileio.commit(self.tmp, self.target, follow=self.follow)
         return self.target
 
     def discard(self) -> None:
@@ -497,7 +502,7 @@ class FailureClips:
         target = self.dir / f"seedling_{s:03d}_{outcome}.mp4"
         writer = None
         try:
-            writer = Mp4Writer(target, self.size, self.fps, self.ffmpeg)
+            writer = Mp4Writer(target, self.size, self.fps, self.ffmpeg, follow=False)
             for t, frame in frames:
                 writer.append(annotate(frame, [f"t = {t:7.3f} s", f"seedling {s}: {outcome}"]))
             writer.commit()
