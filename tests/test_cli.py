@@ -184,8 +184,12 @@ def test_trial_seeds_prints_and_writes_the_pooled_rate(tmp_path, capsys):
     args = ["trial", "paper", "--seeds", "1-2", "--seedlings", "2", "--json", str(path)]
     assert main(args) == 0
     out = capsys.readouterr().out
-    assert re.search(r"seed +1: 2/2 \(100\.0 %\)", out)
-    assert re.search(r"seed +2: 2/2 \(100\.0 %\)", out)
+    lines = out.splitlines()
+    assert lines[0].split() == ["seed", "success", "rate", "clustered", "failures"]
+    assert lines[1].split() == ["1", "2/2", "100.0", "%", "no", "-"]
+    assert lines[2].split() == ["2", "2/2", "100.0", "%", "no", "-"]
+    assert "failures by kind" not in out  # nothing failed
+    assert "{" not in out and "}" not in out  # no Python dict for people to read
     assert "pooled over 2 trials: 100.0 % (4/4), 95 % CI 51.0-100.0 %" in out
     d = json.loads(path.read_text())
     assert [t["seed"] for t in d["trials"]] == [1, 2]
@@ -204,8 +208,13 @@ def test_trial_seeds_says_when_a_trials_failures_cluster(tmp_path, capsys):
     args = ["trial", "paper", "--seeds", "3", "--seedlings", "3", "--set", "taught.z_low_mm=20"]
     assert main(args) == 0
     out = capsys.readouterr().out
-    assert re.search(r"seed +3: 0/3 \(0\.0 %\), failures cluster", out)
-    assert "position_lost" in out
+    row = out.splitlines()[1]
+    assert row.split()[:5] == ["3", "0/3", "0.0", "%", "yes"]  # the failures cluster
+    assert "position_lost" in row and "{" not in out
+    table = out.split("failures by kind:\n")[1].split("pooled over")[0].splitlines()
+    kinds = table[0].split()[1:]
+    assert "position_lost" in kinds
+    assert sum(int(n) for n in table[-1].split()[1:]) == 3  # the 'all' row: three failures
     assert "pooled over 1 trial: 0.0 % (0/3)" in out
 
 
@@ -497,3 +506,25 @@ def test_ctrl_c_never_writes_the_partial_recording_through_a_planted_link(
     for name in ("r", "gone"):
         partial = tmp_path / f"{name}.partial.rrd"
         assert not partial.is_symlink() and partial.stat().st_size > 0
+
+
+def test_trial_seeds_assembles_each_seed_when_its_turn_comes(monkeypatch, capsys):
+    """--seeds 0-9999 assembled 10,000 configurations before its first line."""
+    from transplanter.cli import trials
+    from transplanter.scenario import assemble as assembly
+
+    made = []
+    real = assembly.assemble
+
+    def counting(*args, **kwargs):
+        made.append(1)
+        return real(*args, **kwargs)
+
+    def stop(config, *args, **kwargs):
+        raise KeyboardInterrupt  # the user stops during the first trial
+
+    monkeypatch.setattr(assembly, "assemble", counting)
+    monkeypatch.setattr(trials, "_run", stop)
+    assert main(["trial", "paper", "--seeds", "0-9999", "--seedlings", "2", "--quiet"]) == 130
+    assert len(made) == 1
+    capsys.readouterr()

@@ -19,3 +19,15 @@ def test_control_characters_are_shown_escaped():
     records = [SeedlingRecord(0, 0, outcome=Outcome.SUCCESS)]
     text = format_summary(TrialResult("evil\x1b]0;x\x07", 1, records, 1.0, 1.0))
     assert "\x1b" not in text and "evil\\x1b]0;x\\x07" in text
+
+
+def test_long_work_is_estimated_from_the_pots_on_the_belt():
+    from transplanter.twin.report import SEEDLING_WALL_S, estimate_line
+
+    assert estimate_line(40) is None  # the paper trial: seconds
+    line = estimate_line(1000)  # 1000 seedlings of the paper's belt: ~3 min
+    assert line.startswith(f"about {1000 * SEEDLING_WALL_S / 60:.0f} min of work")
+    # 100 rows (500 pots): each seedling costs (500/40)^1.65 = 64 times as much
+    assert "1.8 h" in estimate_line(500, pots=500) and "~13 s each" in estimate_line(500, 500)
+    assert "on 2 cores" in estimate_line(10_000, workers=2)
+    assert "days" in estimate_line(2_000_000)

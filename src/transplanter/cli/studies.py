@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import functools
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -113,7 +114,7 @@ def _sweep_parser(sub) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from transplanter.scenario.schema import ScenarioError
+    from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.studies.sweep import (
         SweepRefused,
         SweepSpec,
@@ -122,6 +123,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         parse_vary,
         run_sweep,
     )
+    from transplanter.twin.report import estimate_line
 
     seeds = _seeds(args)
     if seeds is None:
@@ -140,6 +142,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         f"{spec.runs_total} runs: {len(spec.settings())} settings x {len(seeds)} seeds, "
         f"{seedlings} seedlings each, {args.workers} {args.backend} worker(s)"
     )
+    base = load_scenario(args.scenario, spec.base_overrides())
+    pots = base.conveyor.rows * base.conveyor.cols
+    estimate = estimate_line(spec.runs_total * seedlings, pots, args.workers)
+    if estimate is not None and not args.quiet:
+        print(f"{estimate}; a rerun resumes", file=sys.stderr)
     try:
         report = run_sweep(
             spec, args.out, backend=args.backend, workers=args.workers, address=args.address,

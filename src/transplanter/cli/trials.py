@@ -7,6 +7,7 @@ import argparse
 import dataclasses
 import math
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -92,7 +93,7 @@ def _trial_parser(sub) -> None:
 def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError
-    from transplanter.twin.report import format_summary
+    from transplanter.twin.report import estimate_line, format_summary
     from transplanter.viewing.video import GLUnavailable, RenderRefused
 
     if not (math.isfinite(args.record_rate) and args.record_rate > 0):
@@ -131,6 +132,9 @@ def cmd_trial(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     if clips is not None and not _clip_dir_ready(Path(args.clips_of_failures)):
         return EXIT_REFUSED
+    estimate = estimate_line(config.seedlings, config.scene.rows * config.scene.cols)
+    if estimate is not None and not args.quiet:
+        print(estimate, file=sys.stderr)
     try:
         result, interrupted = _run(
             config, _progress(args), record_path=targets["--record"],
@@ -263,31 +267,44 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError
     from transplanter.studies.stats import pooled_rate
+    from transplanter.twin.report import (
+        estimate_line,
+        format_failures_table,
+        format_seed_row,
+        seed_row_header,
+    )
 
-    try:
-        configs = [
-            assemble(
-                _trial_scenario(args, {**overrides, "scenario.seed": seed}),
-                preflight=not args.no_preflight,
-            )
-            for seed in seeds
-        ]
+    def config_of(seed: int):
+        return assemble(
+            _trial_scenario(args, {**overrides, "scenario.seed": seed}),
+            preflight=not args.no_preflight,
+        )
+
+    try:  # the first seed's configuration now: a refused scenario is refused before any trial
+        first = config_of(seeds[0])
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
+    pots = first.scene.rows * first.scene.cols
+    estimate = estimate_line(first.seedlings * len(seeds), pots)
+    if estimate is not None and not args.quiet:
+        print(estimate, file=sys.stderr)
+    print(seed_row_header())
     results, interrupted = [], False
-    for config in configs:
+    for k, seed in enumerate(seeds):
+        try:  # each seed's configuration when its turn comes (10,000 seeds start at once)
+            config = first if k == 0 else config_of(seed)
+        except ScenarioError as exc:
+            _err(f"scenario refused at seed {seed}: {exc}")
+            break
         result, interrupted = _run(config)
         if interrupted:
             break
         results.append(result)
-        d = result.to_dict()
-        cluster = ", failures cluster" if d["failures_clustered"] else ""
-        failed = {k: v for k, v in d["failures"].items() if v}
-        print(
-            f"seed {config.seed:>6}: {d['successes']}/{d['seedlings']} "
-            f"({100 * d['success_rate']:.1f} %){cluster}  {failed or ''}"
-        )
+        print(format_seed_row(seed, result))
+    table = format_failures_table(seeds, results)
+    if table:
+        print(table)
     payload: dict[str, Any] = {"trials": [r.to_dict() for r in results], "interrupted": interrupted}
     summary = None
     if results:

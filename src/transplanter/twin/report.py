@@ -4,7 +4,86 @@ from __future__ import annotations
 
 from transplanter.twin.results import TrialResult
 
-__all__ = ["format_summary", "printable", "progress_bar"]
+__all__ = [
+    "SEEDLING_WALL_S",
+    "estimate_line",
+    "format_failures_table",
+    "format_seed_row",
+    "format_summary",
+    "printable",
+    "progress_bar",
+    "seed_row_header",
+]
+
+SEEDLING_WALL_S = 0.2
+"""Wall time of one seedling of the paper trial (40 pots on the belt) on one core of the 2-core
+reference machine (benchmarks/bench_trial.py: 40 seedlings in 5.2-7.0 s, docs/performance.md),
+rounded up: what the estimates before long work are made of. A faster machine finishes sooner."""
+REFERENCE_POTS = 40
+POTS_EXPONENT = 1.65
+"""How the cost of a seedling grows with the pots on the belt (every pot is a live body and
+each index pushes every row): 0.15 s a seedling with 40 pots, 9.6 s with 500 (100 rows, the
+measurement of docs/performance.md), a power law through the two: (500/40)^1.65 = 64."""
+ESTIMATE_ABOVE_S = 60.0
+"""Work estimated to take longer than this is announced before it starts."""
+
+
+def estimate_line(seedlings: int, pots: int = REFERENCE_POTS, workers: int = 1) -> str | None:
+    """'about 12 min of work (...)' for ``seedlings`` seedlings of trials with ``pots`` pots
+    on the belt, on ``workers`` cores; None when it is estimated under a minute."""
+    each = SEEDLING_WALL_S * max(1.0, pots / REFERENCE_POTS) ** POTS_EXPONENT
+    seconds = seedlings * each / max(1, workers)
+    if seconds <= ESTIMATE_ABOVE_S:
+        return None
+    if seconds < 3600:
+        shown = f"{seconds / 60:.0f} min"
+    elif seconds < 48 * 3600:
+        shown = f"{seconds / 3600:.1f} h"
+    else:
+        shown = f"{seconds / 86400:.1f} days"
+    cores = f" on {workers} cores" if workers > 1 else " on one core"
+    return (
+        f"about {shown} of work: {seedlings} seedlings{cores} at ~{each:.2g} s each with "
+        f"{pots} pots on the belt (the reference machine's cost; Ctrl-C keeps what finished)"
+    )
+
+
+def _failures_text(failures: dict[str, int]) -> str:
+    return ", ".join(f"{kind} {n}" for kind, n in failures.items() if n) or "-"
+
+
+def seed_row_header() -> str:
+    """The header of `trial --seeds`'s per-seed lines."""
+    return f"{'seed':>8}  {'success':>9}  {'rate':>7}  {'clustered':<9}  failures"
+
+
+def format_seed_row(seed: int, result: TrialResult) -> str:
+    """One seed's line of `trial --seeds`: successes, rate, whether failures cluster, and the
+    failures by kind as words ('not_gripped 3, knocked_over 1')."""
+    d = result.to_dict()
+    rate = f"{100 * d['success_rate']:.1f} %"
+    cluster = "yes" if d["failures_clustered"] else "no"
+    success = f"{d['successes']}/{d['seedlings']}"
+    return f"{seed:>8}  {success:>9}  {rate:>7}  {cluster:<9}  {_failures_text(d['failures'])}"
+
+
+def format_failures_table(seeds, results) -> str:
+    """Failures by kind as columns (only the kinds that occurred), a row per seed and a
+    total row; '' when nothing failed."""
+    rows = [(seed, r.to_dict()["failures"]) for seed, r in zip(seeds, results, strict=False)]
+    kinds = [k for k in (rows[0][1] if rows else {}) if any(f.get(k) for _, f in rows)]
+    if not kinds:
+        return ""
+    widths = [max(len(k), 5) for k in kinds]
+    lines = [f"{'seed':>8}  " + "  ".join(k.rjust(w) for k, w in zip(kinds, widths, strict=True))]
+    for seed, failures in rows:
+        cells = (str(failures.get(k, 0)).rjust(w) for k, w in zip(kinds, widths, strict=True))
+        lines.append(f"{seed:>8}  " + "  ".join(cells))
+    totals = (
+        str(sum(f.get(k, 0) for _, f in rows)).rjust(w) for k, w in zip(kinds, widths, strict=True)
+    )
+    lines.append(f"{'all':>8}  " + "  ".join(totals))
+    return "failures by kind:\n" + "\n".join(lines)
 
 
 def printable(text: str) -> str:
