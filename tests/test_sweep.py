@@ -361,3 +361,13 @@ def test_sweep_files_are_never_written_through_a_planted_link(tmp_path):
         run_sweep(_spec(), out, backend="inline")
     assert victim.read_text() == "someone else's file\n"
     assert not (tmp_path / "created.txt").exists()
+
+
+def test_an_out_that_cannot_be_made_is_refused_with_exit_2(tmp_path, capsys):
+    """It exited 5 (a result could not be written) although nothing had run."""
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    args = ["sweep", "paper", "--vary", "taught.z_low_mm=30,32", "--seeds", "1"]
+    assert main([*args, "--seedlings", "1", "--out", str(blocker / "sub")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot be made" in err[0]

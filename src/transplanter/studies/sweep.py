@@ -339,7 +339,10 @@ def run_sweep(
     manifest = spec.manifest()  # ScenarioError here: nothing runs
     if out.exists() and not out.is_dir():
         raise SweepRefused(f"--out {out} is a file; give a directory")
-    out.mkdir(parents=True, exist_ok=True)
+    try:  # an --out that cannot be made is refused (exit 2) before anything runs
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SweepRefused(f"--out {out} cannot be made: {exc.strerror or exc}") from None
     lock = DirLock(out)
     try:
         return _run_locked(spec, out, manifest, backend, workers, address, progress, plots, on_row)
