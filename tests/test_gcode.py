@@ -434,3 +434,17 @@ def test_servo_range_is_the_same_for_m280_the_pgf_and_the_eeprom(angle):
         else:
             outcomes.append(True)
     assert outcomes == [ok, ok, ok]
+
+
+def test_a_dwell_longer_than_the_maximum_is_refused_naming_the_word_and_the_bound():
+    """`G4 P1000000000000` (the firmware's own spelling of 1e12) was accepted, and `serve`
+    then dwelt for 31 years of simulated time: refused with error 63, naming P and the bound."""
+    from transplanter.machine.gcode import MAX_DWELL_MS
+
+    assert parse_line(f"G4 P{MAX_DWELL_MS}").words == {"P": float(MAX_DWELL_MS)}
+    for text in ("G4 P1000000000000", f"G4 P{MAX_DWELL_MS}.001"):
+        with pytest.raises(GcodeError) as info:
+            parse_line(text)
+        assert info.value.code is ErrorCode.VALUE_OUT_OF_RANGE
+        assert info.value.message.startswith(f"{text}: ")
+        assert f"longer than the {MAX_DWELL_MS} ms" in info.value.message

@@ -174,3 +174,16 @@ def test_relative_steps_reach_the_z_limit_and_the_next_is_refused_with_its_digit
     with pytest.raises(PlanError) as info:
         plan_program(machine, "G28\nG90\nG1 X0 Y200 Z4.998 S20\n")
     assert "Z 4.998 mm outside [5, 160] mm" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("line", "shown"),
+    [("G4 P1000000000000", "3600000 ms"), ("G1 X0 Y200 Z60 F0.0000001", "3600 s")],
+)
+def test_an_endless_dwell_or_move_is_refused_not_timed_out(machine, line, shown):
+    """The firmware refuses these itself (error 63): `plan` no longer needs its hour of
+    machine time to give up on them, and `serve` answers them at once."""
+    with pytest.raises(PlanError) as err:
+        plan_program(machine, ["G28", line])
+    assert err.value.line_no == 2
+    assert str(err.value).startswith("error:63 ") and shown in str(err.value)

@@ -227,3 +227,77 @@ def test_realtime_paces_simulated_time_to_the_wall_clock():
     assert host.poll(0.0, []) == []
     assert host.poll(0.4, []) == []  # nothing from the host yet: no wait beyond the pacing
     assert 0.38 <= time.monotonic() - t0 < 1.0
+
+
+class Host:
+    """A host on serve's pty, one line at a time: ``ask`` writes a line and reads what comes
+    back up to its ``ok``. Reads are bounded by count (each waits at most ``read_s``), so a
+    line the twin never answers fails the test instead of hanging it."""
+
+    def __init__(self, device: str, read_s: float = 0.5) -> None:
+        import serial
+
+        self.port = serial.Serial(device, 115200, timeout=read_s)
+        self._buffer = b""
+        self.received: list[str] = []
+
+    def lines(self, until, max_reads: int = 120) -> list[str]:
+        """Lines read until one satisfies ``until`` (that one included)."""
+        got: list[str] = []
+        for _ in range(max_reads):
+            self._buffer += self.port.read(max(1, self.port.in_waiting))
+            *complete, self._buffer = self._buffer.split(b"\n")
+            for raw in complete:
+                line = raw.decode("ascii").rstrip("\r")
+                got.append(line)
+                self.received.append(line)
+                if until(line):
+                    return got
+        raise AssertionError(f"no end of the reply after {max_reads} reads: {got}")
+
+    def ask(self, line: str, max_reads: int = 120) -> list[str]:
+        self.port.write(f"{line}\n".encode("ascii"))
+        return self.lines(lambda r: r.startswith("ok"), max_reads)
+
+    def close(self) -> None:
+        self.port.close()
+
+
+@pytest.fixture()
+def serve(tmp_path):
+    """start_serve for this test; a serve still running at teardown (a test that failed
+    before its host hung up) is killed."""
+    procs: list[subprocess.Popen] = []
+
+    def start(*args: str) -> tuple[subprocess.Popen, str, Path]:
+        proc, device, out = start_serve(tmp_path, *args)
+        procs.append(proc)
+        return proc, device, out
+
+    yield start
+    for proc in procs:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+
+
+def test_serve_answers_an_endless_dwell_or_feed_at_once(serve):
+    """`G4 P1000000000000` and `G1 ... F0.0000001` were taken and never answered (the twin
+    simulated the dwell or the move): both are refused with error 63 and the session goes on."""
+    proc, device, out = serve("--seedlings", "1")
+    host = Host(device)
+    try:
+        assert host.ask("G28")[-1] == "ok"
+        for line in ("G4 P1000000000000", "G1 X0 Y200 Z60 F0.0000001"):
+            replies = host.ask(line)
+            assert len(replies) == 2 and replies[1] == "ok", replies
+            assert replies[0].startswith(f"Error:{line.split()[0]} ")
+            assert "longer than" in replies[0] and replies[0].endswith("[error:63]")
+        assert host.ask("M400") == ["ok"]
+    finally:
+        host.close()
+    got = finish_serve(proc, out)
+    assert got["serial"]["executed"] == [
+        "G28", "G4 P1000000000000", "G1 X0 Y200 Z60 F0.0000001", "M400"
+    ]  # fmt: skip
+    assert got["sim_time_s"] < 60

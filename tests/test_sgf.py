@@ -680,3 +680,33 @@ def test_moves_slower_than_their_feed_are_reported(homed):
         "2 moves asked for 60 mm/s cruised at 50.0 mm/s or less: motor 3 reaches its top "
         "step rate, 20000 steps/s (drives.max_step_rate_hz)"
     ]
+
+
+@pytest.mark.parametrize("words", ["F0.0000001", "S0.000001"])
+def test_a_move_too_slow_to_end_within_the_longest_move_is_refused(homed, words):
+    """`G1 ... F0.0000001` was accepted and would have run for 700,000 years: a move whose
+    planned duration exceeds MAX_MOVE_S is refused with error 63 (naming the word, the
+    bound and the slowest speed that would do), nothing moves, the modal speed is kept."""
+    from transplanter.machine.sgf import MAX_MOVE_S
+
+    sgf, _, t = homed
+    _, t1 = run_line(sgf, "G1 X0 Y180 Z100 S100", t)
+    raw, position = sgf.raw_pulses, sgf.position_xyz
+    replies, t2 = run_line(sgf, f"G1 X0 Y200 Z60 {words}", t1)
+    assert len(replies) == 1 and replies[0].startswith(f"error:63 G1 {words}: ")
+    assert f"longer than the {MAX_MOVE_S:g} s a move may take" in replies[0]
+    assert t2 == t1 and np.array_equal(sgf.raw_pulses, raw)
+    assert np.array_equal(sgf.position_xyz, position)
+    _, t3 = run_line(sgf, "G1 Y200", t2)  # still 100 mm/s
+    assert t3 - t2 < 1.0
+
+
+def test_the_slowest_feed_a_refusal_offers_does_the_move(homed):
+    from transplanter.machine.sgf import MAX_MOVE_S
+
+    sgf, _, t = homed
+    replies, t1 = run_line(sgf, "G1 X0 Y220 Z60 F0.0001", t)
+    assert replies[0].startswith("error:63")
+    offered = replies[0].split("give F")[1].split(" ")[0]
+    replies, t2 = run_line(sgf, f"G1 X0 Y220 Z60 F{offered}", t1)
+    assert replies == ["ok"] and t2 - t1 <= MAX_MOVE_S

@@ -34,7 +34,7 @@ grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line fr
 | 60 | BAD_CHECKSUM | checksum mismatch, or not an integer 0-255 |
 | 61 | LINE_OUT_OF_SEQUENCE | line number is not the one expected |
 | 62 | CHECKSUM_MISSING | line number given (or framing required) without a checksum |
-| 63 | VALUE_OUT_OF_RANGE | servo index not 0/1, servo angle not 0-180 deg |
+| 63 | VALUE_OUT_OF_RANGE | servo index not 0/1, servo angle not 0-180 deg, dwell or move > 1 h |
 | 64 | UNTERMINATED_COMMENT | a ``(`` comment is never closed |
 | 65 | CHECKSUM_WITHOUT_LINE_NUMBER | ``*<checksum>`` on a line with no ``N<n>`` |
 | 66 | RX_BUFFER_OVERFLOW | command queue and receive buffer full: the line was dropped |

@@ -43,6 +43,13 @@ MAX_LINE_CHARS = 256
 MAX_CMD_SIZE, raised to take this dialect's comments): a longer line is refused whole
 with error 11 before anything else is looked at."""
 
+MAX_DWELL_MS = 3_600_000
+"""Longest dwell ``G4 P`` may ask for (ms): one hour, the machine time ``transplanter plan``
+gives any line (``planner.MAX_LINE_S``). A longer one is refused with error 63 naming P and
+this bound. Marlin keeps P in a 32-bit millisecond counter (``millis_t``, at most
+4294967295 ms, 49.7 days) and grbl takes any float; a transplanting cycle's dwells are
+milliseconds, and a twin behind ``serve`` would simulate a 1e12 ms dwell for 31 years."""
+
 MAX_LINE_NUMBER = 2**31 - 1
 """Largest N a line may carry (Marlin keeps it in a 32-bit long)."""
 
@@ -403,6 +410,13 @@ def _check_words(command: str, words: dict[str, float]) -> None:
             raise GcodeError(
                 ErrorCode.NEGATIVE_VALUE,
                 f"G4 P{words['P']:g} is negative; dwell milliseconds are >= 0",
+            )
+        if words["P"] > MAX_DWELL_MS:
+            shown = format_number(words["P"])
+            raise GcodeError(
+                ErrorCode.VALUE_OUT_OF_RANGE,
+                f"G4 P{shown}: a dwell of {shown} ms is longer than the {MAX_DWELL_MS} ms (1 h) "
+                f"a dwell may take; split it into G4 lines of at most P{MAX_DWELL_MS}",
             )
     elif command == "M280":
         index = words["P"]

@@ -23,7 +23,9 @@ __all__ = ["PlanError", "PlannedLine", "plan_program"]
 
 _ASCII_BLANKS = " \t\r\n"
 MAX_LINE_S = 3600.0
-"""Machine time one line may take before the planner gives up on it (s)."""
+"""Machine time one line may take before the planner gives up on it (s). The SGF itself
+refuses a dwell or a move longer than this (``gcode.MAX_DWELL_MS``, ``sgf.MAX_MOVE_S``, error
+63), so this bounds only what has no such limit of its own."""
 
 
 class PlanError(TransplanterError, ValueError):

@@ -7,7 +7,9 @@ its reply when it is done, so replies come back in line order:
   ``motion.plan_line`` before any step (every interpolated point checked); ``ok`` when the
   last step has been issued. Speed: ``S`` mm/s, or ``F`` mm/min, else the last one given,
   else ``default_speed_m_s``. ``G0`` moves like ``G1``.
-- ``G4 P<ms>``: ``ok`` after the dwell. ``M280``: servo command recorded, ``ok`` at once.
+- ``G4 P<ms>``: ``ok`` after the dwell. A dwell over ``gcode.MAX_DWELL_MS`` or a move
+  planned to take over ``MAX_MOVE_S`` (an hour each) is refused with ``error:63``.
+  ``M280``: servo command recorded, ``ok`` at once.
   ``M710``: conveyor index recorded, ``ok`` after ``conveyor_index_s``. ``M400``: ``ok``
   (the FIFO has already finished everything before it). ``M114``/``M119``: a report line,
   then ``ok``. ``M105``: ``ok``.
@@ -52,13 +54,28 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from transplanter.errors import ErrorCode
-from transplanter.machine.gcode import MAX_LINE_CHARS, GcodeError, GcodeLine, parse_line
+from transplanter.machine.gcode import (
+    MAX_LINE_CHARS,
+    GcodeError,
+    GcodeLine,
+    format_number,
+    parse_line,
+)
 from transplanter.machine.homing import Homing, HomingConfig
 from transplanter.machine.kinematics import Kinematics, UnreachableError
 from transplanter.machine.kinematics.fivebar import FiveBarKinematics
 from transplanter.machine.motion import MAX_STEPS_PER_MOVE, MotionConfig, PlannedMove, plan_line
 from transplanter.machine.steppers import StepperDrive
 from transplanter.units import M_PER_MM, MM_PER_MIN_TO_M_S, S_PER_MS, show
+
+MAX_MOVE_S = 3600.0
+"""Longest a G0/G1 move may take (s): one hour, the machine time ``transplanter plan`` gives
+any line (``planner.MAX_LINE_S``) and the longest dwell (``gcode.MAX_DWELL_MS``). A move whose
+planned duration is longer (a feed such as ``F0.0000001``) is refused with error 63 naming its
+F or S, this bound and the slowest speed that would do. grbl raises any feed below its
+MINIMUM_FEED_RATE (1 mm/min) to it and Marlin one below its minimum feedrate, so neither ever
+plans an endless move; at 1 mm/min the paper machine's longest move (about 300 mm) would still
+take five hours, so the twin bounds the move's duration rather than its feed."""
 
 
 @dataclass(frozen=True)
@@ -444,7 +461,7 @@ class SGF:
                 return
         try:
             if command in ("G0", "G1"):
-                self._start_move(job, words)
+                self._start_move(job, command, words)
             elif command == "G4":
                 job.t_done = t0 + words["P"] * S_PER_MS
             elif command == "G28":
@@ -473,7 +490,7 @@ class SGF:
             return
         job.replies.append("ok")
 
-    def _start_move(self, job: _Job, words: dict[str, float]) -> None:
+    def _start_move(self, job: _Job, command: str, words: dict[str, float]) -> None:
         if not self.homed:
             raise GcodeError(ErrorCode.SYSTEM_LOCKED, "position unknown: home first with G28")
         kinematics = self.config.kinematics
@@ -508,6 +525,10 @@ class SGF:
             ) from None
         except ValueError as error:
             raise GcodeError(ErrorCode.INVALID_TARGET, f"move refused: {error}") from None
+        if not move.duration_s <= MAX_MOVE_S:
+            raise GcodeError(
+                ErrorCode.VALUE_OUT_OF_RANGE, self._too_slow(command, words, speed_m_s, move)
+            )
         self._speed_m_s = speed_m_s
         if move.speed_limit:
             seen = self._slowed.setdefault((speed_m_s, move.speed_limit), [0, math.inf])
@@ -526,6 +547,30 @@ class SGF:
             return raw0 + (move.steps_at(rel) - start_steps)
 
         self._add_segment(t0, evaluate)
+
+    def _too_slow(
+        self, command: str, words: dict[str, float], speed_m_s: float, move: PlannedMove
+    ) -> str:
+        """Why a move longer than MAX_MOVE_S is refused: its speed word, the bound and the
+        slowest speed of that word that would do (2 digits, rounded up, 1 % to spare)."""
+        if "S" in words:
+            letter, per_unit, unit = "S", M_PER_MM, "mm/s"
+            head = f"{command} S{format_number(words['S'])}"
+        else:
+            letter, per_unit, unit = "F", MM_PER_MIN_TO_M_S, "mm/min"
+            head = f"{command} F{format_number(words['F'])}" if "F" in words else command
+        asked = speed_m_s / per_unit
+        needed = asked * move.duration_s / MAX_MOVE_S * 1.01
+        hint = f"give a {letter} word"
+        if math.isfinite(needed) and needed > 0:
+            step = 10.0 ** (math.floor(math.log10(needed)) - 1)
+            hint = f"give {letter}{format_number(math.ceil(needed / step) * step)} or more"
+        length_mm = float(np.linalg.norm(move.end_xyz - move.start_xyz)) / M_PER_MM
+        modal = "" if letter in words else " (the modal speed)"
+        return (
+            f"{head}: at {asked:.3g} {unit}{modal} this {length_mm:.1f} mm move would take "
+            f"{move.duration_s:.3g} s, longer than the {MAX_MOVE_S:g} s a move may take; {hint}"
+        )
 
     def _update_homing(self, job: _Job, now: float, endstops: Sequence[bool] | None) -> None:
         homing = job.homing
