@@ -107,6 +107,26 @@ def test_m110_sets_the_line_number_and_is_answered_in_order(bench):
     assert bench.send(framed(42, "G4 P10")) == ["ok"]
 
 
+def test_only_the_command_word_makes_a_line_m110(bench):
+    """Any line containing `M110`, even in a comment, became a no-op exempt from the
+    line-number check: only the command word counts."""
+    assert bench.send("G1 X0 Y170 Z60 S100 ; M110") == ["ok"]
+    assert bench.sgf.position_xyz == pytest.approx([0.0, 0.170, 0.060])
+    assert bench.send("G1 X10 Y170 Z60 (not an M110 N9)") == ["ok"]
+    assert bench.sgf.position_xyz == pytest.approx([0.010, 0.170, 0.060])
+    assert bench.device.last_line_number == 1
+    replies = bench.send(framed(7, "G1 X0 Y170 Z60 ; M110"))  # out of sequence: refused
+    error = "Error:Line Number is not Last Line Number+1, Last Line: 1"
+    assert replies == [error, "Resend: 2", "ok"]
+    assert bench.sgf.position_xyz == pytest.approx([0.010, 0.170, 0.060])
+    assert bench.send("G4 P10 M110 N5") == ['echo:Unknown command: "G4 P10 M110 N5"', "ok"]
+    assert bench.device.last_line_number == 1
+    for line, last in (("M110 N41 ; from here", 41), ("m110 n7", 7), ("M0110 N3", 3)):
+        assert bench.send(line) == ["ok"] and bench.device.last_line_number == last, line
+    assert [a.text for a in bench.device.accepted][-3:] == ["M110 N41 ; from here", "m110 n7",
+                                                            "M0110 N3"]  # fmt: skip
+
+
 def test_replies_in_marlin_form(bench):
     assert bench.send("M105") == ["ok T:0"]
     assert bench.send("M123") == ['echo:Unknown command: "M123"', "ok"]

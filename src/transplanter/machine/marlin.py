@@ -9,11 +9,11 @@ exactly once. Its replies follow Marlin 2 (``GCodeQueue::get_serial_commands`` a
 
 - ``start`` and an ``echo:`` banner when the link opens (``greeting``);
 - ``N<n> ... *<checksum>``: the line number must be the last one + 1 (``M110 N<n>`` sets the
-  last one and is exempt), the checksum (XOR of every byte before ``*``) must match and a
-  numbered line must carry one; otherwise ``Error:<reason>, Last Line: <n>``, ``Resend: <n+1>``
-  and ``ok``, and nothing runs. Unlike Marlin, a line with ``*`` but no ``N`` is refused the
-  same way (the tail of a line that noise split in two), so a single corrupted byte never
-  reaches the SGF;
+  last one and is exempt; only the command word counts, not ``M110`` in a comment), the
+  checksum (XOR of every byte before ``*``) must match and a numbered line must carry one;
+  otherwise ``Error:<reason>, Last Line: <n>``, ``Resend: <n+1>`` and ``ok``, and nothing
+  runs. Unlike Marlin, a line with ``*`` but no ``N`` is refused the same way (the tail of a
+  line that noise split in two), so a single corrupted byte never reaches the SGF;
 - unnumbered lines without ``*`` run as they are (hosts that do not frame);
 - ``ok`` per executed line, in order; ``M105`` answers ``ok T:0`` (hosts poll temperature);
 - a refused command: ``echo:Unknown command: "<line>"`` for a command the dialect does not
@@ -49,7 +49,9 @@ KEEPALIVE_S = 2.0
 """Marlin's DEFAULT_KEEPALIVE_INTERVAL (s)."""
 
 _N_RE = re.compile(r"\s*[Nn]([+-]?\d+)")
-_M110_RE = re.compile(r"\bM110\b(?:\s*N\s*([+-]?\d+))?", re.IGNORECASE)
+# M110 as the line's command word (comments removed first), with its optional N<n>
+_M110_RE = re.compile(r"\s*M0*110(?![0-9.])(?:\s*N\s*([+-]?\d+))?", re.IGNORECASE)
+_PAREN_COMMENT_RE = re.compile(r"\([^)]*\)")
 _SWITCH_NAMES = (
     "switch1 (arm 1 home)",
     "switch2 (arm 2 home)",
@@ -72,6 +74,12 @@ class AcceptedLine:
     """The SGF's final reply once it came (``ok`` or ``error:<code> (...)``)."""
     tx_index: int | None = None
     """Which line sent back to the host carried the final reply (0: the first)."""
+
+
+def _m110(command: str) -> re.Match | None:
+    """The match of ``M110 [N<n>]`` when it is the command's word, else None: a comment
+    (``; ...``, ``( ... )``) or a later word naming M110 does not make a line M110."""
+    return _M110_RE.match(_PAREN_COMMENT_RE.sub(" ", command.split(";", 1)[0]))
 
 
 def split_framing(line: str) -> tuple[int | None, str, str | None]:
@@ -176,7 +184,7 @@ class MarlinDevice:
             self._resend("checksum mismatch")  # a byte that noise pushed above 0x7F
             return
         number, command, error = split_framing(line)
-        m110 = _M110_RE.search(command) if error is None else None
+        m110 = _m110(command) if error is None else None
         if error is None and number is not None and m110 is None:
             if number != self.last_line_number + 1:
                 error = "Line Number is not Last Line Number+1"
