@@ -208,3 +208,28 @@ def test_noisy_line_runs_every_line_exactly_once_in_order():
     assert bench.device.resends >= bench.device.noise.corrupted
     assert [a.text for a in bench.device.accepted] == bodies
     assert all(a.reply == "ok" for a in bench.device.accepted)
+
+
+def test_an_endless_line_is_held_to_its_bound_and_refused_whole():
+    """16 MB without a newline took quadratic time and served nothing else: the reader
+    holds at most MAX_LINE_CHARS + 1 bytes of a line; the over-long line comes out as that
+    much (which the device refuses as too long) and the next line as it was."""
+    from transplanter.machine.gcode import MAX_LINE_CHARS
+    from transplanter.machine.marlin import LineReader
+
+    reader = LineReader()
+    lines: list[bytes] = []
+    chunk = b"G1 X1 " * 700  # 4200 bytes
+    for _ in range(1000):  # 4.2 MB, no newline
+        lines += reader.feed(chunk)
+        assert len(reader.pending) <= MAX_LINE_CHARS + 1
+    assert lines == []
+    assert reader.feed(b"\r\nM105\r\nG28") == [chunk[: MAX_LINE_CHARS + 1], b"M105\r"]
+    assert reader.pending == b"G28" and reader.overlong == 1
+    # a carriage return kept in the cut line cannot make it short enough to pass
+    assert reader.feed(b"\n" + b"\r" * 5000 + b"\n") == [b"G28", b"\x7f" * (MAX_LINE_CHARS + 1)]
+    bench = Bench(keepalive_s=0.0)
+    assert bench.send((b"\x7f" * (MAX_LINE_CHARS + 1)).decode("latin-1")) == [
+        "Error:Line too long, Last Line: 0", "Resend: 1", "ok"
+    ]  # fmt: skip
+    assert bench.send("M105") == ["ok T:0"]

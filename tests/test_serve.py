@@ -7,6 +7,7 @@ printed pty path and reads the results JSON serve writes when the host hangs up.
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -239,20 +240,23 @@ class Host:
 
         self.port = serial.Serial(device, 115200, timeout=read_s)
         self._buffer = b""
+        self._complete: list[str] = []  # read, not yet handed out
         self.received: list[str] = []
+        self.greeting = self.lines(lambda r: r.startswith("echo:"))  # start, the banner
 
     def lines(self, until, max_reads: int = 120) -> list[str]:
         """Lines read until one satisfies ``until`` (that one included)."""
         got: list[str] = []
         for _ in range(max_reads):
-            self._buffer += self.port.read(max(1, self.port.in_waiting))
-            *complete, self._buffer = self._buffer.split(b"\n")
-            for raw in complete:
-                line = raw.decode("ascii").rstrip("\r")
+            while self._complete:
+                line = self._complete.pop(0)
                 got.append(line)
                 self.received.append(line)
                 if until(line):
                     return got
+            self._buffer += self.port.read(max(1, self.port.in_waiting))
+            *complete, self._buffer = self._buffer.split(b"\n")
+            self._complete += [raw.decode("ascii").rstrip("\r") for raw in complete]
         raise AssertionError(f"no end of the reply after {max_reads} reads: {got}")
 
     def ask(self, line: str, max_reads: int = 120) -> list[str]:
@@ -301,3 +305,45 @@ def test_serve_answers_an_endless_dwell_or_feed_at_once(serve):
         "G28", "G4 P1000000000000", "G1 X0 Y200 Z60 F0.0000001", "M400"
     ]  # fmt: skip
     assert got["sim_time_s"] < 60
+
+
+def test_a_line_without_end_is_held_to_its_bound_on_the_pty():
+    """4 MB without a newline reach the endpoint: it never holds more than one over-long
+    line's bound (the work per byte is constant), then hands on the cut line and the next
+    good one. Loops bounded by count; the pty is written without blocking."""
+    from transplanter.machine.gcode import MAX_LINE_CHARS
+    from transplanter.twin.serve import PtyEndpoint
+
+    endpoint = PtyEndpoint()
+    host = os.open(endpoint.path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    try:
+        data = memoryview(b"G1 X1 " * 700_000 + b"\nM105\n")
+        lines: list[bytes] = []
+        for _ in range(200_000):
+            if data:
+                try:
+                    data = data[os.write(host, data[:4096]) :]
+                except BlockingIOError:
+                    pass
+            lines += endpoint.read_lines(0.0 if data else 0.05)
+            assert len(endpoint.reader.pending) <= MAX_LINE_CHARS + 1
+            if len(lines) == 2:
+                break
+        assert lines == [b"G1 X1 " * 42 + b"G1 X1", b"M105"]
+    finally:
+        os.close(host)
+        endpoint.close()
+
+
+def test_serve_refuses_an_endless_line_and_answers_the_next(serve):
+    proc, device, out = serve("--seedlings", "1")
+    host = Host(device)
+    try:
+        host.port.write(b"X" * 4_000_000)
+        replies = host.ask("\nM105")
+        assert replies == ["Error:Line too long, Last Line: 0", "Resend: 1", "ok"]
+        assert host.lines(lambda r: r.startswith("ok")) == ["ok T:0"]
+    finally:
+        host.close()
+    got = finish_serve(proc, out)
+    assert got["serial"]["executed"] == ["M105"] and got["serial"]["resends"] == 1

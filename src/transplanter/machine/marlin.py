@@ -42,7 +42,15 @@ from transplanter.errors import ErrorCode
 from transplanter.machine.gcode import MAX_LINE_CHARS, checksum
 from transplanter.machine.sgf import SGF
 
-__all__ = ["MarlinDevice", "AcceptedLine", "LineNoise", "BANNER", "KEEPALIVE_S", "split_framing"]
+__all__ = [
+    "MarlinDevice",
+    "AcceptedLine",
+    "LineNoise",
+    "LineReader",
+    "BANNER",
+    "KEEPALIVE_S",
+    "split_framing",
+]
 
 BANNER = "echo:transplanter twin SGF, Marlin-compatible dialect (docs/architecture.md)"
 KEEPALIVE_S = 2.0
@@ -99,6 +107,51 @@ def split_framing(line: str) -> tuple[int | None, str, str | None]:
     if not (digits.isascii() and digits.isdigit()) or int(digits) != checksum(line[:star]):
         return number, "", "checksum mismatch"
     return number, line[match.end() : star].strip(), None
+
+
+class LineReader:
+    """Bytes from the wire into lines (split at ``\\n``), holding at most ``limit`` bytes of
+    the line being received, as Marlin's serial reader holds at most MAX_CMD_SIZE.
+
+    A line longer than that keeps its first ``limit`` bytes and drops the rest up to its
+    newline, so the work per byte is constant whatever arrives (16 MB without a newline used
+    to take minutes, quadratically); the cut line comes out ``limit`` bytes long, with any
+    carriage return in it made DEL, so it stays longer than ``gcode.MAX_LINE_CHARS`` after a
+    host's ``\\r`` is stripped and the device refuses it whole (``Line too long``), never runs
+    its first part."""
+
+    def __init__(self, limit: int = MAX_LINE_CHARS + 1) -> None:
+        if not (isinstance(limit, int) and limit > MAX_LINE_CHARS):
+            raise ValueError(f"limit must be an integer > {MAX_LINE_CHARS}, got {limit!r}")
+        self.limit = limit
+        self.pending = bytearray()
+        """The line received so far (at most ``limit`` bytes)."""
+        self.overlong = 0
+        """Lines cut to ``limit`` bytes so far."""
+        self._cut = False  # the line being received is over the limit
+
+    def feed(self, chunk: bytes) -> list[bytes]:
+        """The lines ``chunk`` completes, without their newline."""
+        lines: list[bytes] = []
+        start = 0
+        while True:
+            end = chunk.find(b"\n", start)
+            piece = chunk[start:] if end < 0 else chunk[start:end]
+            room = self.limit - len(self.pending)
+            if len(piece) > room:
+                self._cut = True
+                piece = piece[:room]
+            self.pending += piece
+            if end < 0:
+                return lines
+            line = bytes(self.pending)
+            if self._cut:
+                line = line.replace(b"\r", b"\x7f")
+                self.overlong += 1
+                self._cut = False
+            lines.append(line)
+            self.pending.clear()
+            start = end + 1
 
 
 class LineNoise:

@@ -32,7 +32,7 @@ from typing import Any
 
 from transplanter.machine.faults import FaultKind, kind_of_reply
 from transplanter.machine.gcode import GcodeError, parse_line
-from transplanter.machine.marlin import KEEPALIVE_S, LineNoise, MarlinDevice
+from transplanter.machine.marlin import KEEPALIVE_S, LineNoise, LineReader, MarlinDevice
 from transplanter.machine.pgf import LinePhase, SentLine, build_program
 
 __all__ = [
@@ -64,7 +64,8 @@ class PtyEndpoint:
         tty.setraw(self._slave)
         self.path = os.ttyname(self._slave)
         os.set_blocking(self.master, False)
-        self._buffer = b""
+        self.reader = LineReader()
+        """Holds the line being received, at most one over-long line's bound."""
         self.closed = False
 
     def read_lines(self, timeout_s: float) -> list[bytes]:
@@ -87,9 +88,7 @@ class PtyEndpoint:
         if self._slave is not None:
             os.close(self._slave)
             self._slave = None
-        self._buffer += chunk
-        *lines, self._buffer = self._buffer.split(b"\n")
-        return lines
+        return self.reader.feed(chunk)
 
     def write_lines(self, lines: list[str]) -> None:
         data = "".join(f"{line}\n" for line in lines).encode("ascii")
@@ -119,15 +118,14 @@ class SerialEndpoint:
 
         self.serial = serial.Serial(port, baudrate=baud, timeout=0)
         self.path = port
-        self._buffer = b""
+        self.reader = LineReader()
+        """Holds the line being received, at most one over-long line's bound."""
         self.closed = False
 
     def read_lines(self, timeout_s: float) -> list[bytes]:
         self.serial.timeout = max(timeout_s, 0.0)
-        chunk = self.serial.read(max(1, self.serial.in_waiting))
-        self._buffer += chunk
-        *lines, self._buffer = self._buffer.split(b"\n")
-        return lines
+        chunk = self.serial.read(min(max(1, self.serial.in_waiting), _READ_CHUNK))
+        return self.reader.feed(chunk)
 
     def write_lines(self, lines: list[str]) -> None:
         self.serial.write("".join(f"{line}\n" for line in lines).encode("ascii"))
