@@ -100,6 +100,8 @@ def test_every_code_is_a_reply_the_firmware_gives():
     t = k * 1e-3
     sgf.receive("G1 X0 Y180 Z50", t)
     given.add(ErrorCode.of_reply(sgf.poll(t, (False, False, False, True))[0]))
+    sgf.receive("M112", t)  # an emergency stop (71)
+    given.add(ErrorCode.of_reply(sgf.poll(t)[0]))
     assert given == set(ErrorCode)
 
 
@@ -115,7 +117,7 @@ def test_reply_format_and_int_compatibility():
     assert ErrorCode(9) is ErrorCode.SYSTEM_LOCKED
     assert f"error:{ErrorCode.SYSTEM_LOCKED}" == "error:9"  # formats as its number
     assert ErrorCode.BAD_CHECKSUM + 1 == ErrorCode.LINE_OUT_OF_SEQUENCE
-    assert sorted(ErrorCode)[0] == 1 and max(ErrorCode) == 70
+    assert sorted(ErrorCode)[0] == 1 and max(ErrorCode) == 71
 
 
 def _first_args_of_gcode_errors(path: Path) -> list[ast.expr]:

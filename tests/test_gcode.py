@@ -257,7 +257,7 @@ def test_malformed_corpus_is_large_and_covers_codes():
         assert info.value.code == code, text
         seen.append(info.value.code)
     assert len(seen) >= 40
-    # every code the parser can give (9, 33 and 66-70 come from the SGF, 61 needs an
+    # every code the parser can give (9, 33 and 66-71 come from the SGF, 61 needs an
     # expected N)
     parser_codes = set(ErrorCode) - {
         ErrorCode.SYSTEM_LOCKED,
@@ -268,6 +268,7 @@ def test_malformed_corpus_is_large_and_covers_codes():
         ErrorCode.HOMING_SWITCH_STUCK,
         ErrorCode.HOMING_SWITCH_NOT_FOUND,
         ErrorCode.LIMIT_SWITCH_CLOSED,
+        ErrorCode.EMERGENCY_STOP,
     }
     assert set(seen) == parser_codes
 
@@ -327,7 +328,7 @@ def test_error_code_is_an_int_and_names_the_reply():
     assert error.code is ErrorCode.UNSUPPORTED_COMMAND and error.code == 20
     assert isinstance(error.code, int) and isinstance(error, ValueError)
     assert error.reply == "error:20 unsupported command G2; supported: " + (
-        "G0 G1 G4 G28 G90 G91 M280 M400 M114 M119 M105 M710"
+        "G0 G1 G4 G28 G90 G91 M280 M400 M114 M119 M105 M710 M112"
     )
     assert str(error).startswith("error 20: ")
     assert GcodeError(33, "x").code is ErrorCode.INVALID_TARGET

@@ -233,3 +233,44 @@ def test_an_endless_line_is_held_to_its_bound_and_refused_whole():
         "Error:Line too long, Last Line: 0", "Resend: 1", "ok"
     ]  # fmt: skip
     assert bench.send("M105") == ["ok T:0"]
+
+
+def test_m112_is_caught_before_any_queue_even_a_full_one(bench):
+    """M112 behind a full queue and receive buffer used to be resent ('receive buffer
+    full') and then run last: the device scans every line for it first (Marlin's
+    EMERGENCY_PARSER) and the SGF stops at once; every line still gets one final reply and
+    its ok, in order, the M112's last (Marlin's 'Printer halted. kill() called!')."""
+    device, sgf = bench.device, bench.sgf
+    n = 2
+    device.receive(framed(n, "G1 X0 Y200 Z60 S5"), bench.t)
+    while sgf.room_for(framed(n + 1, "G4 P1000")):
+        n += 1
+        device.receive(framed(n, "G4 P1000"), bench.t)
+    assert bench.poll() == []
+    bench.t += 1.0  # a second into the move
+    held = sgf.pulses_at(bench.t)[0]
+    device.receive("M112", bench.t)
+    replies = bench.poll()
+    finals = [r for r in replies if r != "ok"]
+    assert replies.count("ok") == len(finals) == n  # lines 2..n, then the M112
+    assert finals[0].startswith("Error:G1 stopped by the emergency stop (M112)")
+    assert all(r.startswith("Error:not run: emergency stop (M112)") for r in finals[1:-1])
+    assert finals[-1].startswith("Error:Printer halted. kill() called! Emergency stop (M112)")
+    assert all(r.endswith("[error:71]") for r in finals)
+    assert device.resends == 0 and device.accepted[-1].text == "M112"
+    assert (sgf.pulses_at(bench.t + 60.0)[0] == held).all()
+    # the line numbering goes on; motion waits for G28
+    refused = bench.send(framed(n + 1, "G1 X0 Y180 Z60"))
+    assert refused[0].startswith("Error:G1 refused") and refused[-1] == "ok"
+    assert bench.send(framed(n + 2, "G28")) == ["ok"]
+    assert bench.send(framed(n + 3, "G1 X0 Y180 Z60")) == ["ok"]
+
+
+@pytest.mark.parametrize("line", ["N9 M112*0", "  m112", "N3 M112 ; stop"])
+def test_m112_acts_whatever_its_framing(bench, line):
+    """The scan reads the command word only: a damaged checksum or a wrong line number does
+    not delay an emergency stop (nor does a Resend follow)."""
+    replies = bench.send(line)
+    assert replies[0].startswith("Error:Printer halted. kill() called!") and replies[1] == "ok"
+    assert bench.device.resends == 0 and bench.device.last_line_number == 1
+    assert bench.send("M1120") == ['echo:Unknown command: "M1120"', "ok"]  # not M112

@@ -347,3 +347,51 @@ def test_serve_refuses_an_endless_line_and_answers_the_next(serve):
         host.close()
     got = finish_serve(proc, out)
     assert got["serial"]["executed"] == ["M105"] and got["serial"]["resends"] == 1
+
+
+def test_m112_during_a_move_stops_it_at_once(serve):
+    """M112 during a move was queued and answered 'Unknown command' after the move. In real
+    time (so that the move lasts 10 s of wall clock) the host sends M112 once the device's
+    first 'busy: processing' shows the move running: the move is stopped part way, both lines
+    answered, motion refused until G28, and the session records the emergency stop."""
+    proc, device, out = serve("--seedlings", "1", "--realtime")
+    host = Host(device)
+    try:
+        assert host.ask("G28", max_reads=240)[-1] == "ok"
+        host.port.write(b"G1 X0 Y220 Z60 S14\n")  # 141 mm: 10 s
+        assert host.lines(lambda r: r == "busy: processing") == ["busy: processing"]
+        replies = host.ask("M112")  # the G1's reply and its ok
+        replies += host.lines(lambda r: r.startswith("ok"))  # the M112's
+        replies = [r for r in replies if r != "busy: processing"]
+        assert replies[0].startswith("Error:G1 stopped by the emergency stop (M112)")
+        assert replies[2].startswith("Error:Printer halted. kill() called!")
+        assert replies[1] == replies[3] == "ok" and len(replies) == 4
+        report = host.ask("M114")
+        y = float(report[0].split()[1].removeprefix("Y:"))
+        assert 90.0 < y < 215.0, report  # stopped part way (the move starts at Y 79)
+        assert host.ask("G1 X0 Y200 Z60")[0].startswith("Error:G1 refused")
+        assert host.ask("G28", max_reads=240)[-1] == "ok"
+        assert host.ask("G1 X0 Y200 Z60 S200")[-1] == "ok"
+    finally:
+        host.close()
+    got = finish_serve(proc, out, status=4)
+    assert got["fault_kind"] == "emergency_stop" and "M112" in got["fault"]
+    assert got["serial"]["executed"] == [
+        "G28", "G1 X0 Y220 Z60 S14", "M112", "M114", "G1 X0 Y200 Z60", "G28", "G1 X0 Y200 Z60 S200"
+    ]  # fmt: skip
+
+
+def test_the_port_is_read_every_host_poll_while_the_machine_is_busy():
+    """An M112 must not wait for the next firmware event (a whole move later): while the
+    machine is busy the stand-in asks to be polled every HOST_POLL_S of simulated time."""
+    from transplanter.twin.serve import HOST_POLL_S
+
+    endpoint = ScriptedEndpoint([(0.0, "G4 P1000"), (600.0, "M105")])
+    host = _bare_host(endpoint)
+    assert host.next_event_time() is None  # idle: it waits for the host instead
+    lines = host.poll(0.0, [])
+    host.device.receive(lines[0], 0.0)
+    host.device.poll(0.0)
+    assert host.next_event_time() == HOST_POLL_S
+    host.poll(0.25, [])
+    assert host.next_event_time() == 0.25 + HOST_POLL_S

@@ -710,3 +710,70 @@ def test_the_slowest_feed_a_refusal_offers_does_the_move(homed):
     offered = replies[0].split("give F")[1].split(" ")[0]
     replies, t2 = run_line(sgf, f"G1 X0 Y220 Z60 F{offered}", t1)
     assert replies == ["ok"] and t2 - t1 <= MAX_MOVE_S
+
+
+KILLED = "error:71 Printer halted. kill() called! Emergency stop (M112)"
+
+
+def test_m112_stops_every_motor_at_once_flushes_and_locks_motion_until_homed(homed):
+    """M112 during a move was queued behind it and answered 'unsupported' once the move had
+    run: it acts when it arrives, before any queue (Marlin's EMERGENCY_PARSER): the motors
+    hold where they are, the running line and every queued line get error:71 (one reply
+    each, in order), then the M112 itself; motion (moves, servos, conveyor) is refused until
+    a G28; the stop position is reported."""
+    sgf, endstops, t = homed
+    sgf.drain_machine_events()
+    sgf.receive("G1 X45 Y200 Z60 S10", t)  # seconds long
+    sgf.receive("G4 P100", t)
+    sgf.receive("M280 P0 S90", t)
+    assert sgf.poll(t) == []
+    t_done = sgf.next_event_time()
+    t_stop = t + 0.4 * (t_done - t)
+    assert sgf.poll(t_stop) == []
+    held = sgf.pulses_at(t_stop)[0]
+    sgf.receive("M112", t_stop)
+    replies = sgf.poll(t_stop)
+    assert [r.split(" ")[0] for r in replies] == ["error:71"] * 4
+    assert f"G1 stopped by the emergency stop (M112) at t={t_stop:.3f} s" in replies[0]
+    assert all("not run: emergency stop (M112)" in r for r in replies[1:3])
+    assert replies[3].startswith(KILLED) and "2 queued lines flushed" in replies[3]
+    assert not sgf.busy and sgf.next_event_time() is None
+    assert sgf.drain_servo_commands() == []  # the flushed M280 never ran
+    assert np.array_equal(sgf.pulses_at([t_stop, t_done, t_done + 5.0]), [held] * 3)
+    assert np.array_equal(sgf.raw_pulses, held)
+    stopped = sgf.position_xyz  # where the arm stopped, part way along the move
+    assert 0.0 < stopped[0] < 0.045 and not sgf.homed
+    assert [name for _, name in sgf.drain_machine_events()] == ["emergency_stop"]
+    t1 = t_stop + 0.1
+    for line in ("G1 X0 Y180 Z60", "M280 P0 S90", "M710", "G0 Z100"):
+        replies, _ = run_line(sgf, line, t1)
+        assert len(replies) == 1 and replies[0].startswith(f"error:71 {line.split()[0]} refused")
+        assert "home with G28" in replies[0]
+    assert sgf.drain_servo_commands() == [] and sgf.drain_machine_events() == []
+    for line in ("M105", "G4 P10", "G90"):
+        replies, t1 = run_line(sgf, line, t1)
+        assert replies == ["ok"], line
+    replies, _ = run_line(sgf, "M114", t1)
+    assert replies[0].startswith(f"X:{stopped[0] * 1e3:.3f} Y:{stopped[1] * 1e3:.3f}")
+    t2 = home(sgf, endstops, t1)
+    replies, _ = run_line(sgf, "G1 X45 Y200 Z60 S100", t2)
+    assert replies == ["ok"] and np.allclose(sgf.position_xyz, [0.045, 0.200, 0.060])
+
+
+def test_m112_while_idle_or_framed_and_in_band_after_a_comment(homed):
+    sgf, endstops, t = homed
+    sgf.receive("N1 M112*32", t)  # framed: its line number counts
+    assert len(replies := sgf.poll(t)) == 1 and replies[0].startswith(KILLED)
+    assert "0 queued lines flushed" in replies[0]
+    replies, _ = run_line(sgf, "N2 G1 X0 Y180 Z60*94", t)
+    assert replies[0].startswith("error:71 G1 refused")
+    # a comment before the word hides it from the scan (as from Marlin's): it stops the
+    # machine in its turn, and still flushes what came after it
+    t1 = home(sgf, endstops, t)
+    sgf.receive("G4 P500", t1)
+    sgf.receive("(stop) M112", t1)
+    sgf.receive("M280 P0 S90", t1)
+    replies, _ = run_line(sgf, "M105", t1)
+    assert [r.split(" ")[0] for r in replies] == ["ok", "error:71", "error:71", "error:71"]
+    assert replies[1].startswith(KILLED)
+    assert sgf.drain_servo_commands() == []

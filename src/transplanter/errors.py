@@ -42,6 +42,7 @@ grbl's meanings; 60 and up are this firmware's own, for the Marlin-style line fr
 | 68 | HOMING_SWITCH_STUCK | homing failed: a switch still closed after the pull-off (ALARM:8) |
 | 69 | HOMING_SWITCH_NOT_FOUND | homing failed: a limit switch never closed (grbl's ALARM:9) |
 | 70 | LIMIT_SWITCH_CLOSED | a move towards a limit switch that reads closed (a hard limit) |
+| 71 | EMERGENCY_STOP | M112: motors stopped, queue flushed; motion refused until G28 |
 """
 
 from __future__ import annotations
@@ -190,6 +191,7 @@ class ErrorCode(IntEnum):
     HOMING_SWITCH_STUCK = 68
     HOMING_SWITCH_NOT_FOUND = 69
     LIMIT_SWITCH_CLOSED = 70
+    EMERGENCY_STOP = 71
 
     def reply(self, message: str) -> str:
         """The firmware's answer for this code: ``error:<code> <message>``."""

@@ -44,6 +44,7 @@ class FaultKind(StrEnum):
     BUS_TIMEOUT = "bus_timeout"  # the PGF got no reply within bus.reply_timeout_s
     LINE_REFUSED = "line_refused"  # any other error: reply (an unreachable target, ...)
     PROTOCOL = "protocol"  # a reply the host did not expect (an ok with no line outstanding)
+    EMERGENCY_STOP = "emergency_stop"  # error:71: the host sent M112
 
 
 _KIND_OF_CODE = {
@@ -51,6 +52,7 @@ _KIND_OF_CODE = {
     ErrorCode.LIMIT_SWITCH_CLOSED: FaultKind.SWITCH_STUCK_CLOSED,
     ErrorCode.HOMING_SWITCH_NOT_FOUND: FaultKind.SWITCH_NOT_FOUND,
     ErrorCode.MOTOR_STALLED: FaultKind.MOTOR_STALLED,
+    ErrorCode.EMERGENCY_STOP: FaultKind.EMERGENCY_STOP,
 }
 
 

@@ -1,7 +1,8 @@
 """G-code parsing and formatting for the twin's dialect (docs/architecture.md).
 
 One line holds one command: ``G0``/``G1``, ``G4``, ``G28``, ``G90``, ``G91``, ``M280``,
-``M400``, ``M114``, ``M119``, ``M105`` or ``M710``, with value words from X Y Z F S P.
+``M400``, ``M114``, ``M119``, ``M105``, ``M710`` or ``M112`` (emergency stop: the SGF acts on
+it when it arrives, :func:`is_emergency_stop`), with value words from X Y Z F S P.
 Comments (``; ...`` to the end of the line, ``( ... )`` inline) are dropped. Marlin framing
 ``N<n> <command> *<checksum>`` is optional; the checksum is the XOR of every byte before
 ``*`` as sent, ``( ... )`` comments included (after a ``;`` comment has been cut off). A
@@ -70,12 +71,16 @@ _ALLOWED_WORDS: dict[str, str] = {
     "M119": "",
     "M105": "",
     "M710": "",
+    "M112": "",
 }
 _REQUIRED_WORDS: dict[str, str] = {"G4": "P", "M280": "PS"}
 
 SERVO_INDICES = (0, 1)
 SERVO_MAX_DEG = 180.0
 """Largest hobby-servo angle M280 S accepts (and the EEPROM stores), in degrees."""
+
+# Marlin's EMERGENCY_PARSER: blanks, an optional N<n>, then the word M112 ends the scan
+_EMERGENCY_STOP_RE = re.compile(r"[ \t]*(?:[Nn][ \t]*[-+]?[0-9]+[ \t]*)?[Mm]0*112(?![0-9])")
 
 # ASCII only: Python's \d and float() also take other scripts' digits.
 _NUMBER_RE = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)")
@@ -130,6 +135,16 @@ def _word_end(text: str, index: int) -> int:
     while end < len(text) and not (text[end].isspace() or _is_ascii_letter(text[end])):
         end += 1
     return end
+
+
+def is_emergency_stop(text: str) -> bool:
+    """Whether a received line is an emergency stop, read as Marlin's EMERGENCY_PARSER reads
+    the serial bytes before they reach any queue (feature/emergency_parser.h): blanks, an
+    optional line number, then the command word ``M112`` (``m112``, ``M0112``; not ``M1120``).
+    Whatever follows (a checksum, good or bad, a comment) does not matter: a stop is never
+    delayed by a framing error. A line with anything else first (``G1 ... ; M112``,
+    ``(note) M112``) is not one; the SGF still runs ``(note) M112`` as a stop in its turn."""
+    return _EMERGENCY_STOP_RE.match(text) is not None
 
 
 def valid_servo_angle(angle_deg: float) -> bool:

@@ -39,7 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from transplanter.errors import ErrorCode
-from transplanter.machine.gcode import MAX_LINE_CHARS, checksum
+from transplanter.machine.gcode import MAX_LINE_CHARS, checksum, is_emergency_stop
 from transplanter.machine.sgf import SGF
 
 __all__ = [
@@ -228,6 +228,9 @@ class MarlinDevice:
     def _receive_one(self, line: str, rx_index: int, now: float) -> None:
         if not line.strip():
             return  # Marlin skips empty lines
+        if is_emergency_stop(line):
+            self._emergency_stop(line, rx_index, now)
+            return
         if len(line) > MAX_LINE_CHARS:
             self._resend("Line too long")
             return
@@ -261,6 +264,18 @@ class MarlinDevice:
         self.accepted.append(entry)
         self._waiting.append(entry)
         self.sgf.receive(command_for_sgf, now)
+
+    def _emergency_stop(self, line: str, rx_index: int, now: float) -> None:
+        """M112, caught before the framing check and the queue (Marlin's EMERGENCY_PARSER):
+        the SGF stops at once. A line number whose framing passes and is in sequence counts;
+        a framing error delays nothing and asks for no resend."""
+        number, _, error = split_framing(line)
+        if error is None and number is not None and number == self.last_line_number + 1:
+            self.last_line_number = number
+        entry = AcceptedLine(rx_index, "M112", number, now)
+        self.accepted.append(entry)
+        self._waiting.append(entry)
+        self.sgf.receive("M112", now)
 
     def _resend(self, reason: str) -> None:
         self.resends += 1

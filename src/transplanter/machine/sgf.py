@@ -59,6 +59,7 @@ from transplanter.machine.gcode import (
     GcodeError,
     GcodeLine,
     format_number,
+    is_emergency_stop,
     parse_line,
 )
 from transplanter.machine.homing import Homing, HomingConfig
@@ -76,6 +77,9 @@ F or S, this bound and the slowest speed that would do. grbl raises any feed bel
 MINIMUM_FEED_RATE (1 mm/min) to it and Marlin one below its minimum feedrate, so neither ever
 plans an endless move; at 1 mm/min the paper machine's longest move (about 300 mm) would still
 take five hours, so the twin bounds the move's duration rather than its feed."""
+
+_MOTION_COMMANDS = frozenset({"G0", "G1", "M280", "M710"})
+"""What an emergency stop refuses until a G28: moves, the servos and the conveyor."""
 
 
 @dataclass(frozen=True)
@@ -220,6 +224,8 @@ class SGF:
         self._segment_starts: list[float] = []
         self._segments: list = []
         self._pending_stall: str | None = None  # a stall reply for the next line
+        self.killed_at: float | None = None
+        """When an M112 stopped the machine; None once a G28 has homed it again."""
         self.stalls: list[tuple[float, int]] = []
         """(t, motor) of every stall that stopped the SGF."""
         # moves that cruised slower than their F asked: (asked m/s, why) -> [count, slowest]
@@ -285,6 +291,9 @@ class SGF:
         self._check_time(now)
         if not isinstance(line, str):
             raise TypeError(f"a received line is a str, got {type(line).__name__}")
+        if is_emergency_stop(line):
+            self._emergency_stop(line, now)
+            return
         if len(self._queue) < self.config.command_queue_lines and not self._rx:
             self._enqueue(line, now)
             return
@@ -335,6 +344,13 @@ class SGF:
         self._check_time(now)
         if endstops is not None:
             self._endstops = tuple(bool(e) for e in endstops)
+        self._advance(now, endstops)
+        replies, self._replies = self._replies, []
+        return replies
+
+    def _advance(self, now: float, endstops: Sequence[bool] | None, homing: bool = True) -> None:
+        """Finish every line done by ``now`` and start the next ones; with ``homing`` False,
+        stop at a running homing (its switches are not read)."""
         while True:
             if self._current is None:
                 if not self._queue:
@@ -345,13 +361,13 @@ class SGF:
                 self._current = job
             job = self._current
             if job.homing is not None:
+                if not homing:
+                    break
                 self._update_homing(job, now, endstops)
             if math.isfinite(job.t_done) and job.t_done <= now:
                 self._finish(job)
                 continue
             break
-        replies, self._replies = self._replies, []
-        return replies
 
     def next_event_time(self) -> float | None:
         """When the running line completes (None if idle or still seeking switches)."""
@@ -430,6 +446,71 @@ class SGF:
         self._rx.clear()
         self._rx_bytes = 0
 
+    def _emergency_stop(self, line: str, now: float) -> None:
+        """M112 has arrived (``receive``): stop now, ahead of every queued line."""
+        if not self.homing:  # lines done by now are answered first, as they were done
+            self._advance(now, None, homing=False)
+        try:  # a framed M112 whose framing passes counts its line number (Marlin)
+            parsed = parse_line(
+                line,
+                expected_line_number=self._last_line_number + 1,
+                require_checksum=self.config.require_checksum,
+            )
+            if parsed is not None and parsed.line_number is not None:
+                self._last_line_number = parsed.line_number
+        except GcodeError:
+            pass  # a stop is never refused for its framing
+        job = self._current
+        running = [] if job is None else [job]
+        if job is not None:
+            job.move, job.homing, job.t_done = None, None, now
+            job.replies = [
+                ErrorCode.EMERGENCY_STOP.reply(
+                    f"{job.line.command} stopped by the emergency stop (M112) at t={now:.3f} s"
+                    if isinstance(job.line, GcodeLine)
+                    else f"not run: emergency stop (M112) at t={now:.3f} s"
+                )
+            ]
+        replies = self._stop_everything(now, running)
+        if job is not None:
+            self._finish(job)
+        self._replies.extend(replies)
+
+    def _stop_everything(self, now: float, running: list | None = None) -> list[str]:
+        """Marlin's kill(): every motor holds where it is at ``now``, every queued or buffered
+        line is flushed, the position is kept as far as the steps tell (the drivers never
+        lost one) but the machine is not homed and motion is refused until a G28. Returns the
+        replies of the flushed lines and then the stop's own, in line order (the running
+        line, ``running``, is the caller's to answer first)."""
+        held = self.pulses_at(now)[0]
+        if self.homed and not self.homing:  # the steps since the last segment ended
+            self._logical = self._logical + (held - self._raw)
+            self._position = self.config.kinematics.point_of_steps(self._logical)
+        else:
+            self._position[:] = np.nan
+        self._add_segment(now, lambda t: np.broadcast_to(held, (np.size(t), held.size)).copy())
+        self._raw = held.copy()
+        self.homed = False
+        self.killed_at = now
+        self._pending_stall = None
+        self._machine_events.append((now, "emergency_stop"))
+        flushed = len(self._queue) + len(self._rx)
+        replies = [
+            ErrorCode.EMERGENCY_STOP.reply(f"not run: emergency stop (M112) at t={now:.3f} s")
+        ] * flushed
+        self._queue.clear()
+        self._rx.clear()
+        self._rx_bytes = 0
+        stopped = "a line" if running else "nothing"
+        replies.append(
+            ErrorCode.EMERGENCY_STOP.reply(
+                f"Printer halted. kill() called! Emergency stop (M112) at t={now:.3f} s: "
+                f"every motor stopped where it was ({stopped} running), {flushed} queued "
+                f"line{'' if flushed == 1 else 's'} flushed; motion refused until G28"
+            )
+        )
+        return replies
+
     def drain_servo_commands(self) -> list[tuple[float, int, float]]:
         """(t, servo index, angle deg) commanded since the last drain."""
         out, self._servo_commands = self._servo_commands, []
@@ -454,6 +535,18 @@ class SGF:
             job.replies = [line.reply]
             return
         command, words = line.command, line.words
+        if command == "M112":  # not caught on arrival (a comment before it): a stop in its turn
+            *flushed, own = self._stop_everything(t0)
+            job.replies = [own, *flushed]  # its own reply, then the lines after it
+            return
+        if self.killed_at is not None and command in _MOTION_COMMANDS:
+            job.replies = [
+                ErrorCode.EMERGENCY_STOP.reply(
+                    f"{command} refused: the machine was halted by M112 at "
+                    f"t={self.killed_at:.3f} s; home with G28 first"
+                )
+            ]
+            return
         if self._pending_stall is not None:
             message, self._pending_stall = self._pending_stall, None
             if command != "G28":
@@ -595,6 +688,7 @@ class SGF:
                 self._logical = self.config.homed_steps
                 self._position = self.config.kinematics.point_of_steps(self._logical)
                 self.homed = True
+                self.killed_at = None
                 self._machine_events.append((t, "homed"))
         elif job.move is not None:
             self._raw = self._raw + (job.move.end_steps - job.move.start_steps)

@@ -46,8 +46,17 @@ __all__ = [
 _READ_CHUNK = 4096
 # Refusals that mean the machine stopped (not a host's bad line): reported as the fault.
 _MACHINE_FAULTS = frozenset(
-    {FaultKind.MOTOR_STALLED, FaultKind.SWITCH_STUCK_CLOSED, FaultKind.SWITCH_NOT_FOUND}
+    {
+        FaultKind.MOTOR_STALLED,
+        FaultKind.SWITCH_STUCK_CLOSED,
+        FaultKind.SWITCH_NOT_FOUND,
+        FaultKind.EMERGENCY_STOP,
+    }
 )
+HOST_POLL_S = 0.01
+"""While the machine is busy the port is read at least this often (simulated s), so that a
+host's M112 reaches the device within 10 ms of simulated time (else only at the next
+firmware event, up to a whole move later)."""
 
 
 class PtyEndpoint:
@@ -227,6 +236,7 @@ class RemoteHost:
         self._synced = 0  # device.accepted entries turned into SentLines
         self._open: list[int] = []  # indices into sent still waiting for their reply
         self._t0_wall: float | None = None
+        self._t_poll = 0.0  # when the port was last read
         self.device: MarlinDevice | None = None
         self.twin = None
 
@@ -249,6 +259,7 @@ class RemoteHost:
         return twin.sgf.busy or twin.bus.next_delivery_time() is not None
 
     def poll(self, now: float, replies: list[str]) -> list[str]:
+        self._t_poll = now
         if replies:
             self.endpoint.write_lines(replies)
             self._reply_t.extend([now] * len(replies))
@@ -302,8 +313,11 @@ class RemoteHost:
             )  # fmt: skip
 
     def next_event_time(self) -> float | None:
-        """No reply timeout here: the host on the other end keeps its own."""
-        return None
+        """While the machine is busy, the next read of the port (``HOST_POLL_S``); no reply
+        timeout here: the host on the other end keeps its own."""
+        if self.endpoint.closed or self.twin is None or not self._machine_busy():
+            return None
+        return self._t_poll + HOST_POLL_S
 
     @property
     def machine_fault(self) -> str | None:
