@@ -395,3 +395,48 @@ def test_the_port_is_read_every_host_poll_while_the_machine_is_busy():
     assert host.next_event_time() == HOST_POLL_S
     host.poll(0.25, [])
     assert host.next_event_time() == 0.25 + HOST_POLL_S
+
+
+def test_serve_ends_when_the_host_hangs_up_even_mid_dwell(serve):
+    """The host closed the port during a 10-minute dwell and serve simulated the dwell to
+    its end (a real port never ended at all): the session ends when the port closes, says so
+    in one line and writes its results as usual."""
+    proc, device, out = serve("--seedlings", "1")
+    host = Host(device)
+    assert host.ask("G28", max_reads=240)[-1] == "ok"
+    host.port.write(b"G4 P600000\nM400\n")
+    assert host.lines(lambda r: r == "busy: processing") == ["busy: processing"]
+    host.close()
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 0, stdout + stderr
+    ended = [line for line in stdout.splitlines() if line.startswith("session ended")]
+    assert len(ended) == 1 and "the host closed the port at t = " in ended[0], stdout
+    assert "2 lines not answered" in ended[0]
+    got = json.loads(out.read_text())
+    assert got["sim_time_s"] < 600 and got["serial"]["ended"] in ended[0]
+    assert got["serial"]["executed"] == ["G28", "G4 P600000", "M400"]
+
+
+def test_a_real_port_that_goes_away_ends_the_session():
+    """pyserial raises on a port whose device went away (a USB adapter pulled, here a pty
+    whose other side closed): the endpoint reports the port closed instead of failing."""
+    from transplanter.twin.serve import SerialEndpoint
+
+    master, slave = os.openpty()
+    endpoint = SerialEndpoint(os.ttyname(slave), 115200)
+    os.close(slave)
+    os.write(master, b"M105\n")
+    lines: list[bytes] = []
+    for _ in range(100):
+        lines += endpoint.read_lines(0.05)
+        if lines:
+            break
+    assert lines == [b"M105"] and not endpoint.closed
+    os.close(master)
+    for _ in range(100):
+        assert endpoint.read_lines(0.05) == []
+        if endpoint.closed:
+            break
+    assert endpoint.closed
+    endpoint.write_lines(["ok"])  # nobody there: nothing raised
+    endpoint.close()

@@ -16,8 +16,10 @@ Seedlings are judged as in `trial` when the host sends the scenario's taught pro
 `transplanter pgf` or the paper's PGF sends): each line the SGF takes is matched against the
 program's next line (command and words, framing aside). Lines that are not the program's
 next line (a host's `M105` polls, `M114`, other G-code) run as they are and are judged as
-host lines. One session per run: it ends when the host closes the port (a pty), or, with
-``until_done``, once the taught program's last line has been answered.
+host lines. One session per run: it ends when the host closes the port (end-of-file on a pty,
+a failed read or write on a real port), at once, even with a move under way, or, with
+``until_done``, once the taught program's last line has been answered; ``ServeStats.ended``
+says which, in one line.
 """
 
 from __future__ import annotations
@@ -120,11 +122,14 @@ class PtyEndpoint:
 
 
 class SerialEndpoint:
-    """A real serial port through pyserial (a USB-UART to the host)."""
+    """A real serial port through pyserial (a USB-UART to the host). A read or write that
+    fails (the adapter unplugged, the device gone: pyserial's SerialException, an OSError)
+    closes the session, as end-of-file does on a pty."""
 
     def __init__(self, port: str, baud: int) -> None:
         import serial
 
+        self._errors = (serial.SerialException, OSError)
         self.serial = serial.Serial(port, baudrate=baud, timeout=0)
         self.path = port
         self.reader = LineReader()
@@ -132,15 +137,29 @@ class SerialEndpoint:
         self.closed = False
 
     def read_lines(self, timeout_s: float) -> list[bytes]:
-        self.serial.timeout = max(timeout_s, 0.0)
-        chunk = self.serial.read(min(max(1, self.serial.in_waiting), _READ_CHUNK))
+        if self.closed:
+            return []
+        try:
+            self.serial.timeout = max(timeout_s, 0.0)
+            chunk = self.serial.read(min(max(1, self.serial.in_waiting), _READ_CHUNK))
+        except self._errors:
+            self.closed = True
+            return []
         return self.reader.feed(chunk)
 
     def write_lines(self, lines: list[str]) -> None:
-        self.serial.write("".join(f"{line}\n" for line in lines).encode("ascii"))
+        if self.closed:
+            return
+        try:
+            self.serial.write("".join(f"{line}\n" for line in lines).encode("ascii"))
+        except self._errors:
+            self.closed = True
 
     def close(self) -> None:
-        self.serial.close()
+        try:
+            self.serial.close()
+        except self._errors:
+            pass
 
 
 class ProgramFollower:
@@ -194,6 +213,9 @@ class ServeStats:
     program_lines_done: int = 0
     program_lines: int = 0
     final_position_mm: list[float] = field(default_factory=list)
+    ended: str = ""
+    """Why the session ended: the host closed the port (when, and how many lines it left
+    unanswered), or the taught program was done (``until_done``)."""
     executed: list[str] = field(default_factory=list)
     """The command of every line the SGF took, in order, framing removed."""
 
@@ -239,6 +261,8 @@ class RemoteHost:
         self._t_poll = 0.0  # when the port was last read
         self.device: MarlinDevice | None = None
         self.twin = None
+        self.ended: str | None = None
+        """Why the session ended, one line (set when the host hangs up)."""
 
     # -- the twin's side -------------------------------------------------------------------
     def attach(self, twin) -> tuple[RemoteHost, MarlinDevice]:
@@ -250,9 +274,12 @@ class RemoteHost:
 
     @property
     def done(self) -> bool:
+        """The session is over: the host closed the port (whatever the machine is doing:
+        nobody is there to hear it), or with ``until_done`` the program's last line was
+        answered."""
         if self.until_done and self.follower.finished and not self._open:
             return True
-        return self.endpoint.closed and not self._machine_busy()
+        return self.endpoint.closed
 
     def _machine_busy(self) -> bool:
         twin = self.twin
@@ -265,6 +292,7 @@ class RemoteHost:
             self._reply_t.extend([now] * len(replies))
         self._sync()
         if self.endpoint.closed:
+            self._hung_up(now)
             return []
         if self.realtime:
             lines = self._read_paced(now)
@@ -274,11 +302,20 @@ class RemoteHost:
             lines = []
             while not lines and not self.endpoint.closed and not self.done:
                 lines = self.endpoint.read_lines(self.idle_wait_s)
+        if self.endpoint.closed:
+            self._hung_up(now)
         out = [raw.rstrip(b"\r").decode("latin-1") for raw in lines]
         out = [_wire_safe(line) for line in out]
         self._host_lines.extend(out)
         self._host_send_t.extend([now] * len(out))
         return out
+
+    def _hung_up(self, now: float) -> None:
+        if self.ended is not None:
+            return
+        waiting = len(self._open) + (len(self._host_lines) - self.device.rx_count)
+        busy = f"; {waiting} line{'' if waiting == 1 else 's'} not answered" if waiting else ""
+        self.ended = f"the host closed the port at t = {now:.3f} s simulated{busy}"
 
     def _read_paced(self, now: float) -> list[bytes]:
         if self._t0_wall is None:
@@ -339,6 +376,11 @@ class RemoteHost:
                     return kind, f"the SGF answered {line.text!r}: {line.reply}"
         return None
 
+    def _end_otherwise(self) -> str:
+        if self.until_done and self.follower.finished and not self._open:
+            return "the taught program's last line was answered (until done)"
+        return "the twin stopped (interrupted, or its simulation went invalid)"
+
     def stats(self) -> ServeStats:
         device = self.device
         position = self.twin.sgf.position_xyz * 1000.0
@@ -352,6 +394,7 @@ class RemoteHost:
             program_lines_done=self.follower.cursor,
             program_lines=len(self.follower.program),
             final_position_mm=[round(float(v), 6) for v in position],
+            ended=self.ended or self._end_otherwise(),
             executed=[entry.text for entry in device.accepted],
         )
 
@@ -375,6 +418,8 @@ def format_stats(stats: ServeStats) -> str:
         ("other host lines", f"{stats.host_lines}"),
         ("final position", f"X{x:.3f} Y{y:.3f} Z{z:.3f} mm"),
     ]
+    if stats.ended:
+        rows.append(("session ended", stats.ended))
     if stats.corrupted_by_noise:
         rows.insert(2, ("byte errors injected", f"in {stats.corrupted_by_noise} lines"))
     width = max(len(k) for k, _ in rows)
