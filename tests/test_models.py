@@ -324,3 +324,24 @@ def test_named_cameras_look_at_what_they_are_named_for():
         to_target = target - data.cam_xpos[cam]
         cos = view @ to_target / np.linalg.norm(to_target)
         assert cos > 0.97, name  # the target is within about 14 deg of the view axis
+
+
+def test_export_on_a_full_disk_says_so_in_one_line_and_leaves_nothing(
+    tmp_path, monkeypatch, capsys
+):
+    """A full disk used to end in an OSError traceback with a truncated mesh left behind."""
+    import errno
+
+    import transplanter.scene as scene_package
+    from transplanter.cli import main
+
+    def full_disk(cfg, seed, out):
+        (Path(out).parent / "assets").mkdir()
+        (Path(out).parent / "assets" / "jaw.stl").write_bytes(b"solid half")  # cut short
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(scene_package, "export_scene", full_disk)
+    assert main(["export", "paper", str(tmp_path / "scene.xml")]) == 5
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "No space left on device" in err[0]
+    assert list(tmp_path.iterdir()) == []  # no truncated mesh, no staging directory
