@@ -161,17 +161,35 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if report.skipped:
         print(f"{report.skipped} runs were already in {_show(args.out)} (skipped)")
     width = max(len(k) for k in spec.keys)
+    # failures by kind as columns: the kinds that occurred in any run, summed per setting
+    kinds = [
+        f for f in (report.rows[0] if report.rows else {})
+        if f.startswith("fail_") and any(r.get(f) for r in report.rows)
+    ]  # fmt: skip
+    per_setting: dict[tuple, dict[str, int]] = {}
+    for r in report.rows:
+        sums = per_setting.setdefault(tuple(r[k] for k in spec.keys), dict.fromkeys(kinds, 0))
+        for f in kinds:
+            sums[f] += r.get(f) or 0
+    names = [f.removeprefix("fail_") for f in kinds]
     head = "  ".join(f"{k:>{width}}" for k in spec.keys)
-    print(f"{head}  {'success':>16}  {'95 % CI':>13}  {'cycle s':>7}  errors")
+    print(
+        f"{head}  {'success':>16}  {'95 % CI':>13}  {'cycle s':>7}  errors"
+        + "".join(f"  {n}" for n in names)
+    )
     for a in report.settings:
         values = "  ".join(f"{format_value(a[k]):>{width}}" for k in spec.keys)
+        sums = per_setting.get(tuple(a[k] for k in spec.keys), {})
+        failures = "".join(
+            f"  {sums.get(f, 0):>{len(n)}}" for f, n in zip(kinds, names, strict=True)
+        )
         if a["success_rate"] is None:
-            print(f"{values}  {'-':>16}  {'-':>13}  {'-':>7}  {a['errors']}")
+            print(f"{values}  {'-':>16}  {'-':>13}  {'-':>7}  {a['errors']:>6}{failures}")
             continue
         rate = f"{100 * a['success_rate']:.1f} % ({a['successes']}/{a['seedlings']})"
         ci = f"{100 * a['ci95_low']:.1f}-{100 * a['ci95_high']:.1f} %"
         cycle = "-" if a["cycle_time_s"] is None else f"{a['cycle_time_s']:.3f}"
-        print(f"{values}  {rate:>16}  {ci:>13}  {cycle:>7}  {a['errors']}")
+        print(f"{values}  {rate:>16}  {ci:>13}  {cycle:>7}  {a['errors']:>6}{failures}")
     failed = [r for r in report.rows if r["error"] is not None]
     for r in failed[:5]:
         where = " ".join(f"{k}={format_value(r[k])}" for k in spec.keys)
