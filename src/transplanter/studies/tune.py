@@ -9,9 +9,9 @@ trial number (`sampler_seed + number`), so the same command gives the same study
 not.
 
 Files in the output directory: `trials.csv` (every finished trial), `pareto.csv` (the Pareto
-front), `pareto.png` and `tuned.toml`: the chosen point (highest lower bound; ties: the
-shortest cycle) as a scenario with `base = ...` and only the tuned keys (plus any `--set`
-keys the study held fixed), which `transplanter trial DIR/tuned.toml` runs.
+front), `pareto.png` (Optuna's Pareto-front plot) and `tuned.toml`: the chosen point (highest
+lower bound; ties: the shortest cycle) as a scenario with `base = ...` and only the tuned keys
+(plus any `--set` keys the study held fixed), which `transplanter trial DIR/tuned.toml` runs.
 """
 
 from __future__ import annotations
@@ -417,13 +417,14 @@ def _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted
     write_csv_atomic(out / "pareto.csv", fields, front)
     files.append(out / "pareto.csv")
     chosen = front[0] if front else None
-    complete = [t for t in done if t.state == optuna.trial.TrialState.COMPLETE]
+    seeds = ", ".join(map(str, spec.seeds))
     files.append(
         plots.pareto_plot(
             out / "pareto.png",
-            [(t.values[1], t.values[0]) for t in complete],
-            [(t.values[1], t.values[0]) for t in front_trials],
+            study,
             (chosen["cycle_time_s"], chosen["ci95_low"]) if chosen else None,
+            title=f"speed vs success: n = {spec.seedlings} seedlings x {len(spec.seeds)} "
+            f"seed{'s' if len(spec.seeds) > 1 else ''} ({seeds}) per point",
         )
     )
     if chosen is not None:
