@@ -72,13 +72,16 @@ for row in report.front:
         f"  trial {row['trial']}: lower bound {100 * row['ci95_low']:.1f} %, "
         f"cycle {row['cycle_time_s']:.3f} s"
     )
+if report.note is not None:  # the sample is too small to rank the perfect points
+    print(report.note)
 
 # %% [markdown]
 # The chosen point (the highest lower bound; ties: the shortest cycle) is written as a
 # scenario that starts from the paper's and holds only the tuned keys:
 # `transplanter trial results/speed_vs_success_N/tuned.toml` runs it with all 40 seedlings.
 # With few seedlings the lower bound cannot rise far (3 of 3 pots give at most 44 %), so the
-# front here is mostly about the cycle time; quote studies with 40 seedlings and 2+ seeds.
+# front here is mostly about the cycle time; quote studies with 40 seedlings and 2+ seeds,
+# and read the note: points that succeed on every seedling tie (docs/tuning.md).
 
 # %%
 from IPython.display import Image, display  # noqa: E402

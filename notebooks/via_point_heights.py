@@ -100,8 +100,8 @@ for a in report.settings:
 #   40 mm on the lift clears the cell; more Z_up only adds cycle time.
 
 # %% [markdown]
-# The plots the sweep wrote beside its tables: success with its 95 % band and cycle time
-# against each key (one line per value of the other key), and the heat map of the success
+# The plots the sweep wrote beside its tables, one per key: success with its 95 % band beside
+# the cycle time (one line per value of the other key), and the heat map of the success
 # rate (refused settings show as "error").
 
 # %%

@@ -10,8 +10,7 @@ NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.py"))
 # The PNG files each notebook writes into NOTEBOOK_OUT (its own subdirectory).
 PLOTS = {
     "via_point_heights.py": [
-        "via_point_heights_3/success_taught.z_low_mm.png",
-        "via_point_heights_3/cycle_taught.z_low_mm.png",
+        "via_point_heights_3/sweep_taught.z_low_mm.png",
         "via_point_heights_3/success_heatmap.png",
     ],
     "speed_vs_success.py": ["speed_vs_success_3/pareto.png"],

@@ -189,10 +189,7 @@ def test_process_pool_with_one_and_two_workers_gives_identical_rows(tmp_path, in
     assert (tmp_path / "two" / "settings.csv").read_text() == (
         tmp_path / "one" / "settings.csv"
     ).read_text()
-    assert sorted(p.name for p in two.plots) == [
-        "cycle_taught.z_low_mm.png",
-        "success_taught.z_low_mm.png",
-    ]
+    assert [p.name for p in two.plots] == ["sweep_taught.z_low_mm.png"]
 
 
 @pytest.mark.slow

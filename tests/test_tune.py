@@ -61,6 +61,10 @@ def test_tune_writes_the_front_and_a_tuned_scenario_that_runs(tmp_path, capsys):
     assert main([*args, "--trials", "3"]) == 0
     printed = capsys.readouterr().out
     assert "study s: 3 trials (3 run now)" in printed
+    trials_seen = list(csv.DictReader((out / "trials.csv").open()))
+    perfect = sum(t["successes"] == t["seedlings"] for t in trials_seen)
+    chosen_perfect = next(csv.DictReader((out / "pareto.csv").open()))["successes"] == "2"
+    assert ("too few to rank their success" in printed) == (perfect >= 2 and chosen_perfect)
     import optuna
 
     stored = optuna.load_study(study_name="s", storage=f"sqlite:///{db}")
@@ -122,3 +126,24 @@ def test_a_storage_that_cannot_hold_a_study_is_refused_in_one_line(tmp_path, cap
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and why in err[0]
     assert text.read_text() == "not a database\n"  # untouched
+
+
+def _scored(trial, k, n=40, cycle=3.2):
+    return {"trial": trial, "successes": k, "seedlings": n, "cycle_time_s": cycle}
+
+
+def test_saturation_note_when_perfect_points_tie_on_the_lower_bound():
+    """The README's 20 seedlings x 2 seeds: five of six points 40/40 (docs/tuning.md)."""
+    from transplanter.studies.tune import rule_of_three_seedlings, saturation_note
+
+    rows = [_scored(t, 40, cycle=3.0 + t / 10) for t in range(5)] + [_scored(5, 39)]
+    note = saturation_note(rows, rows[0])
+    assert note is not None and "\n" not in note
+    assert note.startswith("note: 5 of 6 points succeeded on all 40 seedlings")
+    assert "above 7.2 %" in note  # 1 - 0.05 ** (1 / 40): the exact rule of three
+    assert "about 300 seedlings per point" in note
+    assert rule_of_three_seedlings(0.01) == 300 and rule_of_three_seedlings(0.05) == 60
+    # a single perfect point, a chosen point that failed, no chosen point: nothing to say
+    assert saturation_note([rows[0], rows[5]], rows[0]) is None
+    assert saturation_note([_scored(0, 39), _scored(1, 38)], _scored(0, 39)) is None
+    assert saturation_note([], None) is None

@@ -296,6 +296,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
             f"  trial {row['trial']:>4}: {values}  success {100 * row['success_rate']:.1f} % "
             f"(lower 95 % bound {100 * row['ci95_low']:.1f} %), cycle {row['cycle_time_s']:.3f} s"
         )
+    if report.note is not None:
+        print(report.note)
     print("files: " + ", ".join(_show(p) for p in report.files))
     if report.chosen is not None:
         print(

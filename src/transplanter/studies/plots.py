@@ -4,17 +4,23 @@ Every figure is written atomically (a temporary file beside it, then moved into 
 
 Sweep plots, beside the sweep's tables:
 
-- `success_<key>.png`: the pooled success rate and its 95 % interval band against each varied
-  key; with two varied keys one line per value of the other key (up to `MAX_LINES`), else the
-  rate pooled over the other keys (marginal);
-- `cycle_<key>.png`: the mean cycle time against each varied key, lines as above;
+- `sweep_<key>.png`, one per varied key: the pooled success rate and its 95 % interval band
+  against the key (left) and the mean cycle time (right), the key's axis in its file unit
+  (`taught.z_low_mm`: mm); with two varied keys one line per value of the other key (up to
+  `MAX_LINES`), else the rate pooled over the other keys (marginal). The title names the
+  seedlings per trial and the seeds each point pools;
 - `success_heatmap.png`: the success rate over the first two varied keys (pooled over any
   others), with two or more varied keys.
+
+The tuning study's `pareto.png` is Optuna's own Pareto-front plot
+(`optuna.visualization.matplotlib.plot_pareto_front`) with named, unit-carrying axes and the
+chosen point starred.
 """
 
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -22,9 +28,50 @@ from typing import Any
 from transplanter import fileio
 from transplanter.studies.stats import aggregate
 
-__all__ = ["MAX_LINES", "pareto_plot", "sweep_plots"]
+__all__ = ["MAX_LINES", "key_label", "pareto_plot", "sample_text", "sweep_plots"]
 
 MAX_LINES = 6  # lines per plot before falling back to the marginal over the other keys
+
+# A file key's unit suffix as an axis shows it (longest first: `_mm_s` before `_mm`).
+UNITS = (
+    ("_mm_s2", "mm/s²"), ("_mm_s", "mm/s"), ("_m_s2", "m/s²"), ("_m_s", "m/s"),
+    ("_rev_s", "rev/s"), ("_kgm2", "kg m²"), ("_bps", "bit/s"), ("_deg", "deg"),
+    ("_rad", "rad"), ("_mm", "mm"), ("_ms", "ms"), ("_us", "µs"), ("_hz", "Hz"),
+    ("_nm", "N m"), ("_kg", "kg"), ("_g", "g"), ("_m", "m"), ("_s", "s"), ("_n", "N"),
+)  # fmt: skip
+
+
+def key_label(key: str) -> str:
+    """An axis label for a scenario key in its file unit: 'taught.z_low_mm (mm)'; a key
+    without a unit suffix (a count, a name) as it is."""
+    name = key.split("[")[0]
+    for suffix, unit in UNITS:
+        if name.endswith(suffix):
+            return f"{key} ({unit})"
+    return key
+
+
+def _ranges(seeds: Sequence[int]) -> str:
+    """Sorted seeds as '1-3, 7'."""
+    parts: list[str] = []
+    ordered = sorted(set(seeds))
+    start = prev = ordered[0] if ordered else None
+    for s in [*ordered[1:], None]:
+        if s is not None and s == prev + 1:
+            prev = s
+            continue
+        parts.append(str(start) if start == prev else f"{start}-{prev}")
+        start = prev = s
+    return ", ".join(parts)
+
+
+def sample_text(rows: Sequence[Mapping[str, Any]]) -> str:
+    """What each plotted point pools: 'n = 40 seedlings x 3 seeds (1-3)'."""
+    seeds = sorted({r["seed"] for r in rows if r.get("seed") is not None})
+    sizes = sorted({r["seedlings"] for r in rows if r.get("seedlings") is not None})
+    per = "/".join(map(str, sizes)) if sizes else "?"
+    plural = "seed" if len(seeds) == 1 else "seeds"
+    return f"n = {per} seedlings x {len(seeds)} {plural} ({_ranges(seeds) if seeds else '-'})"
 
 
 def _pyplot():
@@ -68,6 +115,7 @@ def sweep_plots(out: Path, keys: Sequence[str], rows: Sequence[Mapping[str, Any]
     """The sweep's PNGs in `out`; the paths written."""
 
     plt = _pyplot()
+    sample = sample_text(rows)
     written = []
     for key in keys:
         others = [k for k in keys if k != key]
@@ -84,8 +132,7 @@ def sweep_plots(out: Path, keys: Sequence[str], rows: Sequence[Mapping[str, Any]
         else:
             label = "pooled over " + ", ".join(others) if others else ""
             lines = [(label, aggregate(rows, [key]))]
-        fig_s, ax_s = plt.subplots(figsize=(6.4, 4.0))
-        fig_c, ax_c = plt.subplots(figsize=(6.4, 4.0))
+        fig, (ax_s, ax_c) = plt.subplots(1, 2, figsize=(11.0, 4.2), layout="constrained")
         for label, agg in lines:
             pts = [a for a in agg if a["success_rate"] is not None]
             x = [pos[json.dumps(a[key])] for a in pts]
@@ -99,27 +146,31 @@ def sweep_plots(out: Path, keys: Sequence[str], rows: Sequence[Mapping[str, Any]
                 [pos[json.dumps(a[key])] for a in timed],
                 [a["cycle_time_s"] for a in timed],
                 "o-",
+                color=line.get_color(),
                 label=label or None,
             )
-        for ax, ylabel in ((ax_s, "success rate (%), 95 % interval"), (ax_c, "cycle time (s)")):
-            ax.set_xlabel(key)
+        for ax, ylabel in (
+            (ax_s, "pooled success rate (%), 95 % interval band"),
+            (ax_c, "mean cycle time (s)"),
+        ):
+            ax.set_xlabel(key_label(key))
             ax.set_ylabel(ylabel)
             ax.grid(True, alpha=0.3)
             if not numeric:
                 ax.set_xticks(range(len(xs)), [_label(v) for v in xs])
-            if any(label for label, _ in lines):
-                ax.legend(fontsize="small")
+        if any(label for label, _ in lines):
+            ax_s.legend(fontsize="small")
         ax_s.set_ylim(-2, 102)
-        ax_s.set_title(f"success rate vs {key}")
-        ax_c.set_title(f"mean cycle time vs {key}")
-        written.append(_save(fig_s, out / f"success_{key}.png"))
-        written.append(_save(fig_c, out / f"cycle_{key}.png"))
+        ax_s.set_title("success")
+        ax_c.set_title("cycle time")
+        fig.suptitle(f"{key}: {sample} per setting")
+        written.append(_save(fig, out / f"sweep_{key}.png"))
     if len(keys) >= 2:
-        written.append(_heatmap(out / "success_heatmap.png", keys[0], keys[1], rows))
+        written.append(_heatmap(out / "success_heatmap.png", keys[0], keys[1], rows, sample))
     return written
 
 
-def _heatmap(path: Path, kx: str, ky: str, rows: Sequence[Mapping[str, Any]]) -> Path:
+def _heatmap(path: Path, kx: str, ky: str, rows: Sequence[Mapping[str, Any]], sample: str) -> Path:
     import numpy as np
 
     plt = _pyplot()
@@ -130,41 +181,46 @@ def _heatmap(path: Path, kx: str, ky: str, rows: Sequence[Mapping[str, Any]]) ->
     for a in aggregate(rows, [kx, ky]):
         if a["success_rate"] is not None:
             grid[index_y[json.dumps(a[ky])], index_x[json.dumps(a[kx])]] = 100 * a["success_rate"]
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
     image = ax.imshow(grid, origin="lower", aspect="auto", vmin=0, vmax=100, cmap="viridis")
     ax.set_xticks(range(len(xs)), [_label(v) for v in xs])
     ax.set_yticks(range(len(ys)), [_label(v) for v in ys])
     for (j, i), value in np.ndenumerate(grid):
         text = "error" if np.isnan(value) else f"{value:.0f}"
         ax.text(i, j, text, ha="center", va="center", color="w" if value < 60 else "k")
-    ax.set_xlabel(kx)
-    ax.set_ylabel(ky)
-    ax.set_title("success rate (%)")
-    fig.colorbar(image, ax=ax, label="success rate (%)")
+    ax.set_xlabel(key_label(kx))
+    ax.set_ylabel(key_label(ky))
+    ax.set_title(f"pooled success rate (%)\n{sample} per setting", fontsize="medium")
+    fig.colorbar(image, ax=ax, label="pooled success rate (%)")
     return _save(fig, path)
 
 
 def pareto_plot(
     path: Path,
-    points: Sequence[tuple[float, float]],
-    front: Sequence[tuple[float, float]],
+    study,
     chosen: tuple[float, float] | None,
+    title: str = "speed vs success",
 ) -> Path:
-    """Every finished trial as (mean cycle time s, lower 95 % bound of success), the Pareto
-    front joined and the chosen point starred."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    if points:
-        ax.scatter(*zip(*points, strict=True), s=18, color="0.6", label="trials")
-    if front:
-        f = sorted(front)
-        ax.plot(*zip(*f, strict=True), "o-", color="C3", label="Pareto front")
+    """Optuna's Pareto-front plot of a two-objective study (lower 95 % bound of pooled
+    success, mean cycle time), as (mean cycle time s, lower bound %): every complete trial,
+    the front highlighted, and `chosen` (cycle s, lower bound as a fraction) starred."""
+    import optuna
+
+    _pyplot()  # the Agg backend before Optuna draws
+    with warnings.catch_warnings():  # "experimental" since Optuna 3.0, and stable in use
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        ax = optuna.visualization.matplotlib.plot_pareto_front(
+            study,
+            targets=lambda t: (t.values[1], 100 * t.values[0]),
+            target_names=["mean cycle time (s)", "lower 95 % bound of pooled success (%)"],
+        )
+    fig = ax.figure
+    fig.set_size_inches(6.4, 4.6)
     if chosen is not None:
-        ax.scatter([chosen[0]], [chosen[1]], marker="*", s=220, color="C2", zorder=5,
-                   label="chosen (tuned.toml)")  # fmt: skip
-    ax.set_xlabel("mean cycle time (s)")
-    ax.set_ylabel("lower 95 % bound of pooled success")
+        ax.scatter([chosen[0]], [100 * chosen[1]], marker="*", s=320, facecolors="none",
+                   edgecolors="k", zorder=5, label="chosen (tuned.toml)")  # fmt: skip
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
-    ax.set_title("speed vs success")
+    ax.set_title(title, fontsize="medium")
+    fig.tight_layout()
     return _save(fig, path)

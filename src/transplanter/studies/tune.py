@@ -9,9 +9,15 @@ trial number (`sampler_seed + number`), so the same command gives the same study
 not.
 
 Files in the output directory: `trials.csv` (every finished trial), `pareto.csv` (the Pareto
-front), `pareto.png` and `tuned.toml`: the chosen point (highest lower bound; ties: the
-shortest cycle) as a scenario with `base = ...` and only the tuned keys (plus any `--set`
-keys the study held fixed), which `transplanter trial DIR/tuned.toml` runs.
+front), `pareto.png` (Optuna's Pareto-front plot) and `tuned.toml`: the chosen point (highest
+lower bound; ties: the shortest cycle) as a scenario with `base = ...` and only the tuned keys
+(plus any `--set` keys the study held fixed), which `transplanter trial DIR/tuned.toml` runs.
+
+At the sample sizes users run (20 seedlings x 2 seeds) most good points succeed on every
+seedling and tie on the lower bound (as on any function of the pooled count: a prior's
+posterior mean, a floor's test; docs/tuning.md has the study), so only the cycle time ranks
+them. `saturation_note` then says so in one line, with the seedlings the rule of three asks
+for; `TuneReport.note` carries it.
 """
 
 from __future__ import annotations
@@ -131,6 +137,7 @@ class TuneReport:
     chosen: dict[str, Any] | None
     files: list[Path]
     interrupted: bool = False
+    note: str | None = None  # one line when the sample is too small to rank the points
 
 
 def _import_optuna(command: str = "tune"):
@@ -417,13 +424,15 @@ def _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted
     write_csv_atomic(out / "pareto.csv", fields, front)
     files.append(out / "pareto.csv")
     chosen = front[0] if front else None
-    complete = [t for t in done if t.state == optuna.trial.TrialState.COMPLETE]
+    complete = [_row(t, keys) for t in done if t.state == optuna.trial.TrialState.COMPLETE]
+    seeds = ", ".join(map(str, spec.seeds))
     files.append(
         plots.pareto_plot(
             out / "pareto.png",
-            [(t.values[1], t.values[0]) for t in complete],
-            [(t.values[1], t.values[0]) for t in front_trials],
+            study,
             (chosen["cycle_time_s"], chosen["ci95_low"]) if chosen else None,
+            title=f"speed vs success: n = {spec.seedlings} seedlings x {len(spec.seeds)} "
+            f"seed{'s' if len(spec.seeds) > 1 else ''} ({seeds}) per point",
         )
     )
     if chosen is not None:
@@ -435,7 +444,42 @@ def _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted
         except ScenarioError as exc:  # pragma: no cover - a bug here, never the user's input
             raise AssertionError(f"tuned.toml does not load: {exc}") from None
         files.append(path)
-    return TuneReport(out, url, study_name, finished, ran, front, chosen, files, interrupted)
+    note = saturation_note(complete, chosen)
+    return TuneReport(
+        out, url, study_name, finished, ran, front, chosen, files, interrupted, note=note
+    )
+
+
+FAILURE_TO_SEPARATE = 0.01
+"""The failure rate per pick the saturation note sizes its sample for (1 %)."""
+
+
+def rule_of_three_seedlings(failure_rate: float) -> int:
+    """Seedlings per point (all succeeding) that rule out `failure_rate` at 95 %: the rule
+    of three (0 failures in n picks bounds the rate below about 3/n; exactly, below
+    1 - 0.05**(1/n))."""
+    return math.ceil(3 / failure_rate)
+
+
+def saturation_note(complete: Sequence[Mapping[str, Any]], chosen: Mapping[str, Any] | None):
+    """One line when the success objective cannot rank the points: the chosen point and at
+    least one other succeeded on every seedling, so they tie on the lower bound and only the
+    cycle time told them apart. None otherwise."""
+    if chosen is None or chosen["successes"] != chosen["seedlings"]:
+        return None
+    full = [r for r in complete if r["successes"] is not None and r["successes"] == r["seedlings"]]
+    if len(full) < 2:
+        return None
+    n = chosen["seedlings"]
+    bound = 100 * (1 - 0.05 ** (1 / n))
+    need = rule_of_three_seedlings(FAILURE_TO_SEPARATE)
+    return (
+        f"note: {len(full)} of {len(complete)} points succeeded on all {n} seedlings, too few "
+        f"to rank their success (0 failures in {n} picks rules out only failure rates above "
+        f"{bound:.1f} %: the rule of three, about 3/n), so the front keeps the fastest of "
+        f"them; to tell a setting failing {100 * FAILURE_TO_SEPARATE:g} % of picks from a "
+        f"perfect one, give about {need} seedlings per point (--seedlings x seeds)"
+    )
 
 
 def _toml_value(v: Any) -> str:
