@@ -1,0 +1,131 @@
+"""README.md's numbers and commands: scripts/readme_numbers.py --quick finds no stale number,
+every block it owns is marked in the README, and every `transplanter ...` line the README
+quotes is a command the CLI's own parser takes."""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import shlex
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT
+from transplanter.cli import build_parser
+
+README = ROOT / "README.md"
+SCRIPT = ROOT / "scripts" / "readme_numbers.py"
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("readme_numbers", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+# --- the numbers -----------------------------------------------------------------------------
+
+
+def test_every_block_of_the_script_is_marked_in_the_readme_once():
+    rn = _script()
+    names = [m["name"] for m in rn.BLOCK_RE.finditer(README.read_text())]
+    assert sorted(names) == sorted(rn.BLOCKS), "README markers and BLOCKS differ"
+    assert README.read_text().count("<!-- /readme_numbers -->") == len(names)  # none malformed
+
+
+def test_numbers_are_read_as_the_twin_prints_them():
+    rn = _script()
+    line = "success rate  100.0 % (40/40), 95 % CI 91.2-100.0 %, theta1 = -145.9911 deg, 24.3x"
+    assert rn.NUMBER_RE.findall(line) == ["100.0", "40", "40", "95", "91.2", "100.0", "-145.9911",
+                                          "24.3"]  # fmt: skip
+
+
+def test_a_changed_number_is_a_difference_and_a_wall_time_is_not():
+    rn = _script()
+    block = rn.Block("b", lambda runs: "", "cmd", volatile=("wall time",))
+    old = "success rate  70.0 % (84/120)\nwall time  6.1 s"
+    new = "success rate  20.0 % (24/120)\nwall time  9.9 s"
+    stale = [(f.readme, f.twin) for f in rn.compare(block, old, new) if f.differs]
+    assert stale == [("70.0", "20.0"), ("84", "24")]
+    assert rn.keep_volatile(block, old, new) == "success rate  20.0 % (24/120)\nwall time  6.1 s"
+
+
+def test_update_rewrites_only_the_marked_text(tmp_path, monkeypatch):
+    rn = _script()
+    readme = tmp_path / "README.md"
+    readme.write_text("24 mm: <!-- readme_numbers: x -->70 %<!-- /readme_numbers --> (70 %)\n")
+    monkeypatch.setattr(rn, "BLOCKS", {"x": rn.Block("x", lambda runs: "20 %", "cmd", True)})
+    assert rn.main(["--quick", "--readme", str(readme)]) == 1
+    assert rn.main(["--quick", "--update", "--readme", str(readme)]) == 0
+    assert readme.read_text() == (
+        "24 mm: <!-- readme_numbers: x -->20 %<!-- /readme_numbers --> (70 %)\n"
+    )
+    assert rn.main(["--quick", "--readme", str(readme)]) == 0
+    assert [p.name for p in tmp_path.iterdir()] == ["README.md"]  # no temporary file left
+
+
+@pytest.mark.slow
+def test_quick_subset_finds_no_stale_number():
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPT), "--quick"],
+        capture_output=True, text=True, timeout=300, cwd=ROOT,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert re.search(r"numbers in \d+ blocks \(quick\): 0 differ", proc.stdout), proc.stdout
+
+
+# --- the commands ----------------------------------------------------------------------------
+
+
+def readme_commands() -> list[str]:
+    """Every `transplanter ...` the README quotes: code spans, and the lines of its shell
+    blocks (continuation lines joined, comments and a trailing & dropped)."""
+    text = README.read_text()
+    found = [
+        m[1].replace("\\|", "|")
+        for m in re.finditer(r"`((?:\.venv/bin/)?transplanter[^`]*)`", text)
+    ]
+    for block in re.findall(r"```sh\n(.*?)```", text, re.S):
+        for line in block.replace("\\\n", " ").splitlines():
+            line = line.split(" #")[0].strip().rstrip("&").strip()
+            if line.startswith((".venv/bin/transplanter", "transplanter")):
+                found.append(line)
+    return found
+
+
+PLACEHOLDER = re.compile(r"\[|\]|\.\.\.|\||(?<![\w/.-])[A-Z][A-Z0-9_]*\b")
+
+
+def _argv(command: str) -> list[str]:
+    argv = shlex.split(command)
+    assert argv[0].endswith("transplanter"), command
+    return argv[1:]
+
+
+def test_the_readme_quotes_commands():
+    commands = readme_commands()
+    assert len(commands) > 30
+    assert any("sweep paper --vary taught.z_low_mm=20:44:4" in c for c in commands)
+
+
+@pytest.mark.parametrize("command", readme_commands())
+def test_every_quoted_command_parses(command, capsys):
+    parser = build_parser()
+    argv = _argv(command)
+    if argv[0].startswith("-"):  # transplanter --version
+        with pytest.raises(SystemExit) as exc:
+            parser.parse_args(argv)
+        assert exc.value.code == 0
+        return
+    with pytest.raises(SystemExit) as exc:  # the subcommand exists and has its --help
+        parser.parse_args([argv[0], "--help"])
+    assert exc.value.code == 0
+    assert f"usage: transplanter {argv[0]}" in capsys.readouterr().out
+    if len(argv) == 1 or PLACEHOLDER.search(command):
+        return  # a mention of the subcommand, or a synopsis with placeholders
+    args = parser.parse_args(argv)  # a complete command line: it parses as it stands
+    assert args.command == argv[0]
