@@ -31,3 +31,20 @@ def test_long_work_is_estimated_from_the_pots_on_the_belt():
     assert "1.8 h" in estimate_line(500, pots=500) and "~13 s each" in estimate_line(500, 500)
     assert "on 2 cores" in estimate_line(10_000, workers=2)
     assert "days" in estimate_line(2_000_000)
+
+
+def test_one_bar_runs_over_the_seedlings_of_every_seed(capsys):
+    from transplanter.twin.report import seeds_bar
+
+    assert seeds_bar(10, enabled=False) is None
+    bar = seeds_bar(6, enabled=True)
+    first, second = bar.for_trial(1, 0), bar.for_trial(2, 3)
+    for done in (1, 2, 3):
+        first(done, done * 3.5)
+    assert bar.bar.n == 3
+    bar.write("       1        3/3  100.0 %  no         -")
+    for done in (1, 2, 3):
+        second(done, done * 3.5)
+    assert bar.bar.n == 6 and "seed 2" in bar.bar.postfix
+    bar.close()
+    assert "3/3" in capsys.readouterr().out  # the rows go to stdout above the bar

@@ -209,14 +209,16 @@ def _progress(args: argparse.Namespace) -> bool:
     return not args.quiet and sys.stderr.isatty()
 
 
-def _run(config, progress: bool = False, **kwargs: Any):
-    """run_trial(config, **kwargs) with a progress bar when `progress`: (result, interrupted),
-    an interrupted trial's result being the part that ran (a stop signal that came once the
-    trial had finished is left pending: the result is whole, `interrupted` False)."""
+def _run(config, progress: bool = False, on_progress=None, **kwargs: Any):
+    """run_trial(config, **kwargs) with a progress bar when `progress` (or the caller's own
+    `on_progress(done, sim_t)`): (result, interrupted), an interrupted trial's result being the
+    part that ran (a stop signal that came once the trial had finished is left pending: the
+    result is whole, `interrupted` False)."""
     from transplanter.twin.report import progress_bar
     from transplanter.twin.trial import TrialInterrupted, run_trial
 
-    bar, update = progress_bar(config.seedlings, progress)
+    bar, update = progress_bar(config.seedlings, progress and on_progress is None)
+    update = on_progress if on_progress is not None else update
     try:
         return run_trial(config, progress=update, **kwargs), False
     except TrialInterrupted as stop:

@@ -272,6 +272,7 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
         format_failures_table,
         format_seed_row,
         seed_row_header,
+        seeds_bar,
     )
 
     def config_of(seed: int):
@@ -290,6 +291,7 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
     if estimate is not None and not args.quiet:
         print(estimate, file=sys.stderr)
     print(seed_row_header())
+    bar = seeds_bar(first.seedlings * len(seeds), _progress(args))
     results, interrupted = [], False
     for k, seed in enumerate(seeds):
         try:  # each seed's configuration when its turn comes (10,000 seeds start at once)
@@ -297,11 +299,17 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
         except ScenarioError as exc:
             _err(f"scenario refused at seed {seed}: {exc}")
             break
-        result, interrupted = _run(config)
+        update = None if bar is None else bar.for_trial(seed, k * first.seedlings)
+        result, interrupted = _run(config, on_progress=update)
         if interrupted:
             break
         results.append(result)
-        print(format_seed_row(seed, result))
+        if bar is None:
+            print(format_seed_row(seed, result))
+        else:
+            bar.write(format_seed_row(seed, result))
+    if bar is not None:
+        bar.close()
     table = format_failures_table(seeds, results)
     if table:
         print(table)

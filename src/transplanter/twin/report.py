@@ -13,6 +13,7 @@ __all__ = [
     "printable",
     "progress_bar",
     "seed_row_header",
+    "seeds_bar",
 ]
 
 SEEDLING_WALL_S = 0.2
@@ -176,3 +177,35 @@ def progress_bar(total: int, enabled: bool):
         bar.update(done - bar.n)
 
     return bar, update
+
+
+class _SeedsBar:
+    """One tqdm bar over the seedlings of every seed of `trial --seeds`."""
+
+    def __init__(self, total: int) -> None:
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=total, unit="seedling", dynamic_ncols=True)
+
+    def for_trial(self, seed: int, before: int):
+        """The progress callback of one seed's trial, `before` seedlings into the bar."""
+
+        def update(done: int, sim_t: float) -> None:
+            self.bar.set_postfix_str(f"seed {seed}, sim {sim_t:.1f} s", refresh=False)
+            self.bar.update(before + done - self.bar.n)
+
+        return update
+
+    def write(self, line: str) -> None:
+        """A line printed above the bar (stdout), the bar redrawn below it."""
+        import sys
+
+        self.bar.write(line, file=sys.stdout)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def seeds_bar(total: int, enabled: bool) -> _SeedsBar | None:
+    """The bar over all seeds' seedlings of `trial --seeds` (None when not on a terminal)."""
+    return _SeedsBar(total) if enabled else None
