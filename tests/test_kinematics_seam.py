@@ -155,3 +155,18 @@ def test_transplanter_plan_prints_the_gantry_plan(gantry, tmp_path, capsys):
 def test_an_unknown_kind_is_refused_with_the_known_ones():
     with pytest.raises(ScenarioError, match="unknown robot kind 'delta_x'; known kinds: fivebar"):
         machine_config(load_scenario("paper", {"robot.kind": "delta_x"}))
+
+
+def test_a_kind_that_cannot_be_made_from_a_scenario_is_refused_by_name():
+    @dataclass(frozen=True)
+    class NoScenario(GantryKinematics):
+        kind = "test_no_scenario"
+
+        from_scenario = classmethod(Kinematics.from_scenario.__func__)
+
+    registry.register(NoScenario.kind, NoScenario)
+    try:
+        with pytest.raises(ScenarioError, match="'test_no_scenario' .* cannot be made from"):
+            machine_config(load_scenario("paper", {"robot.kind": "test_no_scenario"}))
+    finally:
+        registry._REGISTERED.pop(NoScenario.kind, None)

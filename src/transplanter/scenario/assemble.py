@@ -351,7 +351,7 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
     ):
         try:
             getattr(scene_kinds, group)(kind)
-        except scene_kinds.UnknownSceneKind as exc:
+        except UnknownKind as exc:
             raise ScenarioError(f"{group}.kind: {exc}.") from None
     theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
     stop = HARD_STOP_BEYOND_WINDOW_RAD

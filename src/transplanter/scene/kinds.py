@@ -18,13 +18,12 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from transplanter.errors import TransplanterError
+from transplanter.machine.kinematics import UnknownKind
 
 __all__ = [
     "EFFECTORS",
     "ROBOTS",
     "WORKCELLS",
-    "UnknownSceneKind",
     "effector",
     "judge_class",
     "robot",
@@ -36,13 +35,9 @@ EFFECTORS = {"parallel_jaw": "transplanter.scene.effectors.parallel_jaw"}
 WORKCELLS = {"conveyor_tube": "transplanter.scene.workcells.conveyor_tube"}
 
 
-class UnknownSceneKind(TransplanterError, ValueError):
-    """A robot, effector or workcell kind the scene has no module for."""
-
-
 def _load(table: dict[str, str], what: str, kind: str) -> ModuleType:
     if kind not in table:
-        raise UnknownSceneKind(f"unknown {what} kind {kind!r}; known kinds: {', '.join(table)}")
+        raise UnknownKind(f"unknown {what} kind {kind!r}; known kinds: {', '.join(table)}")
     return importlib.import_module(table[kind])
 
 

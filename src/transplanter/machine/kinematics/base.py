@@ -133,8 +133,13 @@ class Kinematics(ABC):
 
     @classmethod
     def from_scenario(cls, scenario) -> Kinematics:
-        """The arm a validated scenario describes (its robot's sections, in SI)."""
-        raise NotImplementedError(f"{cls.__name__} cannot be made from a scenario")
+        """The arm a validated scenario describes (its robot's sections, in SI). A kind that
+        does not override this is refused by name when a scenario asks for it (ValueError,
+        which the scenario's assembly reports as a refusal)."""
+        raise ValueError(
+            f"robot kind {cls.kind!r} ({cls.__name__}) cannot be made from a scenario: its "
+            "kinematics defines no from_scenario"
+        )
 
     @classmethod
     def homing_from_scenario(cls, scenario) -> HomingConfig:

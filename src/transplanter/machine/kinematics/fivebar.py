@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from transplanter.errors import Refusal, RefusalReason
+from transplanter.errors import Refusal, RefusalReason, refusal_text
 from transplanter.machine.axes import Axis
 from transplanter.machine.homing import HomingConfig
 from transplanter.machine.kinematics.base import (
@@ -422,13 +422,12 @@ def require_reachable(geom: FiveBarGeometry, limits: KinematicLimits, x, y, mode
     if not ok.all():
         i = int(np.flatnonzero(~ok)[0])
         refusals = _refusals(geom, limits, bad, arrays, i)
-        error = UnreachableError(i, refusals)
         raise UnreachableError(
             i,
             refusals,
             f"target position not reachable: point {i} at (x, y) = "
             f"({show(arrays['x'][i] / M_PER_MM)}, {show(arrays['y'][i] / M_PER_MM)}) mm: "
-            f"{error.reason}",
+            f"{refusal_text(refusals)}",
         )
     return arrays["theta1"], arrays["theta2"]
 
