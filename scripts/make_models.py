@@ -72,9 +72,10 @@ def robot_values(
         }))  # fmt: skip
     for joint in ("z", "theta1", "theta2"):
         j = spec.joint(joint)
-        out.append(("joint", joint, {
-            "range": fmt(*j.range), "damping": fmt(j.damping[0]), "armature": fmt(j.armature),
-        }))  # fmt: skip
+        values = {"range": fmt(*j.range), "damping": fmt(j.damping[0])}
+        if joint == "z":  # the lead screw's friction
+            values["frictionloss"] = fmt(j.frictionloss)
+        out.append(("joint", joint, {**values, "armature": fmt(j.armature)}))
     for jaw in ("jaw_left", "jaw_right"):
         j = spec.joint(jaw)
         out.append(("joint", jaw, {"range": fmt(*j.range), "damping": fmt(j.damping[0])}))
@@ -90,9 +91,8 @@ def robot_values(
         out.append(("site", site, {"pos": fmt(*spec.site(site).pos)}))
     for act in ("theta1", "theta2", "z"):
         a = spec.actuator(act)
-        out.append(("position", act, {
-            "gear": fmt(a.gear[0]), "kp": fmt(a.gainprm[0]), "dampratio": fmt(a.biasprm[2]),
-            "forcerange": fmt(*a.forcerange),
+        out.append(("general", act, {
+            "gear": fmt(a.gear[0]), "gainprm": fmt(a.gainprm[0]), "biasprm": fmt(*a.biasprm[:3]),
         }))  # fmt: skip
     grip = spec.actuator("gripper")
     out.append(("position", "gripper", {

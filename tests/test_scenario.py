@@ -70,7 +70,7 @@ def test_base_file_and_override(tmp_path):
         ("[drives]\nswitch3_z_mm = 200.0\n", "drives.switch3_z_mm (limit switch 3) must lie"),
         ("[pots]\nmass_min_g = 50.0\n", "pots.mass_g must lie within"),
         ("[motion]\ncompute_time_per_point_us = 0.0\n", "outside the allowed range"),
-        ("[drives]\npullout_zero_speed_rev_min = 900.0\n", "wrong unit; this value must be given"),
+        ("[drives]\npullout_corner_rev_min = 900.0\n", "wrong unit; this value must be given"),
     ],
 )
 def test_bad_values_are_refused_naming_the_key(tmp_path, body, needle):

@@ -440,13 +440,13 @@ def test_homing_locate_fails_when_the_switch_is_lost():
         replies = sgf.poll(k * 1e-3, (k == 50,) * 3 + (False,))
         if replies:
             break
-    # Z gives up first: 5 x 400 steps at 800 Hz after its pull-off, 2.6 s in
+    # Z gives up first: 5 x 400 steps at 800 Hz after its debounce (0.25 s) and pull-off
     assert replies == [
         "error:69 homing failed: limit switch 3 (Z up) closed in the seek but not again within "
         "2000 steps (5.0 mm) of the slow locate: an intermittent switch (a loose wire, a "
         "bouncing contact); check the switch and its wiring"
     ]
-    assert k * 1e-3 == pytest.approx(0.05 + 400 / 8000 + 2000 / 800, abs=2e-3)
+    assert k * 1e-3 == pytest.approx(0.05 + 0.25 + 400 / 8000 + 2000 / 800, abs=2e-3)
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
 
 

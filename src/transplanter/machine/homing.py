@@ -62,6 +62,9 @@ class HomingConfig:
     max_steps: tuple[int, ...] | None = None
     """Longest seek before homing fails; None: half a rotary joint's revolution and 200 mm of
     a slide in its drive's steps (4800, 4800, 80000 with the five-bar's drives)."""
+    debounce_s: float = 0.25
+    """Dwell after a switch trips before the pull-off (grbl's $26 homing debounce, 250 ms by
+    default): the axis stops at the trip and comes to rest before it reverses."""
     locate_scalar: float = 5.0
     """The locate fails after this many pull-off distances (grbl's HOMING_AXIS_LOCATE_SCALAR)."""
 
@@ -102,6 +105,8 @@ class HomingConfig:
                 "homing pulloff_steps must be integers >= 1 (the locate starts "
                 "from a switch that the pull-off has opened)"
             )
+        if not (math.isfinite(self.debounce_s) and self.debounce_s >= 0):
+            raise ValueError(f"homing debounce_s must be >= 0, got {self.debounce_s}")
         if not (math.isfinite(self.locate_scalar) and self.locate_scalar > 1):
             raise ValueError(f"homing locate_scalar must be > 1, got {self.locate_scalar}")
         if any(int(p) != p or p < 1 for p in self.max_steps):
@@ -142,6 +147,7 @@ class Homing:
         self.max_steps = np.asarray(config.max_steps, dtype=np.int64)
         self.pulloff = np.asarray(config.pulloff_steps, dtype=np.int64)
         self.locate_max_steps = np.ceil(config.locate_scalar * self.pulloff).astype(np.int64)
+        self.debounce_s = float(config.debounce_s)
         self.legs = [
             [
                 (
@@ -197,10 +203,14 @@ class Homing:
         return t >= t_start and self._raw(motor, t) == raw_start + direction * count
 
     def _pull_off(self, motor: int, t: float) -> int:
+        """Stop the motor at its switch's trip at t and back off after the debounce; the raw
+        count at the trip."""
         raw = self._raw(motor, t)
         steps = int(self.pulloff[motor])
+        if self.debounce_s > 0:
+            self.legs[motor].append((t, raw, 1, 0.0, 0))
         self.legs[motor].append(
-            (t, raw, -int(self.dirs[motor]), float(self.seek_rate[motor]), steps)
+            (t + self.debounce_s, raw, -int(self.dirs[motor]), float(self.seek_rate[motor]), steps)
         )
         return raw
 
@@ -263,7 +273,9 @@ class Homing:
                     seek_start = self.legs[motor][-1][1]
                     raw = self._pull_off(motor, now)
                     self.seek_steps[motor] = abs(raw - seek_start)
-                    self.t_locate[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
+                    self.t_locate[motor] = (
+                        now + self.debounce_s + self.pulloff[motor] / self.seek_rate[motor]
+                    )
                     self.legs[motor].append(
                         (
                             float(self.t_locate[motor]),
@@ -290,7 +302,9 @@ class Homing:
                     self.cleared[motor] = True
                 elif closed and self.cleared[motor]:
                     self.trip_raw[motor] = self._pull_off(motor, now)
-                    self.t_end[motor] = now + self.pulloff[motor] / self.seek_rate[motor]
+                    self.t_end[motor] = (
+                        now + self.debounce_s + self.pulloff[motor] / self.seek_rate[motor]
+                    )
                     self.phase[motor] = 2
                     continue
                 if self._exhausted(motor, now):

@@ -23,7 +23,6 @@ __all__ = [
     "check_timestep",
     "longest_line_s",
     "MAX_OMEGA_DT",
-    "MIN_TIMESTEP_S",
     "REPLY_TIMEOUT_MARGIN_S",
 ]
 
@@ -31,18 +30,12 @@ __all__ = [
 # reply's time on the wire and the SGF's planning before the first step.
 REPLY_TIMEOUT_MARGIN_S = 1.0
 
-# The stepper servos are stiff explicit springs: a timestep at which a motor's natural
-# frequency times the step exceeds this rings and loses steps. The study in
-# docs/edge_trials.md: Z has omega*dt = 0.81 at 1 ms (0.5 and 1 ms agree on every setting),
-# 1.62 at 2 ms (the paper setting falls from 100 % to 78 %, with 300 lost-step events).
-MAX_OMEGA_DT = 1.0
-
-MIN_TIMESTEP_S = 0.5e-3
-"""The finest step the outcomes were validated at (docs/edge_trials.md: 0.5 and 1 ms agree).
-Below it the stepper servos' lag behind their step count grows with the step (0.86 full steps
-at 1 ms, 1.49 at 0.5 ms, 1.80 at 0.25 ms, 2.02 at 0.06 ms at Z's 50 mm/s lift, against the
-2-step slip threshold), so a finer step loses steps the machine would not: a finer step is
-refused rather than reported as valid (docs/edge_trials.md, "The timestep")."""
+# The steppers' torque laws are stiff springs the integrator takes explicitly (from each
+# step's starting state; their damping is implicit): past omega x timestep = 2 the explicit
+# (symplectic) Euler step diverges. The convergence study in docs/drives.md: Z, the stiffest
+# (1716 rad/s with the paper's drives), has omega x dt = 1.72 at 1 ms, where every outcome
+# agrees with 0.5 and 0.25 ms; at 2 ms (3.43) the Z drive rings itself out of step.
+MAX_OMEGA_DT = 2.0
 
 
 def check_program(machine: Machine) -> None:
@@ -235,10 +228,10 @@ def _mm(p) -> str:
 
 
 def check_timestep(scene_config) -> None:
-    """Raise ScenarioError when physics.timestep_ms is too coarse for a stepper's servo.
+    """Raise ScenarioError when physics.timestep_ms is too coarse for a stepper's torque law.
 
     Builds the machine (one conveyor cell is enough: the pots do not load the motors) and
-    takes each motor's natural frequency from its servo stiffness and its joint's inertia
+    takes each motor's natural frequency from its small-signal stiffness and its joint's inertia
     (mass matrix at the home keyframe, rotor armature included)."""
     import dataclasses
     import math
@@ -246,15 +239,6 @@ def check_timestep(scene_config) -> None:
     import mujoco
 
     from transplanter.scene import build_scene
-
-    if scene_config.timestep_s < MIN_TIMESTEP_S * (1 - 1e-9):
-        raise ScenarioError(
-            f"physics.timestep_ms = {scene_config.timestep_s * 1e3:g} is below the validated "
-            f"range (from {MIN_TIMESTEP_S * 1e3:g} ms up to the drives' limit, 1.23 ms with "
-            "the paper's drives): below it the stepper servos lag their step count further "
-            "as the step shrinks and lose steps the machine would not (docs/edge_trials.md). "
-            f"Use at least {MIN_TIMESTEP_S * 1e3:g} ms."
-        )
 
     scene = build_scene(dataclasses.replace(scene_config, rows=1, cols=1), seed=0)
     m = scene.model
@@ -265,16 +249,17 @@ def check_timestep(scene_config) -> None:
     mujoco.mj_fullM(m, d, inertia)
     dt = m.opt.timestep
     worst = (0.0, "")
-    for a in scene.motor_actuators:
+    for a, params in zip(scene.motor_actuators, scene.drives.params, strict=True):
         dof = m.jnt_dofadr[m.actuator_trnid[a, 0]]
-        stiffness = m.actuator_gainprm[a, 0] * m.actuator_gear[a, 0] ** 2
+        stiffness = params.stiffness_nm_rad * m.actuator_gear[a, 0] ** 2
         omega = math.sqrt(stiffness / inertia[dof, dof])
         worst = max(worst, (omega, m.actuator(a).name))
     omega, name = worst
-    if omega * dt > MAX_OMEGA_DT:
+    if omega * dt >= MAX_OMEGA_DT:
         raise ScenarioError(
-            f"physics.timestep_ms = {dt * 1e3:g} is too coarse for the {name} stepper's servo "
-            f"(natural frequency {omega:.0f} rad/s: omega x timestep = {omega * dt:.2f} > "
-            f"{MAX_OMEGA_DT:g}); it would ring and lose steps. Use at most "
-            f"{MAX_OMEGA_DT / omega * 1e3:.2f} ms (docs/edge_trials.md)."
+            f"physics.timestep_ms = {dt * 1e3:g} is too coarse for the {name} stepper "
+            f"(its rotor rings on its field at {omega:.0f} rad/s: omega x timestep = "
+            f"{omega * dt:.2f} >= {MAX_OMEGA_DT:g}, where the explicit step of its torque law "
+            "diverges and the motor would lose steps the machine does not). Use less than "
+            f"{MAX_OMEGA_DT / omega * 1e3:.2f} ms (docs/drives.md, the convergence table)."
         )

@@ -213,8 +213,14 @@ class DrivesSection:
     max_step_rate_hz: float = key("float", 1, 1e6)
     holding_torque_nm: float = key("float", 0.001, 100)
     rotor_inertia_kgm2: float = key("float", 1e-9, 1e-2, doc="motor rotor inertia")
-    pullout_zero_speed_rev_s: float = key(
-        "float", 0.1, 1000, doc="motor speed at which the pull-out torque reaches 0"
+    detent_torque_nm: float = key(
+        "float", 0.0, 100, doc="the motor's torque unpowered, one cycle per full step"
+    )
+    pullout_corner_rev_s: float = key(
+        "float", 0.01, 1000, doc="motor speed above which the pull-out torque falls as 1/speed"
+    )
+    rotor_damping_ratio: float = key(
+        "float", 0.0, 10, doc="damping of the rotor against its field, unloaded rotor"
     )
     screw_efficiency: float = key("float", 0.01, 1.0, doc="lead screw efficiency")
     switch1_theta1_rad: float = key("float", -180, 360, doc="limit switch 1 trip angle")
@@ -224,6 +230,9 @@ class DrivesSection:
     homing_rate_z_hz: float = key("float", 1, 1e6)
     homing_locate_rate_arm_hz: float = key("float", 1, 1e5, doc="slow second homing pass")
     homing_locate_rate_z_hz: float = key("float", 1, 1e6)
+    homing_debounce_s: float = key(
+        "float", 0, 5000, doc="dwell after a homing switch trips, before the pull-off"
+    )
 
 
 @dataclass(frozen=True)
@@ -469,6 +478,7 @@ _FILE_KEY_OVERRIDES = {
     "close_dwell_s": "close_dwell_ms", "release_dwell_s": "release_dwell_ms",
     "compute_time_per_point_s": "compute_time_per_point_us", "timestep_s": "timestep_ms",
     "stall_settle_s": "stall_settle_ms", "canopy_timeconst_s": "canopy_timeconst_ms",
+    "homing_debounce_s": "homing_debounce_ms",
     "shoot_mass_kg": "shoot_mass_g",
 }  # fmt: skip
 _FILE_SUFFIX = {"_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm", "_rad": "_deg"}

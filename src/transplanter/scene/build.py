@@ -166,7 +166,7 @@ def scene_spec(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjS
     robot.apply(spec, cfg)
     kinds.effector(cfg.effector_kind).apply(spec, cfg)
     kinds.workcell(cfg.workcell_kind).apply(spec, cfg)
-    robot.apply_inertials(spec)
+    robot.apply_inertials(spec, cfg)
     return spec
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from transplanter.machine.kinematics.fivebar import FiveBarGeometry, FiveBarKinematics
+from transplanter.scene.stepper import StepperParams
 
 # Collision bits (contype/conaffinity): 1 world/static, 2 pots, 4 gripper; each conveyor row
 # r has the bit ROW_BIT_FIRST + r % ROW_BITS (bits 8..30; bit 31 would overflow MuJoCo's
@@ -93,25 +94,24 @@ class SceneConfig:
     # Vertical distance from the arm plane (C) down to the grip centre (m).
     column_height_m: float = 0.120
 
-    # --- stepper drives. Torque of a NEMA17 held at standstill (N*m), rotor inertia
-    # (kg*m^2), motor speed (rev/s) at which the pull-out torque reaches zero.
+    # --- stepper drives (transplanter.scene.stepper: torque against load angle). Torque of a
+    # NEMA17 held at standstill (N*m), its detent torque unpowered (N*m), rotor inertia
+    # (kg*m^2), full steps per revolution (200 for a 1.8 deg motor: 50 rotor teeth, one
+    # electrical cycle per 4 full steps), the pull-out curve's corner speed (rev/s: the
+    # holding torque below it, falling as 1/speed above) and the damping of the rotor's
+    # motion relative to its field, as a damping ratio of the unloaded rotor on its
+    # small-signal stiffness.
     holding_torque_nm: float = 0.45
+    detent_torque_nm: float = 0.022
     rotor_inertia_kgm2: float = 5.4e-6
-    # Full steps per motor revolution (200 for a 1.8 deg stepper): the torque of a stepper
-    # peaks about one full step of error, so it sets the position stiffness.
     steps_per_rev: int = 200
-    pullout_zero_speed_rev_s: float = 15.0
+    pullout_corner_rev_s: float = 8.0
+    rotor_damping_ratio: float = 0.2
     arm_belt_ratio: float = 3.0
     z_lead_m: float = 0.008
-    # Fraction of the motor torque that reaches the Z slide through the T8 lead screw.
+    # Efficiency of the T8 lead screw (brass nut): its friction is a Coulomb force on the Z
+    # slide of weight * (1/efficiency - 1), the torque a screw loses lifting its load.
     screw_efficiency: float = 0.35
-    # kp = holding torque / full_step_rad, times this factor (1 for the arms; the Z drive is
-    # stable at 1 too with the 1 ms step and its large reflected rotor inertia).
-    arm_stiffness_scale: float = 1.0
-    z_stiffness_scale: float = 1.0
-    # Damping ratio of the position loop (MuJoCo dampratio: kv from the reflected inertia);
-    # it damps the ringing about the commanded step without touching the torque limit.
-    stepper_dampratio: float = 0.5
     # Mass of the Z carriage with motors and belts (kg), masses of active/passive links (kg).
     platform_mass_kg: float = 1.0
     active_link_mass_kg: float = 0.06
@@ -280,7 +280,7 @@ class SceneConfig:
     def __post_init__(self) -> None:
         positive = (
             "l0_m l1_m l2_m column_height_m holding_torque_nm rotor_inertia_kgm2 "
-            "pullout_zero_speed_rev_s arm_belt_ratio z_lead_m screw_efficiency "
+            "pullout_corner_rev_s arm_belt_ratio z_lead_m screw_efficiency "
             "gripper_max_opening_m grip_force_n cell_pitch_m row_pitch_m pot_diameter_m "
             "pot_height_m pot_mass_kg timestep_s"
         ).split()
@@ -290,6 +290,14 @@ class SceneConfig:
         if not (isinstance(self.steps_per_rev, (int, np.integer)) and self.steps_per_rev >= 1):
             raise ValueError(
                 f"SceneConfig.steps_per_rev must be a positive integer, got {self.steps_per_rev!r}"
+            )
+        for name in ("detent_torque_nm", "rotor_damping_ratio"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"SceneConfig.{name} must be >= 0, got {getattr(self, name)}")
+        if not self.detent_torque_nm < self.holding_torque_nm:
+            raise ValueError(
+                "SceneConfig.detent_torque_nm must be below the holding torque "
+                f"({self.holding_torque_nm} N m), got {self.detent_torque_nm}"
             )
         if self.rows < 1 or self.cols < 1:
             raise ValueError(
@@ -460,7 +468,16 @@ class SceneConfig:
         """One full step of the motor shaft (rad)."""
         return 2.0 * math.pi / self.steps_per_rev
 
-    @property
-    def pullout_zero_speed_rad_s(self) -> float:
-        """Motor speed (rad/s) where the pull-out torque reaches zero."""
-        return 2.0 * math.pi * self.pullout_zero_speed_rev_s
+    def stepper_params(self) -> tuple[StepperParams, StepperParams, StepperParams]:
+        """The motors' torque laws (theta1, theta2, Z; transplanter.scene.stepper): the same
+        NEMA17 on every axis, its damping from the unloaded rotor's ratio."""
+        stiffness = self.holding_torque_nm * self.steps_per_rev / 4.0
+        damping = 2.0 * self.rotor_damping_ratio * math.sqrt(stiffness * self.rotor_inertia_kgm2)
+        motor = StepperParams(
+            holding_torque_nm=self.holding_torque_nm,
+            detent_torque_nm=self.detent_torque_nm,
+            steps_per_rev=self.steps_per_rev,
+            corner_rev_s=self.pullout_corner_rev_s,
+            damping_nms_rad=damping,
+        )
+        return (motor, motor, motor)

@@ -25,6 +25,7 @@ import numpy as np
 from transplanter.scene.config import SceneConfig
 from transplanter.scene.conveyor import conveyor_armed
 from transplanter.scene.pots import PotBatch
+from transplanter.scene.stepper import StepperDrives
 
 LEAF_SAMPLES = 5  # points along each leaf capsule's axis tested against the gripper boxes
 LEAF_NEAR_M = 0.09  # only pots this close (xy) to the grip centre can touch the gripper
@@ -68,6 +69,14 @@ class Scene:
         self.motor_gears = m.actuator_gear[self.motor_actuators, 0].copy()
         motor_joints = [name(mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("theta1", "theta2", "z")]
         self.motor_qpos_adr = m.jnt_qposadr[motor_joints].copy()
+        # the steppers' torque laws; the detent's zero where they were energised at power-on
+        self.drives = StepperDrives(
+            list(config.stepper_params()),
+            self.motor_actuators,
+            self.motor_qpos_adr,
+            self.motor_gears,
+            [config.power_on_theta1_rad, config.power_on_theta2_rad, config.power_on_z_m],
+        )
         self.gripper_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "gripper")
         self.wrist_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "wrist")
         self.wrist_qpos_adr = m.jnt_qposadr[name(mujoco.mjtObj.mjOBJ_JOINT, "wrist")]
@@ -204,9 +213,11 @@ class Scene:
         return mirror
 
     # ----- drives -----
-    def set_motor_targets(self, data: mujoco.MjData, joint_positions) -> None:
-        """Command theta1, theta2 (rad) and Z (m): ctrl = gear * position (motor radians)."""
-        data.ctrl[self.motor_actuators] = self.motor_gears * np.asarray(joint_positions, float)
+    def hold_motors(self, data: mujoco.MjData, joint_positions, joint_speeds=None) -> None:
+        """The steppers' torques for the next physics step with their fields at theta1,
+        theta2 (rad) and Z (m), moving at joint_speeds (default: at rest): call it before
+        every step (transplanter.scene.stepper)."""
+        self.drives.hold(data, joint_positions, joint_speeds)
 
     def joint_positions(self, data: mujoco.MjData) -> np.ndarray:
         """Actual theta1, theta2 (rad), Z (m)."""

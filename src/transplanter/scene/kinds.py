@@ -3,7 +3,7 @@
 (`[workcell] kind`). Adding a kind adds its module and one line here.
 
 A robot module has ``MODEL`` (its folder, models/<MODEL>/<MODEL>.xml), ``INERTIAL_BODIES``,
-``apply(spec, cfg)``, ``apply_inertials(spec)``, ``home_joints(cfg)`` and ``home_ctrl(cfg)``
+``apply(spec, cfg)``, ``apply_inertials(spec, cfg)``, ``home_joints(cfg)`` and ``home_ctrl(cfg)``
 (its actuators' power-on commands, first in the model). An effector module has
 ``apply(spec, cfg)``, ``add_canopy_contact(spec, cfg)``, ``home_joints(cfg)`` and
 ``home_ctrl(cfg)`` (its actuators follow the robot's). A workcell module has ``MODEL`` (its

@@ -1,12 +1,14 @@
 """The twin's simulation loop: the firmware's step events drive the MuJoCo physics.
 
 PGF -> COM bus -> SGF run on the simulated clock exactly as in `machine.rig`, but the
-limit switches come from the model's sensors and, at every physics step, each stepper's
-position servo is commanded to the position its SGF step pulses have reached at that time
-(`SGF.pulses_at`), never to a smoothed trajectory. Per-move work is done once per firmware
-event: the commands for every physics step until the next event are computed in one
-vectorised call, so the per-step path is one row copy and `mj_step` (plus the conveyor's
-drive while it indexes, a slip check every few steps and the caller's monitor).
+limit switches come from the model's sensors and, at every physics step, each stepper's field
+stands where its SGF step pulses have put it at the step's start (`SGF.pulses_at`), never on a
+smoothed trajectory, and the motor's torque over the step is its torque law at the load angle
+then (`transplanter.scene.stepper`). Per-move work is done once per firmware event: the fields,
+pull-out torques and field speeds of every physics step until the next event are computed in
+one vectorised call, so the per-step path is one row copy, three motor torques and `mj_step`
+(plus the conveyor's drive while it indexes, a slip check every few steps and the caller's
+monitor).
 """
 
 from __future__ import annotations
@@ -38,6 +40,9 @@ __all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepE
 _MAX_BLOCK_STEPS = 500
 # The motors are checked for slipping every this many physics steps.
 SLIP_CHECK_STEPS = 5
+# The field's speed (for the pull-out torque and the damping) is its pulses over this long
+# (s) before each step: about the driver's current rise at the corner speed.
+FIELD_SPEED_WINDOW_S = 0.002
 # A motor counts as being stepped (its driver can sense a stall) when it got a pulse in this
 # long (s): about 3 full steps/s at 16 microsteps, StallGuard's lower speed range.
 STALL_WINDOW_S = 0.02
@@ -109,10 +114,16 @@ class LineEvent:
 
 @dataclass
 class _Block:
-    """Commands for consecutive physics steps, computed once per firmware event."""
+    """Commands for consecutive physics steps, computed once per firmware event: the
+    actuators' controls (the motors' rows are written per step), the SGF's pulse counts and,
+    per step and motor, the field (motor rad), its pull-out torque and the damping's
+    field-speed term (N m), as lists for the per-step path."""
 
     ctrl: np.ndarray  # (n, nu)
     pulses: np.ndarray  # (n, 3)
+    field: list  # n + 1 rows of 3: at each step's start, and at the last one's end
+    amplitude: list
+    feed: list
     conveyor: bool = False
 
 
@@ -168,16 +179,19 @@ class Twin:
                 for d in self.machine.drives
             ]
         )
-        # A stepper whose rotor falls more than two full steps behind its field slips to the
-        # next stable position, four full steps (one electrical cycle) further: the steps
-        # are lost for good, the firmware never learns of it.
+        # A stepper whose rotor falls more than two full steps behind its field has passed
+        # the top of its torque curve's stable half: it slips to the next stable position,
+        # four full steps (one electrical cycle) further (the torque law does it, the
+        # bookkeeping here counts it): the steps are lost for good, the firmware never
+        # learns of it.
         self.electrical_cycle = 4.0 * self.full_step_joint
-        # per motor, as Python numbers for the checks made every few steps: actuator,
-        # gear, qpos address, full step and electrical cycle (joint units)
+        self.drives = self.scene.drives
+        self._gears = self.scene.motor_gears
+        # per motor, as Python numbers for the checks made every few steps: gear, qpos
+        # address, full step and half an electrical cycle (motor rad)
         self._motor_terms = [
-            (int(a), float(g), int(q), float(f), float(c))
-            for a, g, q, f, c in zip(
-                self.scene.motor_actuators,
+            (float(g), int(q), float(f * g), float(0.5 * c * g))
+            for g, q, f, c in zip(
                 self.scene.motor_gears,
                 self.scene.motor_qpos_adr,
                 self.full_step_joint,
@@ -185,6 +199,8 @@ class Twin:
                 strict=True,
             )
         ]
+        # the field (motor rad) the motors are pulled towards in the step being taken
+        self._field_now = tuple(self.q_power_on * self._gears)
         self.microsteps_per_full_step = np.array([d.microsteps for d in self.machine.drives])
         self.slip_offset = np.zeros(3)  # joint units the motors have lost so far
         self.microsteps_lost = np.zeros(3, dtype=np.int64)  # microsteps lost per motor (signed)
@@ -274,20 +290,37 @@ class Twin:
 
     # -- command blocks -----------------------------------------------------------------
     def _block(self, t_next: float) -> _Block:
-        """Actuator commands for every physics step from now until the next exchange."""
+        """Actuator commands for every physics step from now until the next exchange, each
+        from the firmware's state at the step's start (the time its force acts from)."""
         n = int(np.clip(math.ceil((t_next - self.time) / self.dt - 1e-9), 1, _MAX_BLOCK_STEPS))
-        times = (self.k + 1 + np.arange(n)) * self.dt
+        # n + 1 times: the start of each step, and the end of the last (the field the
+        # rotor is compared with after each step)
+        times = (self.k + np.arange(n + 1)) * self.dt
         pulses = self.sgf.pulses_at(times)
-        joints = self.q_power_on + self.slip_offset + pulses * self.unit_per_step
+        before = self.sgf.pulses_at(np.maximum(times - FIELD_SPEED_WINDOW_S, 0.0))
+        span = np.minimum(times, FIELD_SPEED_WINDOW_S)[:, None]
+        gears = self._gears
+        speed = np.divide(
+            (pulses - before) * self.unit_per_step * gears, span,
+            out=np.zeros(pulses.shape), where=span > 0,
+        )  # fmt: skip
+        field = (self.q_power_on + self.slip_offset + pulses * self.unit_per_step) * gears
+        times, pulses = times[:n], pulses[:n]
         ctrl = np.repeat(self.data.ctrl[None, :], n, axis=0)
-        ctrl[:, self.scene.motor_actuators] = joints * self.scene.motor_gears
         ctrl[:, self.scene.gripper_actuator] = self.gripper_opening_cmd(times)
         ctrl[:, self.scene.wrist_actuator] = np.radians(self.wrist.at(times) - WRIST_SERVO_ZERO_DEG)
         bonds = self.scene.bond_actuators
         if bonds.size:  # a bond carries load while the jaws pull on its pot (build._add_bond)
             touching = self.scene.pots_touching_jaws(self.data)
             ctrl[:, bonds] = np.isin(self.scene.bond_pots, touching)
-        return _Block(ctrl, pulses, self.conveyor.armed(self.data))
+        return _Block(
+            ctrl,
+            pulses,
+            field.tolist(),
+            self.drives.pullout_nm(speed[:n]).tolist(),
+            (speed[:n] * self.drives.damping).tolist(),
+            self.conveyor.armed(self.data),
+        )
 
     # -- stepping ------------------------------------------------------------------------
     def step_until(
@@ -313,14 +346,17 @@ class Twin:
             # While it homes the SGF reads its switches: a change of them ends the block
             # (step_until's exchange reads them; see FirmwareLink.next_event_time).
             switches = self._switches() if self.sgf.homing else None
-            rows = block.ctrl
+            rows, amplitude, feed = block.ctrl, block.amplitude, block.feed
+            drive, qpos = self.drives.apply, d.qpos
             for i in range(rows.shape[0]):
                 ctrl[:] = rows[i]
+                drive(ctrl, qpos, block.field[i], amplitude[i], feed[i])
                 if block.conveyor:
                     self.conveyor.apply(d, self.time)
                 mujoco.mj_step(m, d)
                 self.k += 1
-                stalled = self.k % SLIP_CHECK_STEPS == 0 and self._slip(rows, i)
+                self._field_now = block.field[i + 1]  # the field now, beside the rotor now
+                stalled = self.k % SLIP_CHECK_STEPS == 0 and self._slip(block, i)
                 if monitor is not None and self.k % monitor_every == 0:
                     monitor(self, i)
                 if stalled:  # the SGF stopped: the rest of this block's commands are void
@@ -331,14 +367,16 @@ class Twin:
             if stop_when_done and (self.pgf.done or self.pgf.fault):
                 return
 
-    def _slip(self, rows: np.ndarray, i: int) -> bool:
-        """Let every motor lagging more than two full steps slip by whole electrical cycles;
-        True when the drivers reported it to the SGF (stall detection), which stopped."""
-        ctrl, qpos = self.data.ctrl, self.data.qpos
-        # the common case in scalars (the same IEEE operations as the arrays below): no
-        # motor is half an electrical cycle off, rint would give 0 for all
-        for act, gear, adr, _, cycle in self._motor_terms:
-            if abs((ctrl[act] / gear - qpos[adr]) / cycle) > 0.5:
+    def _slip(self, block: _Block, i: int) -> bool:
+        """Count the electrical cycles every motor lagging more than two full steps has
+        slipped (its torque law has pulled it to the next stable position) and move its field
+        by as many cycles (the same torque: the bookkeeping that keeps load angles within
+        half a cycle); True when the drivers reported it to the SGF (stall detection), which
+        stopped."""
+        qpos = self.data.qpos
+        # the common case in scalars: no motor is half an electrical cycle off
+        for (gear, adr, _, half_cycle), f in zip(self._motor_terms, self._field_now, strict=True):
+            if abs(f - gear * qpos[adr]) > half_cycle:
                 break
         else:
             return False
@@ -358,9 +396,9 @@ class Twin:
                     self.time, int(motor), int(lost[motor]), contacts, bool(detected[motor])
                 )
             )
-        acts = self.scene.motor_actuators
-        rows[i + 1 :, acts] -= shift * self.scene.motor_gears
-        self.data.ctrl[acts] -= shift * self.scene.motor_gears
+        moved = shift * self._gears
+        block.field[i + 1 :] = (np.asarray(block.field[i + 1 :]) - moved).tolist()
+        self._field_now = block.field[i + 1]
         if not detected.any():
             return False
         self.sgf.stall(self.time, int(np.flatnonzero(detected)[0]))
@@ -408,13 +446,15 @@ class Twin:
         return tuple(sorted(set(out)))
 
     def commanded_joints(self) -> np.ndarray:
-        return self.data.ctrl[self.scene.motor_actuators] / self.scene.motor_gears
+        """Where the motors' fields stand in the step being taken (joint units: rad, rad, m),
+        lost steps taken off."""
+        return np.asarray(self._field_now) / self._gears
 
     def max_motor_lag_full_steps(self) -> float:
-        """The largest |commanded - actual| of the motors, in full motor steps (a stepper
-        slips past ~2); in scalars: the judge asks every few steps."""
-        ctrl, qpos = self.data.ctrl, self.data.qpos
+        """The largest |field - rotor| of the motors, in full motor steps (a stepper slips
+        past 2); in scalars: the judge asks every few steps."""
+        qpos = self.data.qpos
         return max(
-            abs(ctrl[act] / gear - qpos[adr]) / full_step
-            for act, gear, adr, full_step, _ in self._motor_terms
+            abs(f - gear * qpos[adr]) / full_step
+            for (gear, adr, full_step, _), f in zip(self._motor_terms, self._field_now, strict=True)
         )

@@ -605,7 +605,8 @@ class FiveBarKinematics(Kinematics):
 
     @classmethod
     def homing_from_scenario(cls, scenario) -> HomingConfig:
-        """Z first, then both arms; the arms' and Z's seek and locate rates of [drives]."""
+        """Z first, then both arms; the arms' and Z's seek and locate rates and the debounce
+        of [drives]."""
         drv = scenario.drives
         return HomingConfig(
             rate_hz=(drv.homing_rate_arm_hz, drv.homing_rate_arm_hz, drv.homing_rate_z_hz),
@@ -616,6 +617,7 @@ class FiveBarKinematics(Kinematics):
             ),
             dirs=(+1, -1, +1),
             first_cycle=(2,),
+            debounce_s=drv.homing_debounce_s,
         )
 
     def describe(self) -> dict[str, float | str]:

@@ -48,24 +48,34 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     column.pos = [0, 0, centre_z]
     spec.site("grip_center").pos = [0, 0, -cfg.column_height_m]
 
-    # Stepper drives: position servos on the motor shaft through the gear, torque-limited,
-    # with the pull-out curve as joint damping (models/fivebar/README.md).
+    # Stepper drives: a general actuator per motor on its joint through the gear, whose ctrl
+    # is the torque at the motor shaft (N m) the twin computes from the load angle before
+    # every step (transplanter.scene.stepper), whose velocity bias is the damping of the
+    # rotor against its field (the field-speed half rides in ctrl); the rotor's inertia is
+    # the joint's armature. No force limit: the torque law itself peaks at the pull-out
+    # torque. The lead screw's friction is the Z slide's (apply_inertials, which knows
+    # the weight it carries).
     arm_gear, screw_gear = cfg.arm_belt_ratio, cfg.screw_gear_rad_m
-    screw_torque = cfg.holding_torque_nm * cfg.screw_efficiency
-    for joint_name, gear, torque, scale, travel in (
-        ("theta1", arm_gear, cfg.holding_torque_nm, cfg.arm_stiffness_scale, cfg.theta1_range_rad),
-        ("theta2", arm_gear, cfg.holding_torque_nm, cfg.arm_stiffness_scale, cfg.theta2_range_rad),
-        ("z", screw_gear, screw_torque, cfg.z_stiffness_scale, cfg.z_range_m),
+    for (joint_name, gear, travel), params in zip(
+        (
+            ("theta1", arm_gear, cfg.theta1_range_rad),
+            ("theta2", arm_gear, cfg.theta2_range_rad),
+            ("z", screw_gear, cfg.z_range_m),
+        ),
+        cfg.stepper_params(),
+        strict=True,
     ):
         act = spec.actuator(joint_name)
-        kp = scale * torque / cfg.full_step_rad
         act.gear = [gear, 0, 0, 0, 0, 0]
-        act.gainprm = [kp] + [0] * 9
-        act.biasprm = [0, -kp, cfg.stepper_dampratio] + [0] * 7
-        act.forcerange = [-torque, torque]
+        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        act.gainprm = [1.0] + [0] * 9
+        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        act.biasprm = [0, 0, -params.damping_nms_rad] + [0] * 7
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
         joint = spec.joint(joint_name)
         joint.range = list(travel)
-        joint.damping = [torque / cfg.pullout_zero_speed_rad_s * gear**2, 0, 0]
+        joint.damping = [0.0, 0, 0]
         joint.armature = cfg.rotor_inertia_kgm2 * gear**2
 
     spec.numeric("limit_switch_trip").data = [
@@ -76,9 +86,10 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     ]
 
 
-def apply_inertials(spec: mujoco.MjSpec) -> None:
+def apply_inertials(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     """Explicit inertials of the arm's bodies, computed by MuJoCo from their geoms (masses
-    and shapes follow the config), exactly as the compiler would without an <inertial>."""
+    and shapes follow the config), exactly as the compiler would without an <inertial>; and
+    the lead screw's friction on the Z slide, from the weight it carries."""
     probe = spec.copy()
     probe.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
     model = probe.compile()
@@ -89,6 +100,15 @@ def apply_inertials(spec: mujoco.MjSpec) -> None:
         b.iquat = model.body_iquat[i]
         b.inertia = model.body_inertia[i]
         b.explicitinertial = True
+    weight = model.body_subtreemass[model.body("platform").id] * -model.opt.gravity[2]
+    spec.joint("z").frictionloss = screw_friction_n(weight, cfg.screw_efficiency)
+
+
+def screw_friction_n(weight_n: float, efficiency: float) -> float:
+    """The lead screw's friction (N at the slide) lifting weight_n: a screw of efficiency e
+    needs weight * lead / (2 pi e) of torque, weight * lead / 2 pi of it the lift's own, the
+    rest friction (Coulomb; the same lowering, as the nut's load is the same weight)."""
+    return weight_n * (1.0 / efficiency - 1.0)
 
 
 def home_joints(cfg: SceneConfig) -> dict[str, float]:
@@ -107,9 +127,6 @@ def home_joints(cfg: SceneConfig) -> dict[str, float]:
 
 
 def home_ctrl(cfg: SceneConfig) -> list[float]:
-    """The motors' commands at power-on (theta1, theta2, Z): gear * joint position."""
-    return [
-        cfg.arm_belt_ratio * cfg.power_on_theta1_rad,
-        cfg.arm_belt_ratio * cfg.power_on_theta2_rad,
-        cfg.screw_gear_rad_m * cfg.power_on_z_m,
-    ]
+    """The motors' commands at power-on (theta1, theta2, Z): no torque until the twin's drives
+    compute it from the load angle (transplanter.scene.stepper)."""
+    return [0.0, 0.0, 0.0]
