@@ -366,6 +366,19 @@ class DeltaKinematics(Kinematics):
             xyz = self.point(joints)
         return jacobian(self.geometry, joints, xyz)
 
+    def gravity_torques(self, joints, g_m_s2: float = 9.81) -> np.ndarray:
+        """(..., 3) joint torques (N m, positive lowering the arm) that hold the arms still
+        against gravity at arm angles q: the static part of the paper's Eq. 9,
+        tau = J^T m_moveg [0 0 g]^T - G_ag, G_ag = l1 (m_a/2 + m_b + m_c/2) g cos q,
+        m_moveg = m_move + 3/2 m_c (half of each follower's weight at its elbow, half at the
+        platform, which is exact for a uniform rod)."""
+        q = _xyz(joints)
+        m, l1 = self.masses, self.geometry.upper_arm_m
+        dz_dq = self.jacobian(q)[..., 2, :]  # row Z of J
+        m_moveg = m.platform_kg + 1.5 * m.forearm_kg
+        g_ag = l1 * (0.5 * m.upper_arm_kg + m.elbow_kg + 0.5 * m.forearm_kg) * g_m_s2 * np.cos(q)
+        return m_moveg * g_m_s2 * dz_dq - g_ag
+
     def check(self, xyz) -> ReachReport:
         """Per-point verdicts: each arm's chain closes (typed OUT_OF_WORKSPACE with the
         follower's reach), each arm angle in [q_min, q_max] (JOINT_LIMIT naming q_i), the
