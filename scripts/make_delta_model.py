@@ -67,9 +67,15 @@ def rot_y(a: float) -> np.ndarray:
 def quat(m: np.ndarray) -> np.ndarray:
     """Unit quaternion (w, x, y, z) of a rotation matrix."""
     w = math.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
-    x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0, m[2, 1] - m[1, 2])
-    y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0, m[0, 2] - m[2, 0])
-    z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0, m[1, 0] - m[0, 1])
+    x = math.copysign(
+        math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0, m[2, 1] - m[1, 2]
+    )
+    y = math.copysign(
+        math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0, m[0, 2] - m[2, 0]
+    )
+    z = math.copysign(
+        math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0, m[1, 0] - m[0, 1]
+    )
     return np.array([w, x, y, z])
 
 
@@ -94,7 +100,9 @@ def xml(kin: DeltaKinematics | None = None) -> str:
         e = np.array([math.cos(phi), math.sin(phi), 0.0])
         t = np.array([-math.sin(phi), math.cos(phi), 0.0])
         joint_pos = g.base_radius_m * e
-        ends = np.concatenate([joint_pos - SERVO_HALF_LENGTH_M * t, joint_pos + SERVO_HALF_LENGTH_M * t])
+        ends = np.concatenate(
+            [joint_pos - SERVO_HALF_LENGTH_M * t, joint_pos + SERVO_HALF_LENGTH_M * t]
+        )
         servos.append(f"""
       <geom name="servo{i}" class="visual" type="cylinder" size="{fmt(SERVO_RADIUS_M)}"
             fromto="{fmt(*ends)}" material="servo"/>""")
@@ -105,6 +113,7 @@ def xml(kin: DeltaKinematics | None = None) -> str:
         second = np.cross(rod, [0.0, 1.0, 0.0])
         second /= np.linalg.norm(second)
         rods = []
+        elbow_ends = f"{fmt(g.upper_arm_m, -half, 0)} {fmt(g.upper_arm_m, half, 0)}"
         for side, sign in (("a", 1.0), ("b", -1.0)):
             name = f"rod{i}{side}"
             rods.append(f"""
@@ -115,18 +124,17 @@ def xml(kin: DeltaKinematics | None = None) -> str:
             <site name="{name}_end" pos="{fmt(*rod)}"/>
           </body>""")
             platform_site = g.platform_radius_m * e + sign * half * t
-            sites.append(
-                f'      <site name="c{i}{side}" pos="{fmt(*platform_site)}"/>'
-            )
+            sites.append(f'      <site name="c{i}{side}" pos="{fmt(*platform_site)}"/>')
             equalities.append(
-                f'    <connect name="close{i}{side}" class="delta" site1="{name}_end" site2="c{i}{side}"/>'
+                f'    <connect name="close{i}{side}" class="delta" site1="{name}_end" '
+                f'site2="c{i}{side}"/>'
             )
         arms.append(f"""
       <body name="upper_arm{i}" pos="{fmt(*joint_pos)}" quat="{fmt(*quat(frame))}">
         <joint name="q{i}" class="arm_joint" ref="{fmt(q)}"/>
         <geom name="upper_arm{i}" class="upper_arm" fromto="0 0 0 {fmt(g.upper_arm_m)} 0 0"
               mass="{fmt(m.upper_arm_kg)}"/>
-        <geom name="elbow{i}" class="elbow" fromto="{fmt(g.upper_arm_m, -half, 0)} {fmt(g.upper_arm_m, half, 0)}"
+        <geom name="elbow{i}" class="elbow" fromto="{elbow_ends}"
               mass="{fmt(m.elbow_kg)}"/>{"".join(rods)}
       </body>""")
     actuators = "\n".join(
@@ -141,6 +149,16 @@ def xml(kin: DeltaKinematics | None = None) -> str:
     qpos += [*home_point, 1.0, 0.0, 0.0, 0.0]
     ctrl = gear * q_home
     deg = math.degrees
+    mm = [fmt(v * 1e3) for v in (g.base_radius_m, g.platform_radius_m, g.upper_arm_m, g.forearm_m)]
+    dims = (
+        f"R {mm[0]} mm, r {mm[1]} mm, l1 {mm[2]} mm, l2 {mm[3]} mm,\n  q in "
+        f"[{fmt(deg(lim.q_min_rad))}, {fmt(deg(lim.q_max_rad))}] deg"
+    )
+    home = (
+        f"the platform centre at ({fmt(*(home_point * 1e3))}) mm,\n  all three arms at "
+        f"q = {deg(q_home[0]):.4f} deg"
+    )
+    stiffness = fmt(SERVO_STIFFNESS_NM_PER_DEG)
     return f"""<!--
   Rotary delta robot for removing and replenishing plug seedlings (Zhao, Cheng, Dong, Ma,
   Xiong, Tong, "Research on the End Effector and Optimal Motion Control Strategy for a Plug
@@ -149,10 +167,8 @@ def xml(kin: DeltaKinematics | None = None) -> str:
   scene.xml adds a floor and a light to view it alone.
 
   Written by scripts/make_delta_model.py from DeltaKinematics() (the [delta] scenario
-  defaults: R {fmt(g.base_radius_m * 1e3)} mm, r {fmt(g.platform_radius_m * 1e3)} mm, l1 {fmt(g.upper_arm_m * 1e3)} mm, l2 {fmt(g.forearm_m * 1e3)} mm,
-  q in [{fmt(deg(lim.q_min_rad))}, {fmt(deg(lim.q_max_rad))}] deg, estimates) and drawn at the home pose: the platform centre at
-  ({fmt(*(home_point * 1e3))}) mm, all three arms at q = {deg(q_home[0]):.4f} deg. Do not edit by hand: change the
-  script and run it.
+  defaults, estimates: {dims}) and drawn at the home pose: {home}.
+  Do not edit by hand: change the script and run it.
 -->
 <mujoco model="delta">
   <compiler angle="radian" meshdir="assets" autolimits="true"/>
@@ -227,7 +243,8 @@ def xml(kin: DeltaKinematics | None = None) -> str:
 
   <!-- The three servo motors (MINAS A6 class, 750 W) through {fmt(gear)}:1 reducers: position
        loops on the motor shaft, ctrl in motor radians (gear * q), torque-limited so that the
-       joint never exceeds {fmt(torque)} N m (the paper's tau_max); stiffness {fmt(SERVO_STIFFNESS_NM_PER_DEG)} N m/deg at the joint. -->
+       joint never exceeds {fmt(torque)} N m (the paper's tau_max); stiffness {stiffness} N m/deg
+       at the joint. -->
   <actuator>
 {actuators}
   </actuator>
