@@ -33,7 +33,7 @@ MM = 1e-3
 
 # The two standard trays (566 x 286 mm, 8 x 16 cells of 35.375 x 35.75 mm) side by side under
 # the base, their long sides along X, centred at Y = -160 mm (supply) and +160 mm (planting),
-# cell centres at the paper's working height Z = -800 mm (SEEDS-002 default placement).
+# cell centres at the paper's working height Z = -800 mm (docs/delta.md).
 TRAY_Y0_MM = (-160.0, 160.0)
 TRAY_Z_MM = -800.0
 CLEARANCE_MM = 150.0  # the paper's 100 mm lift plus the 50 mm arc
@@ -134,7 +134,7 @@ def test_both_128_cell_trays_are_reachable_at_the_working_and_the_clearance_heig
     q = np.degrees(KIN.check(tray_cells()).joints)
     assert q.min() == pytest.approx(2.275, abs=1e-3)
     assert q.max() == pytest.approx(71.190, abs=1e-3)
-    # the paper's example move (signs restored as SEEDS-002 reads them)
+    # the paper's example move (signs restored as docs/delta.md reads them)
     for point in ((200.0, 200.0, -800.0), (250.0, -175.0, -800.0)):
         assert KIN.check(np.array(point) * MM).ok.all()
 

@@ -68,7 +68,7 @@ def test_the_model_is_a_closed_chain_not_a_weld(model):
     types = {mujoco.mjtEq(t).name for t in model.eq_type}
     assert types == {"mjEQ_CONNECT"} and model.neq == 6
     assert model.body("platform").id not in {model.eq_obj1id[0], -1}
-    # the masses of the SEEDS-002 defaults: arms, elbows, rods, platform
+    # the estimated masses of docs/delta.md: arms, elbows, rods, platform
     masses = {name: model.body(name).mass[0] for name in ("upper_arm1", "rod1a", "platform")}
     assert masses["upper_arm1"] == pytest.approx(0.30 + 0.05)
     assert masses["rod1a"] == pytest.approx(0.10)
