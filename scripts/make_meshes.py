@@ -16,6 +16,11 @@ Workcell conveyor_tube (the pots build_scene adds on its conveyor, its drop tube
   down to 160 mm below the funnel top (the collision walls are boxes: drop_tube_boxes).
 Robot fivebar:
 - jaw.stl: one jaw plate, 3 x 20 x 45 mm, centred, with a ribbed inner face.
+Robot delta (models/delta/assets/):
+- delta_base.stl: the static platform, a hexagonal plate 260 mm in circumradius, 20 mm thick,
+  its underside at z=0 (the base frame's origin on the plate's underside, at its centre).
+- delta_platform.stl: the moving platform, a hexagonal plate 75 mm in circumradius, 20 mm
+  thick, centred on the origin, with a 30 mm boss below it for the end effector.
 """
 
 from pathlib import Path
@@ -25,6 +30,7 @@ import trimesh
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 ROBOT_ASSETS = MODELS / "fivebar" / "assets"
+DELTA_ASSETS = MODELS / "delta" / "assets"
 WORKCELL_ASSETS = MODELS / "workcells" / "conveyor_tube" / "assets"
 
 
@@ -80,6 +86,20 @@ def funnel() -> trimesh.Trimesh:
     return trimesh.creation.revolve(profile, sections=48)
 
 
+def delta_base() -> trimesh.Trimesh:
+    """Hexagonal plate, circumradius 260 mm, 20 mm thick, underside at z=0."""
+    plate = trimesh.creation.cylinder(radius=0.260, height=0.020, sections=6)
+    return plate.apply_translation([0, 0, 0.010])
+
+
+def delta_platform() -> trimesh.Trimesh:
+    """Hexagonal plate, circumradius 75 mm, 20 mm thick, centred, a 30 mm boss below."""
+    plate = trimesh.creation.cylinder(radius=0.075, height=0.020, sections=6)
+    boss = trimesh.creation.cylinder(radius=0.020, height=0.030, sections=24)
+    boss.apply_translation([0, 0, -0.025])
+    return trimesh.util.concatenate([plate, boss])
+
+
 def meshes() -> dict[Path, trimesh.Trimesh]:
     """Every mesh by the path it is written to."""
     return {
@@ -87,6 +107,8 @@ def meshes() -> dict[Path, trimesh.Trimesh]:
         WORKCELL_ASSETS / "seedling_leaf.stl": seedling_leaf(),
         ROBOT_ASSETS / "jaw.stl": jaw(),
         WORKCELL_ASSETS / "funnel.stl": funnel(),
+        DELTA_ASSETS / "delta_base.stl": delta_base(),
+        DELTA_ASSETS / "delta_platform.stl": delta_platform(),
     }
 
 

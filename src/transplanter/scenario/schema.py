@@ -68,15 +68,16 @@ firmware's words carry three decimals; a value between 0 and this is refused, no
 
 # SI scale of each unit suffix a file key may carry (the key's unit is its suffix).
 _SCALE = {
-    "_mm_s2": 1e-3, "_mm_s": 1e-3, "_mm": 1e-3, "_deg": _DEG, "_g": 1e-3, "_ms": 1e-3,
-    "_us": 1e-6,
+    "_mm_s2": 1e-3, "_mm_s": 1e-3, "_mm": 1e-3, "_deg_s2": _DEG, "_deg_s": _DEG, "_deg": _DEG,
+    "_g": 1e-3, "_ms": 1e-3, "_us": 1e-6,
 }  # fmt: skip
 
 # Unit suffixes the loader understands (longest first, so `_mm_s` is not read as `_s`); used
 # to tell a wrong unit from an unknown key.
 _UNIT_SUFFIXES = tuple(
     sorted(
-        ("_mm_s2", "_mm_s", "_mm", "_m_s2", "_m_s", "_m", "_deg", "_rad", "_g", "_kg", "_ms",
+        ("_mm_s2", "_mm_s", "_mm", "_m_s2", "_m_s", "_m", "_deg_s2", "_deg_s", "_deg",
+         "_rad_s2", "_rad_s", "_rad", "_g", "_kg", "_ms",
          "_us", "_s", "_hz", "_nm", "_n", "_bps", "_kgm2", "_rev_s",
          # units the schema never uses, so that `l1_cm` is reported as a wrong unit
          "_cm", "_in", "_mm_min", "_rev_min", "_rpm", "_min", "_lb", "_oz", "_n_mm"),
@@ -86,6 +87,8 @@ _UNIT_SUFFIXES = tuple(
 )  # fmt: skip
 
 _SI_SUFFIX = {
+    "_deg_s2": "_rad_s2",
+    "_deg_s": "_rad_s",
     "_mm_s2": "_m_s2",
     "_mm_s": "_m_s",
     "_mm": "_m",
@@ -183,6 +186,36 @@ class ArmSection:
     l1_m: float = key("float", 1, 1000, doc="active link length")
     l2_m: float = key("float", 1, 1000, doc="passive link length")
     working_mode: str = key("str", choices=("+-", "-+", "++", "--"))
+
+
+@dataclass(frozen=True)
+class DeltaSection:
+    """[delta]: the rotary delta's geometry, joint window and servo drives (`[robot] kind =
+    "delta"`; read only by its kinematics). Optional: the defaults are estimates for the robot
+    of Zhao et al. 2022, whose text gives no dimensions (docs/delta.md)."""
+
+    base_radius_m: float = key("float", 1, 2000, doc="R: base centre to each arm's joint")
+    platform_radius_m: float = key("float", 1, 2000, doc="r: platform centre to each follower")
+    upper_arm_m: float = key("float", 1, 3000, doc="l1: active arm")
+    forearm_m: float = key("float", 1, 5000, doc="l2: follower parallelogram")
+    q_min_rad: float = key("float", -90, 90, doc="lowest arm angle (below the base positive)")
+    q_max_rad: float = key("float", -90, 90, doc="highest arm angle")
+    max_condition: float = key("float", 1, 1e6, doc="largest Jacobian condition number")
+    z_min_m: float = key("float", -10000, 0, doc="lowest platform Z a move may target")
+    z_max_m: float = key("float", -10000, 0, doc="highest platform Z a move may target")
+    home_q_rad: float = key("float", -90, 90, doc="arm angle at which each homing switch trips")
+    gear_ratio: float = key("float", 0.01, 1000, doc="motor revolutions per arm revolution")
+    pulses_per_rev: int = key("int", lo=1, hi=10**7, doc="command pulses per motor revolution")
+    max_joint_speed_rad_s: float = key("float", 1, 1e5, doc="V_max at the joint")
+    max_joint_accel_rad_s2: float = key("float", 1, 1e7, doc="A_max at the joint")
+    joint_torque_limit_nm: float = key("float", 0.01, 10000, doc="tau_max at the joint")
+    rotor_inertia_kgm2: float = key("float", 1e-9, 1, doc="servo motor rotor inertia")
+    upper_arm_mass_kg: float = key("float", 1e-4, 100, doc="m_a: one active arm")
+    elbow_mass_kg: float = key("float", 1e-4, 100, doc="m_b: one elbow's spherical hinges")
+    forearm_mass_kg: float = key("float", 1e-4, 100, doc="m_c: one follower parallelogram")
+    platform_mass_kg: float = key("float", 1e-4, 100, doc="m_move: platform and effector")
+    homing_rate_hz: float = key("float", 1, 1e7, doc="pulse rate while seeking the switches")
+    homing_locate_rate_hz: float = key("float", 1, 1e7, doc="slow second homing pass")
 
 
 @dataclass(frozen=True)
@@ -481,7 +514,10 @@ _FILE_KEY_OVERRIDES = {
     "homing_debounce_s": "homing_debounce_ms",
     "shoot_mass_kg": "shoot_mass_g",
 }  # fmt: skip
-_FILE_SUFFIX = {"_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm", "_rad": "_deg"}
+_FILE_SUFFIX = {
+    "_rad_s2": "_deg_s2", "_rad_s": "_deg_s", "_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm",
+    "_rad": "_deg",
+}  # fmt: skip
 
 SECTIONS: dict[str, type] = {
     "scenario": MetaSection,
@@ -489,6 +525,7 @@ SECTIONS: dict[str, type] = {
     "workcell": WorkcellSection,
     "effector": EffectorSection,
     "arm": ArmSection,
+    "delta": DeltaSection,
     "limits": LimitsSection,
     "drives": DrivesSection,
     "motion": MotionSection,
@@ -531,10 +568,35 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
     "robot": {"kind": "fivebar"},
     "workcell": {"kind": "conveyor_tube"},
     "effector": {"kind": "parallel_jaw"},
+    "delta": {
+        "base_radius_mm": 200.0,
+        "platform_radius_mm": 50.0,
+        "upper_arm_mm": 350.0,
+        "forearm_mm": 800.0,
+        "q_min_deg": -40.0,
+        "q_max_deg": 80.0,
+        "max_condition": 20.0,
+        "z_min_mm": -1050.0,
+        "z_max_mm": -500.0,
+        "home_q_deg": -30.0,
+        "gear_ratio": 25.0,
+        "pulses_per_rev": 2000,
+        "max_joint_speed_deg_s": 720.0,
+        "max_joint_accel_deg_s2": 2500.0,
+        "joint_torque_limit_nm": 12.0,
+        "rotor_inertia_kgm2": 1.5e-4,
+        "upper_arm_mass_kg": 0.30,
+        "elbow_mass_kg": 0.05,
+        "forearm_mass_kg": 0.20,
+        "platform_mass_kg": 1.00,
+        "homing_rate_hz": 5000.0,
+        "homing_locate_rate_hz": 500.0,
+    },
 }
-"""Sections a file may leave out, with their values then: the paper's machine and job. The
-kinds are checked against the registries when the scenario is assembled (an unknown kind is
-refused there with the known ones)."""
+"""Sections a file may leave out, with their values then: the paper's machine and job, and the
+delta's estimated defaults (a file's or --set's keys of such a section replace these one by
+one). The kinds are checked against the registries when the scenario is assembled (an unknown
+kind is refused there with the known ones)."""
 PICKUP_SCHEMA: dict[str, Key] = _schema_of(TaughtPickup)
 
 
@@ -548,6 +610,7 @@ class Scenario:
     workcell: WorkcellSection
     effector: EffectorSection
     arm: ArmSection
+    delta: DeltaSection
     limits: LimitsSection
     drives: DrivesSection
     motion: MotionSection
@@ -780,8 +843,8 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
             )
     for section, keys in SCHEMA.items():
         table = raw.get(section)
-        if table is None and section in DEFAULT_SECTIONS:
-            table = DEFAULT_SECTIONS[section]
+        if section in DEFAULT_SECTIONS and (table is None or isinstance(table, dict)):
+            table = {**DEFAULT_SECTIONS[section], **(table or {})}
         if table is None:
             raise ScenarioError(f"{source}: missing section [{section}].")
         if not isinstance(table, dict):

@@ -26,6 +26,7 @@ __all__ = [
 ]
 
 KINDS: dict[str, str] = {
+    "delta": "transplanter.machine.kinematics.delta:DeltaKinematics",
     "fivebar": "transplanter.machine.kinematics.fivebar:FiveBarKinematics",
 }
 """kind -> "module:Class" of every arm the package ships."""
