@@ -152,7 +152,7 @@ def test_each_axis_is_a_servo_counting_microseconds_of_pulse_width():
     assert "no switch" in base.switch_name
     np.testing.assert_allclose(arm.home_joints, [0, math.pi / 2, -math.pi / 2])
     # the firmware's pulses: each window's lower end at 500 us, 1 us per 0.09 deg
-    pulses = arm.pulse_widths([0.0, math.pi / 2, -math.pi / 2]) / 1e-6
+    pulses = arm.pulse_us([0.0, math.pi / 2, -math.pi / 2])
     np.testing.assert_array_equal(pulses, [1500, 1500, 1333])
 
 

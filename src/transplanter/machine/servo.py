@@ -101,12 +101,16 @@ class ServoClass:
         servo counts (4000 for 2000 us over 180 deg)."""
         return max(1, round(self.s_per_rad * 2.0 * math.pi / PULSE_QUANTUM_S))
 
-    def pulse_width(self, horn_rad) -> np.ndarray:
-        """Pulse width(s) in s for horn angle(s), clipped to the travel and rounded to the
-        firmware's 1 us."""
+    def pulse_us(self, horn_rad) -> np.ndarray:
+        """Pulse width(s) in whole microseconds (int64) for horn angle(s), clipped to the
+        travel: what the firmware's timer sends."""
         horn = np.clip(np.asarray(horn_rad, dtype=np.float64), 0.0, self.travel_rad)
         width = self.pulse_min_s + horn * self.s_per_rad
-        return np.rint(width / PULSE_QUANTUM_S) * PULSE_QUANTUM_S
+        return np.rint(width / PULSE_QUANTUM_S).astype(np.int64)
+
+    def pulse_width(self, horn_rad) -> np.ndarray:
+        """Pulse width(s) in s for horn angle(s): :meth:`pulse_us` in seconds."""
+        return self.pulse_us(horn_rad) * PULSE_QUANTUM_S
 
     def horn_angle(self, pulse_s) -> np.ndarray:
         """Horn angle(s) in rad a pulse width commands (clipped to the pulse range)."""
@@ -183,15 +187,19 @@ class ServoMount:
         a, b = self.zero_rad, float(self.joint(self.servo.travel_rad))
         return (min(a, b), max(a, b))
 
+    def pulse_us(self, joint_rad) -> np.ndarray:
+        """The pulse width(s) in whole microseconds (int64) that command joint angle(s)."""
+        return self.servo.pulse_us(self.horn(joint_rad))
+
     def pulse_width(self, joint_rad) -> np.ndarray:
-        """The pulse width(s) (s, whole us) that command joint angle(s)."""
+        """The pulse width(s) in s that command joint angle(s)."""
         return self.servo.pulse_width(self.horn(joint_rad))
 
 
 def pulse_frames(mount: ServoMount, times_s, joints_rad, duration_s: float) -> np.ndarray:
-    """The firmware's side: the pulse width sent in every 50 Hz frame of ``duration_s``, each
-    frame carrying the joint target of the latest command at or before the frame's start
-    (sample and hold; ``times_s`` sorted, the first command at or before time 0)."""
+    """The firmware's side: the pulse width (whole us, int64) sent in every 50 Hz frame of
+    ``duration_s``, each frame carrying the joint target of the latest command at or before
+    the frame's start (sample and hold; ``times_s`` sorted, the first at or before 0)."""
     times = np.asarray(times_s, dtype=np.float64)
     joints = np.asarray(joints_rad, dtype=np.float64)
     if times.ndim != 1 or times.shape != joints.shape or times.size == 0:
@@ -200,7 +208,7 @@ def pulse_frames(mount: ServoMount, times_s, joints_rad, duration_s: float) -> n
         raise ValueError("times_s must be sorted and start at or before 0")
     starts = np.arange(int(math.ceil(duration_s / FRAME_S - 1e-9))) * FRAME_S
     index = np.searchsorted(times, starts + 1e-12, side="right") - 1
-    return mount.pulse_width(joints[index])
+    return mount.pulse_us(joints[index])
 
 
 class HobbyServo:

@@ -228,10 +228,10 @@ class Serial4Kinematics(Kinematics):
                                                             strict=True)
         )  # fmt: skip
 
-    def pulse_widths(self, joints) -> np.ndarray:
-        """(..., 3) pulse widths (s, whole us) the firmware sends for (..., 3) joints."""
+    def pulse_us(self, joints) -> np.ndarray:
+        """(..., 3) pulse widths (whole us, int64) the firmware sends for (..., 3) joints."""
         q = np.asarray(joints, dtype=np.float64)
-        return np.stack([m.pulse_width(q[..., i]) for i, m in enumerate(self.mounts)], axis=-1)
+        return np.stack([m.pulse_us(q[..., i]) for i, m in enumerate(self.mounts)], axis=-1)
 
     # -- the seam --------------------------------------------------------------------
     def joints(self, xyz) -> np.ndarray:
@@ -306,8 +306,8 @@ class Serial4Kinematics(Kinematics):
         """theta1..theta3 as the paper names them, and the servo pulses that command them."""
         q = report.joints[i]
         lines = [f"theta{m + 1} = {math.degrees(float(q[m])):.4f} deg" for m in range(3)]
-        pulses = self.pulse_widths(q) / 1e-6
-        shown = ", ".join(f"{n} {p:.0f} us" for n, p in zip(AXIS_NAMES, pulses, strict=True))
+        pulses = self.pulse_us(q)
+        shown = ", ".join(f"{n} {p} us" for n, p in zip(AXIS_NAMES, pulses, strict=True))
         lines.append(f"servo pulses: {shown}")
         return lines
 
