@@ -190,3 +190,22 @@ def test_transplanter_ik_prints_the_three_joint_angles(capsys):
     status = cli.main(["ik", "200", "40", "50", "--set", "robot.kind=serial4"])
     assert status == 1
     assert "cannot be reached: outside workspace: |P-S|=210.0 mm" in capsys.readouterr().out
+
+
+def test_the_sgf_plans_the_serial_arm_in_pulse_microseconds_and_refuses_past_reach():
+    """The five-bar's firmware (SGF) runs the arm through the seam: G28 goes to the park pose
+    (no switch, see homing_from_scenario), every interpolated point is checked, and a move's
+    steps are microseconds of each servo's pulse width."""
+    from transplanter.machine.planner import PlanError, plan_program
+
+    machine = machine_config(load_scenario("paper", SERIAL4))
+    rows = plan_program(machine, "G28\nG90\nG1 X90 Y40 Z0 S50\nG1 X100 Y40 Z50 S50\n")
+    arm = machine.kinematics
+    start, end = arm.joints([[0.09, 0.04, 0.0], [0.10, 0.04, 0.05]])
+    expected = arm.pulse_us(end) - arm.pulse_us(start)
+    np.testing.assert_allclose(rows[3].steps, expected, atol=1)  # counts round per joint
+    assert rows[3].duration_s > math.dist((90, 40, 0), (100, 40, 50)) / 50.0  # mm at 50 mm/s
+    with pytest.raises(PlanError) as info:
+        plan_program(machine, "G28\nG90\nG1 X90 Y40 Z0 S50\nG1 X200 Y40 Z50 S50\n")
+    assert info.value.line_no == 4
+    assert "error:33" in str(info.value) and "l1+l2=160.0 mm" in str(info.value)
