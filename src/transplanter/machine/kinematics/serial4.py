@@ -249,47 +249,55 @@ class Serial4Kinematics(Kinematics):
         joints = self.joints(pts)
         radius = np.hypot(pts[:, 0], pts[:, 2])
         distance = np.hypot(radius, pts[:, 1])
-        g, lim = self.geometry, self.limits
-        lmin, lmax = abs(g.l1_m - g.l2_m), g.l1_m + g.l2_m
-        refusals: list[tuple[Refusal, ...]] = []
-        for i in range(len(pts)):
-            out: list[Refusal] = []
-            if not np.isfinite(pts[i]).all():
-                out.append(Refusal(RefusalReason.NOT_FINITE, "coordinates"))
-            elif not np.isfinite(joints[i]).all():
-                out.append(
-                    Refusal(
-                        RefusalReason.OUT_OF_WORKSPACE, "|P-S|", distance[i] / M_PER_MM,
-                        lmin / M_PER_MM, lmax / M_PER_MM, "mm", bound_names=("|l1-l2|", "l1+l2"),
-                    )
-                )  # fmt: skip
-            else:
-                if radius[i] < lim.min_radius_m:
-                    out.append(
-                        Refusal(
-                            RefusalReason.SERIAL_SINGULARITY, "distance from the base axis",
-                            radius[i] / M_PER_MM, lim.min_radius_m / M_PER_MM, math.inf, "mm",
-                            "the base angle is undefined on the axis", label="base axis",
-                        )
-                    )  # fmt: skip
-                for m, (lo, hi) in enumerate(lim.windows):
-                    value = joints[i, m]
-                    if not lo <= value <= hi:
-                        out.append(
-                            Refusal(
-                                RefusalReason.JOINT_LIMIT, JOINT_SUBJECTS[m],
-                                math.degrees(value), math.degrees(lo), math.degrees(hi), "deg",
-                                label=AXIS_NAMES[m],
-                            )
-                        )  # fmt: skip
-            refusals.append(tuple(out))
-        ok = np.array([not r for r in refusals], dtype=bool)
+        lim = self.limits
+        finite = np.isfinite(pts).all(axis=1)
+        reach = np.isfinite(joints).all(axis=1)
+        with np.errstate(invalid="ignore"):
+            bad = reach & (radius < lim.min_radius_m)
+            for m, (lo, hi) in enumerate(lim.windows):
+                bad |= reach & ~((joints[:, m] >= lo) & (joints[:, m] <= hi))
+        ok = reach & ~bad
+        refusals: list[tuple[Refusal, ...]] = [()] * len(pts)
+        for i in np.flatnonzero(~ok):  # words only for the refused points
+            refusals[i] = self._refusals(pts[i], joints[i], radius[i], distance[i], finite[i])
         return ReachReport(
             joints=joints,
             ok=ok,
             refusals=tuple(refusals),
             diagnostics={"radius": radius, "distance": distance},
         )
+
+    def _refusals(self, point, joints, radius, distance, finite) -> tuple[Refusal, ...]:
+        """Every limit one refused point violates, with its numbers."""
+        g, lim = self.geometry, self.limits
+        if not finite:
+            return (Refusal(RefusalReason.NOT_FINITE, "coordinates"),)
+        if not np.isfinite(joints).all():
+            lmin, lmax = abs(g.l1_m - g.l2_m), g.l1_m + g.l2_m
+            return (
+                Refusal(
+                    RefusalReason.OUT_OF_WORKSPACE, "|P-S|", distance / M_PER_MM,
+                    lmin / M_PER_MM, lmax / M_PER_MM, "mm", bound_names=("|l1-l2|", "l1+l2"),
+                ),
+            )  # fmt: skip
+        out: list[Refusal] = []
+        if radius < lim.min_radius_m:
+            out.append(
+                Refusal(
+                    RefusalReason.SERIAL_SINGULARITY, "distance from the base axis",
+                    radius / M_PER_MM, lim.min_radius_m / M_PER_MM, math.inf, "mm",
+                    "the base angle is undefined on the axis", label="base axis",
+                )
+            )  # fmt: skip
+        for m, (lo, hi) in enumerate(lim.windows):
+            if not lo <= joints[m] <= hi:
+                out.append(
+                    Refusal(
+                        RefusalReason.JOINT_LIMIT, JOINT_SUBJECTS[m], math.degrees(joints[m]),
+                        math.degrees(lo), math.degrees(hi), "deg", label=AXIS_NAMES[m],
+                    )
+                )  # fmt: skip
+        return tuple(out)
 
     def limit_target(self, xyz) -> Refusal | None:
         """A target's height y outside [y_min_m, y_max_m]."""
