@@ -160,7 +160,7 @@ class MetaSection:
 class RobotSection:
     """[robot]: which arm (its kinematics, model and drives); optional, default the five-bar."""
 
-    kind: str = key("str", doc="the arm's kind: fivebar")
+    kind: str = key("str", doc="the arm's kind: fivebar, serial4")
 
 
 @dataclass(frozen=True)
@@ -216,6 +216,32 @@ class DeltaSection:
     platform_mass_kg: float = key("float", 1e-4, 100, doc="m_move: platform and effector")
     homing_rate_hz: float = key("float", 1, 1e7, doc="pulse rate while seeking the switches")
     homing_locate_rate_hz: float = key("float", 1, 1e7, doc="slow second homing pass")
+
+
+@dataclass(frozen=True)
+class Serial4Section:
+    """[serial4]: the serial 4-DOF servo arm of seed 004 (`[robot] kind = "serial4"`), read
+    only by its kinematics; optional, default the MeArm-class arm (docs/serial_arm.md)."""
+
+    l1_m: float = key("float", 1, 1000, doc="shoulder axis to elbow axis")
+    l2_m: float = key("float", 1, 1000, doc="elbow axis to the grip centre")
+    elbow: str = key("str", choices=("up", "down"), doc="IK branch")
+    base_min_rad: float = key("float", -180, 180, doc="base yaw window (a servo's 180 deg)")
+    base_max_rad: float = key("float", -180, 180)
+    shoulder_min_rad: float = key("float", -180, 180, doc="shoulder elevation window")
+    shoulder_max_rad: float = key("float", -180, 180)
+    elbow_min_rad: float = key("float", -180, 180, doc="elbow window (relative angle)")
+    elbow_max_rad: float = key("float", -180, 180)
+    min_radius_m: float = key("float", 0, 1000, doc="closest target to the base axis")
+    y_min_m: float = key("float", -1000, 1000, doc="lowest target height above the shoulder")
+    y_max_m: float = key("float", -1000, 1000, doc="highest target height")
+    park_base_rad: float = key("float", -180, 180, doc="park pose, where G28 sends the arm")
+    park_shoulder_rad: float = key("float", -180, 180)
+    park_elbow_rad: float = key("float", -180, 180)
+    base_servo: str = key("str", choices=("sg90", "mg996r"), doc="hobby servo class")
+    shoulder_servo: str = key("str", choices=("sg90", "mg996r"))
+    elbow_servo: str = key("str", choices=("sg90", "mg996r"))
+    gripper_servo: str = key("str", choices=("sg90", "mg996r"))
 
 
 @dataclass(frozen=True)
@@ -526,6 +552,7 @@ SECTIONS: dict[str, type] = {
     "effector": EffectorSection,
     "arm": ArmSection,
     "delta": DeltaSection,
+    "serial4": Serial4Section,
     "limits": LimitsSection,
     "drives": DrivesSection,
     "motion": MotionSection,
@@ -592,11 +619,32 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "homing_rate_hz": 5000.0,
         "homing_locate_rate_hz": 500.0,
     },
+    "serial4": {
+        "l1_mm": 80.0,
+        "l2_mm": 80.0,
+        "elbow": "up",
+        "base_min_deg": -90.0,
+        "base_max_deg": 90.0,
+        "shoulder_min_deg": 0.0,
+        "shoulder_max_deg": 180.0,
+        "elbow_min_deg": -165.0,
+        "elbow_max_deg": 15.0,
+        "min_radius_mm": 20.0,
+        "y_min_mm": -50.0,
+        "y_max_mm": 160.0,
+        "park_base_deg": 0.0,
+        "park_shoulder_deg": 90.0,
+        "park_elbow_deg": -90.0,
+        "base_servo": "sg90",
+        "shoulder_servo": "mg996r",
+        "elbow_servo": "mg996r",
+        "gripper_servo": "sg90",
+    },
 }
-"""Sections a file may leave out, with their values then: the paper's machine and job, and the
-delta's estimated defaults (a file's or --set's keys of such a section replace these one by
-one). The kinds are checked against the registries when the scenario is assembled (an unknown
-kind is refused there with the known ones)."""
+"""Sections a file may leave out, with their values then: the paper's machine and job, and
+the delta's and serial arm's estimated defaults (a file's or --set's keys of such a section
+replace these one by one). The kinds are checked against the registries when the scenario is
+assembled (an unknown kind is refused there with the known ones)."""
 PICKUP_SCHEMA: dict[str, Key] = _schema_of(TaughtPickup)
 
 
@@ -611,6 +659,7 @@ class Scenario:
     effector: EffectorSection
     arm: ArmSection
     delta: DeltaSection
+    serial4: Serial4Section
     limits: LimitsSection
     drives: DrivesSection
     motion: MotionSection
@@ -844,7 +893,7 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
     for section, keys in SCHEMA.items():
         table = raw.get(section)
         if section in DEFAULT_SECTIONS and (table is None or isinstance(table, dict)):
-            table = {**DEFAULT_SECTIONS[section], **(table or {})}
+            table = {**DEFAULT_SECTIONS[section], **(table or {})}  # the keys left out
         if table is None:
             raise ScenarioError(f"{source}: missing section [{section}].")
         if not isinstance(table, dict):
