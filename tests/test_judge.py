@@ -201,7 +201,7 @@ def test_at_the_papers_z_low_the_bridge_never_touches_a_shoot(seed):
 def test_a_too_low_approach_brings_the_bridge_down_on_the_shoots_and_names_it():
     """At Z_low 24 mm the bridge's underside is 92 mm over the belt, under the top of shoots
     taller than 40 mm on a 52 mm pot: it pushes them over until they lean out past the
-    plate's front, 10-20 deg, which they survive (the record names the bridge and the bend).
+    plate's front, up to 18 deg, which they survive (the record names the bridge and the bend).
     A bridge only 40 mm over the grip centre comes 12 mm over the soil at that Z_low: the
     shoots lean past the 45 deg damage limit to get out of its way, `shoot_crushed`."""
     low = run_trial(paper_config(10, **{"scenario.seed": 3, "taught.z_low_mm": 24.0}))
