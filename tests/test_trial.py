@@ -429,7 +429,7 @@ def test_canopy_contact_lets_the_jaws_push_neighbours_over():
     failures = result.failures()
     assert failures["tipped_by_leaf"] >= 1  # 1, and 3 knocked_over, of 10 when written
     assert failures["tipped_by_leaf"] + failures["knocked_over"] >= 2
-    assert result.successes <= 6
+    assert result.successes <= 8  # 7 of 10 when written (6 with the solid palm of before)
     for rec in result.per_seedling:
         assert (rec.outcome == Outcome.TIPPED_BY_LEAF) == (rec.knocked_before and rec.canopy_pushed)
 
