@@ -82,13 +82,13 @@ for a in report.settings:
 # %% [markdown]
 # ## What fails at each end, and why
 #
-# - **Z_low too low (22-26 mm).** The jaws hang 22.5 mm below the grip height and the palm
-#   between them sits 4.5 mm above a pot's rim at the paper's 34 mm. At 26 mm the palm comes
-#   down on the rims; the conveyor's drive holds the belt, so the pots stay in their cells
-#   and the arm, stopped by them, slips a motor by four full steps (a `lost_steps` event) but
-#   usually still picks. At 22 mm the jaw tips strike the belt table itself: the arm motors
-#   lose steps (`lost_steps`, and `position_lost` for the seedlings after an uncorrected
-#   strike), so the failures cluster.
+# - **Z_low too low (22-26 mm).** The jaws hang 22.5 mm below the grip height on side plates
+#   from a bridge 68 mm above it (`gripper.bridge_clearance_mm`), which at the paper's 34 mm
+#   passes over the tallest shoot. At 26 mm the bridge comes down on the taller shoots and
+#   pushes them over (the records name it; 17 deg at most, no damage) and the picks still
+#   land. At 22 mm the jaw tips strike the belt table itself: the arm motors lose steps
+#   (`lost_steps`, and `position_lost` for the seedlings after an uncorrected strike), so the
+#   failures cluster.
 # - **Z_low high (58 mm).** The jaws then close above the pot's centre of mass and hold it
 #   only by its upper rim. In the twin the 6 N servo force with friction 0.6 still lifts a
 #   40-80 g pot, so this end shows **no** failures up to Z_low = 70 mm (3-seedling runs); the

@@ -80,8 +80,11 @@ def robot_values(
         j = spec.joint(jaw)
         out.append(("joint", jaw, {"range": fmt(*j.range), "damping": fmt(j.damping[0])}))
     out.append(("geom", "platform", {"mass": fmt(spec.geom("platform").mass)}))
-    for geom in ("motor1", "motor2", "palm", "palm_visual"):
+    for geom in ("motor1", "motor2"):
         out.append(("geom", geom, {"pos": fmt(*spec.geom(geom).pos)}))
+    for geom in ("palm", "palm_visual", "side_plate_left", "side_plate_right"):
+        g = spec.geom(geom)
+        out.append(("geom", geom, {"size": fmt(*g.size), "pos": fmt(*g.pos)}))
     for geom in ("link1", "link2", "passive1", "passive2"):
         g = spec.geom(geom)
         out.append(("geom", geom, {"fromto": fmt(*g.fromto), "mass": fmt(g.mass)}))

@@ -185,3 +185,38 @@ def test_stall_detection_stops_rehomes_and_retries_the_seedling():
     assert phases.count("approach") == 2 and "stall_rehome" in phases
     homing_s = 3.0  # the re-home alone takes over 3 s (seek, pull off, locate, pull off)
     assert first.cycle_time_s > result.per_seedling[1].cycle_time_s + homing_s
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2])
+def test_at_the_papers_z_low_the_bridge_never_touches_a_shoot(seed):
+    """Z_low 34 mm: the bridge's underside 102 mm over the belt, over every shoot (the
+    tallest of these pots and shoots reach 98 mm): each is left free and lands."""
+    result = run_trial(paper_config(10, **{"scenario.seed": seed}))
+    assert [r.outcome for r in result.per_seedling] == [Outcome.SUCCESS] * 10
+    assert all(r.shoot_touched_by == "" and r.shoot_pressed_deg == 0.0 for r in result.per_seedling)
+
+
+@pytest.mark.slow
+def test_a_too_low_approach_brings_the_bridge_down_on_the_shoots_and_names_it():
+    """At Z_low 24 mm the bridge's underside is 92 mm over the belt, under the top of shoots
+    taller than 40 mm on a 52 mm pot: it pushes them over until they lean out past the
+    plate's front, up to 18 deg, which they survive (the record names the bridge and the bend).
+    A bridge only 40 mm over the grip centre comes 12 mm over the soil at that Z_low: the
+    shoots lean past the 45 deg damage limit to get out of its way, `shoot_crushed`."""
+    low = run_trial(paper_config(10, **{"scenario.seed": 3, "taught.z_low_mm": 24.0}))
+    touched = [r for r in low.per_seedling if r.shoot_touched_by]
+    assert len(touched) >= 3  # 9 of 10 when written, bent 11-17 deg
+    assert all(r.shoot_touched_by == "bridge" for r in touched)
+    assert all(5.0 < r.shoot_pressed_deg < 45.0 for r in touched)
+    assert all(r.peak_stem_bend_deg >= r.shoot_pressed_deg for r in touched)
+    assert [r.outcome for r in low.per_seedling] == [Outcome.SUCCESS] * 10
+    crushed = run_trial(
+        paper_config(
+            10, **{"scenario.seed": 3, "taught.z_low_mm": 24.0, "gripper.bridge_clearance_mm": 40.0}
+        )
+    )
+    assert crushed.failures()["shoot_crushed"] >= 5  # 8 of 10 when written (42-49 deg)
+    for r in crushed.per_seedling:
+        assert r.shoot_touched_by == "bridge"
+        assert (r.outcome == Outcome.SHOOT_CRUSHED) == (r.shoot_pressed_deg > 45.0)

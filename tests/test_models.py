@@ -128,6 +128,56 @@ def test_another_config_is_applied_over_the_files():
     assert np.linalg.norm(data.site("c1").xpos - data.site("c2").xpos) < 1e-9
 
 
+def _bridge_and_plates(model, data):
+    """The palm's (the bridge's) underside and the side plates' ends over the grip centre (m)."""
+    mujoco.mj_forward(model, data)
+    grip_z = data.site("grip_center").xpos[2]
+    bridge_bottom = data.geom("palm").xpos[2] - model.geom("palm").size[2]
+    plates = [
+        (data.geom(g).xpos[2] - model.geom(g).size[2], data.geom(g).xpos[2] + model.geom(g).size[2])
+        for g in ("side_plate_left", "side_plate_right")
+    ]
+    jaw_top = data.geom("jaw_left").xpos[2] + model.geom("jaw_left").size[2]
+    return (
+        bridge_bottom - grip_z,
+        [(lo - grip_z, hi - grip_z) for lo, hi in plates],
+        jaw_top - grip_z,
+    )
+
+
+def test_the_bridge_stands_over_the_grip_centre_on_side_plates_from_the_jaws():
+    """The palm is a bridge 68 mm over the grip centre (gripper.bridge_clearance_mm), carried by
+    side plates from the jaws' top edges (22.5 mm up); at the paper's Z_low (34 mm) its
+    underside is 102 mm over the belt, above the tallest shoot of the paper's pots (52 mm,
+    sd 1 mm, and a 35-45 mm shoot); the column still fits under the wrist servo."""
+    for model in (files_model(), build_scene(paper_config(1).scene, seed=1).model):
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+        clearance, plates, jaw_top = _bridge_and_plates(model, data)
+        assert clearance == pytest.approx(0.068, abs=1e-9)
+        assert jaw_top == pytest.approx(0.0225, abs=1e-9)
+        assert plates == [pytest.approx((0.0225, 0.068), abs=1e-9)] * 2
+        assert model.geom("palm").size[2] == pytest.approx(0.003)
+        assert model.geom("column").size[1] > 0
+    scene = build_scene(paper_config(40).scene, seed=1)
+    pots = scene.pots
+    tallest = float(np.max(pots.height + pots.stem_length))
+    assert 0.034 + clearance > tallest + 0.002 and tallest > 0.094
+
+
+def test_the_bridge_clearance_is_a_config_value_and_must_fit_the_gripper():
+    cfg = SceneConfig(rows=1, cols=1, bridge_clearance_m=0.050)
+    model = build_scene(cfg, seed=0).model
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    clearance, plates, _ = _bridge_and_plates(model, data)
+    assert clearance == pytest.approx(0.050, abs=1e-9)
+    assert plates[0] == pytest.approx((0.0225, 0.050), abs=1e-9)
+    for bad in (0.0225, 0.072):  # down to the jaws, up into the wrist servo
+        with pytest.raises(ValueError, match="bridge_clearance_m"):
+            SceneConfig(bridge_clearance_m=bad)
+
+
 def test_merged_model_files_run_without_warnings():
     """The robot with its workcell, without pots (each folder's files alone:
     test_model_dirs.py)."""

@@ -222,10 +222,11 @@ def test_leaf_proxies_report_hits_without_force():
     scene = build_scene(SceneConfig(rows=1, cols=1), seed=0)
     data = scene.make_data()
     assert not scene.leaf_hits(data)
-    # put the pot right under the palm: its leaves overlap the gripper
+    # raise the pot between the jaws until its leaves reach the palm (the bridge, 68 mm over
+    # the grip centre): they overlap the gripper
     adr = scene.pot_qpos_adr[0]
     grip = data.site_xpos[scene.grip_site]
-    data.qpos[adr : adr + 3] = [grip[0], grip[1], grip[2] - 0.02]
+    data.qpos[adr : adr + 3] = [grip[0], grip[1], grip[2] + 0.015]
     mujoco.mj_forward(scene.model, data)
     assert scene.leaf_hits(data)
     assert scene.leaf_hit_pots(data).tolist() == [0]

@@ -7,10 +7,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from transplanter.twin.shoot import ShootSway, shoot_params
+from transplanter.twin.shoot import ShootSway, segment_meets_box, shoot_params
 
 UPRIGHT = (1.0, 0.0, 0.0, 0.0)
 STILL = (0.0, 0.0, 0.0)
+IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+# a bridge plate 70 x 20 x 6 mm (the palm) and a 40 mm stem 1.5 mm thick from a hinge 26 mm
+# over its pot's centre: the shoot's top stands 66 mm over the pot's centre
+BRIDGE_HALF = (0.035, 0.010, 0.003)
+STEM, STEM_RADIUS = 0.040, 0.0015
 
 
 def params(sway_hz=4.0, damping_ratio=0.2):
@@ -141,3 +146,59 @@ def test_the_sway_bends_as_a_mujoco_shoot_on_sprung_hinges(accel, speed, sway_hz
         sway.update(t, UPRIGHT, v, STILL)
     assert peak_mj > math.radians(3)
     assert sway.peak_rad == pytest.approx(peak_mj, rel=0.1)
+
+
+def test_segment_meets_box_by_slab_clipping():
+    half = (0.01, 0.01, 0.01)
+    assert segment_meets_box((0.0, 0.0, -0.03), (0.0, 0.0, 0.025), half)  # ends inside
+    assert not segment_meets_box((0.0, 0.0, -0.03), (0.0, 0.0, 0.015), half)  # stops short
+    assert segment_meets_box((-0.03, 0.0, 0.0), (0.06, 0.0, 0.0), half)  # passes through
+    assert not segment_meets_box((-0.03, 0.02, 0.0), (0.06, 0.0, 0.0), half)  # beside it
+    assert segment_meets_box((0.02, 0.0, -0.02), (-0.03, 0.0, 0.03), half)  # a slant across
+
+
+def _pressed(bridge_z: float, bridge_y: float = 0.0):
+    """A shoot at rest under a bridge whose underside is `bridge_z` over the pot's centre,
+    `bridge_y` off its axis: the bend it forces (rad) and the sway."""
+    sway = ShootSway(params())
+    sway.update(0.0, UPRIGHT, STILL, STILL)
+    box = (0.0, bridge_y, bridge_z + BRIDGE_HALF[2])
+    bend = sway.press_out_of_box(
+        (0.0, 0.0, 0.0), IDENTITY, STEM, STEM_RADIUS, box, IDENTITY, BRIDGE_HALF
+    )
+    return bend, sway
+
+
+def test_a_bridge_over_the_shoot_leaves_it_alone():
+    bend, sway = _pressed(0.026 + STEM + 0.002)  # 2 mm over the shoot's top
+    assert bend == 0.0 and sway.bend_rad == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_bridge_on_the_shoot_bends_it_out_of_its_way_and_the_bend_is_its_peak():
+    """The bridge's underside 30 mm over the hinge of a 40 mm stem, its centre 5 mm behind
+    the stem (-y): the stem is pushed away from that centre and leans out past the plate's
+    front (6.5 mm ahead counting the stem's radius, 28.5 mm up: atan(6.5 / 28.5) = 12.8 deg)
+    rather than ducking under it (acos(28.5 / 40) = 44.6 deg)."""
+    bend, sway = _pressed(0.026 + 0.030, bridge_y=-0.005)
+    assert math.degrees(bend) == pytest.approx(math.degrees(math.atan(0.0065 / 0.0285)), abs=0.2)
+    assert sway.bend_rad == pytest.approx(bend, abs=1e-6)
+    assert sway.peak_rad == pytest.approx(bend, abs=1e-6)
+    assert sway.theta_x < 0 and sway.theta_y == pytest.approx(0.0, abs=1e-9)  # towards +y
+    assert sway.rate_x == sway.rate_y == 0.0  # an inelastic push
+
+
+def test_a_bridge_centred_low_over_the_shoot_bends_it_far_past_the_damage_limit():
+    """4.5 mm over the hinge (where the solid palm of old stood over the rim at Z_low): the
+    stem leans out past the plate's front, 11.5 mm ahead and 3 mm up counting its radius:
+    atan(11.5 / 3) = 75 deg."""
+    bend, _ = _pressed(0.026 + 0.0045)
+    assert math.degrees(bend) == pytest.approx(math.degrees(math.atan(0.0115 / 0.003)), abs=0.2)
+    assert math.degrees(bend) > 45.0
+
+
+def test_a_pressed_shoot_springs_back_when_the_bridge_is_gone():
+    _, sway = _pressed(0.026 + 0.030)
+    for k in range(1, 400):
+        sway.update(0.005 * k, UPRIGHT, STILL, STILL)
+    assert math.degrees(sway.bend_rad) < 1.0
+    assert math.degrees(sway.peak_rad) > 20.0

@@ -115,13 +115,13 @@ def test_an_index_too_fast_tips_the_pots_it_pushes():
 
 
 @pytest.mark.slow
-def test_approach_too_low_knocks_the_neighbours():
+def test_approach_too_low_strikes_the_belt_and_the_bridge_clears_the_rims():
     """The paper approaches at Z_low = 34 mm. At 22 mm the jaw tips (22.5 mm below the grip
     centre) reach into the belt: they strike it, a motor slips, and the open-loop arm stays
-    off position, so the success rate collapses. At 28 mm the palm comes down on the 52 mm
-    rims: the held belt keeps the pots in their cells and the picks land, but the jaws close
-    on pots the palm has tipped, and a pot dropped tipped tumbles down the tube and whips its
-    seedling past the damage limit (7 of 10 `damaged` when written)."""
+    off position, so the success rate collapses. At 28 mm the jaws' side plates stand clear
+    of the rims and the bridge (68 mm over the grip centre) passes 96 mm over the belt: it
+    brushes only the tallest shoots, which lean out of its way and survive, and every pot
+    lands (1 shoot touched, 7 deg, of 10 when written)."""
     good = run_trial(paper_config(10))
     low = run_trial(paper_config(10, **{"taught.z_low_mm": 22.0}))
     assert good.success_rate == 1.0
@@ -131,11 +131,8 @@ def test_approach_too_low_knocks_the_neighbours():
     struck = ("not_gripped", "knocked_over", "slipped", "lost_steps", "position_lost")
     assert sum(failures[k] for k in struck) >= 4
     edge = run_trial(paper_config(10, **{"taught.z_low_mm": 28.0}))
-    damaged = [r for r in edge.per_seedling if r.outcome == Outcome.DAMAGED]
-    assert len(damaged) >= 4
-    # lifted and carried without a strike; hanging tipped, the pot's centre is off the grip
-    # centre over the tube (in_gripper_at_drop is False), yet it reached the tube
-    assert all(r.lifted and r.microsteps_lost == 0 for r in damaged)
+    assert edge.success_rate == 1.0
+    assert all(r.shoot_pressed_deg < 20.0 for r in edge.per_seedling)
 
 
 def test_rejected_move_is_recorded_and_nothing_after_it_runs(tmp_path):
@@ -432,7 +429,7 @@ def test_canopy_contact_lets_the_jaws_push_neighbours_over():
     failures = result.failures()
     assert failures["tipped_by_leaf"] >= 1  # 1, and 3 knocked_over, of 10 when written
     assert failures["tipped_by_leaf"] + failures["knocked_over"] >= 2
-    assert result.successes <= 6
+    assert result.successes <= 8  # 7 of 10 when written (6 with the solid palm of before)
     for rec in result.per_seedling:
         assert (rec.outcome == Outcome.TIPPED_BY_LEAF) == (rec.knocked_before and rec.canopy_pushed)
 
@@ -550,13 +547,16 @@ def test_fast_moves_whip_soft_shoots_past_their_damage_limit():
 def test_crooked_pots_are_straightened_by_the_jaws_and_whip_their_seedlings():
     """pots.crooked_share: a wall leaning 10-20 deg over its foot is pulled upright when the
     jaws close on it and swings as it is lifted, so its shoot bends far more than on a
-    nearly straight pot (median about 30 against 7 deg when written); the record carries the
-    pot's lean."""
+    nearly straight pot (median about 35 against 5 deg when written); the record carries the
+    pot's lean. (With the bridge high over the rim nothing stops a leaning pot from tipping
+    further in the jaws: some land outside the tube, and one knocks over the pot behind it,
+    which has no target pot at its turn.)"""
     config = paper_config(10, **{"pots.crooked_share": 1.0, "pots.crooked_max_deg": 20.0})
     result = run_trial(config)
-    crook = np.array([r.crook_deg for r in result.per_seedling])
-    bend = np.array([r.peak_stem_bend_deg for r in result.per_seedling])
-    pots = np.array([r.pot for r in result.per_seedling])
+    records = [r for r in result.per_seedling if r.pot is not None]
+    crook = np.array([r.crook_deg for r in records])
+    bend = np.array([r.peak_stem_bend_deg for r in records])
+    pots = np.array([r.pot for r in records])
     drawn = PotBatch.draw(config.scene, config.seed).crook[pots]
     np.testing.assert_allclose(crook, np.degrees(drawn), rtol=1e-12)
     bent, straight = bend[crook > 10.0], bend[crook < 5.0]

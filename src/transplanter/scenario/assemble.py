@@ -384,6 +384,7 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             power_on_z_m=z_on,
             gripper_max_opening_m=grip.max_opening_m,
             grip_force_n=grip.grip_force_n,
+            bridge_clearance_m=grip.bridge_clearance_m,
             rows=conv.rows,
             cols=conv.cols,
             cell_pitch_m=conv.cell_pitch_m,

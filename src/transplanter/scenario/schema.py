@@ -333,6 +333,9 @@ class GripperSection:
     open_rad: float = key("float", 0, 180, quantum=GCODE_QUANTUM)
     close_rad: float = key("float", 0, 180, quantum=GCODE_QUANTUM)
     grip_force_n: float = key("float", 0.01, 1000, doc="servo force limit at the jaws")
+    bridge_clearance_m: float = key(
+        "float", 1, 1000, doc="underside of the bridge joining the jaws, over the grip centre"
+    )
     wrist_servo_s_per_60deg: float = key("float", 0.01, 10)
     open_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
     close_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)

@@ -48,13 +48,15 @@ LEAF_PROXY_RGBA = (0.2, 0.8, 0.2, 0.3)
 STATIC_COLLISION_RGBA = (0.5, 0.5, 0.55, 0.3)
 
 # Gripper layout of models/fivebar/fivebar.xml (m): the column runs from just under the wrist
-# servo (WRIST_SERVO_BOTTOM below C) down to the top of the palm, which sits PALM_HEIGHT
-# above the jaws' top edge (JAW_HALF_HEIGHT above the grip centre). The jaws start
+# servo (WRIST_SERVO_BOTTOM below C) down to the top of the palm, a bridge plate
+# BRIDGE_THICKNESS thick whose underside sits SceneConfig.bridge_clearance_m above the grip
+# centre; the jaws (JAW_HALF_HEIGHT either side of the grip centre) hang from it on side
+# plates, so the seedling's shoot stands free between them under the bridge. The jaws start
 # JAW_HALF_THICKNESS off the centre. Passive links run PASSIVE_DROP below the active ones
 # (visual only: the arm links never collide).
 WRIST_SERVO_BOTTOM = 0.042
 JAW_HALF_HEIGHT = 0.0225
-PALM_HEIGHT = 0.025
+BRIDGE_THICKNESS = 0.006
 JAW_HALF_THICKNESS = 0.0015
 PASSIVE_DROP = 0.015
 
@@ -121,6 +123,11 @@ class SceneConfig:
     # servo stiffness on the opening (N/m), jaw slide damping (N*s/m).
     gripper_max_opening_m: float = 0.050
     grip_force_n: float = 6.0
+    # Underside of the gripper's bridge (the palm joining the jaws' side plates) above the
+    # grip centre (m): over the tallest shoot at Z_low (a 52 mm pot, 2.5 mm taller at most,
+    # and a 45 mm shoot: 99.5 mm over the belt; the bridge at 34 + 68 = 102 mm), under the
+    # wrist servo with its plate. Estimate (docs/sources.md).
+    bridge_clearance_m: float = 0.068
     gripper_kp_n_m: float = 3000.0
     jaw_damping_n_s_m: float = 2.0
     # (No jaw friction: the pots' contact priority makes every jaw-pot contact take the pot's
@@ -287,6 +294,13 @@ class SceneConfig:
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"SceneConfig.{name} must be > 0, got {getattr(self, name)}")
+        bridge_top = self.column_height_m - WRIST_SERVO_BOTTOM - BRIDGE_THICKNESS
+        if not JAW_HALF_HEIGHT < self.bridge_clearance_m < bridge_top:
+            raise ValueError(
+                "SceneConfig.bridge_clearance_m must lie above the jaws' top edge "
+                f"({JAW_HALF_HEIGHT * 1e3:g} mm over the grip centre) and under the wrist servo "
+                f"(below {bridge_top * 1e3:g} mm), got {self.bridge_clearance_m * 1e3:g} mm"
+            )
         if not (isinstance(self.steps_per_rev, (int, np.integer)) and self.steps_per_rev >= 1):
             raise ValueError(
                 f"SceneConfig.steps_per_rev must be a positive integer, got {self.steps_per_rev!r}"

@@ -13,8 +13,8 @@ import mujoco
 import numpy as np
 
 from transplanter.scene.config import (
+    BRIDGE_THICKNESS,
     JAW_HALF_HEIGHT,
-    PALM_HEIGHT,
     WRIST_SERVO_BOTTOM,
     SceneConfig,
 )
@@ -143,9 +143,23 @@ def rib_boxes(config: SceneConfig, row: int) -> list[tuple[list, list]]:
 
 def column_box(config: SceneConfig) -> tuple[float, float]:
     """Half length and centre z (m, gripper frame, C at 0) of the gripper's column: from
-    just under the wrist servo down to the top of the palm."""
+    just under the wrist servo down to the top of the palm (the bridge)."""
     column_top = -WRIST_SERVO_BOTTOM
-    column_bottom = -(config.column_height_m - JAW_HALF_HEIGHT - PALM_HEIGHT)
+    column_bottom = -(config.column_height_m - config.bridge_clearance_m - BRIDGE_THICKNESS)
     if column_bottom >= column_top:
         raise ValueError("SceneConfig.column_height_m too small for the wrist servo and palm")
     return (column_top - column_bottom) / 2, (column_top + column_bottom) / 2
+
+
+def bridge_box(config: SceneConfig) -> tuple[float, float]:
+    """Half height and centre z (m, gripper frame, C at 0) of the palm: the bridge plate whose
+    underside sits bridge_clearance_m above the grip centre."""
+    bottom = -config.column_height_m + config.bridge_clearance_m
+    return BRIDGE_THICKNESS / 2, bottom + BRIDGE_THICKNESS / 2
+
+
+def side_plate_box(config: SceneConfig) -> tuple[float, float]:
+    """Half height and centre z (m, jaw frame: the grip centre's height) of a jaw's side
+    plate, from the jaw's top edge up to the bridge's underside."""
+    half = (config.bridge_clearance_m - JAW_HALF_HEIGHT) / 2
+    return half, JAW_HALF_HEIGHT + half

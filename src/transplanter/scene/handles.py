@@ -124,6 +124,7 @@ class Scene:
         self.pot_dof_adr = m.jnt_dofadr[m.body_jntadr[flat]].copy()
 
         ngeom = m.ngeom
+        self.palm_geom = name(mujoco.mjtObj.mjOBJ_GEOM, "palm")  # the bridge over the jaws
         self.jaw_geoms = np.array(
             [name(mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("jaw_left", "jaw_right")]
         )

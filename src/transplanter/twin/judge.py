@@ -57,8 +57,18 @@ class Judge:
         self.pot_qadr = scene.pot_qpos_adr
         self.pot_dadr = scene.pot_dof_adr
         self.damage_bend_deg = math.degrees(config.damage_bend_rad)
-        # seedlings whose shoot's sway is followed, from the approach until judged
-        self.shoot_watch: list[tuple[SeedlingRecord, ShootSway, int, int]] = []
+        # seedlings whose shoot's sway is followed, from the approach until judged: record,
+        # sway, the pot's qpos and dof address, its body and its stem's length (m)
+        self.shoot_watch: list[tuple[SeedlingRecord, ShootSway, int, int, int, float]] = []
+        # the gripper's bridge (the palm), an obstacle for the shoots under it
+        self.bridge = scene.palm_geom
+        self.bridge_half = model.geom_size[self.bridge].tolist()
+        self.stem_radius = scene.config.stem_radius_m
+        # a stem reaches no further than its length (xy) from its pot's axis, the bridge's
+        # box no further than its half diagonal from its centre
+        self.bridge_reach = math.hypot(self.bridge_half[0], self.bridge_half[1]) + (
+            self.stem_radius
+        )
         planes = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)
         self.floor_z = float(model.geom_pos[planes, 2].min()) if planes.size else -1.0
         self.lift_m = self.taught.z_up_m - self.taught.z_low_m
@@ -164,11 +174,13 @@ class Judge:
         row_offset = self.twin.conveyor.grid_offset(self.twin.data)
         rec.row_offset_mm = row_offset / M_PER_MM
         rec.row_off = abs(row_offset) > 0.5 * self.config.knocked_offset_m
+        scene_pots = self.twin.scene.pots
         if rec.pot is not None:
-            rec.crook_deg = math.degrees(float(self.twin.scene.pots.crook[rec.pot]))
+            rec.crook_deg = math.degrees(float(scene_pots.crook[rec.pot]))
             self.z0 = float(self.twin.data.xpos[self.pot_bodies[rec.pot], 2])
             a, v = int(self.pot_qadr[rec.pot]), int(self.pot_dadr[rec.pot])
-            self.shoot_watch.append((rec, self._shoot(rec.pot), a, v))
+            body, length = int(self.pot_bodies[rec.pot]), float(scene_pots.stem_length[rec.pot])
+            self.shoot_watch.append((rec, self._shoot(rec.pot), a, v, body, length))
 
     def _shoot(self, pot: int) -> ShootSway:
         """The sway of a pot's shoot, at rest on its pot (transplanter.twin.shoot); on a crooked
@@ -244,6 +256,8 @@ class Judge:
                 ok = rec.pot is not None and bool(in_tube[rec.pot])
                 if not ok:
                     rec.outcome = self.failure_kind(rec)
+                elif rec.shoot_pressed_deg > self.damage_bend_deg:
+                    rec.outcome = Outcome.SHOOT_CRUSHED  # the gripper's bridge bent it over
                 elif rec.peak_stem_bend_deg > self.damage_bend_deg:
                     rec.outcome = Outcome.DAMAGED  # in the tube, its stem bent past the limit
                 else:
@@ -313,9 +327,25 @@ class Judge:
         if self.shoot_watch:
             qpos, qvel, t = d.qpos, d.qvel, d.time
             bend = 0.0
-            for watched, sway, a, v in self.shoot_watch:
+            bridge_xyz = d.geom_xpos[self.bridge].tolist()
+            for watched, sway, a, v, body, length in self.shoot_watch:
                 vel = qvel[v : v + 6].tolist()  # floats: numpy scalars are slow in scalar math
                 sway.update(t, qpos[a + 3 : a + 7].tolist(), vel[:3], vel[3:])
+                pot_xyz = d.xpos[body].tolist()
+                reach = length + self.bridge_reach
+                if (
+                    abs(pot_xyz[0] - bridge_xyz[0]) < reach
+                    and abs(pot_xyz[1] - bridge_xyz[1]) < reach
+                ):  # the bridge may be over this shoot: it pushes the stem out of its way
+                    pressed = sway.press_out_of_box(
+                        pot_xyz, d.xmat[body].tolist(), length, self.stem_radius,
+                        bridge_xyz, d.geom_xmat[self.bridge].tolist(), self.bridge_half,
+                    )  # fmt: skip
+                    if pressed > 0.0:  # the bend it forced, from the pot's axis
+                        watched.shoot_pressed_deg = max(
+                            watched.shoot_pressed_deg, math.degrees(sway.bend_rad)
+                        )
+                        watched.shoot_touched_by = "bridge"
                 watched.peak_stem_bend_deg = math.degrees(sway.peak_rad)
                 bend = max(bend, sway.bend_rad)
             twin.stem_bend_deg = math.degrees(bend)

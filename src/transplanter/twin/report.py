@@ -140,6 +140,15 @@ def format_summary(result: TrialResult) -> str:
                 "the pots in the tube (largest sway from the pot's axis, approach to landing)",
             )
         )
+    pressed = [r.shoot_pressed_deg for r in result.per_seedling if r.shoot_touched_by]
+    if pressed:
+        rows.append(
+            (
+                "shoots touched",
+                f"{len(pressed)} by the gripper's bridge, bent {max(pressed):.1f} deg at most "
+                "(the bridge too low over them: gripper.bridge_clearance_mm, taught.z_low_mm)",
+            )
+        )
     for i, e in enumerate(d["lost_step_events"]):
         cost = sum(r.lost_step_event == i for r in result.per_seedling if r.outcome != "success")
         touching = ", ".join(e["contacts"]) or "nothing"

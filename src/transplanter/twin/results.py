@@ -35,6 +35,9 @@ class Outcome(StrEnum):
     # in the tube, but its stem bent past metrics.damage_bend_deg on the way: the paper
     # counts a success only "without any damage"
     DAMAGED = "damaged"
+    # ... bent past it by the gripper's bridge coming down on (or sweeping over) its shoot: the
+    # approach was too low for the bridge (gripper.bridge_clearance_mm, taught.z_low_mm)
+    SHOOT_CRUSHED = "shoot_crushed"
     KNOCKED_OVER = "knocked_over"  # the pot was out of its cell or tilted at the approach
     # ... after the jaws had pushed its leaves (pots.canopy_contact): the canopy did it
     TIPPED_BY_LEAF = "tipped_by_leaf"
@@ -86,6 +89,10 @@ class SeedlingRecord:
     max_lag_full_steps: float = 0.0
     # the shoot's largest bend from its pot's axis, approach to landing
     peak_stem_bend_deg: float = 0.0
+    # what of the gripper pushed the shoot over ("bridge"; "" untouched), and the largest
+    # bend it forced (deg; past metrics.damage_bend_deg: shoot_crushed)
+    shoot_touched_by: str = ""
+    shoot_pressed_deg: float = 0.0
     knocked_before: bool = False
     canopy_pushed: bool = False  # before its approach a jaw had pushed its pot's leaves
     soft: bool = False  # its pot is soaked (pots.soft_share): the wall gives under the jaws

@@ -12,6 +12,12 @@ The torques are those of two hinges in series (x, then y) on a shoot of constant
 tests/test_shoot.py compares the bend with a MuJoCo body on two sprung hinges, within 10 %
 from a few degrees to past the 45 degrees where damage starts. Pure Python and math, no
 MuJoCo.
+
+The gripper's bridge is an obstacle for the shoot (`ShootSway.press_out_of_box`): the stem,
+a segment from the hinge along the shoot's axis, may not enter the bridge's box. A bridge
+that meets it pushes the shoot over, the least bend that leaves the stem clear of the box,
+and holds it there (the push is inelastic: the shoot's rates are cleared) until it moves
+away and the spring stands the shoot back up. The bend it forces counts as any other bend.
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["ShootParams", "ShootSway", "shoot_params"]
+__all__ = ["ShootParams", "ShootSway", "segment_meets_box", "shoot_params"]
 
 GRAVITY_M_S2 = 9.81
 
@@ -62,6 +68,48 @@ def shoot_params(
         hinge=(float(hinge[0]), float(hinge[1]), float(hinge[2])),
         sway_hz=sway_hz,
     )
+
+
+def segment_meets_box(p, d, half) -> bool:
+    """Whether the segment p + s d (s from 0 to 1) meets the box |x_k| <= half_k, all in the
+    box's frame (slab clipping)."""
+    lo, hi = 0.0, 1.0
+    for k in range(3):
+        if abs(d[k]) < 1e-15:
+            if abs(p[k]) > half[k]:
+                return False
+            continue
+        t1, t2 = (-half[k] - p[k]) / d[k], (half[k] - p[k]) / d[k]
+        if t1 > t2:
+            t1, t2 = t2, t1
+        lo, hi = max(lo, t1), min(hi, t2)
+        if lo > hi:
+            return False
+    return True
+
+
+def _mat_vec(m, v):
+    """A 3x3 matrix (9 floats, row-major) times a vector."""
+    return (
+        m[0] * v[0] + m[1] * v[1] + m[2] * v[2],
+        m[3] * v[0] + m[4] * v[1] + m[5] * v[2],
+        m[6] * v[0] + m[7] * v[1] + m[8] * v[2],
+    )
+
+
+def _mat_t_vec(m, v):
+    """The transpose of a 3x3 matrix (9 floats, row-major) times a vector."""
+    return (
+        m[0] * v[0] + m[3] * v[1] + m[6] * v[2],
+        m[1] * v[0] + m[4] * v[1] + m[7] * v[2],
+        m[2] * v[0] + m[5] * v[1] + m[8] * v[2],
+    )
+
+
+# bisection steps for the least bend that frees a stem from a box: 2^-24 of the range
+_PRESS_ITERATIONS = 24
+# below this horizontal share the shoot's own lean gives no side to push it to
+_LEAN_MIN = math.sin(math.radians(1.0))
 
 
 class ShootSway:
@@ -183,3 +231,75 @@ class ShootSway:
             cos_bend = math.cos(self.theta_x) * math.cos(self.theta_y)  # after the step
             if cos_bend < self._peak_cos:
                 self._peak_cos = cos_bend
+
+    def _axis_in_base(self) -> tuple[float, float, float]:
+        """The shoot's axis in its base frame: Rx(theta_x) Ry(theta_y) z."""
+        sx, cx = math.sin(self.theta_x), math.cos(self.theta_x)
+        sy, cy = math.sin(self.theta_y), math.cos(self.theta_y)
+        return (sy, -sx * cy, cx * cy)
+
+    def press_out_of_box(
+        self, pot_pos, pot_mat, length: float, radius: float, box_pos, box_mat, box_half
+    ) -> float:
+        """Keep the stem (`length` from the hinge along the shoot's axis, `radius` thick) out
+        of a box (centre, rotation matrix as 9 floats row-major, half sizes; world) given
+        its pot's pose (centre, rotation as 9 floats): a stem that meets the box is bent
+        over, away from it, to the least bend from the box's z axis that frees it (bisection),
+        or with its tip under the box's underside. Returns that bend (rad; 0 when the stem was
+        clear), the new bend counting towards `peak_rad`."""
+        hx, hy, hz = self.p.hinge
+        hinge_w = _mat_vec(pot_mat, (hx, hy, hz))
+        rel = (
+            pot_pos[0] + hinge_w[0] - box_pos[0],
+            pot_pos[1] + hinge_w[1] - box_pos[1],
+            pot_pos[2] + hinge_w[2] - box_pos[2],
+        )
+        h = _mat_t_vec(box_mat, rel)  # the hinge in the box's frame
+        half = (box_half[0] + radius, box_half[1] + radius, box_half[2] + radius)
+        base_axis = self._axis_in_base()
+        if self.mount is not None:
+            m = self.mount
+            base_axis = tuple(
+                m[i][0] * base_axis[0] + m[i][1] * base_axis[1] + m[i][2] * base_axis[2]
+                for i in range(3)
+            )
+        axis = _mat_t_vec(box_mat, _mat_vec(pot_mat, base_axis))
+        if not segment_meets_box(h, tuple(length * a for a in axis), half):
+            return 0.0
+        # the side to push it to: its own lean, else away from the box's centre
+        ux, uy = axis[0], axis[1]
+        if math.hypot(ux, uy) < _LEAN_MIN:
+            ux, uy = h[0], h[1]
+            if math.hypot(ux, uy) < 1e-9:
+                ux, uy = 0.0, 1.0
+        norm = math.hypot(ux, uy)
+        ux, uy = ux / norm, uy / norm
+        # bent so far its tip lies under the box, the stem is clear (flat at the most)
+        hi = math.acos(min(1.0, max(0.0, (-half[2] - h[2]) / length)))
+        lo = 0.0
+        for _ in range(_PRESS_ITERATIONS):
+            mid = 0.5 * (lo + hi)
+            sb = length * math.sin(mid)
+            if segment_meets_box(h, (sb * ux, sb * uy, length * math.cos(mid)), half):
+                lo = mid
+            else:
+                hi = mid
+        bend = hi
+        new_axis = _mat_t_vec(  # box frame -> world -> pot frame
+            pot_mat,
+            _mat_vec(box_mat, (math.sin(bend) * ux, math.sin(bend) * uy, math.cos(bend))),
+        )
+        if self.mount is not None:
+            m = self.mount
+            new_axis = tuple(
+                m[0][i] * new_axis[0] + m[1][i] * new_axis[1] + m[2][i] * new_axis[2]
+                for i in range(3)
+            )
+        lx, ly, lz = new_axis
+        self.theta_y = math.asin(min(1.0, max(-1.0, lx)))
+        self.theta_x = math.atan2(-ly, lz)
+        self.rate_x = self.rate_y = 0.0
+        cos_bend = math.cos(self.theta_x) * math.cos(self.theta_y)
+        if cos_bend < self._peak_cos:
+            self._peak_cos = cos_bend
+        return bend

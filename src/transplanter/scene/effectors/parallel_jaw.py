@@ -1,7 +1,9 @@
 """The parallel-jaw effector's part of the scene: two jaws on slides under the robot's column,
 closed by a hobby servo whose force limit is the grip force (a pot is held by friction only),
-and the wrist servo that turns them. The bodies are drawn in the robot's model file
-(models/fivebar/fivebar.xml); this module sets their numbers from the SceneConfig.
+and the wrist servo that turns them. Each jaw hangs on a side plate from the bridge (the
+palm), high enough over the grip centre that the seedling's shoot stands free between them.
+The bodies are drawn in the robot's model file (models/fivebar/fivebar.xml); this module
+sets their numbers from the SceneConfig.
 """
 
 from __future__ import annotations
@@ -9,8 +11,10 @@ from __future__ import annotations
 import mujoco
 
 from transplanter.scene.config import BIT_CANOPY, JAW_HALF_THICKNESS, SceneConfig
+from transplanter.scene.geometry import side_plate_box
 
 JAWS = ("jaw_left", "jaw_right")
+SIDE_PLATES = ("side_plate_left", "side_plate_right")  # visual: they carry the jaws
 
 
 def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
@@ -18,6 +22,11 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     with canopy contact, the jaws also meet the leaves' proxies."""
     spec.body("jaw_left").pos = [-JAW_HALF_THICKNESS, 0, -cfg.column_height_m]
     spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height_m]
+    plate_half, plate_z = side_plate_box(cfg)  # up to the bridge, riding with the jaw
+    for plate in SIDE_PLATES:
+        g = spec.geom(plate)
+        g.size = [g.size[0], g.size[1], plate_half]
+        g.pos = [g.pos[0], g.pos[1], plate_z]
     grip = spec.actuator("gripper")
     grip.gainprm = [cfg.gripper_kp_n_m] + [0] * 9
     grip.biasprm = [0, -cfg.gripper_kp_n_m, 0] + [0] * 7

@@ -9,7 +9,7 @@ from __future__ import annotations
 import mujoco
 
 from transplanter.scene.config import PASSIVE_DROP, SceneConfig
-from transplanter.scene.geometry import column_box
+from transplanter.scene.geometry import bridge_box, column_box
 
 MODEL = "fivebar"
 """The robot's Menagerie folder: models/fivebar/fivebar.xml."""
@@ -34,14 +34,14 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         spec.site(f"c{i}").pos = [cfg.l2_m, 0, 0]
     spec.body("gripper").pos = [cfg.l2_m, 0, PASSIVE_DROP]
     spec.geom("platform").mass = cfg.platform_mass_kg
-    # Column: arm plane at column_height_m above the grip centre. The palm is laid out for the
-    # column height the file is drawn for (the platform's height there) and moves with it.
-    platform = spec.body("platform")
-    shift = cfg.column_height_m - platform.pos[2]
-    platform.pos = [0, 0, cfg.column_height_m]
+    # Column: arm plane at column_height_m above the grip centre. The palm is the gripper's
+    # bridge: its underside bridge_clearance_m above the grip centre.
+    spec.body("platform").pos = [0, 0, cfg.column_height_m]
+    bridge_half, bridge_z = bridge_box(cfg)
     for geom_name in ("palm", "palm_visual"):
         g = spec.geom(geom_name)
-        g.pos = [g.pos[0], g.pos[1], g.pos[2] - shift]
+        g.pos = [g.pos[0], g.pos[1], bridge_z]
+        g.size = [g.size[0], g.size[1], bridge_half]
     column = spec.geom("column")
     half_length, centre_z = column_box(cfg)
     column.size = [column.size[0], half_length, 0]
