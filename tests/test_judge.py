@@ -139,7 +139,7 @@ def test_rehoming_counts_in_the_cycle_and_restores_the_position():
 
 
 class _ProbedTwin(Twin):
-    """A probe pushes the gripper sideways (80 N along x) from the start of the first grip
+    """A probe pushes the gripper sideways (40 N along x) from the start of the first grip
     move until a motor slips: the arm is knocked off position once."""
 
     def __init__(self, config):
@@ -150,7 +150,7 @@ class _ProbedTwin(Twin):
         line = twin.pgf.current
         on = line is not None and line.phase == "grip" and line.seedling == 0
         on = on and not twin.lost_step_events
-        twin.data.xfrc_applied[twin.model.body("gripper").id, :3] = (80.0, 0.0, 0.0) if on else 0.0
+        twin.data.xfrc_applied[twin.model.body("gripper").id, :3] = (40.0, 0.0, 0.0) if on else 0.0
 
 
 @pytest.mark.slow
