@@ -53,7 +53,9 @@ def run(axis: int, speed: float, load: float, dt: float) -> tuple[float, float, 
     lags, slipped, k = [], False, 0
     while k * dt < t_end:
         t = k * dt
-        pos = 0.5 * accel * t * t if t < t_speed else 0.5 * accel * t_speed**2 + speed * (t - t_speed)
+        pos = (
+            0.5 * accel * t * t if t < t_speed else 0.5 * accel * t_speed**2 + speed * (t - t_speed)
+        )
         field[axis] = start + sign * pos
         v = np.zeros(3)
         v[axis] = sign * min(accel * t, speed)
@@ -124,7 +126,8 @@ def main() -> None:
             + ", ".join(f"{ld:g} N: {v * 1e3:.0f} mm/s" for ld, v in zip(Z_LOADS_N, z, strict=True))
             + "; arm 1 "
             + ", ".join(
-                f"{ld:g} N m: {math.degrees(v):.0f} deg/s" for ld, v in zip(ARM_LOADS_NM, arm, strict=True)
+                f"{ld:g} N m: {math.degrees(v):.0f} deg/s"
+                for ld, v in zip(ARM_LOADS_NM, arm, strict=True)
             )
         )
 
