@@ -110,6 +110,18 @@ class SeedlingDraw:
     perlite_per_cell: float = 4.0
     perlite_radius_mm: tuple[float, float] = (0.6, 1.1)
 
+    @staticmethod
+    def near_thresholds() -> SeedlingDraw:
+        """A harder draw for measuring the pipeline, not a tray: small seedlings' leaf areas
+        spread across 100 mm^2 (60-140), off-centre stems across the 10 mm centroid limit
+        (5-11 mm) and crossing blades from barely past the border to well past it (0.5-4 mm,
+        secants from about 5 to 17 mm, across 12 mm)."""
+        return SeedlingDraw(
+            small_area_mm2=(60.0, 140.0),
+            off_centre_mm=(5.0, 11.0),
+            overhang_mm=(0.5, 4.0),
+        )
+
     def probabilities(self) -> dict[str, float]:
         named = {
             "empty": self.p_empty,

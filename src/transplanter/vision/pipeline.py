@@ -78,7 +78,7 @@ class VisionThresholds:
     white_percentile: float = 99.5
     min_white_level: float = 25.0
     min_contrast: float = 8.0
-    tray_band: tuple[float, float] = (0.55, 1.01)
+    tray_band: tuple[float, float] = (0.65, 1.01)
     close_mm: float = 3.0
     open_mm: float = 2.0
     tray_aspect_tolerance: float = 0.12
@@ -235,12 +235,22 @@ def _measure_cell(
     if area > 0:
         ys, xs = np.nonzero(mine)
         offset = math.hypot(xs.mean() - ccx, ys.mean() - ccy) / s
-    # the first and last pixel line inside the opening
-    cols = [round(lr_borders[0] + 0.5), round(lr_borders[1] - 0.5)]
-    rows = [round(ud_borders[0] + 0.5), round(ud_borders[1] - 0.5)]
-    lr = max((float(mine[:, i].sum()) / s for i in cols if 0 <= i < mine.shape[1]), default=0.0)
-    ud = max((float(mine[i, :].sum()) / s for i in rows if 0 <= i < mine.shape[0]), default=0.0)
+    per_col = mine.sum(axis=0).astype(float) / s
+    per_row = mine.sum(axis=1).astype(float) / s
+    lr = max(_at(per_col, lr_borders[0]), _at(per_col, lr_borders[1]))
+    ud = max(_at(per_row, ud_borders[0]), _at(per_row, ud_borders[1]))
     return area, offset, lr, ud
+
+
+def _at(lengths: np.ndarray, x: float) -> float:
+    """The leaf length on the pixel lines at sub-pixel position x (pixel i's centre at i),
+    interpolated between the two lines either side: the secant right on a border that lies
+    between a wall pixel and an opening pixel."""
+    i = math.floor(x)
+    w = x - i
+    lo = lengths[i] if 0 <= i < len(lengths) else 0.0
+    hi = lengths[i + 1] if 0 <= i + 1 < len(lengths) else 0.0
+    return float((1 - w) * lo + w * hi)
 
 
 def grade_tray(
@@ -311,7 +321,9 @@ def grade_tray(
     rect_norm = cv2.cvtColor(rect, cv2.COLOR_RGB2GRAY).astype(np.float32) / white
     walls = _band(rect_norm, th)
     walls[cv2.dilate(leaves_raw, _kernel(3)) > 0] = 0
-    walls = cv2.erode(walls, _kernel(1.0 * s))
+    # erosion (the paper's), then the same dilation so that the walls' edges stay in place;
+    # then an opening with a larger disc: perlite grains and crumbs go
+    walls = cv2.dilate(cv2.erode(walls, _kernel(1.0 * s)), _kernel(1.0 * s))
     walls = cv2.morphologyEx(walls, cv2.MORPH_OPEN, _kernel(th.open_mm * s))
     wall01 = walls.astype(np.float32) / 255
     margin_x, margin_y = out_w // 20, out_h // 20
