@@ -84,7 +84,7 @@ class VisionThresholds:
     tray_aspect_tolerance: float = 0.12
     px_per_mm: float = 2.0
     profile_level: float = 0.5
-    hue: tuple[int, int] = (35, 95)
+    hue: tuple[int, int] = (28, 95)
     min_saturation: int = 45
     min_value: int = 35
     min_component_mm2: float = 6.0
