@@ -79,7 +79,8 @@ class VisionThresholds:
     min_white_level: float = 25.0
     min_contrast: float = 8.0
     tray_band: tuple[float, float] = (0.65, 1.01)
-    close_mm: float = 3.0
+    close_fraction: float = 1 / 150
+    erode_mm: float = 1.0
     open_mm: float = 2.0
     tray_aspect_tolerance: float = 0.12
     px_per_mm: float = 2.0
@@ -274,7 +275,7 @@ def grade_tray(
     # 2. the frame: dual threshold, closed; its outline's rectangle
     band = _band(norm, th)
     h, w = grey.shape
-    frame = cv2.morphologyEx(band, cv2.MORPH_CLOSE, _kernel(max(h, w) / 150))
+    frame = cv2.morphologyEx(band, cv2.MORPH_CLOSE, _kernel(max(h, w) * th.close_fraction))
     contours, _ = cv2.findContours(frame, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
     if not contours:
         raise TrayNotFound("no pixel lies in the tray's grey band")
@@ -323,7 +324,7 @@ def grade_tray(
     walls[cv2.dilate(leaves_raw, _kernel(3)) > 0] = 0
     # erosion (the paper's), then the same dilation so that the walls' edges stay in place;
     # then an opening with a larger disc: perlite grains and crumbs go
-    walls = cv2.dilate(cv2.erode(walls, _kernel(1.0 * s)), _kernel(1.0 * s))
+    walls = cv2.dilate(cv2.erode(walls, _kernel(th.erode_mm * s)), _kernel(th.erode_mm * s))
     walls = cv2.morphologyEx(walls, cv2.MORPH_OPEN, _kernel(th.open_mm * s))
     wall01 = walls.astype(np.float32) / 255
     margin_x, margin_y = out_w // 20, out_h // 20
