@@ -153,3 +153,42 @@ def test_the_cli_refuses_a_bad_size(tmp_path, capsys):
     assert cli.main(["grade", "--out", str(tmp_path / "g"), "--size", "12x9"]) == 2
     assert "WIDTHxHEIGHT" in capsys.readouterr().err
     assert not (tmp_path / "g").exists()
+
+
+def test_the_json_truth_is_the_draws_and_grading_is_repeatable(graded):
+    from transplanter.scene.plug_tray import draw_tray
+
+    folder, _ = graded[HELD_OUT[0]]
+    cells = json.loads((folder / "grading.json").read_text())["cells"]
+    assert [c["truth"] for c in cells] == draw_tray(HELD_OUT[0]).classes()
+    picture = cv2.cvtColor(cv2.imread(str(folder / "tray.png")), cv2.COLOR_BGR2RGB)
+    assert grade_tray(picture).classes() == grade_tray(picture.copy()).classes()
+    assert grade_tray(picture).classes() == [c["class"] for c in cells]
+
+
+def test_the_vision_package_never_imports_mujoco():
+    code = (
+        "import sys; sys.modules['mujoco'] = None\n"
+        "import numpy as np\n"
+        "import transplanter.vision, transplanter.vision.overlay, transplanter.vision.metrics\n"
+        "from transplanter.vision import ImageUnusable, grade_tray\n"
+        "try:\n"
+        "    grade_tray(np.zeros((100, 100, 3), np.uint8))\n"
+        "except ImageUnusable:\n"
+        "    print('ok')\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.stdout.strip() == "ok", run.stderr
+
+
+def test_grade_without_a_gl_context_says_so_and_writes_nothing(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["MUJOCO_GL"] = "glfw"  # GLFW needs a display: none here
+    out = tmp_path / "g"
+    run = subprocess.run(
+        [sys.executable, "-m", "transplanter.cli", "grade", "--out", str(out), "--size", "320x180"],
+        capture_output=True, text=True, env=env, timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 2, run.stderr
+    assert "no OpenGL context" in run.stderr and "MUJOCO_GL=egl" in run.stderr
+    assert not out.exists()
