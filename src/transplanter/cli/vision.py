@@ -4,7 +4,7 @@ the classes, and a JSON of every cell's class beside its truth.
 
 No scenario yet: the tray, its seedlings and the imaging station are drawn from `--seed` with
 the defaults of `SeedlingDraw` and `ImagingDraw`; `--size` and `--lighting` choose the picture,
-the thresholds are `VisionThresholds()`'s (docs/vision.md)."""
+`--draw` the seedlings' draw, the thresholds are `VisionThresholds()`'s (docs/vision.md)."""
 
 from __future__ import annotations
 
@@ -37,6 +37,13 @@ def register(sub) -> None:
         help="the station's lighting: drawn around the nominal (default) or fixed at 0.55x "
         "(darker) or 1.45x (brighter)",
     )
+    p.add_argument(
+        "--draw",
+        choices=("default", "near_thresholds"),
+        default="default",
+        help="the seedlings: SeedlingDraw() (each kind clear of the thresholds) or "
+        "SeedlingDraw.near_thresholds() (areas, centroids and secants across them)",
+    )
     p.set_defaults(func=cmd_grade)
 
 
@@ -52,6 +59,7 @@ def _size(text: str) -> tuple[int, int] | None:
 
 def cmd_grade(args: argparse.Namespace) -> int:
     from transplanter import fileio
+    from transplanter.scene.plug_tray import SeedlingDraw
     from transplanter.scene.tray_camera import RenderFailed
     from transplanter.studies.vision import grade_seed
     from transplanter.vision.metrics import format_matrix
@@ -67,7 +75,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
         _err(f"--out {out}: exists and is not a folder")
         return EXIT_REFUSED
     try:
-        graded = grade_seed(args.seed, size[0], size[1], args.lighting)
+        seedlings = SeedlingDraw.near_thresholds() if args.draw == "near_thresholds" else None
+        graded = grade_seed(args.seed, size[0], size[1], args.lighting, seedlings)
     except RenderFailed as exc:
         _err(str(exc))
         return EXIT_REFUSED
@@ -79,6 +88,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
         "seed": args.seed,
         "size": list(size),
         "lighting": args.lighting,
+        "draw": args.draw,
         "appearance": graded.appearance.as_dict(),
         "tilt_deg": round(graded.grading.tilt_deg, 4),
         "grade_seconds": round(graded.grading.seconds, 4),
