@@ -13,6 +13,7 @@ command's options beside its handler; the work is done by the domain modules
   serial_link  serve, pgf
   replay       replay
   scenarios    scenarios (the packaged scenarios, a line each)
+  vision       grade (a drawn plug tray photographed and graded from the picture)
 """
 
 from __future__ import annotations
@@ -23,11 +24,20 @@ import signal
 import sys
 
 import transplanter
-from transplanter.cli import hmi, kinematics, replay, scenarios, serial_link, studies, trials
+from transplanter.cli import (
+    hmi,
+    kinematics,
+    replay,
+    scenarios,
+    serial_link,
+    studies,
+    trials,
+    vision,
+)
 from transplanter.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, _err
 
 # The command groups in the order `transplanter --help` lists their commands.
-COMMAND_GROUPS = (kinematics, trials, hmi, studies, serial_link, replay, scenarios)
+COMMAND_GROUPS = (kinematics, trials, hmi, studies, serial_link, replay, scenarios, vision)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     # rerun's own log lines would repeat a failed recording's one-line report on stderr
     os.environ.setdefault("RUST_LOG", "off")
     args = build_parser().parse_args(argv)
-    if args.command == "render" or getattr(args, "clips_of_failures", None) is not None:
+    if args.command in ("render", "grade") or getattr(args, "clips_of_failures", None) is not None:
         from transplanter.viewing.video import prepare_gl
 
         prepare_gl()  # MuJoCo reads MUJOCO_GL when it is first imported
