@@ -57,6 +57,7 @@ __all__ = [
     "plan_move",
     "pso_search",
     "quintic_spline",
+    "toppra_total",
 ]
 
 EE_ACCEL_LIMIT_M_S2 = 8.83
@@ -638,3 +639,86 @@ def pso_search(
         v = inertia * v + c1 * r1 * (pbest - x) + c2 * r2 * (gbest - x)
         x = np.clip(x + v, lo, hi)
     return gbest, gval, np.asarray(history)
+
+
+def _sphere_directions(count: int) -> np.ndarray:
+    """(count, 3) unit vectors spread over the upper half of the sphere (a Fibonacci
+    lattice); with their negatives they cover every direction."""
+    k = np.arange(count) + 0.5
+    z = k / count
+    phi = math.pi * (3.0 - math.sqrt(5.0)) * k
+    r = np.sqrt(1.0 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+
+
+def toppra_total(
+    kinematics: Kinematics,
+    nodes,
+    intervals,
+    limits: MoveLimits,
+    gridpoints: int = 600,
+    ee_directions: int = 96,
+) -> float:
+    """The time-optimal traversal (s) of the spline's geometric path by TOPP-RA (Pham and
+    Pham 2018, the ``toppra`` package), from rest to rest, under the same limits: joint speed
+    and acceleration boxes, the joint torque of the arm's inverse dynamics (toppra's
+    second-order constraint, exact for dynamics quadratic in the speeds) and the end
+    effector's acceleration |X''| <= a as |n . X''| <= a over ``ee_directions`` directions n
+    and their negatives (a polytope around the ball, so a relaxation: the result is a lower
+    bound, like TOPP-RA's own gridding). The path is the spline in its own time, s in [0, T]."""
+    import toppra
+    import toppra.algorithm
+    import toppra.constraint
+
+    spline = quintic_spline(nodes, intervals)
+    t_end = float(np.sum(intervals))
+    dof = int(np.asarray(nodes).shape[1])
+
+    class _Path(toppra.interpolator.AbstractGeometricPath):
+        def __call__(self, path_positions, order=0):
+            return spline(np.asarray(path_positions, dtype=np.float64), nu=order)
+
+        @property
+        def dof(self) -> int:
+            return dof
+
+        @property
+        def path_interval(self):
+            return np.array([0.0, t_end])
+
+    vlim = np.tile([-limits.joint_speed_rad_s, limits.joint_speed_rad_s], (dof, 1))
+    alim = np.tile([-limits.joint_accel_rad_s2, limits.joint_accel_rad_s2], (dof, 1))
+    constraints = [
+        toppra.constraint.JointVelocityConstraint(vlim),
+        toppra.constraint.JointAccelerationConstraint(alim),
+    ]
+    if limits.joint_torque_nm is not None and hasattr(kinematics, "inverse_dynamics"):
+        tlim = np.tile([-limits.joint_torque_nm, limits.joint_torque_nm], (dof, 1))
+        constraints.append(
+            toppra.constraint.SecondOrderConstraint.joint_torque_constraint(
+                kinematics.inverse_dynamics, tlim, np.zeros(dof)
+            )
+        )
+    if limits.ee_accel_m_s2 is not None:
+        half = _sphere_directions(ee_directions)
+        f = np.vstack([half, -half])
+        g = np.full(len(f), limits.ee_accel_m_s2)
+
+        def ee(q, qd, qdd):
+            if hasattr(kinematics, "platform_motion"):
+                return kinematics.platform_motion(q, qd, qdd)[2]
+            return _dynamics(kinematics, q, qd, qdd)[2]
+
+        constraints.append(
+            toppra.constraint.SecondOrderConstraint(ee, lambda _q: f, lambda _q: g, dof)
+        )
+    grid = np.linspace(0.0, t_end, gridpoints + 1)
+    instance = toppra.algorithm.TOPPRA(
+        constraints, _Path(), gridpoints=grid, solver_wrapper="seidel"
+    )
+    _, sd, _ = instance.compute_parameterization(0.0, 0.0)
+    if sd is None:
+        raise MoveRefused("toppra", "TOPP-RA found no feasible parameterisation of the path")
+    sd = np.sqrt(np.maximum(np.asarray(sd, dtype=np.float64) ** 2, 0.0))
+    ds = np.diff(grid)
+    return float(np.sum(2.0 * ds / (sd[1:] + sd[:-1])))
