@@ -502,14 +502,29 @@ def _check_joint_windows(kinematics: Kinematics, nodes, intervals) -> None:
 
 
 def _peaks_of(kinematics, nodes, h, limits) -> dict[str, np.ndarray]:
+    """Exact speed, accel and jerk peaks; torque and end-effector peaks per interval from 400
+    samples each, refined by a bounded maximisation around the largest."""
     spline = quintic_spline(nodes, h)
     out = exact_peaks(spline)
+    d1, d2 = spline.derivative(1), spline.derivative(2)
+
+    def at(t):
+        dyn, grav, xdd = _dynamics(kinematics, spline(t), d1(t), d2(t))
+        tau = None if dyn is None else np.abs(dyn + grav)
+        return tau, np.linalg.norm(xdd, axis=-1)
+
     ts, _ = _samples(spline, 400)
-    q, qd, qdd = spline(ts), spline(ts, nu=1), spline(ts, nu=2)
-    dyn, grav, xdd = _dynamics(kinematics, q, qd, qdd)
-    if dyn is not None:
-        out["torque"] = np.abs(dyn + grav).max(axis=1)
-    out["ee_accel"] = np.linalg.norm(xdd, axis=-1).max(axis=1)
+    tau, ee = at(ts)
+    out["ee_accel"] = np.array(
+        [_refine(lambda t: float(at(t)[1]), ts[i : i + 1], ee[i : i + 1], ee[i].max())
+         for i in range(N_INTERVALS)]
+    )  # fmt: skip
+    if tau is not None:
+        out["torque"] = np.array(
+            [[_refine(lambda t, j=j: float(at(t)[0][j]), ts[i : i + 1], tau[i : i + 1, :, j],
+                      tau[i, :, j].max()) for j in range(tau.shape[-1])]
+             for i in range(N_INTERVALS)]
+        )  # fmt: skip
     return out
 
 
