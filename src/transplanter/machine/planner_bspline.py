@@ -70,6 +70,8 @@ bound, as the paper reports (its torque then peaks at 10.1 N m, the paper's 10.2
 docs/planner.md also gives the 5.4 m/s^2 reading (the limit at which 1.05 s is the optimum)."""
 
 N_INTERVALS = 6
+START_SHAPE = (1.0,) * N_INTERVALS
+"""The shape the search starts from (scaled to its binding limit first)."""
 _SAMPLES = 24  # torque / end-effector samples per interval during the search
 
 
@@ -536,12 +538,15 @@ def plan_move(
     path: PickPath | None = None,
     method: str = "slsqp",
     max_iterations: int = 100,
+    start_shape=None,
+    ftol: float = 1e-7,
 ) -> MovePlan:
     """The shortest quintic-spline move from ``start`` to ``end`` (m): key points, IK, then
-    the scale-then-local search. Scale: the uniform shape stretched to its binding limit.
-    Local (``method="slsqp"``): SLSQP on the six intervals, minimising their sum subject to
-    every interval's peak / limit <= 1 (exact speed and acceleration peaks, sampled torque and
-    end-effector acceleration; 24 constraints). ``"nelder-mead"``: Nelder-Mead on the five
+    the scale-then-local search. Scale: ``start_shape`` (default uniform) stretched to its
+    binding limit. Local (``method="slsqp"``): SLSQP on the six intervals, minimising their sum
+    subject to every interval's peak / limit <= 1 (exact speed and acceleration peaks, sampled
+    torque and end-effector acceleration; 24 constraints; ``ftol`` its tolerance on the total
+    in seconds). ``"nelder-mead"``: Nelder-Mead on the five
     log-ratios of the intervals, each shape scaled exactly to its binding limit (slower; kept
     for comparison). Last, the result's torque and end-effector peaks are refined and the
     plan rescaled to its binding limit. Deterministic (no random numbers). MoveRefused when a
@@ -565,8 +570,8 @@ def plan_move(
         history.append((evaluations[0], best))
         return total
 
-    h0 = np.ones(N_INTERVALS)
-    h0 = h0 * scaled_total(h0, first=True) / N_INTERVALS  # the uniform shape, at its limit
+    h0 = np.asarray(START_SHAPE if start_shape is None else start_shape, dtype=np.float64)
+    h0 = h0 * scaled_total(h0, first=True) / h0.sum()  # the start shape, at its limit
     if method == "slsqp":
 
         def margins(h: np.ndarray) -> np.ndarray:
@@ -579,7 +584,7 @@ def plan_move(
             bounds=[(1e-4 * h0[0], None)] * N_INTERVALS,
             constraints=[{"type": "ineq", "fun": margins}],
             callback=lambda h: scaled_total(np.asarray(h)),
-            options={"ftol": 1e-9, "maxiter": max_iterations},
+            options={"ftol": ftol, "maxiter": max_iterations},
         )  # fmt: skip
         h = np.asarray(res.x) if np.all(res.x > 0) else h0
     elif method == "nelder-mead":
