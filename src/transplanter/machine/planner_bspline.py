@@ -342,6 +342,23 @@ def _samples(spline: BSpline, per_interval: int) -> tuple[np.ndarray, np.ndarray
     return ts, u
 
 
+def _sampled_peak(values: np.ndarray) -> np.ndarray:
+    """(...,) the peak of evenly spaced samples (..., k) along the last axis: the largest
+    sample, raised to the vertex of the parabola through it and its two neighbours where it
+    is an interior maximum (smooth in the data, so a local search cannot hide a peak between
+    two samples as easily as with the bare maximum)."""
+    j = np.argmax(values, axis=-1)
+    top = np.take_along_axis(values, j[..., None], axis=-1)[..., 0]
+    inner = (j > 0) & (j < values.shape[-1] - 1)
+    jl, jr = np.clip(j - 1, 0, None), np.clip(j + 1, None, values.shape[-1] - 1)
+    left = np.take_along_axis(values, jl[..., None], axis=-1)[..., 0]
+    right = np.take_along_axis(values, jr[..., None], axis=-1)[..., 0]
+    curve = left - 2.0 * top + right
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lift = np.where(inner & (curve < 0.0), (right - left) ** 2 / (-8.0 * curve), 0.0)
+    return top + np.where(np.isfinite(lift), lift, 0.0)
+
+
 @dataclass(frozen=True)
 class _Scales:
     """The smallest feasible common scale of a shape, per limit (each a float, 0 when the
@@ -401,9 +418,9 @@ def minimal_scale(
                 f"gravity alone needs {abs(float(grav[worst])):.3f} N m on joint {worst[-1] + 1} "
                 f"at t/T = {float(ts[worst[:-1]] / ts[-1, -1]):.3f}",
             )
-        s_tau = float(tau_req.max())
+        s_tau = float(_sampled_peak(np.moveaxis(tau_req, -1, 0)).max())
     if ee_req is not None:
-        s_e = float(ee_req.max())
+        s_e = float(_sampled_peak(ee_req).max())
     if refine:
         if tau_req is not None:
             s_tau = _refine(lambda t: float(np.max(at(t)[0])), ts, tau_req.max(axis=-1), s_tau)
@@ -450,9 +467,10 @@ def interval_usage(kinematics: Kinematics, nodes, intervals, limits: MoveLimits)
     ts, _ = _samples(spline, _SAMPLES)
     dyn, grav, xdd = _dynamics(kinematics, spline(ts), spline(ts, nu=1), spline(ts, nu=2))
     if dyn is not None and limits.joint_torque_nm is not None:
-        out[:, 2] = np.abs(dyn + grav).max(axis=(1, 2)) / limits.joint_torque_nm
+        tau = np.moveaxis(np.abs(dyn + grav), -1, 0)  # (joint, interval, sample)
+        out[:, 2] = _sampled_peak(tau).max(axis=0) / limits.joint_torque_nm
     if limits.ee_accel_m_s2 is not None:
-        out[:, 3] = np.linalg.norm(xdd, axis=-1).max(axis=1) / limits.ee_accel_m_s2
+        out[:, 3] = _sampled_peak(np.linalg.norm(xdd, axis=-1)) / limits.ee_accel_m_s2
     return out
 
 
@@ -537,7 +555,7 @@ def plan_move(
     limits: MoveLimits | None = None,
     path: PickPath | None = None,
     method: str = "slsqp",
-    max_iterations: int = 100,
+    max_iterations: int = 40,
     start_shape=None,
     ftol: float = 1e-7,
 ) -> MovePlan:
@@ -557,6 +575,7 @@ def plan_move(
     nodes = joint_nodes(kinematics, points)
     evaluations = [0]
     history: list[tuple[int, float]] = []
+    best_shape: list[np.ndarray] = [np.empty(0)]  # the shape of the best scaled total
 
     def scaled_total(h: np.ndarray, first: bool = False) -> float:
         evaluations[0] += 1
@@ -566,6 +585,8 @@ def plan_move(
             if first:
                 raise
             return math.inf
+        if not history or total < history[-1][1]:
+            best_shape[0] = np.array(h, dtype=np.float64)
         best = min(total, history[-1][1]) if history else total
         history.append((evaluations[0], best))
         return total
@@ -586,7 +607,11 @@ def plan_move(
             callback=lambda h: scaled_total(np.asarray(h)),
             options={"ftol": ftol, "maxiter": max_iterations},
         )  # fmt: skip
-        h = np.asarray(res.x) if np.all(res.x > 0) else h0
+        # SLSQP's last iterate can sit a little above its best one where the sampled peaks
+        # switch intervals: keep the better of the two, scaled
+        h = np.asarray(res.x, dtype=np.float64)
+        if not (np.all(h > 0) and scaled_total(h) <= history[-1][1]):
+            h = best_shape[0]
     elif method == "nelder-mead":
         x0 = np.zeros(N_INTERVALS - 1)
         res = minimize(
