@@ -15,14 +15,18 @@ total time under the limits of the paper's Eq. 14: joint speed, joint accelerati
 What makes the search cheap: scaling every interval by s turns the spline q(t) into q(t / s),
 so joint speeds scale as 1/s, accelerations, the end effector's acceleration and the dynamic
 part of the torque as 1/s^2, and gravity does not change. For any *shape* (the intervals up to
-a common factor) the smallest feasible scale is therefore closed form, and the search is over
-the five-dimensional shape only (:func:`plan_move`: Nelder-Mead on the log-intervals from the
-uniform shape, each evaluation exactly scaled to its binding limit). The joint speed,
+a common factor) the smallest feasible scale is therefore closed form (:func:`minimal_scale`).
+:func:`plan_move` scales the uniform shape to its binding limit, then runs SLSQP on the six
+intervals (minimise their sum, every interval's peak / limit <= 1), then refines the result's
+sampled peaks and rescales it; a Nelder-Mead search over the shape alone and a plain particle
+swarm (:func:`pso_search`) are kept for comparison (docs/planner.md). The joint speed,
 acceleration and jerk peaks are exact: on every interval each joint's spline is a quintic
 polynomial, and its derivatives' extrema are at the interval's ends or at the real roots of the
 next derivative (:func:`exact_peaks`). Torque and the end effector's acceleration are not
-polynomials in time: they are sampled on every interval during the search and the final plan's
-peaks are refined by a bounded scalar maximisation around the largest sample.
+polynomials in time: they are sampled on every interval during the search (the largest sample
+raised to the vertex of the parabola through its neighbours) and the final plan's peaks are
+refined by a bounded scalar maximisation around the largest sample. The yardstick
+:func:`toppra_total` is TOPP-RA (Pham and Pham 2018) along the same path.
 
 Pure numpy/scipy (the firmware side); written against the :class:`Kinematics` interface
 (``joints``/``check`` for the nodes, ``jacobian``, and ``inverse_dynamics``/``platform_motion``
