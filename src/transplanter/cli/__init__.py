@@ -7,6 +7,7 @@ command's options beside its handler; the work is done by the domain modules
   common       exit statuses, the options several commands share (declared once), reading
                --set/--seeds and the scenario, output paths, the end of every trial command
   kinematics   ik, plan
+  motion       plan-move
   trials       trial (and --seeds), render, view, export
   hmi          hmi
   studies      sweep, tune, calibrate
@@ -27,6 +28,7 @@ import transplanter
 from transplanter.cli import (
     hmi,
     kinematics,
+    motion,
     replay,
     scenarios,
     serial_link,
@@ -37,7 +39,7 @@ from transplanter.cli import (
 from transplanter.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, _err
 
 # The command groups in the order `transplanter --help` lists their commands.
-COMMAND_GROUPS = (kinematics, trials, hmi, studies, serial_link, replay, scenarios, vision)
+COMMAND_GROUPS = (kinematics, motion, trials, hmi, studies, serial_link, replay, scenarios, vision)
 
 
 def build_parser() -> argparse.ArgumentParser:

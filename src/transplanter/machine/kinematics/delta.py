@@ -379,6 +379,60 @@ class DeltaKinematics(Kinematics):
         g_ag = l1 * (0.5 * m.upper_arm_kg + m.elbow_kg + 0.5 * m.forearm_kg) * g_m_s2 * np.cos(q)
         return m_moveg * g_m_s2 * dz_dq - g_ag
 
+    def platform_motion(self, joints, speeds, accels) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(X, Xdot, Xddot), each (..., 3) in m, m/s, m/s^2, of the platform centre at arm
+        angles q (rad), speeds qdot (rad/s) and accelerations qddot (rad/s^2), exactly:
+        Xdot = J qdot, and from the second derivative of |s_i|^2 = l2^2 (s_i = C_i - B_i),
+        s_i . Xddot = (s_i . b_i) qddot_i + (s_i . b'_i) qdot_i^2 - |Xdot - b_i qdot_i|^2,
+        with b_i = dB_i/dq_i and b'_i = d^2B_i/dq_i^2 (the paper's J qddot + Jdot qdot)."""
+        q, qd, qdd = np.broadcast_arrays(_xyz(joints), _xyz(speeds), _xyz(accels))
+        g = self.geometry
+        xyz = fk(g, q)
+        cos_phi, sin_phi = _directions()
+        e = np.stack([cos_phi, sin_phi, np.zeros(3)], axis=-1)
+        s = xyz[..., None, :] + g.platform_radius_m * e - elbow_points(g, q)
+        l1, sq, cq = g.upper_arm_m, np.sin(q), np.cos(q)
+        b = np.stack([-l1 * sq * cos_phi, -l1 * sq * sin_phi, -l1 * cq], axis=-1)
+        b2 = np.stack([-l1 * cq * cos_phi, -l1 * cq * sin_phi, l1 * sq], axis=-1)
+        jac = jacobian(g, q, xyz)
+        xd = np.einsum("...ij,...j->...i", jac, qd)
+        rel = xd[..., None, :] - b * qd[..., None]
+        rhs = (
+            np.sum(s * b, axis=-1) * qdd
+            + np.sum(s * b2, axis=-1) * qd * qd
+            - np.sum(rel * rel, axis=-1)
+        )
+        xdd = np.linalg.solve(s, rhs[..., None])[..., 0]
+        return xyz, xd, xdd
+
+    def arm_inertia_kgm2(self) -> np.ndarray:
+        """(3,) I_at,i of Eq. 9 at the joint: the rotor's inertia through the reducer,
+        I_m N^2, plus l1^2 (m_a/3 + m_b + 2/3 m_c) (the arm as a uniform rod about its joint,
+        the elbow's hinges and two-thirds of the follower at the elbow)."""
+        m, l1 = self.masses, self.geometry.upper_arm_m
+        arm = l1 * l1 * (m.upper_arm_kg / 3.0 + m.elbow_kg + 2.0 * m.forearm_kg / 3.0)
+        ratios = np.array([d.ratio for d in self.drives], dtype=np.float64)
+        return m.rotor_inertia_kgm2 * ratios * ratios + arm
+
+    def inverse_dynamics(self, joints, speeds, accels, g_m_s2: float = 9.81) -> np.ndarray:
+        """(..., 3) joint torques (N m, positive lowering the arm) of the paper's Eq. 7-9
+        (the simplified virtual-work model, signs restored as docs/delta.md gives them):
+        tau = I_at qddot + J^T (m_movet Xddot + m_moveg g e_z) - G_ag,
+        m_movet = m_move + m_c, m_moveg = m_move + 3/2 m_c, G_ag = l1 (m_a/2 + m_b + m_c/2)
+        g cos q; J^T m_movet Xddot is Eq. 9's (J^T m_movet J) qddot + J^T m_movet Jdot qdot.
+        At rest it is :meth:`gravity_torques`."""
+        q = _xyz(joints)
+        xyz, _, xdd = self.platform_motion(q, speeds, accels)
+        m, l1 = self.masses, self.geometry.upper_arm_m
+        jac = jacobian(self.geometry, q, xyz)
+        m_movet = m.platform_kg + m.forearm_kg
+        m_moveg = m.platform_kg + 1.5 * m.forearm_kg
+        force = m_movet * xdd
+        force[..., 2] += m_moveg * g_m_s2
+        g_ag = l1 * (0.5 * m.upper_arm_kg + m.elbow_kg + 0.5 * m.forearm_kg) * g_m_s2 * np.cos(q)
+        qdd = np.broadcast_to(_xyz(accels), force.shape)
+        return self.arm_inertia_kgm2() * qdd + np.einsum("...ji,...j->...i", jac, force) - g_ag
+
     def check(self, xyz) -> ReachReport:
         """Per-point verdicts: each arm's chain closes (typed OUT_OF_WORKSPACE with the
         follower's reach), each arm angle in [q_min, q_max] (JOINT_LIMIT naming q_i), the
