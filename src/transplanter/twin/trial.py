@@ -30,13 +30,9 @@ __all__ = [
     "run_trial",
     "TrialInterrupted",
     "TrialObserver",
-    "MONITOR_EVERY_STEPS",
     "FIRMWARE_HORIZON_S",
 ]
 
-# Grip force, leaf contacts and motor lag are sampled every this many physics steps (10 ms
-# at the paper's 1 ms step: the gripper moves at most 1.5 mm between samples).
-MONITOR_EVERY_STEPS = 10
 # The PGF must finish within this much simulated time (s): a base plus a per-seedling budget
 # about ten times a paper cycle, so only a hung firmware hits it.
 FIRMWARE_HORIZON_S = (60.0, 30.0)
@@ -114,7 +110,7 @@ def run_trial(
         judge = judge_cls(twin, config.judge, records, event)
         twin.line_listeners.append(judge.on_line)
         monitor: Any = judge.monitor if recorder is None else _RecordingMonitor(judge, recorder)
-        every = MONITOR_EVERY_STEPS if recorder is None else 1
+        every = 1  # the judge keeps its own periods in simulated time
         if recorder is not None:
             monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state at t = 0
         recording_monitor = monitor
@@ -273,8 +269,7 @@ class _RecordingMonitor:
 
     def __call__(self, twin: Twin, i: int) -> None:
         # called every physics step so that frames fall on the recording rate's grid
-        if twin.k % MONITOR_EVERY_STEPS == 0:
-            self.judge.monitor(twin, i)
+        self.judge.monitor(twin, i)
         if self.recorder.due(twin.time):
             self.record(twin, twin.block.pulses[i])
 
