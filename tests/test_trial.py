@@ -390,7 +390,7 @@ def test_calibrated_paper_scenario_is_the_paper_with_the_fitted_friction():
     paper = assemble(load_scenario("paper"))
     calibrated = assemble(load_scenario("paper_calibrated"))
     assert calibrated.name == "paper_calibrated"
-    assert calibrated.scene.pot_friction == pytest.approx(0.12843, abs=1e-5)
+    assert calibrated.scene.pot_friction == pytest.approx(0.13598, abs=1e-5)
     assert dataclasses.replace(calibrated.scene, pot_friction=paper.scene.pot_friction) == (
         paper.scene
     )
@@ -401,23 +401,23 @@ def test_calibrated_paper_scenario_is_the_paper_with_the_fitted_friction():
 @pytest.mark.slow
 def test_calibrated_paper_scenario_gives_the_papers_success_one_pot_at_a_time():
     """paper_calibrated (pots.friction fitted by `transplanter calibrate` to the paper's
-    112/120): seeds 1-3 pooled inside the paper's 95 % interval at the 3.5 s cycle (112/120
+    112/120): seeds 1-3 pooled inside the paper's 95 % interval at the 3.5 s cycle (113/120
     when fitted), and every failure is the mechanism the fit stands for: a pot whose jaw
-    friction cannot carry it slides out of the jaws (`not_gripped`), one at a time, no motor
-    ever slips."""
+    friction cannot carry it slides out of the jaws (`not_gripped` as they rise, `slipped`
+    on the way), one at a time, no motor ever slips."""
     successes = 0
     for seed in (1, 2, 3):
         config = assemble(load_scenario("paper_calibrated", {"scenario.seed": seed}))
         result = run_trial(config)
         successes += result.successes
         assert result.to_dict()["cycle_time_s"] == pytest.approx(3.5, abs=0.1)
-        assert {k for k, v in result.failures().items() if v} <= {"not_gripped"}
+        assert {k for k, v in result.failures().items() if v} <= {"not_gripped", "slipped"}
         assert not result.lost_step_events
         friction = PotBatch.draw(config.scene, seed).friction
         for rec in result.per_seedling:
             # about 0.04 lifts a 45-55 g pot with 6 N per jaw (friction on both jaws)
-            if rec.outcome == Outcome.NOT_GRIPPED:
-                assert friction[rec.pot] < 0.045, (seed, rec.pot, friction[rec.pot])
+            if rec.outcome in (Outcome.NOT_GRIPPED, Outcome.SLIPPED):
+                assert friction[rec.pot] < 0.06, (seed, rec.pot, friction[rec.pot])
             else:
                 assert friction[rec.pot] > 0.035, (seed, rec.pot, friction[rec.pot])
     assert 0.87 <= successes / 120 <= 0.97, successes  # the paper: 112/120, 87.4-96.6 %
