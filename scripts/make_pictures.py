@@ -50,7 +50,11 @@ class _Pictures:
 
     def attach(self, twin, records) -> None:
         self.records = records
-        self.grabber = video.FrameGrabber(twin.model, *STILL_SIZE, "overview", shadows=True)
+        # the decorated model (pot meshes, stems, leaves) with the physics state mirrored
+        self.scene = twin.scene
+        self.grabber = video.FrameGrabber(
+            twin.scene.render_model, *STILL_SIZE, "overview", shadows=True
+        )
         twin.line_listeners.append(self._on_line)
 
     def _on_line(self, event) -> None:
@@ -61,13 +65,15 @@ class _Pictures:
 
     def step(self, twin) -> None:
         if self.want_still:
-            self.still, self.want_still = self.grabber.grab(twin.data), False
+            self.still = self.grabber.grab(self.scene.render_data(twin.data))
+            self.want_still = False
         t = twin.time
         start, end = video.cycle_window(self.records, 0)
         if start is None or t < start - 1e-9 or (end is not None and t > end + 1e-9):
             return
         if self.clock.due(t):
-            small = Image.fromarray(self.grabber.grab(twin.data)).resize(GIF_SIZE, Image.LANCZOS)
+            frame = self.grabber.grab(self.scene.render_data(twin.data))
+            small = Image.fromarray(frame).resize(GIF_SIZE, Image.LANCZOS)
             self.frames.append(video.annotate(np.asarray(small), [f"t = {t:6.2f} s"]))
 
     def finish(self, twin, interrupted: bool) -> None:
