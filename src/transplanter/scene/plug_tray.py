@@ -304,6 +304,16 @@ def _leaf(
     )
 
 
+def _typical_leaf(
+    rng: np.random.Generator, stem: tuple[float, float], angle: float, draw: SeedlingDraw
+) -> Leaf:
+    """A leaf of the draw's usual size (radial, tangential and petiole drawn in that order)."""
+    radial = _u(rng, draw.radial_mm)
+    tangential = _u(rng, draw.tangential_mm)
+    petiole = _u(rng, draw.petiole_mm)
+    return _leaf(rng, stem, angle, radial, tangential, petiole, draw)
+
+
 def _seedling(
     rng: np.random.Generator,
     kind: str,
@@ -335,17 +345,7 @@ def _seedling(
         stem = (cx + d * math.cos(diag), cy + d * math.sin(diag))
         for k in range(2):
             angle = diag + (k - 0.5) * rng.uniform(0.6, 1.2)
-            leaves.append(
-                _leaf(
-                    rng,
-                    stem,
-                    angle,
-                    _u(rng, draw.radial_mm),
-                    _u(rng, draw.tangential_mm),
-                    _u(rng, draw.petiole_mm),
-                    draw,
-                )
-            )
+            leaves.append(_typical_leaf(rng, stem, angle, draw))
     elif kind in ("cross_lr", "cross_ud"):
         axis = 0.0 if kind == "cross_lr" else math.pi / 2
         side = float(rng.choice([0.0, math.pi]))
@@ -374,17 +374,7 @@ def _seedling(
         theta0 = rng.uniform(0, 2 * math.pi)
         for k in range(2):
             angle = theta0 + k * math.pi + rng.normal(0, 0.15)
-            leaves.append(
-                _leaf(
-                    rng,
-                    stem,
-                    angle,
-                    _u(rng, draw.radial_mm),
-                    _u(rng, draw.tangential_mm),
-                    _u(rng, draw.petiole_mm),
-                    draw,
-                )
-            )
+            leaves.append(_typical_leaf(rng, stem, angle, draw))
         if rng.uniform() < draw.p_third_leaf:
             scale = _u(rng, draw.third_leaf_scale)
             leaves.append(

@@ -142,9 +142,4 @@ class StepperDrives:
             if joint_speeds is None
             else self.gears * np.asarray(joint_speeds, dtype=float)
         )
-        amp = np.array([p.pullout_nm(s) for p, s in zip(self.params, speed, strict=True)])
-        self.apply(data.ctrl, data.qpos, field, amp, self.damping * speed)
-
-    def load_angle(self, qpos, field_rad) -> np.ndarray:
-        """Each motor's lag behind its field (motor rad; positive: the rotor trails)."""
-        return np.asarray(field_rad) - self.gears * qpos[self.qpos_adr]
+        self.apply(data.ctrl, data.qpos, field, self.pullout_nm(speed), self.damping * speed)
