@@ -3,7 +3,9 @@ test/model_test.py: every robot (models/<robot>/) and workcell (models/workcells
 has README.md, CHANGELOG.md, LICENSE, its MJCF <folder>.xml and assets/ holding exactly the
 meshes its XML names; a robot also has scene.xml (the robot in a minimal world), its XML holds
 the robot only, with a `home` keyframe and default classes for visual and collision geoms;
-every scene.xml and workcell compiles and steps with noisy controls without a MuJoCo warning."""
+every scene.xml and workcell compiles and steps with noisy controls without a MuJoCo warning.
+An effector (models/effectors/<effector>/) is held to a robot's rules, except that its
+scene.xml may add the world it works in (a tray cell, a plug)."""
 
 import warnings
 import xml.etree.ElementTree as ET
@@ -16,10 +18,12 @@ from conftest import ROOT
 from transplanter.scene.build import ROBOT, WORKCELL, robot_xml, workcell_xml
 
 MODELS = ROOT / "models"
-SKIP = {"workcells", "__pycache__"}
+SKIP = {"workcells", "effectors", "__pycache__"}
 ROBOTS = sorted(p for p in MODELS.iterdir() if p.is_dir() and p.name not in SKIP)
 WORKCELLS = sorted(p for p in (MODELS / "workcells").iterdir() if p.is_dir() and p.name not in SKIP)
-FOLDERS = ROBOTS + WORKCELLS
+EFFECTORS = sorted(p for p in (MODELS / "effectors").iterdir() if p.is_dir() and p.name not in SKIP)
+FOLDERS = ROBOTS + WORKCELLS + EFFECTORS
+TOOLED = ROBOTS + EFFECTORS  # a home keyframe, classes, a scene.xml
 ids = [p.relative_to(MODELS).as_posix() for p in FOLDERS]
 
 
@@ -47,7 +51,7 @@ def test_the_scene_is_made_of_a_robot_and_a_workcell_from_these_folders():
 @pytest.mark.parametrize("folder", FOLDERS, ids=ids)
 def test_folder_has_the_menagerie_files(folder):
     expected = ["README.md", "CHANGELOG.md", "LICENSE", f"{folder.name}.xml", "assets"]
-    if folder in ROBOTS:
+    if folder in TOOLED:
         expected.append("scene.xml")
     missing = [name for name in expected if not (folder / name).exists()]
     assert missing == []
@@ -71,7 +75,7 @@ def test_asset_file_names_are_unique_across_folders():
     assert len(names) == len(set(names))
 
 
-@pytest.mark.parametrize("robot", ROBOTS, ids=[p.name for p in ROBOTS])
+@pytest.mark.parametrize("robot", TOOLED, ids=[p.name for p in TOOLED])
 def test_robot_has_a_home_keyframe_and_visual_and_collision_classes(robot):
     model = load(main_xml(robot))
     home = model.key("home").id
@@ -107,6 +111,19 @@ def test_robot_xml_holds_the_robot_only_and_scene_xml_includes_it(robot):
     )
 
 
+@pytest.mark.parametrize("effector", EFFECTORS, ids=[p.name for p in EFFECTORS])
+def test_effector_xml_holds_the_effector_only_and_scene_xml_includes_it(effector):
+    """No world geoms, lights or cameras in the effector's XML; its scene.xml includes it and
+    keeps its joints, actuators and keyframe (what it adds is static)."""
+    spec = mujoco.MjSpec.from_file(str(main_xml(effector)))
+    world = spec.worldbody
+    assert (len(world.geoms), len(world.lights), len(world.cameras)) == (0, 0, 0)
+    includes = [i.get("file") for i in ET.parse(effector / "scene.xml").getroot().iter("include")]
+    assert includes == [f"{effector.name}.xml"]
+    alone, in_scene = load(main_xml(effector)), load(effector / "scene.xml")
+    assert (in_scene.nq, in_scene.nu, in_scene.nkey) == (alone.nq, alone.nu, alone.nkey)
+
+
 def step_noisy(model, seconds=1.0, seed=0):
     """Step from every keyframe (or qpos0 without one) with Gaussian noise on the controls
     (5 % of each limited actuator's range, else 0.05), as Menagerie's model test does."""
@@ -129,7 +146,7 @@ def step_noisy(model, seconds=1.0, seed=0):
     return data
 
 
-SCENES = [p / "scene.xml" for p in ROBOTS] + [main_xml(p) for p in WORKCELLS]
+SCENES = [p / "scene.xml" for p in TOOLED] + [main_xml(p) for p in WORKCELLS]
 
 
 @pytest.mark.parametrize("xml", SCENES, ids=[p.relative_to(MODELS).as_posix() for p in SCENES])

@@ -31,7 +31,10 @@ __all__ = [
 ]
 
 ROBOTS = {"fivebar": "transplanter.scene.robots.fivebar"}
-EFFECTORS = {"parallel_jaw": "transplanter.scene.effectors.parallel_jaw"}
+EFFECTORS = {
+    "parallel_jaw": "transplanter.scene.effectors.parallel_jaw",
+    "plug_claws": "transplanter.scene.effectors.plug_claws",
+}
 WORKCELLS = {"conveyor_tube": "transplanter.scene.workcells.conveyor_tube"}
 
 
