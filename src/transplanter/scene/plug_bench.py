@@ -27,7 +27,7 @@ and records what touched it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import mujoco
@@ -36,19 +36,22 @@ import numpy as np
 from transplanter.scene.effectors import plug_claws
 from transplanter.scene.effectors.plug_claws import ClawCycle, PlugClawsConfig
 from transplanter.scene.plug_substrate import PlugsConfig, Substrate
-from transplanter.scene.plug_tray import Seedling
+from transplanter.scene.plug_tray import CellTruth, Seedling, TrayGeometry
 
 __all__ = [
     "BenchConfig",
     "BenchResult",
     "LeafDamage",
     "build_bench",
+    "centred_seedling",
+    "measure_hold",
     "model_xml",
     "run_pick",
 ]
 
 TRAY_TOP_M = 0.05  # the bench's tray top above its floor
 BIT_TRAY = 1
+TRAY_SOLREF = [0.004, 1.0]  # the tray's plastic: stiffer than MuJoCo's default contact
 
 
 def model_xml(models: str | Path | None = None) -> Path:
@@ -68,7 +71,7 @@ class BenchConfig:
     rotary_deg: float = 0.0
     """The rotary cylinder's setting for this pick (0: claws enter along x, 90: along y)."""
     extraction_accel_m_s2: float = 10.0
-    """Peak acceleration of the vertical lift out of the cell (bang-bang profile)."""
+    """Peak acceleration of the vertical lift out of the cell (cycloidal profile)."""
     lift_mm: float = 100.0
     """Height of the lift (the paper's Q0Q1)."""
     move_mm: float = 150.0
@@ -115,6 +118,12 @@ class BenchResult:
     in_target: bool
     leaf_damage: list[LeafDamage] = field(default_factory=list)
     times_s: dict[str, float] = field(default_factory=dict)
+    track_mm: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    """The plug's top centre (x, y, height above the tray's top) at each of `times_s`."""
+    tip_depth_mm: float = 0.0
+    """How deep the claws' tips stood below the plug's top when the lift began."""
+    stripper_peak_n: float = 0.0
+    """The largest push of the stripper on the plug while the claws retracted."""
 
     def as_dict(self) -> dict:
         return {
@@ -127,6 +136,8 @@ class BenchResult:
             "pin_capacity_n": round(self.pin_capacity_n, 5),
             "in_target": self.in_target,
             "leaf_damage": [d.__dict__ for d in self.leaf_damage],
+            "tip_depth_mm": round(self.tip_depth_mm, 4),
+            "stripper_peak_n": round(self.stripper_peak_n, 4),
         }
 
 
@@ -168,6 +179,7 @@ def _add_cell(spec: mujoco.MjSpec, name: str, cx: float, cy: float, sub: Substra
             contype=BIT_TRAY,
             conaffinity=BIT_TRAY,
             friction=[c.wall_friction, 0.005, 0.0001],
+            solref=TRAY_SOLREF,
             rgba=[0.8, 0.8, 0.78, 0.35],
         )
     world.add_geom(
@@ -177,6 +189,7 @@ def _add_cell(spec: mujoco.MjSpec, name: str, cx: float, cy: float, sub: Substra
         pos=[cx, cy, TRAY_TOP_M - depth - t],
         contype=BIT_TRAY,
         conaffinity=BIT_TRAY,
+        solref=TRAY_SOLREF,
         rgba=[0.8, 0.8, 0.78, 1.0],
     )
 
@@ -325,20 +338,20 @@ def build_bench(
 
 
 def _profile(d: float, a: float, t: float) -> tuple[float, float]:
-    """Bang-bang move of length d at peak acceleration a: (position, velocity) at time t."""
+    """Cycloidal move of length d whose acceleration peaks at a (a sine over the move: no
+    jump in acceleration at either end): (position, velocity) at time t."""
     if d == 0.0:
         return 0.0, 0.0
-    sign, d = math.copysign(1.0, d), abs(d)
-    T = 2 * math.sqrt(d / a)
-    t = min(max(t, 0.0), T)
-    if t < T / 2:
-        return sign * a * t * t / 2, sign * a * t
-    r = T - t
-    return sign * (d - a * r * r / 2), sign * a * r
+    T = _move_time(d, a)
+    u = min(max(t, 0.0), T) / T
+    pos = d * (u - math.sin(2 * math.pi * u) / (2 * math.pi))
+    vel = d / T * (1.0 - math.cos(2 * math.pi * u))
+    return pos, vel
 
 
 def _move_time(d: float, a: float) -> float:
-    return 2 * math.sqrt(abs(d) / a) if d else 0.0
+    """Duration of a cycloidal move of length d with peak acceleration a: sqrt(2 pi d / a)."""
+    return math.sqrt(2 * math.pi * abs(d) / a) if d else 0.0
 
 
 class _Contacts:
@@ -349,6 +362,8 @@ class _Contacts:
         gid = lambda n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
         self.socket = gid("plug_socket")
         self.pins = {gid(n) for n in plug_claws.CLAWS}
+        self.substrate = gid("plug_substrate")
+        self.strippers = {gid(n) for n in plug_claws.STRIPPERS}
         self.pressers = {gid(n) for n in (*plug_claws.CLAWS, *plug_claws.STRIPPERS)}
         self.leaves = {
             i
@@ -375,6 +390,17 @@ class _Contacts:
                 total += f if g2 == self.socket else -f
         return float(math.hypot(max(total[2], 0.0), total[0], total[1]))
 
+    def stripper_push(self, d: mujoco.MjData) -> float:
+        """Sum of the stripper's normal forces on the plug (N)."""
+        total = 0.0
+        for i in range(d.ncon):
+            con = d.contact[i]
+            pair = {int(con.geom1), int(con.geom2)}
+            if self.substrate in pair and pair & self.strippers:
+                mujoco.mj_contactForce(self.m, d, i, self._f)
+                total += float(self._f[0])
+        return total
+
     def leaf_strikes(self, d: mujoco.MjData) -> list[tuple[int, int, float]]:
         out = []
         for i in range(d.ncon):
@@ -389,6 +415,19 @@ class _Contacts:
             mujoco.mj_contactForce(self.m, d, i, self._f)
             out.append((leaf, by, float(self._f[0])))
         return out
+
+
+def centred_seedling(cell: CellTruth, geometry: TrayGeometry) -> Seedling:
+    """A drawn cell's seedling moved from the tray frame to its cell's centre (mm)."""
+    cx, cy = geometry.centre(cell.row, cell.col)
+    s = cell.seedling
+    if s is None:
+        raise ValueError(f"cell {cell.index} is empty")
+    leaves = tuple(
+        replace(lf, cx=lf.cx - cx, cy=lf.cy - cy, base=(lf.base[0] - cx, lf.base[1] - cy))
+        for lf in s.leaves
+    )
+    return replace(s, stem=(s.stem[0] - cx, s.stem[1] - cy), leaves=leaves)
 
 
 def run_pick(
@@ -476,6 +515,11 @@ def run_pick(
 
     peak = 0.0
     dropped_at = None
+    track: dict[str, tuple[float, float, float]] = {}
+    pending = sorted(times.items(), key=lambda kv: kv[1])
+    tip = model.body("claw_right").id
+    tip_depth = 0.0
+    stripper_peak = 0.0
     damaged: dict[int, LeafDamage] = {}
     n = int(round(t_end / dt))
     for k in range(n):
@@ -487,7 +531,8 @@ def run_pick(
         # the cell's adhesion: a resistance while the plug rises out of its seat
         rise = float(data.qpos[qadr + 2]) - seat_z
         vz = float(data.qvel[vadr + 2])
-        if dropped_at is None and tt < t_ret and vz > 0.0:
+        over_seat = abs(float(data.qpos[qadr])) < 0.5 * sub.cfg.top_mm * 1e-3
+        if dropped_at is None and tt < t_ret and vz > 0.0 and over_seat:
             adhesion = sub.cell_adhesion_n(max(rise, 0.0)) * min(vz / 1e-3, 1.0)
             data.xfrc_applied[plug, 2] = -adhesion
         else:
@@ -504,6 +549,14 @@ def run_pick(
                 scale = 1.0 - sub.lost_fraction(peak)
                 model.body_mass[plug] = mass0 * scale
                 model.body_inertia[plug] = inertia0 * scale
+        if t_ret <= tt < t_off:
+            stripper_peak = max(stripper_peak, contacts.stripper_push(data))
+        if tt < t_lift:
+            tip_depth = float(data.xpos[plug, 2] - data.xpos[tip, 2])
+        while pending and pending[0][1] <= tt + dt / 2:
+            name, _ = pending.pop(0)
+            x, y, z = (float(v) for v in data.xpos[plug])
+            track[name] = (x * 1e3, y * 1e3, (z - TRAY_TOP_M) * 1e3)
         for leaf, by, force in contacts.leaf_strikes(data):
             if force > contacts.threshold and leaf not in damaged:
                 damaged[leaf] = LeafDamage(model.geom(leaf).name, model.geom(by).name, force, tt)
@@ -527,4 +580,52 @@ def run_pick(
         in_target=in_target,
         leaf_damage=sorted(damaged.values(), key=lambda d: (d.time_s, d.leaf)),
         times_s=times,
+        track_mm=track,
+        tip_depth_mm=tip_depth * 1e3,
+        stripper_peak_n=stripper_peak,
     )
+
+
+def measure_hold(
+    plugs: PlugsConfig | None = None,
+    claws: PlugClawsConfig | None = None,
+    timestep_ms: float = 1.0,
+    ramp_n_s: float = 4.0,
+    slip_mm: float = 5.0,
+    models: str | Path | None = None,
+) -> float:
+    """The pins' friction hold (N), measured in the physics: the claws go into a plug, lift it
+    20 mm clear of its cell, then a downward pull on the plug grows at `ramp_n_s` until the
+    plug has slid `slip_mm` down the claws; the pull then (plus the plug's weight) is the
+    hold. The substrate's shear (`Substrate.pin_capacity_n`) is not applied here: this is
+    what the contact alone carries."""
+    plugs, claws = plugs or PlugsConfig(), claws or PlugClawsConfig()
+    bench = BenchConfig(timestep_ms=timestep_ms, approach_mm=0.0)
+    spec = build_bench(plugs, claws, bench, None, models)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    dt = model.opt.timestep
+    plug = model.body("plug").id
+    mount = model.body("claws_mount").id
+    cycle = ClawCycle(claws)
+    t_lift = cycle.extend(0.0) + claws.settle_ms * 1e-3
+    lift, t_up = 0.02, 0.1
+    z_ctrl = model.actuator("carrier_z").id
+    effector = [model.actuator(n).id for n in plug_claws.ACTUATORS]
+    weight = float(model.body_mass[plug]) * -float(model.opt.gravity[2])
+    gap0 = None
+    t_pull = t_lift + t_up + 0.1
+    for k in range(int(round((t_pull + 20.0) / dt))):
+        tt = k * dt
+        s = min(max((tt - t_lift) / t_up, 0.0), 1.0)
+        data.ctrl[z_ctrl] = lift * (3 * s * s - 2 * s**3)
+        data.ctrl[effector] = cycle.ctrl(tt)
+        pull = max(tt - t_pull, 0.0) * ramp_n_s
+        data.xfrc_applied[plug, 2] = -pull
+        mujoco.mj_step(model, data)
+        gap = float(data.xpos[mount, 2] - data.xpos[plug, 2])
+        if tt < t_pull:
+            gap0 = gap
+        elif gap - gap0 > slip_mm * 1e-3:
+            return pull + weight
+    return math.inf

@@ -96,10 +96,14 @@ class PlugsConfig:
     """Loss of pin friction per % of moisture above the reference (water lubricates)."""
     wall_friction: float = 0.4
     """Plug-wall friction coefficient (estimate: wet peat on polystyrene or PP)."""
-    substrate_timeconst_ms: float = 4.0
+    substrate_timeconst_ms: float = 12.0
     """MuJoCo solref time constant of the pin-substrate contact at the reference (softness)."""
     substrate_stiffening: float = 1.0
     """The contact's time constant divides by (1 + this R): roots stiffen the plug."""
+    reference_mass_g: float = 11.0
+    """Plug mass at which `substrate_timeconst_ms` holds: MuJoCo's soft contact is set in
+    acceleration units, so its force follows the bodies' masses; the time constant grows with
+    sqrt(mass / this) to keep the squeeze a property of the substrate, not of its water."""
 
     def __post_init__(self) -> None:
         if not 0.0 < self.moisture_pct < 100.0:
@@ -252,4 +256,6 @@ class Substrate:
     @property
     def contact_timeconst_s(self) -> float:
         c = self.cfg
-        return c.substrate_timeconst_ms * 1e-3 / (1.0 + c.substrate_stiffening * self.root_binding)
+        stiff = 1.0 + c.substrate_stiffening * self.root_binding
+        mass = math.sqrt(self.mass_kg / (c.reference_mass_g * 1e-3))
+        return c.substrate_timeconst_ms * 1e-3 / stiff * mass
