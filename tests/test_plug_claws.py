@@ -48,6 +48,14 @@ def test_plug_claws_is_an_effector_kind_with_the_contract():
     assert plug_claws.home_ctrl(cfg) == [0.0, -v, -v]
 
 
+def test_apply_refuses_a_scene_without_the_claws():
+    from transplanter.scene.build import robot_xml
+
+    spec = mujoco.MjSpec.from_file(str(robot_xml()))  # the five-bar with its parallel jaws
+    with pytest.raises(plug_claws.ClawsNotInScene, match="claws_mount"):
+        plug_claws.apply(spec, PlugClawsConfig())
+
+
 def test_apply_with_the_defaults_leaves_the_model_file_as_it_is():
     """plug_claws.xml holds the defaults: apply() with PlugClawsConfig() changes no number."""
     plain = mujoco.MjModel.from_xml_path(str(model_xml()))

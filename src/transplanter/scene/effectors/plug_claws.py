@@ -24,10 +24,13 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from transplanter.errors import TransplanterError
+
 __all__ = [
     "CLAWS",
     "STRIPPERS",
     "ClawCycle",
+    "ClawsNotInScene",
     "PlugClawsConfig",
     "add_canopy_contact",
     "apply",
@@ -141,6 +144,10 @@ class PlugClawsConfig:
         return (self.stripper_drop_mm + self.work_gap_mm) * 1e-3
 
 
+class ClawsNotInScene(TransplanterError, ValueError):
+    """The scene has no plug claws to set: their model was not merged into it."""
+
+
 def claws_config(cfg) -> PlugClawsConfig:
     """The claws' config from what a caller holds: a PlugClawsConfig, or a config with a
     `plug_claws` attribute (the scene's config once the delta job carries one); else the
@@ -158,6 +165,12 @@ def apply(spec: mujoco.MjSpec, cfg) -> None:
     """The claws' slides (angle, stroke, where the tips sit), the stripper blocks over the
     claws' exits, the cylinder (stroke speed, pressure x area) and the rotary cylinder."""
     c = claws_config(cfg)
+    if spec.body("claws_mount") is None:
+        raise ClawsNotInScene(
+            "effector.kind plug_claws: the scene has no body 'claws_mount'; the claws' model "
+            "(models/effectors/plug_claws/plug_claws.xml) must be merged under the robot's "
+            "platform (the delta's job does; the five-bar's scene carries its parallel jaws)"
+        )
     x, z = c.tip_retracted_m()
     for name, side in (("claw_left", -1.0), ("claw_right", 1.0)):
         body = spec.body(name)
