@@ -300,3 +300,17 @@ def test_a_table_of_keys_is_read_strictly():
         from_table(PlugsConfig, {"moisture": 75}, "plugs")
     with pytest.raises(ValueError):
         PlugsConfig(moisture_pct=100.0)
+
+
+def test_the_cells_adhesion_loads_the_pins_and_the_loss_follows_the_peak_load():
+    sticky = run_pick(OPTIMUM, bench=LOW_ACCEL)
+    free = run_pick(
+        PlugsConfig(moisture_pct=65.0, age_d=25.0, wall_adhesion_kpa=0.0), bench=LOW_ACCEL
+    )
+    # the adhesion (0.47 N at the optimum) is most of the peak load the pins carry
+    assert sticky.peak_load_n - free.peak_load_n == pytest.approx(0.47, abs=0.1)
+    assert free.retention > sticky.retention
+    for r in (sticky, free):
+        lost = Substrate(OPTIMUM).lost_fraction(r.peak_load_n)
+        assert r.mass_g == pytest.approx(r.mass0_g * (1.0 - lost), rel=1e-12)
+        assert r.retention == pytest.approx(1.0 - lost, rel=1e-12)

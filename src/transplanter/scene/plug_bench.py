@@ -3,25 +3,15 @@ a three-axis carrier that stands in for the robot, and one pick run through its 
 
 The scene (built by `build_bench`): the claws' model (models/effectors/plug_claws/) with slide
 joints x, y, z added to its mount (the carrier: position servos with velocity feed-forward,
-following the bench's motion profile), a floor, and blocks of cells, each with four tapered
-walls and a floor (collision boxes), holding plugs: free bodies whose outer shape is a convex
-frustum (the substrate, `transplanter.scene.plug_substrate`) and whose inner "pin socket" is a
-box in the plug's core, the only geom the claws collide with.
+following cycloidal moves), a floor, a 2 x 2 block of source cells holding the plug (and a
+neighbour) and a 2 x 2 block of empty target cells, made by `transplanter.scene.plug_physics`
+(tapered collision walls; free plugs with an outer frustum and an inner pin socket, the only
+geom the claws meet; leaves from a drawn seedling of `transplanter.scene.plug_tray`).
 
-How the plug is held (docs/plug_claws.md): the claws pass through the plug's outer shape (their
-collision bits exclude it) and press into the socket's faces; MuJoCo's soft contact there
-(friction and solref from the substrate's moisture and roots) stands for the substrate's grip
-and the cylinder's squeeze. There is no weld or equality anywhere in the model. The cell's
-adhesion is a downward force on the plug while it is still in its cell and rising
-(`Substrate.cell_adhesion_n`). While the plug is carried, the net force of the pins on it is
-measured from the contacts: its running peak sets the substrate lost (`Substrate.lost_fraction`,
-the plug's mass and inertia are cut as it rises), and a net load above the pins' bearing
-capacity shears the substrate round the pins: the socket stops colliding and the plug falls.
-
-Leaves (from a drawn seedling of `transplanter.scene.plug_tray`, drawn as
-`transplanter.scene.tray_camera` draws them) are geoms of the plug that only the claws and the
-stripper meet; a contact force above `leaf_damage_force_n` tears the leaf (it stops colliding)
-and records what touched it.
+`run_pick` runs one pick and applies the substrate's laws each step (`PlugPhysics`: the cell's
+adhesion, the pins' load, the substrate lost, the shear that drops the plug; `LeafWatch`: leaf
+strikes). `measure_hold` pulls a lifted plug off the claws to measure what the contact carries.
+There is no weld or equality anywhere in the model (docs/plug_claws.md).
 """
 
 from __future__ import annotations
@@ -35,6 +25,15 @@ import numpy as np
 
 from transplanter.scene.effectors import plug_claws
 from transplanter.scene.effectors.plug_claws import ClawCycle, PlugClawsConfig
+from transplanter.scene.plug_physics import (
+    BIT_TRAY,
+    LeafDamage,
+    LeafWatch,
+    PlugPhysics,
+    add_cell,
+    add_plug,
+    stripper_push,
+)
 from transplanter.scene.plug_substrate import PlugsConfig, Substrate
 from transplanter.scene.plug_tray import CellTruth, Seedling, TrayGeometry
 
@@ -50,8 +49,6 @@ __all__ = [
 ]
 
 TRAY_TOP_M = 0.05  # the bench's tray top above its floor
-BIT_TRAY = 1
-TRAY_SOLREF = [0.004, 1.0]  # the tray's plastic: stiffer than MuJoCo's default contact
 
 
 def model_xml(models: str | Path | None = None) -> Path:
@@ -88,16 +85,12 @@ class BenchConfig:
     """Physics step."""
     settle_after_ms: float = 300.0
     """Time simulated after the release before the outcome is read."""
-
-
-@dataclass(frozen=True)
-class LeafDamage:
-    """A leaf torn: its geom, the geom that pressed it, the force and when."""
-
-    leaf: str
-    by: str
-    force_n: float
-    time_s: float
+    carrier_mass_kg: float = 1.0
+    """Mass of the carrier that stands in for the robot's platform."""
+    carrier_kp_n_m: float = 2e5
+    """Stiffness of the carrier's position servos (velocity feed-forward, critical damping)."""
+    target_tolerance_mm: float = 4.0
+    """A plug within this of the target cell's centre and of its seat's height has arrived."""
 
 
 @dataclass
@@ -141,142 +134,6 @@ class BenchResult:
         }
 
 
-def _frustum_vertices(top: float, bottom: float, height: float) -> list[float]:
-    out = []
-    for z, side in ((0.0, top), (-height, bottom)):
-        for sx in (-1, 1):
-            for sy in (-1, 1):
-                out += [sx * side / 2, sy * side / 2, z]
-    return out
-
-
-def _add_cell(spec: mujoco.MjSpec, name: str, cx: float, cy: float, sub: Substrate) -> None:
-    """Four tapered walls (2 mm boxes on the cell's inner faces) and a floor."""
-    c = sub.cfg
-    top, bottom, depth = c.top_mm * 1e-3, c.bottom_mm * 1e-3, c.depth_mm * 1e-3
-    lean = math.atan2((top - bottom) / 2, depth)
-    slant = math.hypot(depth, (top - bottom) / 2)
-    t = 0.001
-    mid = (top + bottom) / 4  # the inner face's distance from the centre at mid-depth
-    off = mid + t * math.cos(lean)
-    zc = TRAY_TOP_M - depth / 2 - t * math.sin(lean)
-    world = spec.worldbody
-    for k, (ax, sx) in enumerate((("x", 1), ("x", -1), ("y", 1), ("y", -1))):
-        if ax == "x":
-            pos = [cx + sx * off, cy, zc]
-            quat = [math.cos(sx * lean / 2), 0, math.sin(sx * lean / 2), 0]
-            size = [t, top / 2 + 2 * t, slant / 2]
-        else:
-            pos = [cx, cy + sx * off, zc]
-            quat = [math.cos(-sx * lean / 2), math.sin(-sx * lean / 2), 0, 0]
-            size = [top / 2 + 2 * t, t, slant / 2]
-        world.add_geom(
-            name=f"{name}_wall{k}",
-            type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=size,
-            pos=pos,
-            quat=quat,
-            contype=BIT_TRAY,
-            conaffinity=BIT_TRAY,
-            friction=[c.wall_friction, 0.005, 0.0001],
-            solref=TRAY_SOLREF,
-            rgba=[0.8, 0.8, 0.78, 0.35],
-        )
-    world.add_geom(
-        name=f"{name}_floor",
-        type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=[bottom / 2 + t, bottom / 2 + t, t],
-        pos=[cx, cy, TRAY_TOP_M - depth - t],
-        contype=BIT_TRAY,
-        conaffinity=BIT_TRAY,
-        solref=TRAY_SOLREF,
-        rgba=[0.8, 0.8, 0.78, 1.0],
-    )
-
-
-def _add_plug(
-    spec: mujoco.MjSpec,
-    name: str,
-    cx: float,
-    cy: float,
-    sub: Substrate,
-    claws: PlugClawsConfig,
-    seedling: Seedling | None,
-) -> None:
-    """A free plug seated in the cell at (cx, cy): outer frustum, pin socket, leaves."""
-    c = sub.cfg
-    clr = c.clearance_mm * 1e-3
-    h = sub.height_m
-    top, bottom = sub.plug_top_m - 2 * clr, c.bottom_mm * 1e-3 - 2 * clr
-    spec.add_mesh(name=f"{name}_frustum", uservert=_frustum_vertices(top, bottom, h))
-    body = spec.worldbody.add_body(
-        name=name, pos=[cx, cy, TRAY_TOP_M - c.surface_below_top_mm * 1e-3]
-    )
-    body.add_freejoint(name=name)
-    a1, a2 = top * top, bottom * bottom
-    zc = h * (a1 + 2 * math.sqrt(a1 * a2) + 3 * a2) / (4 * (a1 + math.sqrt(a1 * a2) + a2))
-    m, s = sub.mass_kg, (top + bottom) / 2
-    body.mass = m
-    body.ipos = [0, 0, -zc]
-    body.inertia = [m * (s * s + h * h) / 12, m * (s * s + h * h) / 12, m * s * s / 6]
-    body.explicitinertial = True
-    body.add_geom(
-        name=f"{name}_substrate",
-        type=mujoco.mjtGeom.mjGEOM_MESH,
-        meshname=f"{name}_frustum",
-        contype=BIT_TRAY,
-        conaffinity=BIT_TRAY | plug_claws.BIT_STRIPPER,
-        friction=[c.wall_friction, 0.005, 0.0001],
-        density=0,
-        rgba=[0.36, 0.25, 0.16, 1.0],
-    )
-    # the pin socket: the core the pins press into at full stroke, overlapping each tip's
-    # surface by the interference (the substrate the pin displaces sideways)
-    core = (claws.tip_offset_mm - claws.claw_radius_mm + claws.pin_interference_mm) * 1e-3
-    z_top = claws.insertion_depth_mm * 1e-3 - 0.012
-    body.add_geom(
-        name=f"{name}_socket",
-        type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=[core, core, (h - 0.001 - z_top) / 2],
-        pos=[0, 0, -(z_top + h - 0.001) / 2],
-        contype=0,
-        conaffinity=plug_claws.BIT_PIN,
-        condim=4,
-        friction=[sub.pin_friction, 0.005, 0.0001],
-        solref=[sub.contact_timeconst_s, 1.0],
-        solimp=[0.9, 0.95, 0.002, 0.5, 2],
-        solmix=1.0,
-        density=0,
-        group=3,
-        rgba=[0.5, 0.35, 0.2, 0.3],
-    )
-    if seedling is None:
-        return
-    leaf = {"contype": plug_claws.BIT_CANOPY, "conaffinity": 0, "density": 0, "group": 1}
-    green = [0.35, 0.6, 0.25, 1.0]
-    surface = c.surface_below_top_mm * 1e-3  # leaf heights are above the tray's top
-    sx, sy = seedling.stem
-    for k, lf in enumerate(seedling.leaves):
-        z = lf.height_mm * 1e-3 + surface
-        body.add_geom(
-            name=f"{name}_petiole_{k}",
-            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-            fromto=[sx * 1e-3, sy * 1e-3, z, lf.base[0] * 1e-3, lf.base[1] * 1e-3, z],
-            size=[lf.petiole_radius_mm * 1e-3, 0, 0],
-            rgba=green,
-            **leaf,
-        )
-        body.add_geom(
-            name=f"{name}_leaf_{k}",
-            type=mujoco.mjtGeom.mjGEOM_ELLIPSOID,
-            size=[lf.radial_mm * 1e-3, lf.tangential_mm * 1e-3, 0.25e-3],
-            pos=[lf.cx * 1e-3, lf.cy * 1e-3, z],
-            quat=[math.cos(lf.angle_rad / 2), 0, 0, math.sin(lf.angle_rad / 2)],
-            rgba=green,
-            **leaf,
-        )
-
-
 def build_bench(
     plugs: PlugsConfig | None = None,
     claws: PlugClawsConfig | None = None,
@@ -296,10 +153,11 @@ def build_bench(
         spec.delete(key)
     spec.option.timestep = bench.timestep_ms * 1e-3
     mount = spec.body("claws_mount")
-    mount.mass = 1.0  # the carrier (a robot's platform) with the mount
+    mount.mass = bench.carrier_mass_kg  # the carrier (a robot's platform) with the mount
     mount.inertia = [2e-3, 2e-3, 3e-3]
     mount.pos = [0, 0, TRAY_TOP_M + claws.work_height_m() + bench.approach_mm * 1e-3]
-    kp = 2e5
+    kp = bench.carrier_kp_n_m
+    moving = bench.carrier_mass_kg + 0.4  # the carrier, the head and the claws
     for axis, vec in (("x", [1, 0, 0]), ("y", [0, 1, 0]), ("z", [0, 0, 1])):
         mount.add_joint(name=f"carrier_{axis}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=vec)
         spec.add_actuator(
@@ -311,7 +169,7 @@ def build_bench(
             gainprm=[kp] + [0] * 9,
             biasprm=[0, -kp, 0] + [0] * 7,
         )
-        kv = 2 * math.sqrt(kp * 1.4)
+        kv = 2 * math.sqrt(kp * moving)  # critically damped
         spec.add_actuator(
             name=f"carrier_{axis}_v",
             target=f"carrier_{axis}",
@@ -327,13 +185,13 @@ def build_bench(
         contype=BIT_TRAY, conaffinity=BIT_TRAY, rgba=[0.3, 0.3, 0.32, 1],
     )  # fmt: skip
     spec.worldbody.add_light(pos=[0, 0, 1.0], dir=[0, 0, -1])
-    pitch = 0.034
+    pitch = TrayGeometry().pitch_mm * 1e-3
     for block, x0 in (("src", 0.0), ("dst", bench.move_mm * 1e-3)):
         for i in range(2):
             for j in range(2):
-                _add_cell(spec, f"{block}{i}{j}", x0 + i * pitch, j * pitch, sub)
-    _add_plug(spec, "plug", 0.0, 0.0, sub, claws, seedling)
-    _add_plug(spec, "neighbour", pitch, 0.0, sub, claws, None)
+                add_cell(spec, f"{block}{i}{j}", x0 + i * pitch, j * pitch, TRAY_TOP_M, sub)
+    add_plug(spec, "plug", 0.0, 0.0, TRAY_TOP_M, sub, claws, seedling)
+    add_plug(spec, "neighbour", pitch, 0.0, TRAY_TOP_M, sub, claws, None)
     return spec
 
 
@@ -352,69 +210,6 @@ def _profile(d: float, a: float, t: float) -> tuple[float, float]:
 def _move_time(d: float, a: float) -> float:
     """Duration of a cycloidal move of length d with peak acceleration a: sqrt(2 pi d / a)."""
     return math.sqrt(2 * math.pi * abs(d) / a) if d else 0.0
-
-
-class _Contacts:
-    """Per-step contact reading: the pins' net force on the plug, leaf strikes."""
-
-    def __init__(self, model: mujoco.MjModel, claws: PlugClawsConfig) -> None:
-        self.m = model
-        gid = lambda n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n)  # noqa: E731
-        self.socket = gid("plug_socket")
-        self.pins = {gid(n) for n in plug_claws.CLAWS}
-        self.substrate = gid("plug_substrate")
-        self.strippers = {gid(n) for n in plug_claws.STRIPPERS}
-        self.pressers = {gid(n) for n in (*plug_claws.CLAWS, *plug_claws.STRIPPERS)}
-        self.leaves = {
-            i
-            for i in range(model.ngeom)
-            if (model.geom(i).name or "").startswith(("plug_leaf_", "plug_petiole_"))
-        }
-        self.threshold = claws.leaf_damage_force_n
-        self._f = np.zeros(6)
-
-    def _world_force(self, d: mujoco.MjData, i: int) -> np.ndarray:
-        mujoco.mj_contactForce(self.m, d, i, self._f)
-        frame = d.contact[i].frame.reshape(3, 3)
-        return frame.T @ self._f[:3]
-
-    def pin_load(self, d: mujoco.MjData) -> float:
-        """The load the pins carry: the sum of their contact forces on the socket, its
-        downward part (the pins pressing the plug onto its seat) left out (N)."""
-        total = np.zeros(3)
-        for i in range(d.ncon):
-            con = d.contact[i]
-            g1, g2 = int(con.geom1), int(con.geom2)
-            if self.socket in (g1, g2) and ({g1, g2} & self.pins):
-                f = self._world_force(d, i)
-                total += f if g2 == self.socket else -f
-        return float(math.hypot(max(total[2], 0.0), total[0], total[1]))
-
-    def stripper_push(self, d: mujoco.MjData) -> float:
-        """Sum of the stripper's normal forces on the plug (N)."""
-        total = 0.0
-        for i in range(d.ncon):
-            con = d.contact[i]
-            pair = {int(con.geom1), int(con.geom2)}
-            if self.substrate in pair and pair & self.strippers:
-                mujoco.mj_contactForce(self.m, d, i, self._f)
-                total += float(self._f[0])
-        return total
-
-    def leaf_strikes(self, d: mujoco.MjData) -> list[tuple[int, int, float]]:
-        out = []
-        for i in range(d.ncon):
-            con = d.contact[i]
-            g1, g2 = int(con.geom1), int(con.geom2)
-            if g1 in self.leaves and g2 in self.pressers:
-                leaf, by = g1, g2
-            elif g2 in self.leaves and g1 in self.pressers:
-                leaf, by = g2, g1
-            else:
-                continue
-            mujoco.mj_contactForce(self.m, d, i, self._f)
-            out.append((leaf, by, float(self._f[0])))
-        return out
 
 
 def centred_seedling(cell: CellTruth, geometry: TrayGeometry) -> Seedling:
@@ -448,15 +243,9 @@ def run_pick(
     mujoco.mj_forward(model, data)
     dt = model.opt.timestep
     plug = model.body("plug").id
-    mass0 = float(model.body_mass[plug])
-    inertia0 = model.body_inertia[plug].copy()
-    socket = model.geom("plug_socket").id
-    contacts = _Contacts(model, claws)
+    physics = PlugPhysics(model, data, "plug", sub)
+    leaves = LeafWatch(model, ("plug",), claws.leaf_damage_force_n)
     cycle = ClawCycle(claws)
-    capacity = sub.pin_capacity_n
-    qadr = model.jnt_qposadr[model.joint("plug").id]
-    vadr = model.jnt_dofadr[model.joint("plug").id]
-    seat_z = float(data.qpos[qadr + 2])
     carrier = [model.actuator(f"carrier_{a}").id for a in "xyz"]
     carrier_v = [model.actuator(f"carrier_{a}_v").id for a in "xyz"]
     effector = [model.actuator(n).id for n in plug_claws.ACTUATORS]
@@ -513,72 +302,44 @@ def run_pick(
                 vel[ax] += v
         return pos, vel
 
-    peak = 0.0
-    dropped_at = None
     track: dict[str, tuple[float, float, float]] = {}
     pending = sorted(times.items(), key=lambda kv: kv[1])
     tip = model.body("claw_right").id
     tip_depth = 0.0
     stripper_peak = 0.0
-    damaged: dict[int, LeafDamage] = {}
-    n = int(round(t_end / dt))
-    for k in range(n):
+    for k in range(int(round(t_end / dt))):
         tt = k * dt
         pos, vel = carrier_ref(tt)
         data.ctrl[carrier] = pos
         data.ctrl[carrier_v] = vel
         data.ctrl[effector] = cycle.ctrl(tt)
-        # the cell's adhesion: a resistance while the plug rises out of its seat
-        rise = float(data.qpos[qadr + 2]) - seat_z
-        vz = float(data.qvel[vadr + 2])
-        over_seat = abs(float(data.qpos[qadr])) < 0.5 * sub.cfg.top_mm * 1e-3
-        if dropped_at is None and tt < t_ret and vz > 0.0 and over_seat:
-            adhesion = sub.cell_adhesion_n(max(rise, 0.0)) * min(vz / 1e-3, 1.0)
-            data.xfrc_applied[plug, 2] = -adhesion
-        else:
-            data.xfrc_applied[plug, 2] = 0.0
+        physics.before_step(data)
         mujoco.mj_step(model, data)
-        # carried: from the lift until the claws start to retract
-        if dropped_at is None and t_lift <= tt < t_ret:
-            load = contacts.pin_load(data)
-            if load > capacity:
-                dropped_at = tt
-                model.geom_conaffinity[socket] = 0  # the substrate round the pins sheared
-            elif load > peak:
-                peak = load
-                scale = 1.0 - sub.lost_fraction(peak)
-                model.body_mass[plug] = mass0 * scale
-                model.body_inertia[plug] = inertia0 * scale
+        physics.after_step(data, tt, carried=t_lift <= tt < t_ret)
+        leaves.after_step(data, tt)
         if t_ret <= tt < t_off:
-            stripper_peak = max(stripper_peak, contacts.stripper_push(data))
+            stripper_peak = max(stripper_peak, stripper_push(model, data, "plug"))
         if tt < t_lift:
             tip_depth = float(data.xpos[plug, 2] - data.xpos[tip, 2])
         while pending and pending[0][1] <= tt + dt / 2:
             name, _ = pending.pop(0)
             x, y, z = (float(v) for v in data.xpos[plug])
             track[name] = (x * 1e3, y * 1e3, (z - TRAY_TOP_M) * 1e3)
-        for leaf, by, force in contacts.leaf_strikes(data):
-            if force > contacts.threshold and leaf not in damaged:
-                damaged[leaf] = LeafDamage(model.geom(leaf).name, model.geom(by).name, force, tt)
-                model.geom_contype[leaf] = 0  # torn: it no longer stops anything
-    xyz = data.qpos[qadr : qadr + 3]
-    target = np.array([move, 0.0])
-    in_target = bool(
-        np.linalg.norm(xyz[:2] - target) < 0.004 and abs(float(xyz[2]) - seat_z) < 0.004
-    )
-    mass = float(model.body_mass[plug])
-    delivered = mass / mass0 if (in_target and dropped_at is None) else 0.0
+    held = physics.dropped_at_s is None
+    in_target = physics.seated_in(data, (move, 0.0), bench.target_tolerance_mm * 1e-3)
+    mass = physics.mass_kg
+    x, y, z = (float(v) for v in data.xpos[plug])
     return BenchResult(
-        held=dropped_at is None,
-        dropped_at_s=dropped_at,
-        retention=delivered,
-        mass0_g=mass0 * 1e3,
+        held=held,
+        dropped_at_s=physics.dropped_at_s,
+        retention=mass / physics.mass0 if (held and in_target) else 0.0,
+        mass0_g=physics.mass0 * 1e3,
         mass_g=mass * 1e3,
-        peak_load_n=peak,
-        pin_capacity_n=capacity,
-        final_xyz_mm=tuple(float(v) * 1e3 for v in (xyz[0], xyz[1], xyz[2] - TRAY_TOP_M)),
+        peak_load_n=physics.peak_load_n,
+        pin_capacity_n=physics.capacity_n,
+        final_xyz_mm=(x * 1e3, y * 1e3, (z - TRAY_TOP_M) * 1e3),
         in_target=in_target,
-        leaf_damage=sorted(damaged.values(), key=lambda d: (d.time_s, d.leaf)),
+        leaf_damage=sorted(leaves.damage, key=lambda d: (d.time_s, d.leaf)),
         times_s=times,
         track_mm=track,
         tip_depth_mm=tip_depth * 1e3,
@@ -592,13 +353,14 @@ def measure_hold(
     timestep_ms: float = 1.0,
     ramp_n_s: float = 4.0,
     slip_mm: float = 5.0,
+    lift_mm: float = 20.0,
     models: str | Path | None = None,
 ) -> float:
     """The pins' friction hold (N), measured in the physics: the claws go into a plug, lift it
-    20 mm clear of its cell, then a downward pull on the plug grows at `ramp_n_s` until the
-    plug has slid `slip_mm` down the claws; the pull then (plus the plug's weight) is the
-    hold. The substrate's shear (`Substrate.pin_capacity_n`) is not applied here: this is
-    what the contact alone carries."""
+    `lift_mm` (clear of the cell's adhesion), then a downward pull on the plug grows at
+    `ramp_n_s` until the plug has slid `slip_mm` down the claws; the pull then (plus the
+    plug's weight) is the hold. The substrate's shear (`Substrate.pin_capacity_n`) is not
+    applied here: this is what the contact alone carries."""
     plugs, claws = plugs or PlugsConfig(), claws or PlugClawsConfig()
     bench = BenchConfig(timestep_ms=timestep_ms, approach_mm=0.0)
     spec = build_bench(plugs, claws, bench, None, models)
@@ -609,7 +371,7 @@ def measure_hold(
     mount = model.body("claws_mount").id
     cycle = ClawCycle(claws)
     t_lift = cycle.extend(0.0) + claws.settle_ms * 1e-3
-    lift, t_up = 0.02, 0.1
+    lift, t_up = lift_mm * 1e-3, 0.1
     z_ctrl = model.actuator("carrier_z").id
     effector = [model.actuator(n).id for n in plug_claws.ACTUATORS]
     weight = float(model.body_mass[plug]) * -float(model.opt.gravity[2])

@@ -58,6 +58,11 @@ class PlugsConfig:
     """How far the substrate's surface lies below the top of the cell walls (estimate)."""
     clearance_mm: float = 0.3
     """Gap between the plug's sides and the cell walls in the model (numerical)."""
+    core_top_depth_mm: float = 20.0
+    """Depth below the plug's top where the core the pins grip (the pin socket) begins: the
+    claws' lowest 12 mm bear on it (estimate)."""
+    adhesion_onset_speed_mm_s: float = 1.0
+    """Upward speed from which the cell's full adhesion resists (regularised one-way friction)."""
     dry_bulk_density_kg_m3: float = 160.0
     """Dry bulk density of a peat-vermiculite plug substrate (estimate, 100-250 usual)."""
     porosity_pct: float = 90.0
