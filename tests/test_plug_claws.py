@@ -314,3 +314,12 @@ def test_the_cells_adhesion_loads_the_pins_and_the_loss_follows_the_peak_load():
         lost = Substrate(OPTIMUM).lost_fraction(r.peak_load_n)
         assert r.mass_g == pytest.approx(r.mass0_g * (1.0 - lost), rel=1e-12)
         assert r.retention == pytest.approx(1.0 - lost, rel=1e-12)
+
+
+def test_too_little_pressure_leaves_the_claws_short_of_their_stops():
+    weak = run_pick(OPTIMUM, PlugClawsConfig(pressure_mpa=0.05), LOW_ACCEL)
+    full = run_pick(OPTIMUM, PlugClawsConfig(pressure_mpa=0.5), LOW_ACCEL)
+    assert full.tip_depth_mm - weak.tip_depth_mm > 1.0
+    assert run_pick(OPTIMUM, PlugClawsConfig(pressure_mpa=0.2), LOW_ACCEL).tip_depth_mm == (
+        pytest.approx(full.tip_depth_mm, abs=0.05)
+    )
