@@ -1,30 +1,37 @@
-"""Rerun every number README.md quotes from a command and diff it against the README's text.
+"""Rerun every number README.md and docs/ quote from a command and diff it against their text.
 
-Run: .venv/bin/python scripts/readme_numbers.py            (every block; minutes on 2 cores)
+Run: .venv/bin/python scripts/readme_numbers.py            (every block; an hour or more on 2 cores)
      .venv/bin/python scripts/readme_numbers.py --quick    (a subset for CI, well under a minute)
-     .venv/bin/python scripts/readme_numbers.py --update   (rewrite the README's stale numbers)
+     .venv/bin/python scripts/readme_numbers.py --update   (rewrite the stale numbers)
+     .venv/bin/python scripts/readme_numbers.py --only edge_knobs --sweep-out results/docs
 
-The README marks the text this script owns, so that it never guesses:
+The pages mark the text this script owns, so that it never guesses:
 
     <!-- readme_numbers: NAME -->TEXT<!-- /readme_numbers -->
 
-(inline, or with TEXT on lines of its own, a fenced block). NAME is one of BLOCKS below: each
-says which command of the README gives the text and how the text is made from that command's
-output. Nothing outside the markers is read or written. Every number in TEXT is compared, in
-order, with the same number in the text the twin gives now; each is printed with what the
-README says and what the twin gives, and the exit status is 1 when any differs (2 when the
-README's markers and BLOCKS disagree). Numbers that measure the computer rather than the twin
-(wall time, real-time factor) are printed but not compared, and --update leaves them as they
-are (docs/performance.md and the benchmarks measure speed).
+(inline, or with TEXT on lines of its own, a fenced block or a Markdown table). NAME is one of
+BLOCKS below: each says which page quotes it (README.md or a page of docs/), which command
+gives the text and how the text is made from that command's output. Nothing outside the
+markers is read or written. Every number in TEXT is compared, in order, with the same number in
+the text the twin gives now; each is printed with what the page says and what the twin gives,
+and the exit status is 1 when any differs (2 when a page's markers and BLOCKS disagree).
+Numbers that measure the computer rather than the twin (wall time, real-time factor) are printed
+but not compared, and --update leaves them as they are (docs/performance.md and the benchmarks
+measure speed).
 
---quick runs the cheap part: the paper trial (40 seedlings, seed 1: a few seconds), the 22 mm
-trial (20 seedlings), `ik`, `plan`, and one row (32 mm) of the z_low sweep table instead of
-all seven. With --update it rewrites only what it ran. The commands run in this process through
-`transplanter.cli.main`, with --json (and the sweep's --out) pointed into a scratch directory;
---sweep-out DIR keeps the sweep's files there instead (a rerun into the same DIR resumes).
+The tables of docs/ (DOC_TABLES: the timestep study of docs/drives.md, the edge studies of
+docs/edge_trials.md) are `transplanter sweep` runs rendered from their runs.jsonl and
+settings.csv: the varied keys, then the columns each table names (COLUMNS). With --sweep-out
+DIR each sweep keeps its files in DIR/NAME, and a rerun into the same DIR resumes it.
+
+--quick runs the cheap part of the README: the paper trial (40 seedlings, seed 1: a few
+seconds), the 22 mm trial (20 seedlings), `ik`, `plan`, and one row (32 mm) of the z_low sweep
+table instead of all seven. With --update it rewrites only what it ran. The commands run in
+this process through `transplanter.cli.main`, with --json (and the sweep's --out) pointed into a
+scratch directory.
 
 tests/test_readme_numbers.py runs --quick and checks that every `transplanter ...` line the
-README quotes parses.
+README quotes parses, and that every block is marked once on its page.
 """
 
 from __future__ import annotations
@@ -41,7 +48,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
 
 BLOCK_RE = re.compile(
     r"<!-- readme_numbers: (?P<name>[a-z0-9_]+) -->(?P<body>.*?)<!-- /readme_numbers -->", re.S
@@ -82,19 +90,26 @@ class Runs:
 
     def sweep(self, vary: str) -> str:
         """The settings table `transplanter sweep` prints for the README's z_low sweep."""
-        out_dir = self.sweep_out or self.scratch / ("sweep_" + re.sub(r"\W", "_", vary))
+        out_dir = (self.sweep_out or self.scratch) / ("readme_" + re.sub(r"\W", "_", vary))
         argv = ["sweep", "paper", "--vary", vary, "--seeds", "1-3", "--seedlings", "40",
                 "--workers", "2", "--out", str(out_dir), "--quiet"]  # fmt: skip
         text, _ = self.cli(argv)
         lines = text.splitlines()
         start = next(i for i, line in enumerate(lines) if line.startswith("taught.z_low_mm"))
         end = next(i for i in range(start, len(lines)) if lines[i].startswith("results in"))
-        self.sweep_dir = out_dir
+        self.last_sweep = out_dir
         return "\n".join(lines[start:end])
+
+    def sweep_dir(self, name: str, argv: list[str]) -> Path:
+        """Runs `transplanter sweep ARGV` (2 workers) into its own directory, named after the
+        block, under --sweep-out (a rerun resumes) or the scratch directory."""
+        out_dir = (self.sweep_out or self.scratch) / name
+        self.cli(["sweep", *argv, "--workers", "2", "--out", str(out_dir), "--quiet"])
+        return out_dir
 
     def sweep_runs(self) -> list[dict]:
         """The rows of the full sweep's runs.jsonl (after `sweep`)."""
-        path = self.sweep_dir / "runs.jsonl"
+        path = self.last_sweep / "runs.jsonl"
         return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
@@ -201,6 +216,229 @@ def zlow_24_per_seed(runs: Runs) -> str:
     return f"{', '.join(counts[:-1])} and {counts[-1]} of {rows[0]['seedlings']}"
 
 
+# --- the tables of docs/: each a `transplanter sweep`, rendered from its runs.jsonl ----------
+
+FAIL_PREFIX = "fail_"
+
+
+def _value(text: str) -> str:
+    """A settings.csv cell as a person reads it: 22.0 -> 22, True -> on."""
+    if text in ("True", "False"):
+        return {"True": "on", "False": "off"}[text]
+    try:
+        number = float(text)
+    except ValueError:
+        return text
+    return f"{number:g}"
+
+
+def _same_setting(run: dict, setting: dict, varied: list[str]) -> bool:
+    return all(_value(str(run[k])) == _value(setting[k]) for k in varied)
+
+
+def _failures(mine: list[dict]) -> str:
+    """Failures summed over a setting's trials, most frequent first: '14 `not_gripped`, 3
+    `slipped`', and the trials a fault stopped."""
+    totals: dict[str, int] = {}
+    for r in mine:
+        for key, n in r.items():
+            if key.startswith(FAIL_PREFIX) and n:
+                totals[key[len(FAIL_PREFIX) :]] = totals.get(key[len(FAIL_PREFIX) :], 0) + n
+    parts = [f"{n} `{kind}`" for kind, n in sorted(totals.items(), key=lambda kv: (-kv[1], kv[0]))]
+    stops: dict[str, int] = {}
+    for r in mine:
+        if r.get("fault_kind"):
+            what = f"stopped by `{r['fault_kind']}`"
+        elif r.get("error") and "did not finish" in r["error"]:
+            what = "ran to the horizon"
+        elif r.get("error"):
+            what = "ended in an error"
+        else:
+            continue
+        stops[what] = stops.get(what, 0) + 1
+    parts += [f"{n} trial{'s' if n > 1 else ''} {what}" for what, n in sorted(stops.items())]
+    return ", ".join(parts)
+
+
+COLUMNS: dict[str, tuple[str, Callable[[dict, list[dict]], str]]] = {
+    "success": (
+        "success",
+        lambda s, mine: (
+            f"{100 * float(s['success_rate']):.1f} % ({s['successes']}/{s['seedlings']})"
+            if s["success_rate"]
+            else "n/a"
+        ),
+    ),
+    "ci": (
+        "95 % CI",
+        lambda s, mine: (
+            f"{100 * float(s['ci95_low']):.1f}-{100 * float(s['ci95_high']):.1f} %"
+            if s["ci95_low"]
+            else "n/a"
+        ),
+    ),
+    "per_seed": (
+        "per seed",
+        lambda s, mine: " ".join("err" if r["error"] else str(r["successes"]) for r in mine),
+    ),
+    "failures": ("failures", lambda s, mine: _failures(mine)),
+    "events": (
+        "lost-step events",
+        lambda s, mine: str(sum(r["lost_step_events"] or 0 for r in mine)),
+    ),
+    "cycle": (
+        "cycle s",
+        lambda s, mine: f"{float(s['cycle_time_s']):.3f}" if s["cycle_time_s"] else "n/a",
+    ),
+    "bends": (
+        "largest shoot bend per seed, deg",
+        lambda s, mine: " ".join(f"{r['max_stem_bend_deg']:.0f}" for r in mine),
+    ),
+}
+
+
+def sweep_table(runs: Runs, name: str, argv: list[str], columns: tuple[str, ...]) -> str:
+    """A sweep's settings as a Markdown table: the varied keys, then `columns` (COLUMNS)."""
+    import csv
+
+    out = runs.sweep_dir(name, argv)
+    with (out / "settings.csv").open(newline="") as f:
+        settings = list(csv.DictReader(f))
+    trials = [json.loads(line) for line in (out / "runs.jsonl").read_text().splitlines() if line]
+    varied = [k for k in settings[0] if "." in k]
+    lines = [
+        "| " + " | ".join(varied + [COLUMNS[c][0] for c in columns]) + " |",
+        "|" + " --- |" * (len(varied) + len(columns)),
+    ]
+    for s in settings:
+        mine = sorted((r for r in trials if _same_setting(r, s, varied)), key=lambda r: r["seed"])
+        cells = [_value(s[k]) for k in varied] + [COLUMNS[c][1](s, mine) for c in columns]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n" + "\n".join(lines) + "\n"
+
+
+FAST = ["--set", "motion.accel_mm_s2=20000", "--set", "taught.s_high_mm_s=500"]
+SEEDLINGS_40 = ["--seedlings", "40"]
+# name: (the page, the sweep's arguments, the table's columns)
+DOC_TABLES: dict[str, tuple[str, list[str], tuple[str, ...]]] = {
+    # docs/drives.md: the outcomes against the timestep, on seeds used nowhere else
+    "steps_paper": ("docs/drives.md", ["paper", "--vary", "physics.timestep_ms=1,0.5,0.25",
+                    "--seeds", "21-25", *SEEDLINGS_40],
+                    ("success", "ci", "failures", "cycle", "bends")),
+    "steps_calibrated": ("docs/drives.md", ["paper_calibrated", "--vary",
+                         "physics.timestep_ms=1,0.5,0.25", "--seeds", "21-25", *SEEDLINGS_40],
+                         ("success", "ci", "failures", "cycle", "bends")),
+    "steps_z28": ("docs/drives.md", ["paper", "--set", "taught.z_low_mm=28", "--vary",
+                  "physics.timestep_ms=1,0.5,0.25", "--seeds", "21-25", *SEEDLINGS_40],
+                  ("success", "ci", "failures", "cycle", "bends")),
+    "steps_fast": ("docs/drives.md", ["paper_calibrated", *FAST, "--vary",
+                   "physics.timestep_ms=1,0.5,0.25", "--seeds", "21-25", *SEEDLINGS_40],
+                   ("success", "ci", "failures", "cycle", "bends")),
+    # docs/edge_trials.md: the two edges of today's machine, recovery and the solver's knobs
+    "edge_zlow_recovery": ("docs/edge_trials.md", ["paper", "--vary", "taught.z_low_mm=22,24",
+                           "--vary", "recovery.rehome_every_cycles=0,5", "--seeds", "1-5",
+                           *SEEDLINGS_40],
+                           ("per_seed", "success", "ci", "failures", "events", "cycle")),
+    "edge_zlow_stall": ("docs/edge_trials.md", ["paper", "--vary", "taught.z_low_mm=22,24",
+                        "--set", "recovery.stall_detection=true", "--seeds", "1-3",
+                        "--seedlings", "20"],
+                        ("per_seed", "success", "ci", "failures", "events", "cycle")),
+    "edge_fast_recovery": ("docs/edge_trials.md", ["paper_calibrated", *FAST, "--vary",
+                           "recovery.rehome_every_cycles=0,5", "--vary",
+                           "recovery.stall_detection=false,true", "--seeds", "1-5",
+                           *SEEDLINGS_40],
+                           ("per_seed", "success", "ci", "failures", "events", "cycle")),
+    "edge_knobs": ("docs/edge_trials.md", ["paper", "--vary", "taught.z_low_mm=22,24,34",
+                   "--vary", "physics.sleep=true,false", "--seeds", "1-5", *SEEDLINGS_40],
+                   ("per_seed", "success", "ci", "failures", "events", "cycle")),
+    "edge_timestep": ("docs/edge_trials.md", ["paper", "--vary", "taught.z_low_mm=22,24,34",
+                      "--vary", "physics.timestep_ms=0.5", "--seeds", "1-5", *SEEDLINGS_40],
+                      ("per_seed", "success", "ci", "failures", "events", "cycle")),
+    "edge_fast_knobs": ("docs/edge_trials.md", ["paper_calibrated", *FAST, "--vary",
+                        "physics.sleep=true,false", "--vary", "physics.timestep_ms=1,0.5",
+                        "--seeds", "1-5", *SEEDLINGS_40],
+                        ("per_seed", "success", "ci", "failures", "events", "cycle")),
+    # docs/fidelity.md: the paper scenario's responses and the failure mechanisms, seeds 1-3
+    **{
+        name: ("docs/fidelity.md", [scenario, *argv, "--seeds", "1-3", *SEEDLINGS_40], columns)
+        for name, scenario, argv, columns in (
+            ("fid_zlow", "paper", ["--vary", "taught.z_low_mm=20:34:2"],
+             ("per_seed", "success", "failures", "bends")),
+            ("fid_close_dwell", "paper", ["--vary", "gripper.close_dwell_ms=50,100,200,300"],
+             ("per_seed", "success", "failures", "cycle")),
+            ("fid_s_low", "paper", ["--vary", "taught.s_low_mm_s=30,60,120,250"],
+             ("per_seed", "success", "failures", "cycle")),
+            ("fid_s_high", "paper", ["--vary", "taught.s_high_mm_s=100,150,250,400"],
+             ("per_seed", "success", "failures", "cycle")),
+            ("fid_z_up", "paper", ["--vary", "taught.z_up_mm=50,60,80,100,150"],
+             ("per_seed", "success", "failures", "cycle", "bends")),
+            ("fid_index", "paper", ["--vary", "conveyor.index_time_s=0.3,0.35,0.4,0.45,0.5,0.6"],
+             ("per_seed", "success", "failures")),
+            ("fid_friction", "paper",
+             ["--vary", "pots.friction=0.05,0.075,0.1,0.125,0.15,0.2,0.3,0.6"],
+             ("per_seed", "success", "failures")),
+            ("fid_mass", "paper", ["--vary", "pots.mass_g=40,47,50,60,70,80"],
+             ("per_seed", "success", "failures")),
+            ("fid_soft", "paper", ["--set", "pots.soft_wall_mm=40", "--vary",
+                                   "pots.soft_share=0.05,0.1,0.2"],
+             ("per_seed", "success", "failures")),
+            ("fid_crooked", "paper", ["--set", "pots.crooked_share=0.5", "--vary",
+                                      "pots.crooked_max_deg=8,12,16,20"],
+             ("per_seed", "success", "failures")),
+            ("fid_bond", "paper", ["--set", "pots.bond_share=0.3", "--set",
+                                   "pots.bond_force_sd_log=0.5", "--vary",
+                                   "pots.bond_force_n=4,6,8,10"],
+             ("per_seed", "success", "failures")),
+            ("fid_canopy", "paper", ["--set", "pots.canopy_contact=true", "--vary",
+                                     "pots.canopy_timeconst_ms=50,100,200,400,800"],
+             ("per_seed", "success", "failures")),
+            ("fid_calibrated_speed", "paper_calibrated",
+             ["--vary", "motion.accel_mm_s2=1500,5000,20000", "--vary",
+              "taught.s_high_mm_s=150,300,400,500"],
+             ("per_seed", "success", "failures", "cycle", "bends")),
+            ("fid_sway_fast", "paper", [*FAST, "--vary", "pots.stem_sway_hz=1.5,2,2.5,3,4"],
+             ("per_seed", "success", "failures", "bends")),
+            ("fid_sway_slow", "paper", ["--vary", "pots.stem_sway_hz=2.5,3,4", "--vary",
+                                        "motion.accel_mm_s2=1500,20000"],
+             ("per_seed", "success", "failures", "bends")),
+        )
+    },
+}  # fmt: skip
+
+
+def _doc_table(name: str) -> Callable[[Runs], str]:
+    page, argv, columns = DOC_TABLES[name]
+
+    def make(runs: Runs) -> str:
+        return sweep_table(runs, name, argv, columns)
+
+    make.__doc__ = f"{page}: `transplanter sweep {' '.join(argv)}`"
+    return make
+
+
+def calibrated_held_out(runs: Runs) -> str:
+    """docs/fidelity.md: `transplanter trial paper_calibrated --seeds S` on the fitted seeds and
+    on seeds the fit never saw, per seed and pooled."""
+    lines = [
+        "| seeds | per seed (of 40) | pooled | 95 % CI | failures |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for seeds, label in (("1-3", "1-3 (fitted)"), ("4-6", "4-6 (held out)"),
+                         ("7-9", "7-9 (held out)"), ("4-9", "4-9 (held out)"),
+                         ("21-25", "21-25 (held out)")):  # fmt: skip
+        d = runs.cli(["trial", "paper_calibrated", "--seeds", seeds, "--quiet"], json_out=True)[1]
+        trials, pooled = d["trials"], d["pooled"]
+        per_seed = " ".join(str(t["successes"]) for t in trials)
+        lo, hi = pooled["ci95"]
+        rows = [{f"fail_{k}": n for k, n in t["failures"].items()} for t in trials]
+        lines.append(
+            f"| {label} | {per_seed} | {100 * pooled['success_rate']:.1f} % "
+            f"({pooled['successes']}/{pooled['seedlings']}) | {100 * lo:.1f}-{100 * hi:.1f} % | "
+            f"{_failures(rows)} |"
+        )
+    return "\n" + "\n".join(lines) + "\n"
+
+
 @dataclass(frozen=True)
 class Block:
     name: str
@@ -212,6 +450,7 @@ class Block:
     # --quick: a function giving the block's text in part (the lines it gives replace the
     # README's lines that start with the same first field)
     partial: Callable[[Runs], str] | None = None
+    page: str = "README.md"  # the file, relative to the repository, that quotes the text
 
 
 BLOCKS = {
@@ -237,6 +476,12 @@ BLOCKS = {
               "--seedlings 40 --workers 2 --out results/zlow",
               partial=zlow_sweep_quick),
         Block("zlow_24_per_seed", zlow_24_per_seed, "the same sweep, runs.jsonl"),
+        Block("calibrated_held_out", calibrated_held_out,
+              "transplanter trial paper_calibrated --seeds S", page="docs/fidelity.md"),
+        *(
+            Block(name, _doc_table(name), "transplanter sweep " + " ".join(argv), page=page)
+            for name, (page, argv, _) in DOC_TABLES.items()
+        ),
     )
 }  # fmt: skip
 
@@ -311,18 +556,31 @@ def compare(block: Block, old: str, new: str) -> list[Finding]:
     return findings
 
 
-def check(text: str, quick: bool, runs: Runs) -> tuple[list[Finding], str, list[str]]:
-    """The findings, the README text with the twin's numbers, and the problems with the
-    markers."""
+def page_blocks(page: str) -> dict[str, Block]:
+    return {name: b for name, b in BLOCKS.items() if b.page == page}
+
+
+def check(
+    text: str,
+    quick: bool,
+    runs: Runs,
+    page: str = "README.md",
+    only: set[str] | None = None,
+) -> tuple[list[Finding], str, list[str]]:
+    """The findings, the page's text with the twin's numbers, and the problems with the
+    markers. `only`: the names of the blocks to run (the others are left as they are)."""
+    blocks = page_blocks(page)
     found = {m["name"]: m for m in BLOCK_RE.finditer(text)}
-    problems = [f"README block {n!r} is not one of the script's" for n in found if n not in BLOCKS]
-    problems += [f"no README block {n!r}" for n in BLOCKS if n not in found]
+    problems = [f"{page} block {n!r} is not one of the script's" for n in found if n not in blocks]
+    problems += [f"no {page} block {n!r}" for n in blocks if n not in found]
     if problems:
         return [], text, problems
     findings: list[Finding] = []
     replacements: dict[str, str] = {}
-    for name, block in BLOCKS.items():
+    for name, block in blocks.items():
         old = found[name]["body"]
+        if only is not None and name not in only:
+            continue
         if quick and not block.quick:
             if block.partial is None:
                 continue
@@ -364,24 +622,47 @@ def write_atomically(path: Path, text: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="the cheap subset (CI)")
-    parser.add_argument("--update", action="store_true", help="rewrite README.md's numbers")
-    parser.add_argument("--readme", type=Path, default=README, help="default: the repo's")
+    parser.add_argument("--update", action="store_true", help="rewrite the stale numbers")
     parser.add_argument(
-        "--sweep-out", type=Path, default=None, help="keep the sweep's files here (a rerun resumes)"
+        "--readme", type=Path, default=None, help="check this file's README blocks only"
+    )
+    parser.add_argument(
+        "--only", default=None, help="comma-separated block names (default: every block)"
+    )
+    parser.add_argument(
+        "--sweep-out", type=Path, default=None, help="keep the sweeps' files here (a rerun resumes)"
     )
     parser.add_argument("--all", action="store_true", help="print equal numbers too")
     args = parser.parse_args(argv)
+    only = None if args.only is None else set(args.only.split(","))
+    if only is not None and only - set(BLOCKS):
+        print(f"error: no block {sorted(only - set(BLOCKS))}; blocks: {', '.join(BLOCKS)}",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    if args.readme is not None:
+        pages = {"README.md": args.readme}
+    else:
+        pages = {b.page: ROOT / b.page for b in BLOCKS.values()}
+        if only is not None:
+            pages = {b.page: ROOT / b.page for b in BLOCKS.values() if b.name in only}
 
-    text = args.readme.read_text(encoding="utf-8")
+    findings: list[Finding] = []
+    texts: dict[str, tuple[Path, str, str]] = {}
+    problems: list[str] = []
     with tempfile.TemporaryDirectory(prefix="readme_numbers_") as scratch:
         runs = Runs(Path(scratch), args.sweep_out)
-        findings, new_text, problems = check(text, args.quick, runs)
+        for page, path in pages.items():
+            text = path.read_text(encoding="utf-8")
+            found, new_text, trouble = check(text, args.quick, runs, page, only)
+            findings += found
+            problems += trouble
+            texts[page] = (path, text, new_text)
     for p in problems:
         print(f"error: {p}", file=sys.stderr)
     if problems:
         return 2
     width = max((len(f.block) + len(f.context) for f in findings), default=20) + 3
-    print(f"{'number':<{width}}  {'README':>10}  {'twin now':>10}")
+    print(f"{'number':<{width}}  {'quoted':>10}  {'twin now':>10}")
     for f in findings:
         mark = "DIFF" if f.differs else ("" if f.compared else "(not compared: the computer)")
         if f.differs or args.all or not f.compared:
@@ -394,14 +675,15 @@ def main(argv: list[str] | None = None) -> int:
         f"{' (quick)' if args.quick else ''}: {len(stale)} differ"
         + (f" (in {', '.join(blocks)})" if blocks else "")
     )
-    if args.update and new_text != text:
-        if args.readme.read_text(encoding="utf-8") != text:
-            print(
-                f"error: {args.readme} changed while the commands ran; run again", file=sys.stderr
-            )
-            return 2
-        write_atomically(args.readme, new_text)
-        print(f"rewrote {args.readme}")
+    if args.update:
+        changed = [(path, old, new) for path, old, new in texts.values() if new != old]
+        for path, old, _ in changed:
+            if path.read_text(encoding="utf-8") != old:
+                print(f"error: {path} changed while the commands ran; run again", file=sys.stderr)
+                return 2
+        for path, _, new in changed:
+            write_atomically(path, new)
+            print(f"rewrote {path}")
         return 0
     return 1 if stale else 0
 

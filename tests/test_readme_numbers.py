@@ -5,6 +5,7 @@ quotes is a command the CLI's own parser takes."""
 from __future__ import annotations
 
 import importlib.util
+import json
 import re
 import shlex
 import subprocess
@@ -30,11 +31,56 @@ def _script():
 # --- the numbers -----------------------------------------------------------------------------
 
 
-def test_every_block_of_the_script_is_marked_in_the_readme_once():
+def test_every_block_of_the_script_is_marked_on_its_page_once():
     rn = _script()
-    names = [m["name"] for m in rn.BLOCK_RE.finditer(README.read_text())]
-    assert sorted(names) == sorted(rn.BLOCKS), "README markers and BLOCKS differ"
-    assert README.read_text().count("<!-- /readme_numbers -->") == len(names)  # none malformed
+    pages = {b.page for b in rn.BLOCKS.values()}
+    assert {"README.md", "docs/drives.md", "docs/edge_trials.md"} <= pages
+    for page in pages:
+        text = (ROOT / page).read_text()
+        names = [m["name"] for m in rn.BLOCK_RE.finditer(text)]
+        assert sorted(names) == sorted(rn.page_blocks(page)), f"{page}: markers and BLOCKS differ"
+        assert text.count("<!-- /readme_numbers -->") == len(names)  # none malformed
+
+
+def test_a_sweep_becomes_a_table_with_its_seeds_failures_and_faults(tmp_path):
+    rn = _script()
+    out = tmp_path / "edge"
+    out.mkdir()
+    (out / "settings.csv").write_text(
+        "taught.z_low_mm,physics.sleep,runs,errors,successes,seedlings,success_rate,ci95_low,"
+        "ci95_high,ci_method,cycle_time_s\n"
+        "22.0,True,2,0,0,80,0.0,0.0,0.045,Wilson,3.8948\n"
+        "24.0,False,2,0,79,80,0.9875,0.93,1.0,bootstrap,3.81445\n"
+    )
+    base = {"lost_step_events": 0, "max_stem_bend_deg": 0.0, "error": None, "fault_kind": None}
+    rows = [
+        {**base, "taught.z_low_mm": 22.0, "physics.sleep": True, "seed": 2, "successes": 0,
+         "fail_position_lost": 39, "fail_lost_steps": 1, "lost_step_events": 3,
+         "fault_kind": "switch_stuck_closed"},
+        {**base, "taught.z_low_mm": 22.0, "physics.sleep": True, "seed": 1, "successes": 0,
+         "fail_position_lost": 40},
+        {**base, "taught.z_low_mm": 24.0, "physics.sleep": False, "seed": 1, "successes": 40,
+         "max_stem_bend_deg": 18.4},
+        {**base, "taught.z_low_mm": 24.0, "physics.sleep": False, "seed": 2, "successes": 39,
+         "fail_damaged": 1, "max_stem_bend_deg": 48.6},
+    ]  # fmt: skip
+    (out / "runs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+    class Runs:
+        def sweep_dir(self, name, argv):
+            assert (name, argv) == ("edge", ["paper"])
+            return out
+
+    table = rn.sweep_table(Runs(), "edge", ["paper"], ("per_seed", "success", "ci", "failures",
+                                                       "events", "cycle", "bends"))  # fmt: skip
+    assert table.strip().splitlines() == [
+        "| taught.z_low_mm | physics.sleep | per seed | success | 95 % CI | failures | "
+        "lost-step events | cycle s | largest shoot bend per seed, deg |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| 22 | on | 0 0 | 0.0 % (0/80) | 0.0-4.5 % | 79 `position_lost`, 1 `lost_steps`, "
+        "1 trial stopped by `switch_stuck_closed` | 3 | 3.895 | 0 0 |",
+        "| 24 | off | 40 39 | 98.8 % (79/80) | 93.0-100.0 % | 1 `damaged` | 0 | 3.814 | 18 49 |",
+    ]
 
 
 def test_numbers_are_read_as_the_twin_prints_them():
