@@ -8,8 +8,8 @@ import dataclasses
 import mujoco
 import numpy as np
 import pytest
-from tests.conftest import paper_config, paper_scenario
 
+from conftest import paper_config, paper_scenario
 from transplanter.scenario.schema import ScenarioError
 from transplanter.scene import ConveyorDrive, build_scene
 from transplanter.scene.config import MIN_LIVE_ROWS, SceneConfig, row_bit
