@@ -4,7 +4,10 @@ Runs the same grid (Z_low at 4 values x 2 seeds, 4 seedlings per trial) with the
 pool on 1 and 2 workers (and Ray on 2 when it is installed), each into a fresh directory,
 prints trials per minute and the scaling ratio against 1 worker, and checks that every
 backend gave the same rows (bar the wall time). The pool's start (spawned workers importing
-MuJoCo) is part of the time, as a user sees it. Asserts nothing else.
+MuJoCo) is part of the time, as a user sees it. Beside each it prints the share of the
+workers' time not spent inside the trials (`run_trial`'s own wall time, which starts with
+the scene's compile): the pool's start and the workers' imports, reading and checking the
+scenario, collecting the rows. Asserts nothing else.
 
     python benchmarks/bench_sweep.py [--seedlings 4] [--workers 1,2]
 """
@@ -43,10 +46,14 @@ def main() -> None:
             if base_rate is None:
                 base_rate, reference = rate, comparable(report.rows)
             same = comparable(report.rows) == reference
+            inside = sum(r["wall_time_s"] or 0.0 for r in report.rows)
+            outside = 1.0 - inside / (workers * wall)
             print(
                 f"{backend:>7} x{workers}: {wall:6.1f} s, {rate:6.1f} trials/min, "
                 f"scaling {rate / base_rate:.2f}x vs {runs[0][0]} x{runs[0][1]}, "
-                f"rows {'identical' if same else 'DIFFER'}"
+                f"rows {'identical' if same else 'DIFFER'}, "
+                f"{inside / report.ran:.2f} s in each trial, {100 * outside:.0f} % of the "
+                "workers' time outside the trials"
             )
 
 
