@@ -176,3 +176,19 @@ def test_a_window_it_cannot_hold_is_refused(overrides, match):
         )
     # a window as wide as the belt is no window: anything goes
     assert paper_scenario(**{**overrides, "conveyor.live_rows": 20})
+
+
+def test_leaf_hits_are_tested_on_the_pots_that_are_bodies():
+    """A pot of an entered row raised into the gripper: its leaves are hit, found by its
+    flat index, and a pot that left the physics is not tested."""
+    scene = build_scene(SceneConfig(rows=12, live_rows=6), seed=2)
+    data = scene.make_data()
+    for pot in range(5):
+        scene.window.release(data, pot)
+    mujoco.mj_forward(scene.model, data)
+    assert scene.leaf_hit_pots(data).size == 0
+    adr = scene.pot_qpos_adr[32]  # row 6, in a slot of row 0
+    grip = data.site_xpos[scene.grip_site]
+    data.qpos[adr : adr + 3] = [grip[0], grip[1], grip[2] + 0.015]
+    mujoco.mj_forward(scene.model, data)
+    assert scene.leaf_hit_pots(data).tolist() == [32]

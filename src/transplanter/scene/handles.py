@@ -174,6 +174,8 @@ class Scene:
         )
         box_radius = np.linalg.norm(self._gripper_half, axis=1)
         self._leaf_reach_sq = (reach[:, None] + box_radius[None, :]) ** 2
+        # each pot's leaves: self.leaves[first[p]:first[p + 1]] (built in pot order)
+        self._leaf_first = np.searchsorted(leaves.pot, np.arange(flat.size + 1))
         self._leaf_axis_t = np.linspace(-1.0, 1.0, LEAF_SAMPLES)[None, :, None] * (
             leaves.half_length
         )
@@ -334,16 +336,33 @@ class Scene:
         the palm or a jaw (LEAF_SAMPLES points per leaf, so accurate to a few mm).
         """
         grip = data.site_xpos[self.grip_site, :2]
+        if self.window is not None:
+            return self._leaf_hit_live_pots(data, grip)
         pot_xyz = data.xpos[self._pot_bodies_flat]
         near = np.hypot(*(pot_xyz[:, :2] - grip).T) < LEAF_NEAR_M
-        if self.window is not None:  # only the pots that are bodies (the window)
-            near &= self.pot_live
         # only pots whose leaves' bounding sphere reaches a gripper box's (the gripper
         # passes high above most pots): the same hits, most calls stop here
         gap = pot_xyz[:, None, :] - data.geom_xpos[self._gripper_boxes][None, :, :]
         near &= ((gap * gap).sum(axis=2) <= self._leaf_reach_sq).any(axis=1)
         pot = self.leaves.pot
         leaves = np.flatnonzero(near[pot])
+        return self._leaf_hits_of(data, leaves)
+
+    def _leaf_hit_live_pots(self, data: mujoco.MjData, grip: np.ndarray) -> np.ndarray:
+        """leaf_hit_pots of a windowed scene: the same tests over the pots that are bodies
+        only, so its cost does not grow with the belt's length."""
+        live = np.flatnonzero(self.pot_live)
+        pot_xyz = data.xpos[self._pot_bodies_flat[live]]
+        near = np.hypot(*(pot_xyz[:, :2] - grip).T) < LEAF_NEAR_M
+        gap = pot_xyz[:, None, :] - data.geom_xpos[self._gripper_boxes][None, :, :]
+        near &= ((gap * gap).sum(axis=2) <= self._leaf_reach_sq[live]).any(axis=1)
+        first = self._leaf_first
+        leaves = [np.arange(first[p], first[p + 1]) for p in live[near].tolist()]
+        return self._leaf_hits_of(data, np.concatenate(leaves) if leaves else np.zeros(0, int))
+
+    def _leaf_hits_of(self, data: mujoco.MjData, leaves: np.ndarray) -> np.ndarray:
+        """The pots (sorted) of these leaves (indices into self.leaves) that touch a box."""
+        pot = self.leaves.pot
         if leaves.size == 0:
             return np.zeros(0, dtype=int)
         bodies = self._pot_bodies_flat[pot[leaves]]
