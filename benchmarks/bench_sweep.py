@@ -9,7 +9,10 @@ workers' time not spent inside the trials (`run_trial`'s own wall time, which st
 the scene's compile): the pool's start and the workers' imports, reading and checking the
 scenario, collecting the rows. Asserts nothing else.
 
-    python benchmarks/bench_sweep.py [--seedlings 4] [--workers 1,2]
+    python benchmarks/bench_sweep.py [--seedlings 4] [--workers 1,2] [--address auto]
+
+With --address, Ray also runs on that cluster (`ray start --head` first; `auto` finds a
+local one), beside the local Ray that the benchmark starts itself.
 """
 
 from __future__ import annotations
@@ -27,20 +30,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seedlings", type=int, default=4)
     parser.add_argument("--workers", default="1,2", help="worker counts, e.g. 1,2,4")
+    parser.add_argument("--address", default=None, help="a Ray cluster to run on as well")
     args = parser.parse_args()
     spec = SweepSpec(
         "paper", (Axis("taught.z_low_mm", (28.0, 32.0, 36.0, 40.0)),), (1, 2), args.seedlings
     )
-    runs = [("process", int(n)) for n in args.workers.split(",")]
+    runs = [("process", int(n), None) for n in args.workers.split(",")]
     if importlib.util.find_spec("ray") is not None:
-        runs.append(("ray", max(n for _, n in runs)))
+        runs.append(("ray", max(n for _, n, _ in runs), None))
+        if args.address:
+            runs.append(("ray", max(n for _, n, _ in runs), args.address))
     print(f"{spec.runs_total} trials of {args.seedlings} seedlings each")
     base_rate, reference = None, None
     with tempfile.TemporaryDirectory() as tmp:
-        for backend, workers in runs:
-            out = Path(tmp) / f"{backend}{workers}"
+        for k, (backend, workers, address) in enumerate(runs):
+            out = Path(tmp) / f"{k}{backend}{workers}"
             t0 = time.perf_counter()
-            report = run_sweep(spec, out, backend=backend, workers=workers, plots=False)
+            report = run_sweep(
+                spec, out, backend=backend, workers=workers, address=address, plots=False
+            )
             wall = time.perf_counter() - t0
             rate = 60.0 * report.ran / wall
             if base_rate is None:
@@ -49,7 +57,8 @@ def main() -> None:
             inside = sum(r["wall_time_s"] or 0.0 for r in report.rows)
             outside = 1.0 - inside / (workers * wall)
             print(
-                f"{backend:>7} x{workers}: {wall:6.1f} s, {rate:6.1f} trials/min, "
+                f"{backend:>7} x{workers}{' at ' + address if address else ''}: {wall:6.1f} s, "
+                f"{rate:6.1f} trials/min, "
                 f"scaling {rate / base_rate:.2f}x vs {runs[0][0]} x{runs[0][1]}, "
                 f"rows {'identical' if same else 'DIFFER'}, "
                 f"{inside / report.ran:.2f} s in each trial, {100 * outside:.0f} % of the "

@@ -192,3 +192,24 @@ def test_leaf_hits_are_tested_on_the_pots_that_are_bodies():
     data.qpos[adr : adr + 3] = [grip[0], grip[1], grip[2] + 0.015]
     mujoco.mj_forward(scene.model, data)
     assert scene.leaf_hit_pots(data).tolist() == [32]
+
+
+def test_failed_pots_leave_the_physics_at_rest_or_a_row_later_moving():
+    """Sleep off: a pot the judge did not park leaves when its row is two indexes past the
+    pickup and it is at rest; one still moving leaves an index later, counted."""
+    scene = build_scene(SceneConfig(rows=12, live_rows=6, sleep=False), seed=1)
+    data, window = scene.make_data(), scene.window
+    for pot in range(4):  # pot 4 failed: it lies still where it is
+        window.release(data, pot)
+    window.on_index(data)
+    assert window.state[4] == LIVE and window.state[30] != LIVE  # row 0 is one index past
+    window.on_index(data)
+    assert window.state[4] == GONE and (window.entered_at[30:35] == 2).all()
+    for pot in range(5, 9):  # pot 9 failed and keeps moving
+        window.release(data, pot)
+    data.qvel[scene.pot_dof_adr[9]] = 0.5
+    window.on_index(data)
+    assert window.state[9] == LIVE and window.state[35] != LIVE
+    window.on_index(data)
+    assert window.state[9] == GONE and window.frozen_moving == 1
+    assert (window.entered_at[35:40] == 4).all()

@@ -12,12 +12,14 @@ are the compiler's own) and their poses in the cells the carriage has carried th
 
 A pot leaves the physics when the judge parks it (`release`), or, once its row is two
 indexes past the pickup, when it lies at rest (a failed pot on the floor or the belt's
-edge: it is frozen where it lies). A row enters as soon as a row's worth of slots is free,
-checked at every index start and after every release: normally after the first pickup of
-the row before it, so it gets live_rows - 1 index pushes before its own pickup (live_rows - 2
-when a failed pot of the row just picked was still moving), enough for the pots' offsets
-across the belt to settle (config.SETTLE_PUSHES). This is bookkeeping at index and release
-events, never per step.
+edge: it is frozen where it lies); a pot of a row three indexes past it that still moves is
+frozen too when its slot is needed (`frozen_moving` counts those). A row enters as soon as
+a row's worth of slots is free, checked at every index start and after every release:
+normally after the first pickup of the row before it (when the last pot of the row picked
+before that has been parked), so it gets live_rows - 1 index pushes before its own pickup
+(live_rows - 2 when a failed pot of that row was still moving), enough for the pots'
+offsets across the belt to settle (config.SETTLE_PUSHES). This is bookkeeping at index and
+release events, never per step.
 
 Which pot a slot holds lives here and in the model, not in the MjData (like the ribs of
 `ConveyorDrive`): one simulation at a time per scene.
@@ -46,6 +48,8 @@ _GEOM_FIELDS = (
     "geom_size", "geom_rbound", "geom_aabb", "geom_friction", "geom_solimp", "geom_solref",
     "geom_contype", "geom_conaffinity",
 )  # fmt: skip
+REST_SPEED = 1e-3
+"""A pot slower than this (m/s and rad/s, every component) lies at rest."""
 WAITING, LIVE, GONE = 0, 1, 2
 """A pot's place: on the belt outside the physics, a body, out of the physics for good."""
 
@@ -72,6 +76,7 @@ class LiveRows:
         self.gone_pose = np.zeros((n_pots, 7))  # xyz, quat (w first) of the pots gone
         self.next_row = cfg.body_rows
         self.indexes = 0  # indexes started so far
+        self.frozen_moving = 0  # pots taken out of the physics while still moving
         pots = scene.pots
         self._rest_z = pots.height / 2
         self._tree = scene.model.body_treeid[self.slot_body]
@@ -130,11 +135,25 @@ class LiveRows:
             self.next_row += 1
 
     def _free_resting(self, data: mujoco.MjData) -> None:
-        done_rows = self.indexes - 2  # rows up to this one left the pickup an index ago
-        for slot in np.flatnonzero(self.slot_pot >= 0):
-            pot = int(self.slot_pot[slot])
-            if pot // self.cols <= done_rows and data.tree_asleep[self._tree[slot]] >= 0:
-                self._free(data, pot)
+        """Pots of rows that left the pickup an index ago or more and lie at rest (asleep,
+        or slower than REST_SPEED with sleep off) leave the physics where they lie; when
+        that frees too few slots, so do the pots of rows two indexes past it, moving or
+        not (counted in `frozen_moving`)."""
+        for slack in (2, 3):
+            done_rows = self.indexes - slack
+            for slot in np.flatnonzero(self.slot_pot >= 0).tolist():
+                pot = int(self.slot_pot[slot])
+                if pot // self.cols > done_rows:
+                    continue
+                dadr = self.slot_dadr[slot]
+                resting = data.tree_asleep[self._tree[slot]] >= 0 or (
+                    np.abs(data.qvel[dadr : dadr + 6]).max() < REST_SPEED
+                )
+                if resting or slack == 3:
+                    self.frozen_moving += not resting
+                    self._free(data, pot)
+            if np.count_nonzero(self.slot_pot < 0) >= self.cols:
+                return
 
     def _free(self, data: mujoco.MjData, pot: int) -> None:
         if self.state[pot] != LIVE:
