@@ -124,10 +124,10 @@ def main() -> None:
     print(f"paper scenario, seed {args.seed}, one process per trial")
     lives = [int(x) for x in args.live.split(",")]
     for rows in (int(x) for x in args.rows.split(",") if x):
-        for live in lives:
-            if live < rows or live == lives[0]:
+        for live in lives:  # live_rows = rows is the belt without a window
+            if live <= rows:
                 print(line(measure(rows, live, args.seedlings, args.seed)), flush=True)
-        if 8 < rows <= args.full_up_to:
+        if max(lives) < rows <= args.full_up_to:
             print(line(measure(rows, rows, args.seedlings, args.seed)), flush=True)
     if args.soak:
         paper = measure(8, 8, 40, args.seed)

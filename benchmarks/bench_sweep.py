@@ -11,8 +11,8 @@ scenario, collecting the rows. Asserts nothing else.
 
     python benchmarks/bench_sweep.py [--seedlings 4] [--workers 1,2] [--address auto]
 
-With --address, Ray also runs on that cluster (`ray start --head` first; `auto` finds a
-local one), beside the local Ray that the benchmark starts itself.
+With --address, Ray runs on that cluster (`ray start --head` first; `auto` finds a local
+one) instead of a local Ray that the benchmark starts itself.
 """
 
 from __future__ import annotations
@@ -37,9 +37,9 @@ def main() -> None:
     )
     runs = [("process", int(n), None) for n in args.workers.split(",")]
     if importlib.util.find_spec("ray") is not None:
-        runs.append(("ray", max(n for _, n, _ in runs), None))
-        if args.address:
-            runs.append(("ray", max(n for _, n, _ in runs), args.address))
+        # a local Ray of its own, or the cluster at --address (with a cluster running, Ray
+        # refuses to start a local one beside it)
+        runs.append(("ray", max(n for _, n, _ in runs), args.address))
     print(f"{spec.runs_total} trials of {args.seedlings} seedlings each")
     base_rate, reference = None, None
     with tempfile.TemporaryDirectory() as tmp:
