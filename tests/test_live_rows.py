@@ -213,3 +213,20 @@ def test_failed_pots_leave_the_physics_at_rest_or_a_row_later_moving():
     window.on_index(data)
     assert window.state[9] == GONE and window.frozen_moving == 1
     assert (window.entered_at[35:40] == 4).all()
+
+
+def test_the_render_model_draws_every_pot_where_the_window_puts_it():
+    scene = build_scene(SceneConfig(rows=12, live_rows=6), seed=2)
+    data = scene.make_data()
+    data.qpos[scene.conveyor_qpos_adr] = -SceneConfig().row_pitch_m
+    for pot in range(5):
+        scene.window.release(data, pot)
+    mujoco.mj_forward(scene.model, data)
+    drawn = scene.render_data(data)
+    model = scene.render_model
+    assert len(_pot_bodies(model)) == 60  # a body per pot, with its decor
+    where = np.array([drawn.xpos[model.body(f"pot_{p // 5}_{p % 5}").id] for p in range(60)])
+    assert np.allclose(where, scene.pot_positions(data), atol=1e-12)
+    assert np.allclose(where[32], data.xpos[scene.pot_bodies[6, 2]], atol=1e-12)
+    grip = scene.model.site("grip_center").id
+    assert np.allclose(drawn.site_xpos[grip], data.site_xpos[grip])

@@ -218,7 +218,8 @@ class Scene:
 
     def render_data(self, data: mujoco.MjData) -> mujoco.MjData:
         """The physics state `data` on the render model: poses, cameras and lights (one
-        reused MjData; contacts and forces are not carried)."""
+        reused MjData; contacts and forces are not carried). A windowed scene's render
+        model has a body per pot: each stands where `LiveRows.poses` puts it."""
         model = self.render_model
         if model is self.model:
             return data
@@ -226,8 +227,15 @@ class Scene:
             self._render_data = mujoco.MjData(model)
         mirror = self._render_data
         mirror.time = data.time
-        mirror.qpos[:] = data.qpos
-        mirror.qvel[:] = data.qvel
+        if self.window is None:
+            mirror.qpos[:] = data.qpos
+            mirror.qvel[:] = data.qvel
+        else:  # the machine's joints come first in both; then a pose per pot
+            nq, nv = self.window.machine_nq, self.window.machine_nv
+            mirror.qpos[:nq] = data.qpos[:nq]
+            mirror.qvel[:nv] = data.qvel[:nv]
+            mirror.qpos[nq:] = self.window.poses(data).ravel()
+            mirror.qvel[nv:] = 0.0
         mirror.ctrl[:] = data.ctrl
         mujoco.mj_kinematics(model, mirror)
         mujoco.mj_comPos(model, mirror)

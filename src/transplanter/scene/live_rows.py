@@ -81,6 +81,9 @@ class LiveRows:
         self._rest_z = pots.height / 2
         self._tree = scene.model.body_treeid[self.slot_body]
         m = scene.model
+        # the machine's and the carriage's joints come before the pots' free joints
+        self.machine_nq = m.nq - 7 * n_slots
+        self.machine_nv = m.nv - 6 * n_slots
         self._slot_bvh = m.body_bvhadr[self.slot_body].copy()
         self._slot_nbvh = m.body_bvhnum[self.slot_body].copy()
 
@@ -106,6 +109,19 @@ class LiveRows:
         out[live] = data.xpos[self.scene.pot_bodies.ravel()[live]]
         waiting = np.flatnonzero(self.state == WAITING)
         out[waiting] = self.waiting_positions(data, waiting)
+        return out
+
+    def poses(self, data: mujoco.MjData) -> np.ndarray:
+        """(rows*cols, 7) every pot's free-joint pose (xyz, quat w first): a body's, a
+        waiting pot's upright in its carried cell, or where a pot that left lies."""
+        out = self.gone_pose.copy()
+        for slot, pot in enumerate(self.slot_pot.tolist()):
+            if pot >= 0:
+                adr = self.slot_qadr[slot]
+                out[pot] = data.qpos[adr : adr + 7]
+        waiting = np.flatnonzero(self.state == WAITING)
+        out[waiting, :3] = self.waiting_positions(data, waiting)
+        out[waiting, 3:] = (1.0, 0.0, 0.0, 0.0)
         return out
 
     # ----- events -----
