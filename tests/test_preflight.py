@@ -91,3 +91,23 @@ def test_a_taught_speed_the_sgf_cannot_reach_is_refused():
         assemble(load_scenario("paper", {"taught.s_low_mm_s": 510.0}))
     faster = {"taught.s_high_mm_s": 600.0, "motion.compute_time_per_point_us": 100.0}
     assemble(load_scenario("paper", faster))  # 1,000 mm/s allowed
+
+
+def test_a_program_that_passed_is_not_checked_again_in_the_process(monkeypatch, tmp_path):
+    """A sweep's worker runs one setting over several seeds: the program is checked once;
+    a refused one is refused every time."""
+    from transplanter.scenario import preflight
+
+    calls = []
+    monkeypatch.setattr(preflight, "_passed", {})
+    monkeypatch.setattr(preflight, "check_machine", lambda m: calls.append(m) or check_machine(m))
+    for seed in (1, 2, 3):
+        assemble(paper_scenario(**{"scenario.seed": seed}))
+    assert len(calls) == 1
+    assemble(paper_scenario(**{"taught.z_low_mm": 30.0}))  # another program: checked
+    assert len(calls) == 2
+    path = variant(tmp_path, {"grip_mm = [90.0, 215.0]": "grip_mm = [90.0, 340.0]"})
+    for _ in range(2):
+        with pytest.raises(ScenarioError, match=r"taught.pickup\[4\].grip_mm"):
+            assemble(load_scenario(path))
+    assert len(calls) == 4

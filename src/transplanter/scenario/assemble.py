@@ -387,6 +387,7 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             bridge_clearance_m=grip.bridge_clearance_m,
             rows=conv.rows,
             cols=conv.cols,
+            live_rows=conv.live_rows,
             cell_pitch_m=conv.cell_pitch_m,
             row_pitch_m=conv.row_pitch_m,
             pickup_row_y_m=conv.pickup_row_y_m,

@@ -38,13 +38,25 @@ REPLY_TIMEOUT_MARGIN_S = 1.0
 MAX_OMEGA_DT = 2.0
 
 
+# Machines whose program passed in this process (a sweep's worker runs one setting over
+# several seeds: the program is the same, the check about 0.1 s of a short trial).
+PASSED_CACHE_SIZE = 64
+_passed: dict[Machine, None] = {}
+
+
 def check_program(machine: Machine) -> None:
     """Every check a trial makes of a machine's taught program before it starts (the teach
     pendant runs the same before it writes an image): the points and moves
     (:func:`check_machine`) and the reply timeout against its longest line
-    (:func:`check_reply_timeout`)."""
+    (:func:`check_reply_timeout`). A machine equal to one that passed in this process (the
+    last PASSED_CACHE_SIZE) is not checked again: the checks depend on the machine alone."""
+    if machine in _passed:
+        return
     check_machine(machine)
     check_reply_timeout(machine)
+    if len(_passed) >= PASSED_CACHE_SIZE:
+        del _passed[next(iter(_passed))]
+    _passed[machine] = None
 
 
 class TaughtRefused(ScenarioError):

@@ -346,8 +346,14 @@ class GripperSection:
 class ConveyorSection:
     """[conveyor]: the feeding conveyor's cells and index time."""
 
-    rows: int = key("int", lo=1, hi=100)
+    rows: int = key("int", lo=1, hi=10000)
     cols: int = key("int", lo=1, hi=20)
+    live_rows: int = key(
+        "int", lo=1, hi=10000,
+        doc="rows of pots that are bodies in the physics: the row just picked, the pickup row "
+        "and the rows upstream being pushed into place; the others ride the belt outside the "
+        "physics and enter as rows are picked (at least 6; >= rows: every pot a body)",
+    )  # fmt: skip
     cell_pitch_m: float = key("float", 1, 1000)
     row_pitch_m: float = key("float", 1, 1000)
     pickup_row_y_m: float = key("float", -1000, 1000)
@@ -1002,6 +1008,24 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
             f"scenario.seedlings = {v['scenario']['seedlings']} is more than the conveyor holds "
             f"(conveyor.rows x conveyor.cols = {cells} pots)."
         )
+    if conv["live_rows"] < conv["rows"]:
+        from transplanter.scene.config import MIN_LIVE_ROWS, SETTLE_PUSHES
+
+        if conv["live_rows"] < MIN_LIVE_ROWS:
+            raise ScenarioError(
+                f"conveyor.live_rows = {conv['live_rows']} is below the minimum of "
+                f"{MIN_LIVE_ROWS} for conveyor.rows = {conv['rows']}: the pickup row, the row "
+                f"just picked and enough rows upstream that every pot gets {SETTLE_PUSHES} "
+                f"index pushes before its pickup. Set live_rows >= {MIN_LIVE_ROWS}, or >= rows "
+                "(every pot a body)."
+            )
+        if pots["bond_share"] > 0 or pots["crooked_share"] > 0 or pots["canopy_contact"]:
+            raise ScenarioError(
+                f"conveyor.live_rows = {conv['live_rows']} < conveyor.rows = {conv['rows']} "
+                "reuses pot bodies, which holds only straight, unbonded pots without canopy "
+                "contact; with pots.bond_share > 0, pots.crooked_share > 0 or "
+                "pots.canopy_contact, set conveyor.live_rows >= conveyor.rows."
+            )
     if conv["index_time_s"] < 0.2:
         raise ScenarioError("conveyor.index_time_s must be at least 0.2 s (push and settle).")
     grip = v["gripper"]

@@ -23,6 +23,7 @@ import posixpath
 import shutil
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import mujoco
@@ -112,12 +113,15 @@ def build_scene(config: SceneConfig | None = None, seed: int = 0) -> Scene:
     proxies: massless geoms outside collision detection) because MuJoCo's broadphase walks
     every geom of every body at every step, sleeping or not; the scene builds the decorated
     model, with the same bodies and joints, only when something draws it
-    (`Scene.render_model`)."""
+    (`Scene.render_model`). A windowed scene (config.live_rows < rows) is drawn with a body
+    per pot, each placed where the window says it is (`Scene.render_data`)."""
     cfg = config if config is not None else SceneConfig()
     spec, pots = full_spec(cfg, seed, decor=False)
 
     def decorated() -> mujoco.MjModel:
-        return compile_with_home(full_spec(cfg, seed, decor=True)[0], cfg)
+        # a windowed scene is drawn with a body per pot (Scene.render_data places them)
+        drawn = replace(cfg, live_rows=cfg.rows) if cfg.windowed else cfg
+        return compile_with_home(full_spec(drawn, seed, decor=True)[0], drawn)
 
     proxies = kinds.workcell(cfg.workcell_kind).leaf_proxies(cfg, pots)
     return Scene(compile_with_home(spec, cfg), cfg, pots, proxies, decorated)

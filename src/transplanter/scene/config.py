@@ -27,6 +27,37 @@ ROW_BIT_FIRST = 8
 ROW_BITS = 23
 
 
+# An index pushes every pot of the belt across its cell's play; the sideways spread of the
+# pots' offsets grows with each push from rest and settles after about this many (sd 0.89,
+# 1.31, 1.67, 1.98, 2.02, 2.05 mm after 0-5 pushes: docs/performance.md, "The window of live
+# rows").
+SETTLE_PUSHES = 4
+# The fewest live rows of a windowed scene: a row enters when the row before the pickup row
+# has left the physics, so it gets live_rows - 1 pushes before its pickup, live_rows - 2 when
+# a failed pot of the row just picked still moves at that index (it waits for the next).
+MIN_LIVE_ROWS = SETTLE_PUSHES + 2
+
+
+def window_problem(cfg: SceneConfig) -> str:
+    """Why a scene with cfg.live_rows < cfg.rows cannot be windowed ('' when it can)."""
+    if cfg.live_rows < MIN_LIVE_ROWS:
+        return (
+            f"conveyor.live_rows = {cfg.live_rows} is below the minimum of {MIN_LIVE_ROWS} for "
+            f"conveyor.rows = {cfg.rows}: the pickup row, the row just picked and enough rows "
+            f"upstream that every pot gets {SETTLE_PUSHES} index pushes before its pickup; set "
+            f"live_rows to at least {MIN_LIVE_ROWS} (or to rows: every pot a body)"
+        )
+    if cfg.pot_bond_share > 0 or cfg.canopy_contact or cfg.pot_crooked_share > 0:
+        return (
+            f"conveyor.live_rows = {cfg.live_rows} < conveyor.rows = {cfg.rows} reuses pot "
+            "bodies, which holds only straight, unbonded pots without canopy contact (a bond's "
+            "pad and adhesion actuator, a crooked pot's foot and the leaf proxies are bodies, "
+            "geoms and actuators of their own); with pots.bond_share > 0, "
+            "pots.crooked_share > 0 or pots.canopy_contact set live_rows >= rows"
+        )
+    return ""
+
+
 def row_bit(row: int) -> int:
     """The collision bit of conveyor row `row` (its ribs' conaffinity, in its pots' contype)."""
     return 1 << (ROW_BIT_FIRST + row % ROW_BITS)
@@ -161,6 +192,11 @@ class SceneConfig:
     # row (row 0) is centred at pickup_row_y_m; rows further back at + row_pitch_m each.
     rows: int = 8
     cols: int = 5
+    # Rows of pots that are bodies in the physics (scene.live_rows): the row just picked, the
+    # pickup row and the rows upstream that the indexes push into place; the rows beyond
+    # ride the belt outside the physics and enter the window as rows leave it. At least
+    # rows: every pot is a body (the scene as without a window).
+    live_rows: int = 8
     cell_pitch_m: float = 0.045
     row_pitch_m: float = 0.045
     pickup_row_y_m: float = 0.215
@@ -317,6 +353,10 @@ class SceneConfig:
             raise ValueError(
                 f"SceneConfig needs rows >= 1 and cols >= 1, got {self.rows}x{self.cols}"
             )
+        if self.windowed:
+            problem = window_problem(self)
+            if problem:
+                raise ValueError(f"SceneConfig.live_rows: {problem}")
         if self.pot_diameter_m + 2 * self.pot_offset_max_m + self.rib_thickness_m >= min(
             self.cell_pitch_m, self.row_pitch_m
         ):
@@ -481,6 +521,16 @@ class SceneConfig:
     def full_step_rad(self) -> float:
         """One full step of the motor shaft (rad)."""
         return 2.0 * math.pi / self.steps_per_rev
+
+    @property
+    def windowed(self) -> bool:
+        """True when only live_rows of the rows are bodies in the physics (scene.live_rows)."""
+        return self.live_rows < self.rows
+
+    @property
+    def body_rows(self) -> int:
+        """The rows of pot bodies the model holds: live_rows, or rows without a window."""
+        return min(self.live_rows, self.rows)
 
     def stepper_params(self) -> tuple[StepperParams, StepperParams, StepperParams]:
         """The motors' torque laws (theta1, theta2, Z; transplanter.scene.stepper): the same

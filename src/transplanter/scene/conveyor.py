@@ -28,6 +28,10 @@ front drum: `start` turns their collisions off and hides them, which edits the M
 Scene's model is shared by its MjData: one simulation at a time). Which rows are off is a
 function of the carriage position alone, and `start` sets every row (off or back on) from it,
 so a copied or rewound MjData gets the right ribs at its next index.
+
+A windowed scene (scene.live_rows) carries only a few rows of ribs, each row a massless body
+on the carriage: `start` moves each to the row it serves next, again a function of the
+carriage position alone (the first rows not past the edge after this index, in turn).
 """
 
 from __future__ import annotations
@@ -74,6 +78,12 @@ class ConveyorDrive:
                 f"{USERDATA_CONVEYOR} (<size nuserdata=...> of the workcell's XML)"
             )
         m, rows = self.model, self.config.rows
+        self._rib_bodies = np.zeros(0, dtype=int)
+        if self.config.windowed:  # rows of ribs that move to the rows they serve
+            from transplanter.scene.workcells.conveyor_tube import rib_slot_rows
+
+            rows = rib_slot_rows(self.config)
+            self._rib_bodies = np.array([m.body(f"ribs_{k}").id for k in range(rows)])
         # The drive's hold (joint stiffness about qpos_spring, and damping) as built; off
         # while the index profile drives the carriage, back at the new position after it.
         self._joint = int(m.dof_jntid[self.dof_adr])
@@ -86,6 +96,8 @@ class ConveyorDrive:
         self._rib_conaffinity = [row_bit(r) for r in range(rows)]
         self._rib_alpha = [RIB_RGBA[3]] * rows
         self._row_y = self.config.pickup_row_y_m + np.arange(rows) * self.config.row_pitch_m
+        # the row each row of ribs serves (as built: its own)
+        self.rib_rows = np.arange(rows)
 
     def index_phases(self, total_s: float) -> tuple[float, float]:
         """Split an index's total time (s) into (profile, settle) durations (s).
@@ -218,6 +230,9 @@ class ConveyorDrive:
         as built. Without this the ribs of emptied rows would sweep on through the drop tube
         and jam on the pot dropped last."""
         edge = self.config.pickup_row_y_m - self.config.row_pitch_m / 2
+        if self._rib_bodies.size:
+            self._move_rib_rows(edge, q_after)
+            return
         rows = zip(
             self._row_y, self._rib_geoms_by_row, self._rib_conaffinity, self._rib_alpha,
             strict=True,
@@ -226,6 +241,24 @@ class ConveyorDrive:
             past = y + q_after < edge - 1e-9
             self.model.geom_conaffinity[geoms] = 0 if past else conaffinity
             self.model.geom_rgba[geoms, 3] = 0.0 if past else alpha
+
+    def _move_rib_rows(self, edge: float, q_after: float) -> None:
+        """A windowed scene's ribs: the rows of ribs serve, in turn, the first rows whose cells
+        are still on the belt's top run after this index (row r by ribs r mod their count)."""
+        cfg, m = self.config, self.model
+        pitch, y0 = cfg.row_pitch_m, cfg.pickup_row_y_m
+        first = max(0, math.ceil((edge - 1e-9 - q_after - y0) / pitch - 1e-9))
+        n = self._rib_bodies.size
+        for k, (body, geoms) in enumerate(
+            zip(self._rib_bodies, self._rib_geoms_by_row, strict=True)
+        ):
+            row = first + (k - first) % n
+            self.rib_rows[k] = row
+            on = row < cfg.rows
+            m.body_pos[body, 1] = y0 + row * pitch
+            # the body's own filter too: the broadphase pairs bodies by it first
+            m.body_conaffinity[body] = m.geom_conaffinity[geoms] = row_bit(row) if on else 0
+            m.geom_rgba[geoms, 3] = RIB_RGBA[3] if on else 0.0
 
 
 def _min_jerk(tau: float) -> tuple[float, float]:

@@ -24,6 +24,7 @@ import numpy as np
 
 from transplanter.scene.config import SceneConfig
 from transplanter.scene.conveyor import conveyor_armed
+from transplanter.scene.live_rows import LiveRows
 from transplanter.scene.pots import PotBatch
 from transplanter.scene.stepper import StepperDrives
 
@@ -106,6 +107,8 @@ class Scene:
         self.switch_qpos_adr = self.motor_qpos_adr[[0, 1, 2, 2]]
 
         rows, cols = config.rows, config.cols
+        # a pot's body, geom and addresses; -1 for a pot that is not a body now (a windowed
+        # scene, config.live_rows < rows: scene.live_rows moves pots in and out)
         self.pot_bodies = np.array(
             [
                 [name(mujoco.mjtObj.mjOBJ_BODY, f"pot_{r}_{c}") for c in range(cols)]
@@ -113,6 +116,7 @@ class Scene:
             ]
         )
         flat = self.pot_bodies.ravel()
+        self.pot_live = flat >= 0
         self.pot_geoms = np.array(
             [
                 name(mujoco.mjtObj.mjOBJ_GEOM, f"pot_{r}_{c}")
@@ -120,8 +124,11 @@ class Scene:
                 for c in range(cols)
             ]
         )
-        self.pot_qpos_adr = m.jnt_qposadr[m.body_jntadr[flat]].copy()
-        self.pot_dof_adr = m.jnt_dofadr[m.body_jntadr[flat]].copy()
+        live = self.pot_live
+        self.pot_qpos_adr = np.full(flat.size, -1)
+        self.pot_dof_adr = np.full(flat.size, -1)
+        self.pot_qpos_adr[live] = m.jnt_qposadr[m.body_jntadr[flat[live]]]
+        self.pot_dof_adr[live] = m.jnt_dofadr[m.body_jntadr[flat[live]]]
 
         ngeom = m.ngeom
         self.palm_geom = name(mujoco.mjtObj.mjOBJ_GEOM, "palm")  # the bridge over the jaws
@@ -131,7 +138,7 @@ class Scene:
         self._is_jaw = np.zeros(ngeom, bool)
         self._is_jaw[self.jaw_geoms] = True
         self._pot_of_geom = np.full(ngeom, -1)
-        self._pot_of_geom[self.pot_geoms] = np.arange(flat.size)
+        self._pot_of_geom[self.pot_geoms[live]] = np.flatnonzero(live)
         for g in range(ngeom):  # crooked pots' feet (workcells.conveyor_tube.add_pots)
             if (m.geom(g).name or "").startswith("pot_foot_"):
                 r, c = (int(x) for x in m.geom(g).name.split("_")[2:4])
@@ -156,8 +163,7 @@ class Scene:
             self._is_gripper & (m.geom_type == mujoco.mjtGeom.mjGEOM_BOX)
         )
         self._gripper_half = m.geom_size[self._gripper_boxes].copy()
-        self._leaf_body = flat[leaves.pot]
-        self._pot_bodies_flat = flat
+        self._pot_bodies_flat = flat  # a view: set_pot_body updates it
         # a pot's leaves lie within this of its centre; a gripper box within its half
         # diagonal of its own (m): a leaf can touch a box only if the spheres overlap
         reach = np.zeros(flat.size)
@@ -168,6 +174,8 @@ class Scene:
         )
         box_radius = np.linalg.norm(self._gripper_half, axis=1)
         self._leaf_reach_sq = (reach[:, None] + box_radius[None, :]) ** 2
+        # each pot's leaves: self.leaves[first[p]:first[p + 1]] (built in pot order)
+        self._leaf_first = np.searchsorted(leaves.pot, np.arange(flat.size + 1))
         self._leaf_axis_t = np.linspace(-1.0, 1.0, LEAF_SAMPLES)[None, :, None] * (
             leaves.half_length
         )
@@ -176,6 +184,19 @@ class Scene:
         self._tube_xy = np.array([tube_x, tube_y])
         self._tube_inner_radius = config.funnel_throat_diameter_m / 2
         self._throat_z = config.funnel_top_z_m - config.funnel_height_m
+        self.window: LiveRows | None = LiveRows(self) if config.windowed else None
+
+    def set_pot_body(self, pot: int, body: int, geom: int, qpos_adr: int, dof_adr: int) -> None:
+        """Pot `pot` is now this body (scene.live_rows), or no body (all -1)."""
+        old = self.pot_geoms[pot]
+        if old >= 0:
+            self._pot_of_geom_list[old] = -1
+        self.pot_bodies.ravel()[pot] = body
+        self.pot_geoms[pot] = geom
+        self.pot_qpos_adr[pot], self.pot_dof_adr[pot] = qpos_adr, dof_adr
+        self.pot_live[pot] = body >= 0
+        if geom >= 0:
+            self._pot_of_geom_list[geom] = pot
 
     # ----- state -----
     def make_data(self) -> mujoco.MjData:
@@ -197,7 +218,8 @@ class Scene:
 
     def render_data(self, data: mujoco.MjData) -> mujoco.MjData:
         """The physics state `data` on the render model: poses, cameras and lights (one
-        reused MjData; contacts and forces are not carried)."""
+        reused MjData; contacts and forces are not carried). A windowed scene's render
+        model has a body per pot: each stands where `LiveRows.poses` puts it."""
         model = self.render_model
         if model is self.model:
             return data
@@ -205,8 +227,15 @@ class Scene:
             self._render_data = mujoco.MjData(model)
         mirror = self._render_data
         mirror.time = data.time
-        mirror.qpos[:] = data.qpos
-        mirror.qvel[:] = data.qvel
+        if self.window is None:
+            mirror.qpos[:] = data.qpos
+            mirror.qvel[:] = data.qvel
+        else:  # the machine's joints come first in both; then a pose per pot
+            nq, nv = self.window.machine_nq, self.window.machine_nv
+            mirror.qpos[:nq] = data.qpos[:nq]
+            mirror.qvel[:nv] = data.qvel[:nv]
+            mirror.qpos[nq:] = self.window.poses(data).ravel()
+            mirror.qvel[nv:] = 0.0
         mirror.ctrl[:] = data.ctrl
         mujoco.mj_kinematics(model, mirror)
         mujoco.mj_comPos(model, mirror)
@@ -244,12 +273,19 @@ class Scene:
 
     # ----- pots -----
     def pot_positions(self, data: mujoco.MjData) -> np.ndarray:
-        """(rows*cols, 3) pot centres (geometric centre of the cylinder), row-major."""
+        """(rows*cols, 3) pot centres (geometric centre of the cylinder), row-major; in a
+        windowed scene, a pot that is not a body where it rides or lies (scene.live_rows)."""
+        if self.window is not None:
+            return self.window.positions(data)
         return data.xpos[self.pot_bodies.ravel()].copy()
 
     def pot_in_tube(self, data: mujoco.MjData) -> np.ndarray:
         """Pots whose centre is inside the tube radius and below the funnel throat."""
-        p = data.xpos[self.pot_bodies.ravel()]
+        p = (
+            self.pot_positions(data)
+            if self.window is not None
+            else data.xpos[self.pot_bodies.ravel()]
+        )
         radial = np.hypot(p[:, 0] - self._tube_xy[0], p[:, 1] - self._tube_xy[1])
         return (radial < self._tube_inner_radius) & (p[:, 2] < self._throat_z)
 
@@ -308,6 +344,8 @@ class Scene:
         the palm or a jaw (LEAF_SAMPLES points per leaf, so accurate to a few mm).
         """
         grip = data.site_xpos[self.grip_site, :2]
+        if self.window is not None:
+            return self._leaf_hit_live_pots(data, grip)
         pot_xyz = data.xpos[self._pot_bodies_flat]
         near = np.hypot(*(pot_xyz[:, :2] - grip).T) < LEAF_NEAR_M
         # only pots whose leaves' bounding sphere reaches a gripper box's (the gripper
@@ -316,9 +354,26 @@ class Scene:
         near &= ((gap * gap).sum(axis=2) <= self._leaf_reach_sq).any(axis=1)
         pot = self.leaves.pot
         leaves = np.flatnonzero(near[pot])
+        return self._leaf_hits_of(data, leaves)
+
+    def _leaf_hit_live_pots(self, data: mujoco.MjData, grip: np.ndarray) -> np.ndarray:
+        """leaf_hit_pots of a windowed scene: the same tests over the pots that are bodies
+        only, so its cost does not grow with the belt's length."""
+        live = np.flatnonzero(self.pot_live)
+        pot_xyz = data.xpos[self._pot_bodies_flat[live]]
+        near = np.hypot(*(pot_xyz[:, :2] - grip).T) < LEAF_NEAR_M
+        gap = pot_xyz[:, None, :] - data.geom_xpos[self._gripper_boxes][None, :, :]
+        near &= ((gap * gap).sum(axis=2) <= self._leaf_reach_sq[live]).any(axis=1)
+        first = self._leaf_first
+        leaves = [np.arange(first[p], first[p + 1]) for p in live[near].tolist()]
+        return self._leaf_hits_of(data, np.concatenate(leaves) if leaves else np.zeros(0, int))
+
+    def _leaf_hits_of(self, data: mujoco.MjData, leaves: np.ndarray) -> np.ndarray:
+        """The pots (sorted) of these leaves (indices into self.leaves) that touch a box."""
+        pot = self.leaves.pot
         if leaves.size == 0:
             return np.zeros(0, dtype=int)
-        bodies = self._leaf_body[leaves]
+        bodies = self._pot_bodies_flat[pot[leaves]]
         rot = data.xmat[bodies].reshape(-1, 3, 3)
         centre = data.xpos[bodies] + np.einsum("nij,nj->ni", rot, self.leaves.centre[leaves])
         axis = np.einsum("nij,nj->ni", rot, self.leaves.axis[leaves])

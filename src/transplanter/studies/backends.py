@@ -125,6 +125,14 @@ def _ignore_stop_signals() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
+def _start_worker() -> None:
+    """A process-pool worker's start: stop signals ignored, and the trial's imports (about a
+    second: MuJoCo, SciPy, the twin) done now, while the pool starts, not in its first task."""
+    _ignore_stop_signals()
+    import transplanter.scenario.assemble  # noqa: F401
+    import transplanter.twin.trial  # noqa: F401
+
+
 MAX_WORKERS_PER_CPU = 4
 """The process pool takes at most this many workers per CPU the process may run on (more only
 wait for a core and hold memory: `--workers 10000` spawned 10,000 processes)."""
@@ -143,7 +151,7 @@ class ProcessBackend:
         self.pool = ProcessPoolExecutor(
             max_workers=workers,
             mp_context=multiprocessing.get_context("spawn"),
-            initializer=_ignore_stop_signals,
+            initializer=_start_worker,
         )
 
     def run(self, tasks: Iterable[Mapping[str, Any]]) -> Iterator[dict[str, Any]]:

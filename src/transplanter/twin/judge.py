@@ -240,6 +240,8 @@ class Judge:
         d = self.twin.data
         pos = d.xpos[self.pot_bodies]
         on_belt = self.active & (pos[:, 2] > 0.0) & (pos[:, 2] < self.config.pot_height_m)
+        if self.twin.scene.window is not None:  # only pots that are bodies (scene.live_rows)
+            on_belt &= self.twin.scene.pot_live
         idx = np.flatnonzero(on_belt)
         if idx.size == 0:
             return None, math.inf, 0.0
@@ -321,6 +323,8 @@ class Judge:
         d.qvel[v : v + 6] = 0.0
         self.active[pot] = False
         self.parked += 1
+        if self.twin.scene.window is not None:  # it leaves the physics (scene.live_rows)
+            self.twin.scene.window.release(d, pot)
 
     # -- physics samples -----------------------------------------------------------------
     def monitor(self, twin: Twin, i: int) -> None:

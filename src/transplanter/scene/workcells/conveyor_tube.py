@@ -61,8 +61,12 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
 def populate(spec: mujoco.MjSpec, cfg: SceneConfig, seed: int, decor: bool) -> PotBatch:
     """The ribs and the pots of a seed (without `decor`, only the pots' collision geoms)."""
     pots = PotBatch.draw(cfg, seed)
-    add_ribs(spec, cfg)
-    add_pots(spec, cfg, pots, decor)
+    if cfg.windowed:  # scene.live_rows: the bodies of the first live_rows rows, reused
+        add_rib_slots(spec, cfg)
+        add_pots(spec, cfg, pots, decor, count=cfg.body_rows * cfg.cols)
+    else:
+        add_ribs(spec, cfg)
+        add_pots(spec, cfg, pots, decor)
     return pots
 
 
@@ -133,11 +137,49 @@ def add_ribs(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
             g.rgba = list(RIB_RGBA)
 
 
-def add_pots(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch, decor: bool = True) -> None:
-    """A free body per pot: collision cylinder and (decor) visual mesh, stem, leaves and
-    leaf proxies."""
+def rib_slot_rows(cfg: SceneConfig) -> int:
+    """How many rows of ribs a windowed scene carries (scene.live_rows): one more than its
+    rows of pot bodies, so that every row with a pot body on the belt has its ribs."""
+    return cfg.body_rows + 1
+
+
+def add_rib_slots(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    """A windowed scene's ribs (scene.live_rows): rib_slot_rows rows of ribs, each row a
+    massless body on the carriage (`ribs_{k}`, its geoms `rib_{k}_{j}` in the row's frame)
+    that the conveyor's drive moves to the row it serves (ConveyorDrive); built on rows
+    0..rib_slot_rows - 1, as add_ribs places them."""
+    conveyor = spec.body("conveyor")
+    ys = row_y(cfg)
+    for r in range(rib_slot_rows(cfg)):  # rib_slot_rows <= rows in a windowed scene
+        body = conveyor.add_body()
+        body.name = f"ribs_{r}"
+        body.pos = [0.0, ys[r], 0.0]
+        for k, (size, pos) in enumerate(rib_boxes(cfg, r)):
+            g = body.add_geom()
+            g.name = f"rib_{r}_{k}"
+            g.type = mujoco.mjtGeom.mjGEOM_BOX
+            g.size = size
+            g.pos = [pos[0], pos[1] - ys[r], pos[2]]
+            g.contype = 0
+            g.conaffinity = row_bit(r)
+            g.priority = 2
+            g.friction = [cfg.rib_friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
+            g.mass = 0
+            g.rgba = list(RIB_RGBA)
+
+
+def add_pots(
+    spec: mujoco.MjSpec,
+    cfg: SceneConfig,
+    pots: PotBatch,
+    decor: bool = True,
+    count: int | None = None,
+    first: int = 0,
+) -> None:
+    """A free body per pot (pots first .. first + count - 1; default all): collision
+    cylinder and (decor) visual mesh, stem, leaves and leaf proxies."""
     xs, ys = cell_columns_x(cfg), row_y(cfg)
-    for i in range(len(pots)):
+    for i in range(first, first + (len(pots) - first if count is None else count)):
         r, c = divmod(i, cfg.cols)
         radius, h = pots.diameter[i] / 2, pots.height[i]
         body = spec.worldbody.add_body()

@@ -1,0 +1,151 @@
+"""Benchmark: a trial's cost against the belt's length, a long soak, and its start-up.
+
+Each measurement runs in a fresh Python process (`--one`), as a user's `transplanter trial`
+does, so its peak memory and its start-up (imports, the scene's compile, the first physics
+step) are its own. Prints numbers; asserts nothing.
+
+- cost against the belt: the paper scenario with `conveyor.rows` = 8, 24, 100 and 400 and the
+  same seedlings (--seedlings, default 40), with the default window of live rows
+  (`conveyor.live_rows` = 8; --live 6,8 for others) and, for the belts up to --full-up-to
+  rows, with a body per pot (live_rows = rows): wall time per seedling, real-time factor, peak
+  memory, and the share of the wall time spent starting (imports, compile, first step);
+- with --soak N: N seedlings on a 100-row belt beside the 40-seedling paper trial of the same
+  run: real-time factor (and its ratio to the paper trial's), peak memory, and the first and
+  last 100 seedlings' success and mean cycle time.
+
+Real-time factors are given on wall time and on the process's CPU time (on a machine shared
+with other work the wall time measures the neighbours too).
+
+    python benchmarks/bench_belt.py [--rows 8,24,100,400] [--seedlings 40] [--soak 500]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+
+T0 = time.perf_counter()
+
+
+def one(rows: int, live_rows: int, seedlings: int, seed: int) -> dict:
+    """One trial in this process: its timings, memory and per-seedling outcomes."""
+    import resource
+
+    import mujoco
+
+    from transplanter.scenario.assemble import assemble
+    from transplanter.scenario.schema import load_scenario
+    from transplanter.twin.results import Outcome
+    from transplanter.twin.sim import Twin
+    from transplanter.twin.trial import run_trial
+
+    t_import = time.perf_counter()
+    config = assemble(
+        load_scenario(
+            "paper",
+            {
+                "conveyor.rows": rows,
+                "conveyor.live_rows": live_rows,
+                "scenario.seedlings": seedlings,
+                "scenario.seed": seed,
+            },
+        )  # fmt: skip
+    )
+    first_step: list[float] = []
+
+    def factory(cfg):
+        twin = Twin(cfg)
+        t = time.perf_counter()
+        first_step.append(t)  # compiled; the first step is timed on a copy of its data
+        scratch = mujoco.MjData(twin.model)
+        mujoco.mj_copyData(scratch, twin.model, twin.data)
+        mujoco.mj_step(twin.model, scratch)
+        first_step.append(time.perf_counter())
+        return twin
+
+    t_run, cpu_run = time.perf_counter(), time.process_time()
+    result = run_trial(config, twin_factory=factory)
+    t_end, cpu_end = time.perf_counter(), time.process_time()
+    return {
+        "rows": rows,
+        "live_rows": live_rows,
+        "seedlings": seedlings,
+        "import_s": t_import - T0,
+        "build_s": first_step[0] - t_run,
+        "first_step_s": first_step[1] - first_step[0],
+        "wall_s": t_end - T0,
+        "trial_wall_s": result.wall_time_s,
+        "trial_cpu_s": cpu_end - cpu_run,
+        "sim_s": result.sim_time_s,
+        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "success": [r.outcome == Outcome.SUCCESS for r in result.per_seedling],
+        "cycle_s": [r.cycle_time_s for r in result.per_seedling],
+    }
+
+
+def measure(rows: int, live_rows: int, seedlings: int, seed: int) -> dict:
+    out = subprocess.run(
+        [sys.executable, __file__, "--one", f"{rows},{live_rows},{seedlings},{seed}"],
+        check=True, capture_output=True, text=True,
+    )  # fmt: skip
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def line(r: dict) -> str:
+    start = r["import_s"] + r["build_s"] + r["first_step_s"]
+    return (
+        f"{r['rows']:>4} rows, live_rows {r['live_rows']:>3}: {r['wall_s']:7.1f} s for "
+        f"{r['seedlings']} seedlings = {r['wall_s'] / r['seedlings']:6.3f} s/seedling, "
+        f"{r['sim_s'] / r['trial_wall_s']:5.1f}x real time ({r['sim_s'] / r['trial_cpu_s']:5.1f}x "
+        f"on CPU time), peak {r['peak_mb']:5.0f} MB, "
+        f"start-up {start:4.2f} s ({100 * start / r['wall_s']:4.1f} %: imports "
+        f"{r['import_s']:.2f}, compile {r['build_s']:.2f}, first step {r['first_step_s']:.4f})"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--one", help=argparse.SUPPRESS)
+    parser.add_argument("--rows", default="8,24,100,400", help="belts to run ('' for none)")
+    parser.add_argument("--live", default="8", help="live_rows to run each belt with, e.g. 6,8")
+    parser.add_argument("--seedlings", type=int, default=40)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--full-up-to", type=int, default=24,
+                        help="also run belts up to this many rows with a body per pot")  # fmt: skip
+    parser.add_argument("--soak", type=int, default=0, help="seedlings of the 100-row soak")
+    args = parser.parse_args()
+    if args.one:
+        rows, live, seedlings, seed = (int(x) for x in args.one.split(","))
+        print(json.dumps(one(rows, live, seedlings, seed)))
+        return
+    print(f"paper scenario, seed {args.seed}, one process per trial")
+    lives = [int(x) for x in args.live.split(",")]
+    for rows in (int(x) for x in args.rows.split(",") if x):
+        for live in lives:  # live_rows = rows is the belt without a window
+            if live <= rows:
+                print(line(measure(rows, live, args.seedlings, args.seed)), flush=True)
+        if max(lives) < rows <= args.full_up_to:
+            print(line(measure(rows, rows, args.seedlings, args.seed)), flush=True)
+    if args.soak:
+        paper = measure(8, 8, 40, args.seed)
+        soak = measure(100, 8, args.soak, args.seed)
+        print(line(paper))
+        print(line(soak))
+        for clock in ("wall", "cpu"):
+            rtf_paper = paper["sim_s"] / paper[f"trial_{clock}_s"]
+            rtf_soak = soak["sim_s"] / soak[f"trial_{clock}_s"]
+            print(f"soak real-time factor ({clock} time) {rtf_soak:.1f}x against the paper "
+                  f"trial's {rtf_paper:.1f}x: ratio {rtf_paper / rtf_soak:.2f}")  # fmt: skip
+        for label, part in (("first 100", slice(0, 100)), ("last 100", slice(-100, None))):
+            ok = soak["success"][part]
+            cycles = [c for c in soak["cycle_s"][part] if c is not None]
+            print(f"{label}: {sum(ok)}/{len(ok)} success, mean cycle "
+                  f"{sum(cycles) / len(cycles):.4f} s (min {min(cycles):.4f}, max "
+                  f"{max(cycles):.4f})")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,143 @@
+"""Evidence for the window of live rows (conveyor.live_rows): the same trials with a body per
+pot and with the window, compared.
+
+For each seed the scenario runs twice on a belt of --rows rows: with live_rows = rows (a
+body per pot) and with live_rows = --live. It prints the pooled success with its interval
+and the failure kinds of each, and where every pot stands in its cell when the arm is sent
+for it (the approach line): per row, the sd of its offset across the belt (x) and along it
+(y) with and without the window, and the two-sample tests (scipy.stats.ks_2samp on the
+offsets, levene on their spread) per row and over the rows that entered the window. Asserts
+nothing; --json writes every offset and outcome.
+
+    python benchmarks/window_evidence.py paper --rows 16 --live 8 --seeds 1-6 --seedlings 80
+    python benchmarks/window_evidence.py paper --set taught.z_low_mm=28 ...
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections import Counter
+
+import numpy as np
+from scipy import stats
+
+from transplanter.machine.pgf import LinePhase
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import load_scenario, parse_value
+from transplanter.studies.stats import parse_seeds, pooled_rate
+from transplanter.twin.results import Outcome
+from transplanter.twin.sim import LineEventKind, Twin
+from transplanter.twin.trial import run_trial
+
+
+def run(scenario: str, overrides: dict, seed: int, seedlings: int) -> dict:
+    """One trial: its outcomes and, per seedling, its pot's offset in its cell (m) when the
+    arm is sent for it."""
+    config = assemble(
+        load_scenario(
+            scenario, {**overrides, "scenario.seed": seed, "scenario.seedlings": seedlings}
+        )  # fmt: skip
+    )
+    offsets: dict[int, tuple[float, float]] = {}
+
+    def factory(cfg):
+        twin = Twin(cfg)
+
+        def at_approach(event):
+            line = event.line
+            if event.kind != LineEventKind.SENT or line.phase != LinePhase.APPROACH:
+                return
+            pot = line.seedling  # seedling i is sent for the pot of cell i
+            if pot is None or pot in offsets:
+                return
+            scene = twin.scene
+            where = scene.pot_positions(twin.data)[pot]
+            cell = scene.pots.cell_xy[pot] + [0.0, scene.conveyor_position(twin.data)]
+            offsets[pot] = (float(where[0] - cell[0]), float(where[1] - cell[1]))
+
+        twin.line_listeners.append(at_approach)
+        return twin
+
+    t0 = time.perf_counter()
+    result = run_trial(config, twin_factory=factory)
+    return {
+        "seed": seed,
+        "wall_s": time.perf_counter() - t0,
+        "sim_s": result.sim_time_s,
+        "outcomes": [str(r.outcome) for r in result.per_seedling],
+        "offsets": {str(k): v for k, v in sorted(offsets.items())},
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenario")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
+    parser.add_argument("--rows", type=int, default=16)
+    parser.add_argument("--live", type=int, default=8)
+    parser.add_argument("--seeds", default="1-6")
+    parser.add_argument("--seedlings", type=int, default=80)
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args()
+    base = dict(kv.split("=", 1) for kv in args.set)
+    base = {k: parse_value(v) for k, v in base.items()}
+    base["conveyor.rows"] = args.rows
+    modes = {"body per pot": args.rows, f"window of {args.live}": args.live}
+    runs: dict[str, list[dict]] = {name: [] for name in modes}
+    for seed in parse_seeds(args.seeds):
+        for name, live in modes.items():
+            runs[name].append(run(args.scenario, {**base, "conveyor.live_rows": live}, seed,
+                                  args.seedlings))  # fmt: skip
+            r = runs[name][-1]
+            print(f"  seed {seed} {name}: {r['wall_s']:.1f} s wall, "
+                  f"{Counter(r['outcomes']).most_common()}", flush=True)  # fmt: skip
+    print(f"{args.scenario} {' '.join(args.set)}, {args.rows} rows, seeds {args.seeds}, "
+          f"{args.seedlings} seedlings each")  # fmt: skip
+    for name, trials in runs.items():
+        ok = [sum(o == Outcome.SUCCESS for o in t["outcomes"]) for t in trials]
+        pooled = pooled_rate(ok, [len(t["outcomes"]) for t in trials])
+        kinds = Counter(o for t in trials for o in t["outcomes"])
+        lo, hi = pooled.ci95
+        print(f"{name:>14}: {pooled.successes}/{pooled.seedlings} = "
+              f"{100 * pooled.success_rate:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]  "
+              f"{dict(sorted(kinds.items()))}")  # fmt: skip
+    cols = 5
+    by_row = {name: {} for name in modes}
+    for name, trials in runs.items():
+        for t in trials:
+            for pot, xy in t["offsets"].items():
+                by_row[name].setdefault(int(pot) // cols, []).append(xy)
+    full, win = (by_row[n] for n in modes)
+    print("row  n  sd x (mm) full / window  sd y (mm) full / window  KS p (x)  Levene p (x)")
+    pooled_full, pooled_win = [], []
+    for row in sorted(set(full) & set(win)):
+        a, b = np.array(full[row]) * 1e3, np.array(win[row]) * 1e3
+        ks = stats.ks_2samp(a[:, 0], b[:, 0]).pvalue
+        lev = stats.levene(a[:, 0], b[:, 0]).pvalue
+        print(f"{row:>3} {len(a):>3}  {a[:, 0].std(ddof=1):5.2f} / {b[:, 0].std(ddof=1):5.2f}"
+              f"             {a[:, 1].std(ddof=1):5.2f} / {b[:, 1].std(ddof=1):5.2f}"
+              f"             {ks:6.3f}    {lev:6.3f}")  # fmt: skip
+        if row >= args.live:
+            pooled_full.append(a)
+            pooled_win.append(b)
+    if pooled_full:
+        a, b = np.concatenate(pooled_full), np.concatenate(pooled_win)
+        for axis, label in ((0, "across (x)"), (1, "along (y)")):
+            ks = stats.ks_2samp(a[:, axis], b[:, axis]).pvalue
+            lev = stats.levene(a[:, axis], b[:, axis]).pvalue
+            print(f"rows >= {args.live} pooled, {label}: n {len(a)}/{len(b)}, sd "
+                  f"{a[:, axis].std(ddof=1):.2f} / {b[:, axis].std(ddof=1):.2f} mm, "
+                  f"KS p {ks:.3f}, Levene p {lev:.3f}")  # fmt: skip
+    for name, trials in runs.items():
+        wall = sum(t["wall_s"] for t in trials)
+        sim = sum(t["sim_s"] for t in trials)
+        print(f"{name:>14}: {wall:.0f} s wall for {sim:.0f} s simulated ({sim / wall:.1f}x)")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"args": vars(args), "runs": runs}, fh)
+
+
+if __name__ == "__main__":
+    main()
