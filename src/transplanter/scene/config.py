@@ -532,6 +532,12 @@ class SceneConfig:
         """The rows of pot bodies the model holds: live_rows, or rows without a window."""
         return min(self.live_rows, self.rows)
 
+    @property
+    def rib_slot_rows(self) -> int:
+        """How many rows of ribs a windowed scene carries: one more than its rows of pot
+        bodies, so that every row with a pot body on the belt has its ribs."""
+        return self.body_rows + 1
+
     def stepper_params(self) -> tuple[StepperParams, StepperParams, StepperParams]:
         """The motors' torque laws (theta1, theta2, Z; transplanter.scene.stepper): the same
         NEMA17 on every axis, its damping from the unloaded rotor's ratio."""

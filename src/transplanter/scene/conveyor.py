@@ -80,9 +80,7 @@ class ConveyorDrive:
         m, rows = self.model, self.config.rows
         self._rib_bodies = np.zeros(0, dtype=int)
         if self.config.windowed:  # rows of ribs that move to the rows they serve
-            from transplanter.scene.workcells.conveyor_tube import rib_slot_rows
-
-            rows = rib_slot_rows(self.config)
+            rows = self.config.rib_slot_rows
             self._rib_bodies = np.array([m.body(f"ribs_{k}").id for k in range(rows)])
         # The drive's hold (joint stiffness about qpos_spring, and damping) as built; off
         # while the index profile drives the carriage, back at the new position after it.

@@ -27,13 +27,12 @@ Which pot a slot holds lives here and in the model, not in the MjData (like the 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any
 
 import mujoco
 import numpy as np
 
-if TYPE_CHECKING:
-    from transplanter.scene.handles import Scene
+from transplanter.scene import kinds as scene_kinds
 
 __all__ = ["LiveRows"]
 
@@ -57,7 +56,7 @@ WAITING, LIVE, GONE = 0, 1, 2
 class LiveRows:
     """Which pot each slot body holds, and the pots' places outside the physics."""
 
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: Any):  # the Scene (scene.handles) that owns the window
         cfg = scene.config
         self.scene, self.config = scene, cfg
         self.cols = cfg.cols
@@ -214,8 +213,7 @@ class LiveRows:
 
     def _row_library(self, row: int) -> mujoco.MjModel:
         """Row `row`'s pots compiled on their own, as `add_pots` builds a body per pot."""
-        from transplanter.scene.workcells.conveyor_tube import add_pots
-
+        add_pots = scene_kinds.workcell(self.config.workcell_kind).add_pots
         spec = mujoco.MjSpec()
         add_pots(spec, self.config, self.scene.pots, decor=False, count=self.cols,
                  first=row * self.cols)  # fmt: skip

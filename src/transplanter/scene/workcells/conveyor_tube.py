@@ -137,20 +137,14 @@ def add_ribs(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
             g.rgba = list(RIB_RGBA)
 
 
-def rib_slot_rows(cfg: SceneConfig) -> int:
-    """How many rows of ribs a windowed scene carries (scene.live_rows): one more than its
-    rows of pot bodies, so that every row with a pot body on the belt has its ribs."""
-    return cfg.body_rows + 1
-
-
 def add_rib_slots(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
-    """A windowed scene's ribs (scene.live_rows): rib_slot_rows rows of ribs, each row a
+    """A windowed scene's ribs (scene.live_rows): cfg.rib_slot_rows rows of ribs, each row a
     massless body on the carriage (`ribs_{k}`, its geoms `rib_{k}_{j}` in the row's frame)
     that the conveyor's drive moves to the row it serves (ConveyorDrive); built on rows
-    0..rib_slot_rows - 1, as add_ribs places them."""
+    0..cfg.rib_slot_rows - 1, as add_ribs places them."""
     conveyor = spec.body("conveyor")
     ys = row_y(cfg)
-    for r in range(rib_slot_rows(cfg)):  # rib_slot_rows <= rows in a windowed scene
+    for r in range(cfg.rib_slot_rows):  # rib_slot_rows <= rows in a windowed scene
         body = conveyor.add_body()
         body.name = f"ribs_{r}"
         body.pos = [0.0, ys[r], 0.0]
