@@ -20,6 +20,7 @@ at -y.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,7 +32,7 @@ from transplanter.scene.plug_physics import BIT_TRAY, add_cell, add_plug
 from transplanter.scene.plug_substrate import PlugsConfig, Substrate
 from transplanter.scene.plug_tray import Seedling, TrayDraw, TrayGeometry
 
-__all__ = ["DeltaSceneConfig", "JobCells", "build_delta_spec", "models_dir"]
+__all__ = ["DeltaSceneConfig", "JobCells", "build_delta_spec", "compile_scene", "models_dir"]
 
 PLATFORM_HALF_THICKNESS_M = 0.01
 """The platform's collision disc is 20 mm thick: the claws' mount hangs under it."""
@@ -232,3 +233,11 @@ def build_delta_spec(
     spec.option.timestep = cfg.timestep_s
     spec.worldbody.add_light(pos=[0, 0, 0.5], dir=[0, 0, -1])
     return spec
+
+
+def compile_scene(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """Compile the scene; MuJoCo's note that the claws were attached without a name prefix
+    is expected (they keep their names, which the claws' module looks up) and silenced."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return spec.compile()

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,7 +39,13 @@ from transplanter.machine.kinematics.delta import DeltaKinematics
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.sgf import SGFConfig
-from transplanter.scene.delta_scene import DeltaSceneConfig, JobCells, build_delta_spec, plug_name
+from transplanter.scene.delta_scene import (
+    DeltaSceneConfig,
+    JobCells,
+    build_delta_spec,
+    compile_scene,
+    plug_name,
+)
 from transplanter.scene.effectors import plug_claws
 from transplanter.scene.effectors.plug_claws import ClawCycle
 from transplanter.scene.plug_physics import LeafWatch, PlugPhysics
@@ -332,9 +337,7 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
         supply=tuple(o.supply for o in ops if o.supply is not None),
     )
     spec = build_delta_spec(cfg, planting, supply, cells)
-    with warnings.catch_warnings():  # the claws attached without a prefix keep their names
-        warnings.simplefilter("ignore", UserWarning)
-        model = spec.compile()
+    model = compile_scene(spec)
     data = mujoco.MjData(model)
     data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, cfg.work_z_m))
     data.ctrl[:3] = delta_robot.home_ctrl(cfg)
