@@ -49,6 +49,12 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
     from transplanter.studies.stats import pooled_rate
     from transplanter.twin.delta_refill import run_delta_refill
 
+    for option, value in (("--record", args.record), ("--clips-of-failures",
+                                                       args.clips_of_failures),
+                          ("--eeprom", args.eeprom)):  # fmt: skip
+        if value is not None:
+            _err(f"{option}: not available for the delta's plug-tray trial (docs/delta.md)")
+            return EXIT_REFUSED
     if args.seeds is not None and args.seed is not None:
         _err("--seeds runs one trial per seed: drop --seed")
         return EXIT_REFUSED
