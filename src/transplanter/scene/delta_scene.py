@@ -65,8 +65,10 @@ class DeltaSceneConfig:
     planting_y_m: float = 0.16
     supply_y_m: float = -0.16
     bin_xy_m: tuple[float, float] = (0.36, 0.0)
-    bin_size_m: float = 0.12
-    bin_depth_m: float = 0.06
+    bin_size_m: float = 0.16
+    """The bin's inside width (a crate; estimate): a 3 x 3 grid of drop spots 45 mm apart."""
+    bin_depth_m: float = 0.2
+    """The bin's depth below the trays' top (estimate): three culled plugs a spot."""
     timestep_s: float = 0.001
     claws: PlugClawsConfig = field(default_factory=PlugClawsConfig)
     plugs: PlugsConfig = field(default_factory=PlugsConfig)
@@ -77,6 +79,11 @@ class DeltaSceneConfig:
         """Z of the trays' top: the platform at work_z puts the claws' mount at the claws'
         work height above it."""
         return self.work_z_m - PLATFORM_HALF_THICKNESS_M - self.claws.work_height_m()
+
+    def bin_spot(self, k: int) -> tuple[float, float]:
+        """The k-th drop spot over the bin (the host cycles through a 3 x 3 grid)."""
+        i, j = divmod(k % 9, 3)
+        return self.bin_xy_m[0] + (i - 1) * 0.045, self.bin_xy_m[1] + (j - 1) * 0.045
 
     def cell_xy(self, tray: str, index: int) -> tuple[float, float]:
         """World (x, y) of a cell's centre (m); tray 'planting' or 'supply'."""

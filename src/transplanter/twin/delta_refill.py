@@ -84,6 +84,9 @@ class CellRecord:
     refilled: str | None = None  # seated / dropped / not_seated / not_reached
     retention: float | None = None
     leaf_damage: list[dict] = field(default_factory=list)
+    cull_dropped_at_s: float | None = None
+    refill_dropped_at_s: float | None = None
+    refill_peak_load_n: float | None = None
     start_s: float = math.nan
     end_s: float = math.nan
 
@@ -97,6 +100,9 @@ class CellRecord:
             "refilled": self.refilled,
             "retention": self.retention,
             "leaf_damage": self.leaf_damage,
+            "cull_dropped_at_s": self.cull_dropped_at_s,
+            "refill_dropped_at_s": self.refill_dropped_at_s,
+            "refill_peak_load_n": self.refill_peak_load_n,
             "start_s": round(self.start_s, 6),
             "end_s": round(self.end_s, 6),
         }
@@ -286,6 +292,7 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
     items: list = [("mark", "image"), ("wait", job.image_delay_s), ("mark", "start")]
     grips: list[str] = []
     rotary = 0.0
+    culls = 0
 
     def mm(v: float) -> str:
         return f"{v * 1e3:.3f}"
@@ -310,7 +317,8 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             rotary = op.rotary_deg
         if op.truth == INFERIOR:
             pick(x, y, plug_name("planting", op.cell))
-            place(job.bin_x_m, job.bin_y_m, job.bin_release_above_m)
+            place(*cfg.bin_spot(culls), job.bin_release_above_m)
+            culls += 1
         if op.supply is not None:
             sx, sy = cfg.cell_xy("supply", op.supply)
             pick(sx, sy, plug_name("supply", op.supply))
@@ -459,12 +467,15 @@ def _judge(sc, seed, cfg, ops, data, physics, leaves, host, controller, drives, 
         if op.truth == INFERIOR:
             name = plug_name("planting", op.cell)
             rec.culled = judge.culled(data, physics[name], xy)
+            rec.cull_dropped_at_s = physics[name].dropped_at_s
             own.add(name)
         if op.supply is not None:
             name = plug_name("supply", op.supply)
             own.add(name)
             p = physics[name]
             rec.refilled = judge.refilled(data, p, xy)
+            rec.refill_dropped_at_s = p.dropped_at_s
+            rec.refill_peak_load_n = round(p.peak_load_n, 6)
             if rec.refilled == "seated":
                 rec.retention = p.mass_kg / p.mass0
             rec.leaf_damage = damage_by_plug.get(name, [])
