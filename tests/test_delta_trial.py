@@ -155,7 +155,7 @@ def test_the_json_has_the_paper_columns_with_definitions(tmp_path, capsys):
     assert status == 0
     d = json.loads(out.read_text())
     for name in ("time_per_operation_s", "plants_per_hour", "trays_per_hour",
-                 "leaf_damage_rate", "substrate_retention"):  # fmt: skip
+                 "leaf_damage_rate", "tray_leaf_damage_rate", "substrate_retention"):  # fmt: skip
         assert isinstance(d[name], float) and math.isfinite(d[name]), name
         assert name in d["definitions"]
     assert isinstance(d["dropped"], int) and isinstance(d["failures"], dict)

@@ -32,7 +32,8 @@ def summary_line(r) -> str:
     line = (
         f"seed {r.seed}: {r.operations} operations, {r.time_per_operation_s:.2f} s per "
         f"operation, {r.plants_per_hour:.1f} plants/h, {r.trays_per_hour:.2f} trays/h, "
-        f"leaf damage {100 * r.leaf_damage_rate:.2f} %, dropped {r.dropped}, "
+        f"leaf damage {100 * r.leaf_damage_rate:.2f} % of refills "
+        f"({100 * r.tray_leaf_damage_rate:.2f} % of the tray), dropped {r.dropped}, "
         f"substrate retention {ret}; failures: {fails}; wall {r.wall_time_s:.1f} s"
     )
     return line if r.fault is None else f"{line}\n  fault: {r.fault}"
@@ -77,7 +78,7 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
         pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
         payload = {"trials": [r.to_dict() for r in results], "pooled": pooled.to_dict()}
         for name in ("time_per_operation_s", "plants_per_hour", "trays_per_hour",
-                     "leaf_damage_rate"):  # fmt: skip
+                     "leaf_damage_rate", "tray_leaf_damage_rate"):  # fmt: skip
             values = [getattr(r, name) for r in results if math.isfinite(getattr(r, name))]
             payload[f"mean_{name}"] = sum(values) / len(values) if values else None
         lo, hi = pooled.ci95

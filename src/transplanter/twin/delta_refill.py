@@ -50,7 +50,7 @@ from transplanter.scene.effectors import plug_claws
 from transplanter.scene.effectors.plug_claws import ClawCycle
 from transplanter.scene.plug_physics import LeafWatch, PlugPhysics
 from transplanter.scene.plug_substrate import Substrate
-from transplanter.scene.plug_tray import TrayDraw, draw_tray
+from transplanter.scene.plug_tray import CellTruth, TrayDraw, TrayGeometry, draw_tray
 from transplanter.scene.robots import delta as delta_robot
 from transplanter.vision.grading import EMPTY, HEALTHY, HEALTHY_LR, HEALTHY_UD, INFERIOR
 
@@ -67,6 +67,9 @@ DEFINITIONS = {
     "trays_per_hour": "3600 / (tray time + tray change), at this tray's share of work",
     "leaf_damage_rate": "refill seedlings with at least one leaf torn by a claw or the "
     "stripper / refill seedlings picked",
+    "tray_leaf_damage_rate": "seedlings of the finished planting tray (refills seated and "
+    "seedlings left in place) with a torn leaf / seedlings in it (the paper's Table 5 counts "
+    "damaged / 128 of a tray)",
     "substrate_retention": "mean over seated refills of plug mass after / before",
 }
 HEALTHY_CLASSES = (HEALTHY, HEALTHY_LR, HEALTHY_UD)
@@ -118,6 +121,7 @@ class DeltaRefillResult:
     plants_per_hour: float
     trays_per_hour: float
     leaf_damage_rate: float
+    tray_leaf_damage_rate: float
     dropped: int
     substrate_retention: float | None
     failures: dict[str, int]
@@ -151,6 +155,7 @@ class DeltaRefillResult:
             "plants_per_hour": self.plants_per_hour,
             "trays_per_hour": self.trays_per_hour,
             "leaf_damage_rate": self.leaf_damage_rate,
+            "tray_leaf_damage_rate": self.tray_leaf_damage_rate,
             "dropped": self.dropped,
             "substrate_retention": self.substrate_retention,
             "failures": dict(sorted(self.failures.items())),
@@ -201,16 +206,34 @@ class _Op:
     rotary_deg: float
 
 
-def _rotary_for(truth: str, current: float, judge: bool, fixed: float) -> float:
-    """The claws' setting for a seedling: left-right crossers 90 deg, up-down crossers 0 deg
-    (docs/plug_claws.md); the others keep the current setting. Without pose judgement: fixed."""
-    if not judge:
+def leaf_extents_mm(cell: CellTruth, geometry: TrayGeometry) -> tuple[float, float]:
+    """How far the seedling's blades reach from its cell's centre along x (left-right) and y
+    (up-down), mm: each blade's bounding half-widths about its centre."""
+    cx, cy = geometry.centre(cell.row, cell.col)
+    ex = ey = 0.0
+    for lf in cell.seedling.leaves if cell.seedling is not None else ():
+        c, s = abs(math.cos(lf.angle_rad)), abs(math.sin(lf.angle_rad))
+        hx = math.hypot(lf.radial_mm * c, lf.tangential_mm * s)
+        hy = math.hypot(lf.radial_mm * s, lf.tangential_mm * c)
+        ex = max(ex, abs(lf.cx - cx) + hx)
+        ey = max(ey, abs(lf.cy - cy) + hy)
+    return ex, ey
+
+
+def rotary_for(cell: CellTruth | None, geometry: TrayGeometry, judge: bool, fixed: float) -> float:
+    """The claws' setting for a seedling: the stripper's blocks come down beside the claws'
+    entry points (along x at 0 deg), so the claws go in across the seedling's narrower side:
+    left-right crossers 90 deg, up-down crossers 0 deg (docs/plug_claws.md), a seedling inside
+    its cell by the reach of its blades (90 deg when they reach farther left-right). Without
+    pose judgement: `fixed`."""
+    if not judge or cell is None:
         return fixed
-    if truth == HEALTHY_LR:
+    if cell.truth == HEALTHY_LR:
         return 90.0
-    if truth == HEALTHY_UD:
+    if cell.truth == HEALTHY_UD:
         return 0.0
-    return current
+    ex, ey = leaf_extents_mm(cell, geometry)
+    return 90.0 if ex > ey else 0.0
 
 
 def plan_job(sc, planting: TrayDraw, supply: TrayDraw) -> list[_Op]:
@@ -223,13 +246,10 @@ def plan_job(sc, planting: TrayDraw, supply: TrayDraw) -> list[_Op]:
     todo = [c for c in planting.cells if c.truth in (INFERIOR, EMPTY)]
     if job.max_cells:
         todo = todo[: job.max_cells]
-    rotary = fixed if not job.pose_judgement else 0.0
     for k, cell in enumerate(todo):
         src = healthy[k] if k < len(healthy) else None
-        # the setting is the refill seedling's (the one lifted by its leaves' side); the
-        # culled plug is lifted at the same setting
-        truth = src.truth if src is not None else cell.truth
-        rotary = _rotary_for(truth, rotary, job.pose_judgement, fixed)
+        # the setting is the refill seedling's; the culled plug is lifted at the same setting
+        rotary = rotary_for(src, supply.geometry, job.pose_judgement, fixed)
         ops.append(_Op(cell.index, cell.truth, src.index if src is not None else None, rotary))
     return ops
 
@@ -443,11 +463,11 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
     valid = t <= limit_s and not any(int(w.number) for w in data.warning)
     if fault is None and host.error is not None:
         fault = host.error
-    return _judge(sc, seed, cfg, ops, data, physics, leaves, host, controller, drives,
+    return _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives,
                   fault, k * dt, time.perf_counter() - wall0, valid)  # fmt: skip
 
 
-def _judge(sc, seed, cfg, ops, data, physics, leaves, host, controller, drives, fault,
+def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives, fault,
            sim_t, wall, valid) -> DeltaRefillResult:  # fmt: skip
     job = sc.delta_refill
     judge = DeltaRefillJudge(cfg, (job.bin_x_m, job.bin_y_m), 0.006)
@@ -511,6 +531,11 @@ def _judge(sc, seed, cfg, ops, data, physics, leaves, host, controller, drives, 
     picked = [r for r in records if r.supply_index is not None]
     damaged = sum(1 for r in picked if r.leaf_damage)
     kept = [r.retention for r in records if r.retention is not None]
+    culled = {plug_name("planting", r.index) for r in records if r.culled == "binned"}
+    seated = [r for r in records if r.refilled == "seated"]
+    in_tray = sum(1 for c in planting.cells if c.seedling is not None) - len(culled) + len(seated)
+    torn_here = {p for p in damage_by_plug if p.startswith("p") and p not in culled}
+    torn_here |= {plug_name("supply", r.supply_index) for r in seated if r.leaf_damage}
     dropped = sum(1 for r in records if r.culled == "dropped" or r.refilled == "dropped")
     return DeltaRefillResult(
         seed=seed,
@@ -521,6 +546,7 @@ def _judge(sc, seed, cfg, ops, data, physics, leaves, host, controller, drives, 
         plants_per_hour=3600.0 * handled / cycle if cycle > 0 else math.nan,
         trays_per_hour=3600.0 / cycle if cycle > 0 else math.nan,
         leaf_damage_rate=damaged / len(picked) if picked else 0.0,
+        tray_leaf_damage_rate=len(torn_here) / in_tray if in_tray else 0.0,
         dropped=dropped,
         substrate_retention=float(np.mean(kept)) if kept else None,
         failures=failures,
