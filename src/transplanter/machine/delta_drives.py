@@ -89,7 +89,7 @@ class DeltaController:
             self.sgf.receive(line, now)
         else:
             self.refused.append(refusal)
-            self._replies.append(f"error:{int(ErrorCode.INVALID_TARGET)} {refusal}")
+            self._replies.append(ErrorCode.INVALID_TARGET.reply(refusal))
 
     def _check(self, line: str) -> str | None:
         try:
