@@ -20,7 +20,6 @@ at -y.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -243,8 +242,7 @@ def build_delta_spec(
 
 
 def compile_scene(spec: mujoco.MjSpec) -> mujoco.MjModel:
-    """Compile the scene; MuJoCo's note that the claws were attached without a name prefix
-    is expected (they keep their names, which the claws' module looks up) and silenced."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
+    """Compile the scene (MuJoCo's note on the claws attached without a name prefix
+    silenced: `robots.delta.quiet_prefix_note`)."""
+    with kinds.robot("delta").quiet_prefix_note():
         return spec.compile()

@@ -9,6 +9,9 @@ and the only equalities in the scene (docs/delta.md).
 
 from __future__ import annotations
 
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import mujoco
@@ -22,6 +25,25 @@ ARMS = ("q1", "q2", "q3")
 EFFECTOR_MODEL = "effectors/plug_claws/plug_claws.xml"
 
 
+@contextmanager
+def quiet_prefix_note() -> Iterator[None]:
+    """Silence MuJoCo's note that a spec was attached without a name prefix (printed and
+    logged to MUJOCO_LOG.TXT, and a Python warning at compile): the claws keep their names,
+    which the claws' module looks up. Any other MuJoCo warning is passed on."""
+    notes: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(notes.append)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*empty prefix.*", category=UserWarning)
+            yield
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    for note in notes:
+        if "empty prefix" not in note:
+            warnings.warn(note, stacklevel=3)
+
+
 def attach_effector(spec: mujoco.MjSpec, models: Path) -> None:
     """Merge the plug-in claws under the platform: a frame on the platform's underside, the
     claws' mount attached to it (its bodies, joints, actuators and assets come along)."""
@@ -33,7 +55,8 @@ def attach_effector(spec: mujoco.MjSpec, models: Path) -> None:
     platform = spec.body("platform")
     half = float(spec.geom("platform").size[1])
     frame = platform.add_frame(pos=[0.0, 0.0, -half])
-    frame.attach_body(claws.body("claws_mount"), "", "")
+    with quiet_prefix_note():
+        frame.attach_body(claws.body("claws_mount"), "", "")
 
 
 def apply(spec: mujoco.MjSpec, cfg) -> None:
