@@ -117,6 +117,10 @@ def cmd_trial(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
+    from transplanter.cli import delta_trial  # the delta's plug-tray job: its own trial
+
+    if delta_trial.handles(args, overrides):
+        return delta_trial.run_trial(args, overrides, targets["--json"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")

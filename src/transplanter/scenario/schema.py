@@ -219,6 +219,32 @@ class DeltaSection:
 
 
 @dataclass(frozen=True)
+class DeltaRefillSection:
+    """[delta_refill]: the delta's cull-and-refill job (`[workcell] kind = "plug_trays"`;
+    read only by transplanter.twin.delta_refill). Optional: the defaults are the paper's
+    numbers where it gives them and estimates otherwise (docs/delta.md)."""
+
+    image_delay_s: float = key("float", 0, 60000, doc="the PC's imaging and grading time")
+    pose_judgement: bool = key("bool", doc="turn the claws by the cell's leaf layout")
+    fixed_rotary_rad: float = key("float", 0, 90, doc="rotary setting without pose judgement")
+    following_error_limit_rad: float = key("float", 0.001, 90, doc="drive alarm level")
+    travel_speed_m_s: float = key("float", 1, 5000, doc="G1 speed of the travel moves")
+    approach_speed_m_s: float = key("float", 1, 5000, doc="G1 speed onto a cell")
+    path_accel_m_s2: float = key("float", 1, 1e6, doc="the controller's path acceleration")
+    segment_m: float = key("float", 0.01, 10, doc="interpolation grid of the controller")
+    point_time_s: float = key("float", 1, 1e5, doc="the controller's IK time per point")
+    lift_m: float = key("float", 10, 300, doc="lift above the work height (the paper: 100)")
+    release_above_m: float = key("float", 0, 50, doc="platform above work height at release")
+    bin_release_above_m: float = key("float", 0, 200, doc="platform above work over the bin")
+    bin_x_m: float = key("float", -1000, 1000, doc="the bin's centre X")
+    bin_y_m: float = key("float", -1000, 1000, doc="the bin's centre Y")
+    tray_change_s: float = key("float", 0, 600000, doc="tray out and next tray in")
+    settle_after_s: float = key("float", 0, 10000, doc="simulated after the last line")
+    max_cells: int = key("int", lo=0, hi=128, doc="cells serviced per tray (0: all)")
+    supply_seed_offset: int = key("int", lo=1, hi=10**9, doc="supply tray's seed - seed")
+
+
+@dataclass(frozen=True)
 class Serial4Section:
     """[serial4]: the serial 4-DOF servo arm of seed 004 (`[robot] kind = "serial4"`), read
     only by its kinematics; optional, default the MeArm-class arm (docs/serial_arm.md)."""
@@ -548,6 +574,8 @@ _FILE_KEY_OVERRIDES = {
     "stall_settle_s": "stall_settle_ms", "canopy_timeconst_s": "canopy_timeconst_ms",
     "homing_debounce_s": "homing_debounce_ms",
     "shoot_mass_kg": "shoot_mass_g",
+    "image_delay_s": "image_delay_ms", "point_time_s": "point_time_us",
+    "tray_change_s": "tray_change_ms", "settle_after_s": "settle_after_ms",
 }  # fmt: skip
 _FILE_SUFFIX = {
     "_rad_s2": "_deg_s2", "_rad_s": "_deg_s", "_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm",
@@ -561,6 +589,7 @@ SECTIONS: dict[str, type] = {
     "effector": EffectorSection,
     "arm": ArmSection,
     "delta": DeltaSection,
+    "delta_refill": DeltaRefillSection,
     "serial4": Serial4Section,
     "limits": LimitsSection,
     "drives": DrivesSection,
@@ -628,6 +657,26 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "homing_rate_hz": 5000.0,
         "homing_locate_rate_hz": 500.0,
     },
+    "delta_refill": {
+        "image_delay_ms": 2000.0,
+        "pose_judgement": True,
+        "fixed_rotary_deg": 0.0,
+        "following_error_limit_deg": 2.0,
+        "travel_speed_mm_s": 500.0,
+        "approach_speed_mm_s": 200.0,
+        "path_accel_mm_s2": 5000.0,
+        "segment_mm": 0.5,
+        "point_time_us": 100.0,
+        "lift_mm": 100.0,
+        "release_above_mm": 8.0,
+        "bin_release_above_mm": 20.0,
+        "bin_x_mm": 360.0,
+        "bin_y_mm": 0.0,
+        "tray_change_ms": 3000.0,
+        "settle_after_ms": 300.0,
+        "max_cells": 0,
+        "supply_seed_offset": 1000003,
+    },
     "serial4": {
         "l1_mm": 80.0,
         "l2_mm": 80.0,
@@ -668,6 +717,7 @@ class Scenario:
     effector: EffectorSection
     arm: ArmSection
     delta: DeltaSection
+    delta_refill: DeltaRefillSection
     serial4: Serial4Section
     limits: LimitsSection
     drives: DrivesSection

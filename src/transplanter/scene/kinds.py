@@ -30,12 +30,18 @@ __all__ = [
     "workcell",
 ]
 
-ROBOTS = {"fivebar": "transplanter.scene.robots.fivebar"}
+ROBOTS = {
+    "fivebar": "transplanter.scene.robots.fivebar",
+    "delta": "transplanter.scene.robots.delta",
+}
 EFFECTORS = {
     "parallel_jaw": "transplanter.scene.effectors.parallel_jaw",
     "plug_claws": "transplanter.scene.effectors.plug_claws",
 }
-WORKCELLS = {"conveyor_tube": "transplanter.scene.workcells.conveyor_tube"}
+WORKCELLS = {
+    "conveyor_tube": "transplanter.scene.workcells.conveyor_tube",
+    "plug_trays": "transplanter.scene.workcells.plug_trays",
+}
 
 
 def _load(table: dict[str, str], what: str, kind: str) -> ModuleType:

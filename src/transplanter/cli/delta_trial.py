@@ -1,0 +1,91 @@
+"""`transplanter trial` for the delta's cull-and-refill job (`[workcell] kind =
+"plug_trays"`): one tray per seed, headless (transplanter.twin.delta_refill); with --seeds the
+pooled success rate over the serviced cells (studies.stats.pooled_rate) and the means of the
+paper's three rates."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds
+
+__all__ = ["handles", "run_trial"]
+
+
+def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
+    """The scenario's job is the delta's plug trays (a scenario that does not load is left to
+    the trial command's own refusal)."""
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+
+    try:
+        return load_scenario(args.scenario, overrides).workcell.kind == "plug_trays"
+    except ScenarioError:
+        return False
+
+
+def summary_line(r) -> str:
+    ret = "-" if r.substrate_retention is None else f"{100 * r.substrate_retention:.1f} %"
+    fails = ", ".join(f"{k} {v}" for k, v in sorted(r.failures.items())) or "none"
+    line = (
+        f"seed {r.seed}: {r.operations} operations, {r.time_per_operation_s:.2f} s per "
+        f"operation, {r.plants_per_hour:.1f} plants/h, {r.trays_per_hour:.2f} trays/h, "
+        f"leaf damage {100 * r.leaf_damage_rate:.2f} % of refills "
+        f"({100 * r.tray_leaf_damage_rate:.2f} % of the tray), dropped {r.dropped}, "
+        f"substrate retention {ret}; failures: {fails}; wall {r.wall_time_s:.1f} s"
+    )
+    return line if r.fault is None else f"{line}\n  fault: {r.fault}"
+
+
+def _definitions() -> str:
+    from transplanter.twin.delta_refill import DEFINITIONS
+
+    return "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
+
+
+def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Path | None) -> int:
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.studies.stats import pooled_rate
+    from transplanter.twin.delta_refill import run_delta_refill
+
+    for option, value in (("--record", args.record), ("--clips-of-failures",
+                                                       args.clips_of_failures),
+                          ("--eeprom", args.eeprom)):  # fmt: skip
+        if value is not None:
+            _err(f"{option}: not available for the delta's plug-tray trial (docs/delta.md)")
+            return EXIT_REFUSED
+    if args.seeds is not None and args.seed is not None:
+        _err("--seeds runs one trial per seed: drop --seed")
+        return EXIT_REFUSED
+    seeds = _seeds(args) if args.seeds is not None else [None]
+    if seeds is None:
+        return EXIT_REFUSED
+    try:
+        scenario = load_scenario(args.scenario, overrides)
+    except ScenarioError as exc:
+        _err(f"scenario refused: {exc}")
+        return EXIT_REFUSED
+    results = []
+    for seed in seeds:
+        result = run_delta_refill(scenario, seed)
+        results.append(result)
+        print(summary_line(result))
+    if args.seeds is None:
+        payload: dict[str, Any] = results[0].to_dict()
+    else:
+        pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
+        payload = {"trials": [r.to_dict() for r in results], "pooled": pooled.to_dict()}
+        for name in ("time_per_operation_s", "plants_per_hour", "trays_per_hour",
+                     "leaf_damage_rate", "tray_leaf_damage_rate"):  # fmt: skip
+            values = [getattr(r, name) for r in results if math.isfinite(getattr(r, name))]
+            payload[f"mean_{name}"] = sum(values) / len(values) if values else None
+        lo, hi = pooled.ci95
+        print(
+            f"pooled over {pooled.trials} trays: {100 * pooled.success_rate:.1f} % of serviced "
+            f"cells done ({pooled.successes}/{pooled.seedlings}), 95 % CI "
+            f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
+        )
+    summary = "definitions:\n" + _definitions()
+    return _finish(args, results, summary, payload, json_path)

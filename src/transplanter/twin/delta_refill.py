@@ -1,0 +1,561 @@
+"""The delta's cull-and-refill trial (seed 002: Zhao, Cheng, Dong, Ma, Xiong and Tong,
+*Research on the End Effector and Optimal Motion Control Strategy for a Plug Seedling
+Transplanting Parallel Robot*), headless: `transplanter trial delta_refill`.
+
+The chain, as on the machine:
+
+- **Host** (the paper's PC + PLC): the tray is imaged and graded (the cells' ground-truth
+  classes of `plug_tray.draw_tray`; the PC's time is `image_delay_ms`), then for every
+  inferior cell a removal to the bin and a supplementation from the supply tray, for every
+  empty cell a supplementation; G-code lines one at a time over the bus (the host waits for
+  each `ok`). The claws are driven through the controller's two servo outputs, as the PLC's
+  valve outputs: `M280 P0 S1` extends the claws, `M280 P0 S0` retracts them (the stripper
+  pushes the plug off), `M280 P1 S0|S90` sets the rotary cylinder; `G4 P<ms>` waits the
+  stroke and settle times (the PLC's timers). After the tray: the claws home (`G28`) and
+  the tray is changed (`tray_change_ms`).
+- **Controller**: `machine.delta_drives.DeltaController`, the SGF with DeltaKinematics
+  (every interpolated point through the delta's IK and joint window) and the pre-move check
+  of joint speed, acceleration and torque.
+- **Drives**: `machine.delta_drives.PulseServos` turn the pulse counts into joint commands
+  for the model's torque-limited position servos (tau_max through the reducer); a following
+  error beyond `following_error_limit_deg` raises the drive's alarm and ends the trial.
+- **Physics**: the plugs are held by the claws through contact only
+  (`scene.plug_physics`), the cells' adhesion and the substrate's loss per step.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from transplanter.machine.bus import ComBus
+from transplanter.machine.delta_drives import DeltaController, PulseServos
+from transplanter.machine.kinematics.delta import DeltaKinematics
+from transplanter.machine.motion import MotionConfig
+from transplanter.machine.rig import SimulatedEndstops
+from transplanter.machine.sgf import SGFConfig
+from transplanter.scene.delta_scene import (
+    DeltaSceneConfig,
+    JobCells,
+    build_delta_spec,
+    compile_scene,
+    plug_name,
+)
+from transplanter.scene.effectors import plug_claws
+from transplanter.scene.effectors.plug_claws import ClawCycle
+from transplanter.scene.plug_physics import LeafWatch, PlugPhysics
+from transplanter.scene.plug_substrate import Substrate
+from transplanter.scene.plug_tray import CellTruth, TrayDraw, TrayGeometry, draw_tray
+from transplanter.scene.robots import delta as delta_robot
+from transplanter.vision.grading import EMPTY, HEALTHY, HEALTHY_LR, HEALTHY_UD, INFERIOR
+
+__all__ = ["DeltaRefillJudge", "DeltaRefillResult", "run_delta_refill"]
+
+DEFINITIONS = {
+    "time_per_operation_s": "simulated tray time (image delay + every removal and "
+    "supplementation, their moves, cylinder strokes, rotary swings and settles; the tray "
+    "change excluded) / operations, an operation being one serviced cell: a removal and "
+    "a supplementation for an inferior cell, a supplementation for an empty one (the "
+    "paper's Table 4 counts a removal and a supplementation)",
+    "plants_per_hour": "3600 x plants handled (culled to the bin + refills seated) / "
+    "(tray time + tray change)",
+    "trays_per_hour": "3600 / (tray time + tray change), at this tray's share of work",
+    "leaf_damage_rate": "refill seedlings with at least one leaf torn by a claw or the "
+    "stripper / refill seedlings picked",
+    "tray_leaf_damage_rate": "seedlings of the finished planting tray (refills seated and "
+    "seedlings left in place) with a torn leaf / seedlings in it (the paper's Table 5 counts "
+    "damaged / 128 of a tray)",
+    "substrate_retention": "mean over seated refills of plug mass after / before",
+}
+HEALTHY_CLASSES = (HEALTHY, HEALTHY_LR, HEALTHY_UD)
+
+
+@dataclass
+class CellRecord:
+    """One serviced planting cell."""
+
+    index: int
+    truth: str
+    rotary_deg: float
+    culled: str | None = None  # binned / dropped / left (inferior cells)
+    supply_index: int | None = None
+    refilled: str | None = None  # seated / dropped / not_seated / not_reached
+    retention: float | None = None
+    leaf_damage: list[dict] = field(default_factory=list)
+    cull_dropped_at_s: float | None = None
+    refill_dropped_at_s: float | None = None
+    refill_peak_load_n: float | None = None
+    start_s: float = math.nan
+    end_s: float = math.nan
+
+    def as_dict(self) -> dict:
+        return {
+            "index": self.index,
+            "truth": self.truth,
+            "rotary_deg": self.rotary_deg,
+            "culled": self.culled,
+            "supply_index": self.supply_index,
+            "refilled": self.refilled,
+            "retention": self.retention,
+            "leaf_damage": self.leaf_damage,
+            "cull_dropped_at_s": self.cull_dropped_at_s,
+            "refill_dropped_at_s": self.refill_dropped_at_s,
+            "refill_peak_load_n": self.refill_peak_load_n,
+            "start_s": round(self.start_s, 6),
+            "end_s": round(self.end_s, 6),
+        }
+
+
+@dataclass
+class DeltaRefillResult:
+    seed: int
+    pose_judgement: bool
+    operations: int
+    tray_time_s: float
+    time_per_operation_s: float
+    plants_per_hour: float
+    trays_per_hour: float
+    leaf_damage_rate: float
+    tray_leaf_damage_rate: float
+    dropped: int
+    substrate_retention: float | None
+    failures: dict[str, int]
+    cells: list[CellRecord]
+    neighbour_leaf_damage: list[dict]
+    fault: str | None
+    refused: list[str]
+    peak_following_error_deg: list[float]
+    wall_time_s: float
+    sim_time_s: float
+    valid: bool = True
+    """False when MuJoCo warned (an unstable step) or the job ran out of simulated time."""
+    recording_error: str | None = None
+
+    @property
+    def successes(self) -> int:
+        return sum(1 for c in self.cells if _cell_ok(c))
+
+    @property
+    def seedlings(self) -> int:
+        return len(self.cells)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "trial": "delta_refill",
+            "seed": self.seed,
+            "pose_judgement": self.pose_judgement,
+            "operations": self.operations,
+            "tray_time_s": self.tray_time_s,
+            "time_per_operation_s": self.time_per_operation_s,
+            "plants_per_hour": self.plants_per_hour,
+            "trays_per_hour": self.trays_per_hour,
+            "leaf_damage_rate": self.leaf_damage_rate,
+            "tray_leaf_damage_rate": self.tray_leaf_damage_rate,
+            "dropped": self.dropped,
+            "substrate_retention": self.substrate_retention,
+            "failures": dict(sorted(self.failures.items())),
+            "cells": [c.as_dict() for c in self.cells],
+            "neighbour_leaf_damage": self.neighbour_leaf_damage,
+            "fault": self.fault,
+            "refused": self.refused,
+            "peak_following_error_deg": self.peak_following_error_deg,
+            "sim_time_s": self.sim_time_s,
+            "valid": self.valid,
+            "wall_time_s": self.wall_time_s,
+            "definitions": DEFINITIONS,
+        }
+
+
+def _cell_ok(c: CellRecord) -> bool:
+    return c.culled in (None, "binned") and c.refilled == "seated" and not c.leaf_damage
+
+
+class DeltaRefillJudge:
+    """Judges the plugs at the end of a trial: where each culled plug ended (the bin, dropped
+    on the way, left in its cell) and whether each refill stands in its target cell."""
+
+    def __init__(self, cfg: DeltaSceneConfig, bin_xy: tuple[float, float], tol_m: float):
+        self.cfg, self.bin_xy, self.tol_m = cfg, bin_xy, tol_m
+
+    def culled(self, data: mujoco.MjData, physics: PlugPhysics, cell_xy) -> str:
+        x, y, z = (float(v) for v in data.xpos[physics.body])
+        half = self.cfg.bin_size_m / 2
+        in_bin = abs(x - self.bin_xy[0]) < half and abs(y - self.bin_xy[1]) < half
+        if in_bin and z < self.cfg.tray_top_m:
+            return "binned"
+        if physics.seated_in(data, cell_xy, self.tol_m):
+            return "left"
+        return "dropped"
+
+    def refilled(self, data: mujoco.MjData, physics: PlugPhysics, cell_xy) -> str:
+        if physics.seated_in(data, cell_xy, self.tol_m):
+            return "seated"
+        return "dropped" if physics.dropped_at_s is not None else "not_seated"
+
+
+@dataclass(frozen=True)
+class _Op:
+    cell: int
+    truth: str
+    supply: int | None
+    rotary_deg: float
+
+
+def leaf_extents_mm(cell: CellTruth, geometry: TrayGeometry) -> tuple[float, float]:
+    """How far the seedling's blades reach from its cell's centre along x (left-right) and y
+    (up-down), mm: each blade's bounding half-widths about its centre."""
+    cx, cy = geometry.centre(cell.row, cell.col)
+    ex = ey = 0.0
+    for lf in cell.seedling.leaves if cell.seedling is not None else ():
+        c, s = abs(math.cos(lf.angle_rad)), abs(math.sin(lf.angle_rad))
+        hx = math.hypot(lf.radial_mm * c, lf.tangential_mm * s)
+        hy = math.hypot(lf.radial_mm * s, lf.tangential_mm * c)
+        ex = max(ex, abs(lf.cx - cx) + hx)
+        ey = max(ey, abs(lf.cy - cy) + hy)
+    return ex, ey
+
+
+def rotary_for(cell: CellTruth | None, geometry: TrayGeometry, judge: bool, fixed: float) -> float:
+    """The claws' setting for a seedling: the stripper's blocks come down beside the claws'
+    entry points (along x at 0 deg), so the claws go in across the seedling's narrower side:
+    left-right crossers 90 deg, up-down crossers 0 deg (docs/plug_claws.md), a seedling inside
+    its cell by the reach of its blades (90 deg when they reach farther left-right). Without
+    pose judgement: `fixed`."""
+    if not judge or cell is None:
+        return fixed
+    if cell.truth == HEALTHY_LR:
+        return 90.0
+    if cell.truth == HEALTHY_UD:
+        return 0.0
+    ex, ey = leaf_extents_mm(cell, geometry)
+    return 90.0 if ex > ey else 0.0
+
+
+def plan_job(sc, planting: TrayDraw, supply: TrayDraw) -> list[_Op]:
+    """The host's work list from the graded tray: inferior cells culled and refilled, empty
+    cells refilled, in index order, each refill from the next healthy supply cell."""
+    job = sc.delta_refill
+    fixed = math.degrees(job.fixed_rotary_rad)
+    healthy = [c for c in supply.cells if c.truth in HEALTHY_CLASSES]
+    ops: list[_Op] = []
+    todo = [c for c in planting.cells if c.truth in (INFERIOR, EMPTY)]
+    if job.max_cells:
+        todo = todo[: job.max_cells]
+    for k, cell in enumerate(todo):
+        src = healthy[k] if k < len(healthy) else None
+        # the setting is the refill seedling's; the culled plug is lifted at the same setting
+        rotary = rotary_for(src, supply.geometry, job.pose_judgement, fixed)
+        ops.append(_Op(cell.index, cell.truth, src.index if src is not None else None, rotary))
+    return ops
+
+
+def _scene_config(sc, kin: DeltaKinematics) -> DeltaSceneConfig:
+    d, job = sc.delta, sc.delta_refill
+    work_z = -0.8
+    q0 = tuple(float(v) for v in kin.joints(np.array([0.0, 0.0, work_z])))
+    return DeltaSceneConfig(
+        gear_ratio=d.gear_ratio,
+        joint_torque_limit_nm=d.joint_torque_limit_nm,
+        platform_mass_kg=d.platform_mass_kg,
+        home_q_rad=q0,
+        work_z_m=work_z,
+        bin_xy_m=(job.bin_x_m, job.bin_y_m),
+    )
+
+
+class _Host:
+    """Sends the program one line at a time, waiting for each reply; host-side waits are
+    ("wait", seconds) items. Records when each cell's work starts and ends."""
+
+    def __init__(self, items: list, bus: ComBus):
+        self.items, self.bus = items, bus
+        self.k, self.waiting, self.resume_at = 0, False, 0.0
+        self.error: str | None = None
+        self.marks: dict[str, float] = {}
+
+    @property
+    def done(self) -> bool:
+        return self.k >= len(self.items) and not self.waiting
+
+    def tick(self, t: float) -> None:
+        for reply in self.bus.host_receive(t):
+            if reply.startswith("error"):
+                self.error = reply
+            if reply.startswith(("ok", "error")):
+                self.waiting = False
+        if self.error is not None:
+            return
+        while not self.waiting and self.k < len(self.items) and t >= self.resume_at:
+            item = self.items[self.k]
+            self.k += 1
+            if isinstance(item, tuple) and item[0] == "wait":
+                self.resume_at = t + item[1]
+            elif isinstance(item, tuple) and item[0] == "mark":
+                self.marks[item[1]] = t
+            else:
+                self.bus.host_send(item, t)
+                self.waiting = True
+
+
+def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]]:
+    """The host's items and, in order, the plug each claws extension grips."""
+    job, claws = sc.delta_refill, cfg.claws
+    stroke_ms = claws.cylinder_stroke_ms + 2 * claws.settle_ms
+    work = cfg.work_z_m
+    up = work + job.lift_m
+    v_travel, v_app = job.travel_speed_m_s * 1e3, job.approach_speed_m_s * 1e3
+    items: list = [("mark", "image"), ("wait", job.image_delay_s), ("mark", "start")]
+    grips: list[str] = []
+    rotary = 0.0
+    culls = 0
+
+    def mm(v: float) -> str:
+        return f"{v * 1e3:.3f}"
+
+    def pick(x: float, y: float, plug: str) -> None:
+        items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
+                      f"G1 Z{mm(work)} S{v_app:g}", "M280 P0 S1", f"G4 P{stroke_ms:g}",
+                      f"G1 Z{mm(up)} S{v_travel:g}"])  # fmt: skip
+        grips.append(plug)
+
+    def place(x: float, y: float, above: float) -> None:
+        items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
+                      f"G1 Z{mm(work + above)} S{v_app:g}", "M280 P0 S0",
+                      f"G4 P{stroke_ms:g}", f"G1 Z{mm(up)} S{v_travel:g}"])  # fmt: skip
+
+    for op in ops:
+        items.append(("mark", f"cell{op.cell}_start"))
+        x, y = cfg.cell_xy("planting", op.cell)
+        if op.rotary_deg != rotary:
+            swing = abs(op.rotary_deg - rotary) / 90.0 * claws.rotary_stroke_ms
+            items += [f"M280 P1 S{op.rotary_deg:g}", f"G4 P{swing + claws.settle_ms:g}"]
+            rotary = op.rotary_deg
+        if op.truth == INFERIOR:
+            pick(x, y, plug_name("planting", op.cell))
+            place(*cfg.bin_spot(culls), job.bin_release_above_m)
+            culls += 1
+        if op.supply is not None:
+            sx, sy = cfg.cell_xy("supply", op.supply)
+            pick(sx, sy, plug_name("supply", op.supply))
+            place(x, y, job.release_above_m)
+        items.append(("mark", f"cell{op.cell}_end"))
+    items += [("mark", "end"), "G28"]
+    return items, grips
+
+
+def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
+    """One tray of the scenario `sc` (its [delta], [delta_refill] and [bus]), seed `seed`
+    (default the scenario's). Deterministic: the same inputs give the same result."""
+    wall0 = time.perf_counter()
+    seed = sc.seed if seed is None else seed
+    job = sc.delta_refill
+    kin = DeltaKinematics.from_scenario(sc)
+    cfg = _scene_config(sc, kin)
+    planting = draw_tray(seed)
+    supply = draw_tray(seed + job.supply_seed_offset)
+    ops = plan_job(sc, planting, supply)
+    cells = JobCells(
+        culled=tuple(o.cell for o in ops if o.truth == INFERIOR),
+        filled=tuple(o.cell for o in ops if o.truth == EMPTY),
+        supply=tuple(o.supply for o in ops if o.supply is not None),
+    )
+    spec = build_delta_spec(cfg, planting, supply, cells)
+    model = compile_scene(spec)
+    data = mujoco.MjData(model)
+    data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, cfg.work_z_m))
+    data.ctrl[:3] = delta_robot.home_ctrl(cfg)
+    data.ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
+    mujoco.mj_forward(model, data)
+    sub = Substrate(cfg.plugs)
+    names = [plug_name("planting", i) for i in cells.culled] + [
+        plug_name("supply", i) for i in cells.supply
+    ]
+    physics = {n: PlugPhysics(model, data, n, sub) for n in names}
+    watched = tuple(
+        plug_name(t, c.index)
+        for t, draw in (("planting", planting), ("supply", supply))
+        for c in draw.cells
+        if c.seedling is not None
+    )
+    leaves = LeafWatch(model, watched, cfg.claws.leaf_damage_force_n)
+
+    motion = MotionConfig(
+        resolution_m=job.segment_m,
+        accel_m_s2=job.path_accel_m_s2,
+        profile="scurve",
+        compute_time_per_point_s=job.point_time_s,
+    )
+    sgf_cfg = SGFConfig(
+        kinematics=kin,
+        motion=motion,
+        homing=DeltaKinematics.homing_from_scenario(sc),
+        default_speed_m_s=job.travel_speed_m_s,
+        command_queue_lines=4,
+    )
+    controller = DeltaController(sgf_cfg)
+    q0 = np.array(cfg.home_q_rad)
+    endstops = SimulatedEndstops(sgf_cfg, q0)
+    drives = PulseServos(kin, q0, job.following_error_limit_rad)
+    bus = ComBus(baud_bps=sc.bus.baud_bps)
+    items, grips = _program(sc, cfg, ops)
+    host = _Host(["G28", "G90", *items], bus)
+    cycle = ClawCycle(cfg.claws)
+    arms = [model.jnt_qposadr[model.joint(n).id] for n in delta_robot.ARMS]
+    eff = [model.actuator(n).id for n in plug_claws.ACTUATORS]
+    gear = cfg.gear_ratio
+    stroke = cfg.claws.cylinder_stroke_ms * 1e-3
+    carried: dict[str, list[float]] = {}  # plug -> [from, until]
+    holding: str | None = None
+    dt = model.opt.timestep
+    fault = None
+    limit_s = 120.0 + 30.0 * max(len(ops), 1)
+    t_end = None
+    k = 0
+    raw = np.zeros(3, dtype=np.int64)
+    while True:
+        t = k * dt
+        host.tick(t)
+        for line in bus.device_receive(t):
+            controller.receive(line, t)
+        for reply in controller.poll(t, endstops.read(raw)):  # the switches of the last step
+            bus.device_send(reply, t)
+        raw = controller.pulses_at(t)[0]
+        for t_cmd, index, value in controller.drain_servo_commands():
+            if index == 0 and value > 0:
+                cycle.extend(t_cmd)
+                holding = grips.pop(0) if grips else None
+                if holding in physics:
+                    carried[holding] = [t_cmd + stroke, math.inf]
+            elif index == 0:
+                cycle.retract(t_cmd)
+                if holding in carried:
+                    carried[holding][1] = t_cmd
+                holding = None
+            else:
+                cycle.rotate(t_cmd, float(value))
+        command = drives.command(raw)
+        measured = data.qpos[arms]
+        if drives.watch(t, command, measured) is not None and fault is None:
+            fault = drives.alarm.text()
+            t_end = t + job.settle_after_s
+        data.ctrl[:3] = gear * (measured if fault else command)
+        data.ctrl[eff] = cycle.ctrl(t)
+        for p in physics.values():
+            p.before_step(data)
+        mujoco.mj_step(model, data)
+        for name, p in physics.items():
+            span = carried.get(name)
+            p.after_step(data, t, carried=span is not None and span[0] <= t < span[1])
+        leaves.after_step(data, t)
+        k += 1
+        if t_end is None and (host.done or host.error is not None):
+            t_end = t + job.settle_after_s
+        if t_end is not None and t >= t_end:
+            break
+        if t > limit_s:
+            fault = fault or f"the job did not finish in its {limit_s:g} s of simulated time"
+            break
+    valid = t <= limit_s and not any(int(w.number) for w in data.warning)
+    if fault is None and host.error is not None:
+        fault = host.error
+    return _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives,
+                  fault, k * dt, time.perf_counter() - wall0, valid)  # fmt: skip
+
+
+def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives, fault,
+           sim_t, wall, valid) -> DeltaRefillResult:  # fmt: skip
+    job = sc.delta_refill
+    judge = DeltaRefillJudge(cfg, (job.bin_x_m, job.bin_y_m), 0.006)
+    records: list[CellRecord] = []
+    damage_by_plug: dict[str, list[dict]] = {}
+    for d in leaves.damage:
+        plug = d.leaf.split("_", 1)[0]
+        damage_by_plug.setdefault(plug, []).append(
+            {"leaf": d.leaf, "by": d.by, "force_n": round(d.force_n, 4), "time_s": d.time_s}
+        )
+    own: set[str] = set()
+    for op in ops:
+        rec = CellRecord(op.cell, op.truth, op.rotary_deg, supply_index=op.supply)
+        rec.start_s = host.marks.get(f"cell{op.cell}_start", math.nan)
+        rec.end_s = host.marks.get(f"cell{op.cell}_end", math.nan)
+        xy = cfg.cell_xy("planting", op.cell)
+        if op.truth == INFERIOR:
+            name = plug_name("planting", op.cell)
+            rec.culled = judge.culled(data, physics[name], xy)
+            rec.cull_dropped_at_s = physics[name].dropped_at_s
+            own.add(name)
+        if op.supply is not None:
+            name = plug_name("supply", op.supply)
+            own.add(name)
+            p = physics[name]
+            rec.refilled = judge.refilled(data, p, xy)
+            rec.refill_dropped_at_s = p.dropped_at_s
+            rec.refill_peak_load_n = round(p.peak_load_n, 6)
+            if rec.refilled == "seated":
+                rec.retention = p.mass_kg / p.mass0
+            rec.leaf_damage = damage_by_plug.get(name, [])
+        else:
+            rec.refilled = "no_supply"
+        records.append(rec)
+    neighbours = [d for plug, ds in sorted(damage_by_plug.items()) if plug not in own for d in ds]
+    failures: dict[str, int] = {}
+
+    def fail(kind: str) -> None:
+        failures[kind] = failures.get(kind, 0) + 1
+
+    for r in records:
+        if r.culled in ("dropped", "left"):
+            fail(f"cull_{r.culled}")
+        if r.refilled != "seated":
+            fail(f"refill_{r.refilled}")
+        if r.leaf_damage:
+            fail("leaf_damage")
+    if neighbours:
+        failures["neighbour_leaf_damage"] = len(neighbours)
+    if fault is not None:
+        fail("drive_alarm" if fault.startswith("Err24") else "controller_error")
+    end = host.marks.get("end")
+    image = host.marks.get("image", 0.0)
+    tray_time = (end - image) if (end is not None) else math.nan
+    ops_done = sum(1 for r in records if not math.isnan(r.end_s))
+    per_op = tray_time / ops_done if ops_done else math.nan
+    cycle = tray_time + job.tray_change_s
+    handled = sum(1 for r in records if r.culled == "binned") + sum(
+        1 for r in records if r.refilled == "seated"
+    )
+    picked = [r for r in records if r.supply_index is not None]
+    damaged = sum(1 for r in picked if r.leaf_damage)
+    kept = [r.retention for r in records if r.retention is not None]
+    culled = {plug_name("planting", r.index) for r in records if r.culled == "binned"}
+    seated = [r for r in records if r.refilled == "seated"]
+    in_tray = sum(1 for c in planting.cells if c.seedling is not None) - len(culled) + len(seated)
+    torn_here = {p for p in damage_by_plug if p.startswith("p") and p not in culled}
+    torn_here |= {plug_name("supply", r.supply_index) for r in seated if r.leaf_damage}
+    dropped = sum(1 for r in records if r.culled == "dropped" or r.refilled == "dropped")
+    return DeltaRefillResult(
+        seed=seed,
+        pose_judgement=job.pose_judgement,
+        operations=ops_done,
+        tray_time_s=tray_time,
+        time_per_operation_s=per_op,
+        plants_per_hour=3600.0 * handled / cycle if cycle > 0 else math.nan,
+        trays_per_hour=3600.0 / cycle if cycle > 0 else math.nan,
+        leaf_damage_rate=damaged / len(picked) if picked else 0.0,
+        tray_leaf_damage_rate=len(torn_here) / in_tray if in_tray else 0.0,
+        dropped=dropped,
+        substrate_retention=float(np.mean(kept)) if kept else None,
+        failures=failures,
+        cells=records,
+        neighbour_leaf_damage=neighbours,
+        fault=fault,
+        refused=list(controller.refused),
+        peak_following_error_deg=[round(math.degrees(v), 6) for v in drives.peak_error_rad],
+        wall_time_s=wall,
+        sim_time_s=sim_t,
+        valid=valid,
+    )

@@ -1,0 +1,163 @@
+"""The delta's cull-and-refill trial (transplanter.twin.delta_refill): the scene, the drives,
+the controller's refusals, the job through contact, pose judgement, determinism, the JSON."""
+
+import json
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from transplanter import cli
+from transplanter.machine.delta_drives import DeltaController, joint_limits_refusal
+from transplanter.machine.kinematics.delta import DeltaKinematics
+from transplanter.machine.motion import MotionConfig, plan_line
+from transplanter.machine.rig import DirectLink, SimulatedEndstops
+from transplanter.machine.sgf import SGFConfig
+from transplanter.scenario.schema import load_scenario
+from transplanter.scene.delta_scene import (
+    DeltaSceneConfig,
+    JobCells,
+    build_delta_spec,
+    compile_scene,
+)
+from transplanter.scene.effectors import plug_claws
+from transplanter.scene.plug_tray import draw_tray
+from transplanter.scene.robots import delta as delta_robot
+from transplanter.twin.delta_refill import run_delta_refill
+
+KIN = DeltaKinematics()
+SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0}
+SEED = 10  # first job cell inferior, first healthy supply seedling a left-right crosser
+
+
+def _scenario(**over):
+    return load_scenario("delta_refill", {**SMALL, **over})
+
+
+@pytest.fixture(scope="module")
+def pair():
+    sc = _scenario()
+    return run_delta_refill(sc, SEED), run_delta_refill(sc, SEED)
+
+
+def test_the_scene_builds_without_welds_and_holds_home():
+    q0 = tuple(float(v) for v in KIN.joints(np.array([0.0, 0.0, -0.8])))
+    cfg = DeltaSceneConfig(home_q_rad=q0)
+    planting, supply = draw_tray(SEED), draw_tray(SEED + 1000003)
+    spec = build_delta_spec(cfg, planting, supply, JobCells((3,), (), (0,)))
+    model = compile_scene(spec)
+    # the only equalities are the delta's six closed-chain connects: nothing glues a plug
+    assert model.neq == 6
+    assert all(model.eq_type[i] == mujoco.mjtEq.mjEQ_CONNECT for i in range(model.neq))
+    assert {model.equality(i).name for i in range(model.neq)} == {
+        f"close{i}{s}" for i in (1, 2, 3) for s in "ab"
+    }
+    assert model.body("claws_mount").parentid == model.body("platform").id
+    data = mujoco.MjData(model)
+    data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, -0.8))
+    data.ctrl[:3] = delta_robot.home_ctrl(cfg)
+    data.ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
+    mujoco.mj_forward(model, data)
+    seat = data.body("p003").xpos.copy()
+    for _ in range(500):
+        mujoco.mj_step(model, data)
+    assert np.linalg.norm(data.body("platform").xpos - [0, 0, -0.8]) < 1e-3
+    assert np.linalg.norm(data.body("p003").xpos - seat) < 1e-3
+
+
+def _homed_controller(accel_m_s2=5.0):
+    sc = _scenario()
+    kin = DeltaKinematics.from_scenario(sc)
+    cfg = SGFConfig(
+        kinematics=kin,
+        motion=MotionConfig(
+            resolution_m=5e-4,
+            accel_m_s2=accel_m_s2,
+            profile="scurve",
+            compute_time_per_point_s=1e-4,
+        ),  # fmt: skip
+        homing=DeltaKinematics.homing_from_scenario(sc),
+    )
+    controller = DeltaController(cfg)
+    q0 = kin.joints(np.array([0.0, 0.0, -0.8]))
+    link = DirectLink(controller.sgf, SimulatedEndstops(cfg, q0))
+    link.t = 0.0
+    replies = link.send("G28")
+    assert replies[-1].startswith("ok"), replies
+    return controller, link.t + 1.0
+
+
+def test_a_move_beyond_a_joint_limit_is_refused_naming_it():
+    controller, t = _homed_controller()
+    controller.receive("G1 X-300 Y0 Z-1000 S200", t)
+    replies = controller.poll(t + 0.01)
+    assert replies and replies[0].startswith("error:33")
+    assert "q1" in replies[0] and "outside [-40, 80] deg" in replies[0]
+    assert controller.sgf.position_xyz[2] < 0  # nothing moved: still where homing left it
+
+
+def test_a_move_asking_more_than_a_max_is_refused_before_it_starts():
+    controller, t = _homed_controller(accel_m_s2=60.0)
+    before = controller.pulses_at(t)[0].copy()
+    controller.receive("G1 X200 Y200 Z-800 S2000", t)
+    replies = controller.poll(t + 0.01)
+    assert replies[0].startswith("error:33") and "A_max 2500.0 deg/s^2" in replies[0]
+    np.testing.assert_array_equal(controller.pulses_at(t + 1.0)[0], before)
+    # the check itself, on the same move at a gentle acceleration: accepted
+    start = controller.sgf.position_xyz
+    move = plan_line(KIN.steps_of_point(start), start, np.array([0.2, 0.2, -0.8]), 0.5, KIN,
+                     MotionConfig(resolution_m=5e-4, accel_m_s2=2.0, profile="scurve",
+                                  compute_time_per_point_s=1e-4))  # fmt: skip
+    assert joint_limits_refusal(KIN, move) is None
+
+
+def test_a_culled_plug_ends_in_the_bin_and_a_refill_is_seated_by_contact(pair):
+    r, _ = pair
+    (cell,) = r.cells
+    assert cell.truth == "inferior" and cell.culled == "binned"
+    assert cell.refilled == "seated" and 0.5 < cell.retention < 1.0
+    assert r.fault is None and r.failures == {} and r.valid
+    assert r.dropped == 0 and r.operations == 1
+    assert cell.rotary_deg == 90.0  # the refill seedling crosses left-right
+
+
+def test_torque_starved_drives_lag_and_fault():
+    r = run_delta_refill(_scenario(**{"delta.joint_torque_limit_nm": 2.0}), SEED)
+    assert r.fault is not None and r.fault.startswith("Err24.0 position deviation excess")
+    assert r.failures.get("drive_alarm") == 1
+    assert max(r.peak_following_error_deg) > 2.0
+    assert not any(c.refilled == "seated" for c in r.cells)
+
+
+def test_pose_judgement_off_damages_the_crossing_leaves(pair):
+    on, _ = pair
+    off = run_delta_refill(_scenario(**{"delta_refill.pose_judgement": False}), SEED)
+    assert on.leaf_damage_rate == 0.0
+    assert off.leaf_damage_rate > on.leaf_damage_rate
+    (cell,) = off.cells
+    assert cell.rotary_deg == 0.0
+    assert cell.leaf_damage and cell.leaf_damage[0]["by"].startswith("stripper")
+
+
+def test_same_seed_same_json(pair):
+    a, b = (r.to_dict() for r in pair)
+    for d in (a, b):
+        d.pop("wall_time_s")
+    assert json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+
+
+def test_the_json_has_the_paper_columns_with_definitions(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    status = cli.main(["trial", "delta_refill", "--seed", str(SEED), "--json", str(out),
+                       "--set", "delta_refill.max_cells=1",
+                       "--set", "delta_refill.image_delay_ms=0"])  # fmt: skip
+    assert status == 0
+    d = json.loads(out.read_text())
+    for name in ("time_per_operation_s", "plants_per_hour", "trays_per_hour",
+                 "leaf_damage_rate", "tray_leaf_damage_rate", "substrate_retention"):  # fmt: skip
+        assert isinstance(d[name], float) and math.isfinite(d[name]), name
+        assert name in d["definitions"]
+    assert isinstance(d["dropped"], int) and isinstance(d["failures"], dict)
+    assert isinstance(d["cells"], list) and d["cells"][0]["culled"] == "binned"
+    assert "time_per_operation_s" in capsys.readouterr().out
