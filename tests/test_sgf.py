@@ -97,7 +97,7 @@ def test_homing_fails_without_switch():
         "error:69 homing failed: limit switch 3 (Z up) not found: motor 3 travelled 400 steps "
         "(1.0 mm) towards it and it never closed; the switch is dead or unplugged (M119 shows "
         "it open even when pressed), or the axis is blocked before it; check the switch, its "
-        "wiring and the axis (and homing_dirs)"
+        "wiring, the axis and the homing direction (HomingConfig.dirs)"
     ]
     assert not sgf.homed
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]
@@ -423,7 +423,8 @@ def test_homing_fails_when_the_switch_stays_closed_after_the_pull_off():
         "error:68 homing failed: limit switch 3 (Z up) still closed after the 400-step "
         "pull-off (it was already closed when homing began): the switch is stuck closed or its "
         "wiring is shorted (M119 shows it TRIGGERED), or the axis stands beyond it (steps lost "
-        "since the last homing); check the switch and its wiring, or raise homing_pulloff_steps"
+        "since the last homing); check the switch and its wiring, or move the axis off the switch "
+        "and home again"
     ]
     assert not sgf.homed and sgf.homing_trip_raw is None
     assert [n for _, n in sgf.drain_machine_events()] == ["homing_failed"]

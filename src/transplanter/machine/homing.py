@@ -295,7 +295,7 @@ class Homing:
                         f"steps ({self._distance(motor, steps)}) towards it and it never "
                         "closed; the switch is dead or unplugged (M119 shows it open even "
                         "when pressed), or the axis is blocked before it; check the switch, "
-                        "its wiring and the axis (and homing_dirs)",
+                        "its wiring, the axis and the homing direction (HomingConfig.dirs)",
                     )
             elif self.phase[motor] == 1 and now >= self.t_locate[motor]:
                 if endstops is not None and not closed:
@@ -330,8 +330,8 @@ class Homing:
                         f"{self._switch(motor)} still closed after the {pulloff}-step pull-off"
                         f"{already}: the switch is stuck closed or its wiring is shorted (M119 "
                         "shows it TRIGGERED), or the axis stands beyond it (steps lost since "
-                        "the last homing); check the switch and its wiring, or raise "
-                        "homing_pulloff_steps",
+                        "the last homing); check the switch and its wiring, or move the axis off "
+                        "the switch and home again",
                     )
         return None
 
