@@ -19,15 +19,14 @@ at -y.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
 
 from transplanter.scene import kinds
-from transplanter.scene.effectors.plug_claws import BIT_CANOPY, PlugClawsConfig
-from transplanter.scene.plug_physics import BIT_TRAY, add_cell, add_plug
+from transplanter.scene.effectors.plug_claws import PlugClawsConfig
+from transplanter.scene.plug_physics import BIT_TRAY, add_cell, add_leaves, add_plug
 from transplanter.scene.plug_substrate import PlugsConfig, Substrate
 from transplanter.scene.plug_tray import Seedling, TrayDraw, TrayGeometry
 
@@ -136,28 +135,7 @@ def _static_plug(
         conaffinity=0,
         rgba=[0.36, 0.25, 0.16, 1.0],
     )
-    leaf = {"contype": BIT_CANOPY, "conaffinity": 0, "density": 0, "group": 1}
-    green = [0.35, 0.6, 0.25, 1.0]
-    sx, sy = s.stem
-    for k, lf in enumerate(s.leaves):
-        z = lf.height_mm * 1e-3
-        body.add_geom(
-            name=f"{name}_petiole_{k}",
-            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-            fromto=[sx * 1e-3, sy * 1e-3, z, lf.base[0] * 1e-3, lf.base[1] * 1e-3, z],
-            size=[lf.petiole_radius_mm * 1e-3, 0, 0],
-            rgba=green,
-            **leaf,
-        )
-        body.add_geom(
-            name=f"{name}_leaf_{k}",
-            type=mujoco.mjtGeom.mjGEOM_ELLIPSOID,
-            size=[lf.radial_mm * 1e-3, lf.tangential_mm * 1e-3, 0.25e-3],
-            pos=[lf.cx * 1e-3, lf.cy * 1e-3, z],
-            quat=[math.cos(lf.angle_rad / 2), 0, 0, math.sin(lf.angle_rad / 2)],
-            rgba=green,
-            **leaf,
-        )
+    add_leaves(body, name, s, 0.0)
 
 
 def add_trays(

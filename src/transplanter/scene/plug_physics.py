@@ -43,6 +43,7 @@ __all__ = [
     "LeafWatch",
     "PlugPhysics",
     "add_cell",
+    "add_leaves",
     "add_plug",
     "stripper_push",
 ]
@@ -168,12 +169,19 @@ def add_plug(
     )
     if seedling is None:
         return
+    add_leaves(body, name, seedling, c.surface_below_top_mm * 1e-3)  # heights: above the top
+
+
+def add_leaves(body: mujoco.MjsBody, name: str, seedling: Seedling, z0_m: float) -> None:
+    """A seedling's leaves on `body` (its frame's origin under the stem, mm in the draw):
+    each a petiole capsule and an ellipsoid blade at its height + `z0_m`, collision geoms of
+    the canopy bit (they stop the claws and the stripper, which `LeafWatch` records), named
+    `{name}_petiole_{k}` and `{name}_leaf_{k}`."""
     leaf = {"contype": BIT_CANOPY, "conaffinity": 0, "density": 0, "group": 1}
     green = [0.35, 0.6, 0.25, 1.0]
-    surface = c.surface_below_top_mm * 1e-3  # leaf heights are above the tray's top
     sx, sy = seedling.stem
     for k, lf in enumerate(seedling.leaves):
-        z = lf.height_mm * 1e-3 + surface
+        z = lf.height_mm * 1e-3 + z0_m
         body.add_geom(
             name=f"{name}_petiole_{k}",
             type=mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -299,17 +307,22 @@ class LeafWatch:
         self.damage: list[LeafDamage] = []
         self._torn: set[int] = set()
         self._f = np.zeros(6)
+        # per geom: a leaf / a presser (the step's contacts are screened with these at once)
+        self._is_leaf = np.zeros(model.ngeom, dtype=bool)
+        self._is_leaf[list(self.leaves)] = True
+        self._is_presser = np.zeros(model.ngeom, dtype=bool)
+        self._is_presser[list(self.pressers)] = True
 
     def after_step(self, data: mujoco.MjData, t: float) -> None:
-        for i in range(data.ncon):
-            con = data.contact[i]
-            g1, g2 = int(con.geom1), int(con.geom2)
-            if g1 in self.leaves and g2 in self.pressers:
-                leaf, by = g1, g2
-            elif g2 in self.leaves and g1 in self.pressers:
-                leaf, by = g2, g1
-            else:
-                continue
+        if data.ncon == 0:
+            return
+        g1s, g2s = data.contact.geom1, data.contact.geom2
+        hits = (self._is_leaf[g1s] & self._is_presser[g2s]) | (
+            self._is_leaf[g2s] & self._is_presser[g1s]
+        )
+        for i in np.flatnonzero(hits).tolist():
+            g1, g2 = int(g1s[i]), int(g2s[i])
+            leaf, by = (g1, g2) if self._is_leaf[g1] else (g2, g1)
             mujoco.mj_contactForce(self.model, data, i, self._f)
             force = float(self._f[0])
             if force > self.threshold_n and leaf not in self._torn:
