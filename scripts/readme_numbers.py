@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import csv
 import io
 import json
 import os
@@ -299,8 +300,6 @@ COLUMNS: dict[str, tuple[str, Callable[[dict, list[dict]], str]]] = {
 
 def sweep_table(runs: Runs, name: str, argv: list[str], columns: tuple[str, ...]) -> str:
     """A sweep's settings as a Markdown table: the varied keys, then `columns` (COLUMNS)."""
-    import csv
-
     out = runs.sweep_dir(name, argv)
     with (out / "settings.csv").open(newline="") as f:
         settings = list(csv.DictReader(f))
