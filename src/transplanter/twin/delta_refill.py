@@ -135,6 +135,12 @@ class DeltaRefillResult:
     valid: bool = True
     """False when MuJoCo warned (an unstable step) or the job ran out of simulated time."""
     recording_error: str | None = None
+    planner: str = "lines"
+    """The controller's ``motion.planner``."""
+    peak_joint_speed_deg_s: list[float] = field(default_factory=list)
+    """The arms' largest measured speed in the physics (per arm)."""
+    peak_joint_torque_nm: list[float] = field(default_factory=list)
+    """The arms' largest torque at the joint from the servos in the physics (per arm)."""
 
     @property
     def successes(self) -> int:
@@ -164,6 +170,9 @@ class DeltaRefillResult:
             "fault": self.fault,
             "refused": self.refused,
             "peak_following_error_deg": self.peak_following_error_deg,
+            "planner": self.planner,
+            "peak_joint_speed_deg_s": self.peak_joint_speed_deg_s,
+            "peak_joint_torque_nm": self.peak_joint_torque_nm,
             "sim_time_s": self.sim_time_s,
             "valid": self.valid,
             "wall_time_s": self.wall_time_s,
@@ -270,7 +279,8 @@ def _scene_config(sc, kin: DeltaKinematics) -> DeltaSceneConfig:
 
 class _Host:
     """Sends the program one line at a time, waiting for each reply; host-side waits are
-    ("wait", seconds) items. Records when each cell's work starts and ends."""
+    ("wait", seconds) and ("wait_since", mark, seconds) items (the PLC's timers: until that
+    long after the mark). Records when each cell's work starts and ends."""
 
     def __init__(self, items: list, bus: ComBus):
         self.items, self.bus = items, bus
@@ -297,14 +307,24 @@ class _Host:
                 self.resume_at = t + item[1]
             elif isinstance(item, tuple) and item[0] == "mark":
                 self.marks[item[1]] = t
+            elif isinstance(item, tuple) and item[0] == "wait_since":
+                self.resume_at = max(t, self.marks[item[1]] + item[2])
             else:
                 self.bus.host_send(item, t)
                 self.waiting = True
 
 
 def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]]:
-    """The host's items and, in order, the plug each claws extension grips."""
+    """The host's items and, in order, the plug each claws extension grips.
+
+    ``motion.planner = "lines"``: every pick and place is straight lines (travel at the lift
+    height, approach down, claws, back up). ``"bspline5"``: after the first approach, one
+    ``G0`` per transfer from where the claws worked to where they work next (the controller
+    runs it as the paper's lift-arc-top-arc-descent spline), and the rotary cylinder swings
+    during the transfer that takes the claws to the cell it is set for (the claws extend once
+    its swing and settle are over, the PLC's timer from the swing's command)."""
     job, claws = sc.delta_refill, cfg.claws
+    spline = sc.motion.planner == "bspline5"
     stroke_ms = claws.cylinder_stroke_ms + 2 * claws.settle_ms
     work = cfg.work_z_m
     up = work + job.lift_m
@@ -313,27 +333,49 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
     grips: list[str] = []
     rotary = 0.0
     culls = 0
+    first = [True]
 
     def mm(v: float) -> str:
         return f"{v * 1e3:.3f}"
 
+    def go(x: float, y: float, z: float) -> None:
+        if spline and not first[0]:
+            items.append(f"G0 X{mm(x)} Y{mm(y)} Z{mm(z)}")
+        else:
+            items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
+                          f"G1 Z{mm(z)} S{v_app:g}"])  # fmt: skip
+        first[0] = False
+
+    def leave() -> None:
+        if not spline:
+            items.append(f"G1 Z{mm(up)} S{v_travel:g}")
+
+    swing_wait: list[float] = []
+
     def pick(x: float, y: float, plug: str) -> None:
-        items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
-                      f"G1 Z{mm(work)} S{v_app:g}", "M280 P0 S1", f"G4 P{stroke_ms:g}",
-                      f"G1 Z{mm(up)} S{v_travel:g}"])  # fmt: skip
+        go(x, y, work)
+        if swing_wait:
+            items.append(("wait_since", "rotary", swing_wait.pop()))
+        items.extend(["M280 P0 S1", f"G4 P{stroke_ms:g}"])
+        leave()
         grips.append(plug)
 
     def place(x: float, y: float, above: float) -> None:
-        items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
-                      f"G1 Z{mm(work + above)} S{v_app:g}", "M280 P0 S0",
-                      f"G4 P{stroke_ms:g}", f"G1 Z{mm(up)} S{v_travel:g}"])  # fmt: skip
+        go(x, y, work + above)
+        items.extend(["M280 P0 S0", f"G4 P{stroke_ms:g}"])
+        leave()
 
     for op in ops:
         items.append(("mark", f"cell{op.cell}_start"))
         x, y = cfg.cell_xy("planting", op.cell)
         if op.rotary_deg != rotary:
             swing = abs(op.rotary_deg - rotary) / 90.0 * claws.rotary_stroke_ms
-            items += [f"M280 P1 S{op.rotary_deg:g}", f"G4 P{swing + claws.settle_ms:g}"]
+            items.append(f"M280 P1 S{op.rotary_deg:g}")
+            if not spline or first[0]:
+                items.append(f"G4 P{swing + claws.settle_ms:g}")
+            else:
+                items.append(("mark", "rotary"))
+                swing_wait[:] = [(swing + claws.settle_ms) * 1e-3]
             rotary = op.rotary_deg
         if op.truth == INFERIOR:
             pick(x, y, plug_name("planting", op.cell))
@@ -344,6 +386,8 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             pick(sx, sy, plug_name("supply", op.supply))
             place(x, y, job.release_above_m)
         items.append(("mark", f"cell{op.cell}_end"))
+    if spline and not first[0]:
+        items.append(f"G1 Z{mm(up)} S{v_travel:g}")
     items += [("mark", "end"), "G28"]
     return items, grips
 
@@ -389,6 +433,11 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
         accel_m_s2=job.path_accel_m_s2,
         profile="scurve",
         compute_time_per_point_s=job.point_time_s,
+        planner=sc.motion.planner,
+        ee_accel_limit_m_s2=sc.motion.ee_accel_limit_m_s2,
+        pick_lift_m=job.lift_m,
+        pick_arc_m=job.arc_radius_m,
+        pick_exit_m=job.exit_m,
     )
     sgf_cfg = SGFConfig(
         kinematics=kin,
@@ -406,6 +455,8 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
     host = _Host(["G28", "G90", *items], bus)
     cycle = ClawCycle(cfg.claws)
     arms = [model.jnt_qposadr[model.joint(n).id] for n in delta_robot.ARMS]
+    arm_dofs = [model.jnt_dofadr[model.joint(n).id] for n in delta_robot.ARMS]
+    peaks = np.zeros((2, 3))  # the arms' measured |speed| (rad/s) and |torque| (N m)
     eff = [model.actuator(n).id for n in plug_claws.ACTUATORS]
     gear = cfg.gear_ratio
     stroke = cfg.claws.cylinder_stroke_ms * 1e-3
@@ -448,6 +499,8 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
         for p in physics.values():
             p.before_step(data)
         mujoco.mj_step(model, data)
+        np.maximum(peaks[0], np.abs(data.qvel[arm_dofs]), out=peaks[0])
+        np.maximum(peaks[1], np.abs(data.qfrc_actuator[arm_dofs]), out=peaks[1])
         for name, p in physics.items():
             span = carried.get(name)
             p.after_step(data, t, carried=span is not None and span[0] <= t < span[1])
@@ -463,8 +516,11 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
     valid = t <= limit_s and not any(int(w.number) for w in data.warning)
     if fault is None and host.error is not None:
         fault = host.error
-    return _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives,
-                  fault, k * dt, time.perf_counter() - wall0, valid)  # fmt: skip
+    result = _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller,
+                    drives, fault, k * dt, time.perf_counter() - wall0, valid)  # fmt: skip
+    result.peak_joint_speed_deg_s = [round(math.degrees(v), 4) for v in peaks[0]]
+    result.peak_joint_torque_nm = [round(float(v), 4) for v in peaks[1]]
+    return result
 
 
 def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives, fault,
@@ -555,6 +611,7 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
         fault=fault,
         refused=list(controller.refused),
         peak_following_error_deg=[round(math.degrees(v), 6) for v in drives.peak_error_rad],
+        planner=sc.motion.planner,
         wall_time_s=wall,
         sim_time_s=sim_t,
         valid=valid,
