@@ -12,7 +12,7 @@ from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds
 
-__all__ = ["handles", "run_trial"]
+__all__ = ["export", "handles", "run_trial"]
 
 
 def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
@@ -24,6 +24,15 @@ def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
         return load_scenario(args.scenario, overrides).workcell.kind == "plug_trays"
     except ScenarioError:
         return False
+
+
+def export(scenario, target: Path) -> Path:
+    """`transplanter export` of the delta's job: the scene its trial builds for the
+    scenario's seed (twin.delta_refill.job_spec), meshes in assets/ beside it."""
+    from transplanter.scene.delta_scene import export_spec
+    from transplanter.twin.delta_refill import job_spec
+
+    return export_spec(job_spec(scenario), target)
 
 
 def summary_line(r) -> str:

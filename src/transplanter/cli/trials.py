@@ -484,7 +484,8 @@ def cmd_view(args: argparse.Namespace) -> int:
 def _export_parser(sub) -> None:
     p = sub.add_parser(
         "export",
-        help="write the scene a trial builds (pots, seedlings, conveyor, drop tube) as MJCF",
+        help="write the scene a trial builds (pots, seedlings, conveyor, drop tube; for the "
+        "delta's job its trays, plugs and bin) as MJCF",
     )
     add_options(p, "scenario")
     p.add_argument("out", type=Path, help="the .xml file to write (meshes go to assets/ beside)")
@@ -497,6 +498,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     import tempfile
 
     from transplanter import fileio
+    from transplanter.cli import delta_trial
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.scene import export_scene
@@ -506,7 +508,12 @@ def cmd_export(args: argparse.Namespace) -> int:
         clash = _clash([("OUT", args.out)], _inputs(args))
         if clash is not None:
             raise fileio.FileRefused(clash)
-        config = assemble(load_scenario(args.scenario, _trial_overrides(args)), preflight=False)
+        overrides = _trial_overrides(args)
+        delta = delta_trial.handles(args, overrides)  # the delta's plug trays: its own scene
+        if delta:
+            config = load_scenario(args.scenario, overrides)
+        else:
+            config = assemble(load_scenario(args.scenario, overrides), preflight=False)
     except (ScenarioError, fileio.FileRefused) as exc:
         _err(f"export refused: {exc}")
         return EXIT_REFUSED
@@ -515,7 +522,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     # program derives): os.replace puts the file in the link's place.
     staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
-        export_scene(config.scene, config.seed, staging / path.name)
+        if delta:
+            delta_trial.export(config, staging / path.name)
+        else:
+            export_scene(config.scene, config.seed, staging / path.name)
         _move_exported(staging, path)
     except (ScenarioError, fileio.FileRefused) as exc:
         _err(f"export refused: {exc}")
