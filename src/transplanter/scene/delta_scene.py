@@ -223,6 +223,12 @@ def build_delta_spec(
     kinds.workcell("plug_trays").populate_job(spec, cfg, planting, supply, job)
     spec.option.timestep = cfg.timestep_s
     spec.worldbody.add_light(pos=[0, 0, 0.5], dir=[0, 0, -1])
+    # the background of `transplanter render` (as the models' scene.xml): drawn only
+    spec.add_texture(
+        name="skybox", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.3, 0.5, 0.7], rgb2=[0, 0, 0],
+        width=512, height=3072,
+    )  # fmt: skip
     return spec
 
 
