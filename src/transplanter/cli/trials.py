@@ -120,7 +120,7 @@ def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter.cli import delta_trial  # the delta's plug-tray job: its own trial
 
     if delta_trial.handles(args, overrides):
-        return delta_trial.run_trial(args, overrides, targets["--json"])
+        return delta_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
@@ -359,9 +359,17 @@ def _render_parser(sub) -> None:
         "each from its first line to the release plus 0.5 s",
     )
     p.add_argument(
+        "--cells-of",
+        default=None,
+        metavar="I,J-K",
+        help="the delta's plug-tray job: film only the work on these planting cells (0-127, "
+        "as the results' cells[].index), each from its first line to its last plus 0.5 s",
+    )
+    p.add_argument(
         "--camera",
         default="overview",
-        help="named camera: overview, funnel, gripper_closeup (overview)",
+        help="named camera: overview, funnel, gripper_closeup; for the delta's job overview, "
+        "trays, claws_closeup (overview)",
     )
     p.add_argument("--fps", type=ascii_float, default=30.0, help="frames per second (30)")
     p.add_argument("--width", type=ascii_int, default=640, help="frame width in px (640)")
@@ -389,6 +397,18 @@ def cmd_render(args: argparse.Namespace) -> int:
     clash = _clash(outputs, _inputs(args))
     if clash is not None:
         _err(f"render refused: {clash}")
+        return EXIT_REFUSED
+    from transplanter.cli import delta_trial  # the delta's plug-tray job: its own trial
+
+    try:
+        overrides = _trial_overrides(args)
+    except ScenarioError as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    if delta_trial.handles(args, overrides):
+        return delta_trial.render(args, overrides, target, json_target)
+    if args.cells_of is not None:
+        _err("render refused: --cells-of is for the delta's plug-tray job; give --seedlings-of")
         return EXIT_REFUSED
     try:
         config = _single_trial_config(args)
