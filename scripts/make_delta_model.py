@@ -79,16 +79,10 @@ def quat(m: np.ndarray) -> np.ndarray:
     return np.array([w, x, y, z])
 
 
-CAMERAS_M = {
-    # name: (position, point looked at, vertical field of view deg); world frame
-    "overview": ((1.5, -1.2, -0.25), (0.05, 0.0, -0.55), 45),
-    "trays": ((0.95, 0.0, -0.36), (0.02, 0.0, -0.88), 52),
-}
-"""Named cameras of `transplanter render` (the delta's work zone below the base, where the
-cull-and-refill scene puts its trays at Y = +-160 mm and 870 mm down, and its bin at
-X = 360 mm): the whole machine, and the trays from above the bin's side."""
 CLOSEUP_M = ((0.0, -0.26, -0.05), (0.0, 0.0, -0.11), 40)
-"""The camera `claws_closeup` on the platform (platform frame): the effector under it."""
+"""The camera `claws_closeup` on the platform (platform frame: position, the point looked at,
+vertical field of view deg): the effector under it, from the side, for `transplanter render`.
+The world's cameras are the scene's (transplanter.scene.delta_scene.add_cameras)."""
 
 
 def look_at(pos, target) -> np.ndarray:
@@ -188,7 +182,6 @@ def xml(kin: DeltaKinematics | None = None) -> str:
         f"q = {deg(q_home[0]):.4f} deg"
     )
     stiffness = fmt(SERVO_STIFFNESS_NM_PER_DEG)
-    cameras = "\n".join(camera(n, *c, "    ") for n, c in CAMERAS_M.items())
     return f"""<!--
   Rotary delta robot for removing and replenishing plug seedlings (Zhao, Cheng, Dong, Ma,
   Xiong, Tong, "Research on the End Effector and Optimal Motion Control Strategy for a Plug
@@ -246,10 +239,6 @@ def xml(kin: DeltaKinematics | None = None) -> str:
   </default>
 
   <worldbody>
-    <!-- named cameras (transplanter render): the machine, and its work zone below the base
-         where the cull-and-refill scene puts the trays and the bin -->
-{cameras}
-
     <!-- the static platform: the paper's base frame (origin O, Z up); arm i's hinge at radius
          R on the direction phi_i = 0, 120, 240 deg, its axis tangential -->
     <body name="base" childclass="delta">

@@ -41,6 +41,14 @@ __all__ = [
 
 PLATFORM_HALF_THICKNESS_M = 0.01
 """The platform's collision disc is 20 mm thick: the claws' mount hangs under it."""
+CAMERAS_M = {
+    # name: (position, point looked at, vertical field of view deg), both relative to the
+    # work zone's centre: x 0, y midway between the trays, z the platform's work height
+    "overview": ((1.5, -1.2, 0.55), (0.05, 0.0, 0.25), 45.0),
+    "trays": ((0.8, 0.0, 0.6), (0.0, 0.0, -0.04), 50.0),
+}
+"""The scene's named cameras (`transplanter render`): the whole machine, and both trays and
+the bin from above the bin's side; `claws_closeup` rides on the platform (models/delta)."""
 
 
 def models_dir() -> Path:
@@ -185,6 +193,29 @@ def add_trays(
     _add_bin(spec, cfg)
 
 
+def _look_at_quat(pos, target) -> list[float]:
+    """The quaternion of a camera at `pos` looking at `target`, its x axis level."""
+    import numpy as np
+
+    forward = np.asarray(target, float) - np.asarray(pos, float)
+    forward /= np.linalg.norm(forward)
+    x = np.cross(forward, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(x, forward)
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.column_stack([x, y, -forward]).ravel())
+    return quat.tolist()
+
+
+def add_cameras(spec: mujoco.MjSpec, cfg: DeltaSceneConfig) -> None:
+    """The named cameras of CAMERAS_M, placed about the trays where `cfg` puts them."""
+    centre = (0.0, (cfg.planting_y_m + cfg.supply_y_m) / 2, cfg.work_z_m)
+    for name, (pos, target, fovy) in CAMERAS_M.items():
+        p = [c + d for c, d in zip(centre, pos, strict=True)]
+        t = [c + d for c, d in zip(centre, target, strict=True)]
+        spec.worldbody.add_camera(name=name, pos=p, quat=_look_at_quat(p, t), fovy=fovy)
+
+
 def _add_bin(spec: mujoco.MjSpec, cfg: DeltaSceneConfig) -> None:
     bx, by = cfg.bin_xy_m
     half, depth, t = cfg.bin_size_m / 2, cfg.bin_depth_m, 0.002
@@ -223,6 +254,7 @@ def build_delta_spec(
     kinds.workcell("plug_trays").populate_job(spec, cfg, planting, supply, job)
     spec.option.timestep = cfg.timestep_s
     spec.worldbody.add_light(pos=[0, 0, 0.5], dir=[0, 0, -1])
+    add_cameras(spec, cfg)
     # the background of `transplanter render` (as the models' scene.xml): drawn only
     spec.add_texture(
         name="skybox", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,

@@ -7,17 +7,18 @@ only read its state, so the trial's numbers are the same with or without them.
 
 - `DeltaRecording` feeds the five-bar's `TrialRecorder` (geometry from the compiled MjModel
   once, the moving bodies' poses per frame: the arms, rods, platform, claws and the job's free
-  plugs) with the scalar channels below, the tray's state as coloured markers over the job's
-  cells (`world/tray_state`) and an event at each change of a cell's status.
-- `DeltaVideo` renders a named camera (`overview`, `trays`, `claws_closeup`: models/delta)
-  into an MP4 through the five-bar's `FrameGrabber` and `Mp4Writer`, each frame captioned with
-  the simulated time, the cell in progress and the last cell finished; `cells` films only
-  those cells' work (first line to last line plus `CELL_TAIL_S`).
+  plugs) with the scalar channels of `scalar_names`, the tray's state as coloured markers over
+  the job's cells (`world/tray_state`) and an event at each change of a cell's status.
+- `DeltaVideo` renders a named camera (the scene's `overview` and `trays`, `claws_closeup` on
+  the platform) into an MP4 through the five-bar's `FrameGrabber` and `Mp4Writer`, each frame
+  captioned with the simulated time, the cell in progress and the last cell finished; `cells`
+  films only those cells' work (first line to last line plus `CELL_TAIL_S`).
 
 A serviced cell's status (`cell_status`): `to_cull` / `to_fill` before its work starts,
-`culling` (its inferior plug not yet in the bin), `culled` (binned), `refilling` (the refill
-not yet seated), `refilled` (seated), `damaged` (seated with a leaf torn), `failed` (its work
-ended with the culled plug dropped or left, or the refill not seated).
+`culling` (its inferior plug not yet in the bin), `culled` (binned, the refill still in its
+supply cell), `refilling` (until its last line is done), `refilled` (seated), `damaged`
+(seated with a leaf torn), `failed` (its work ended with the culled plug out of the bin or the
+refill not seated).
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ __all__ = [
     "cell_status",
     "run_observed",
     "scalar_names",
+    "torn_plugs",
 ]
 
 CELL_TAIL_S = 0.5
@@ -121,7 +123,8 @@ def cell_status(view: Any, op: Any, torn: set[str]) -> str:
     return "damaged" if refill in torn else "refilled"
 
 
-def _torn(view: Any) -> set[str]:
+def torn_plugs(view: Any) -> set[str]:
+    """The plugs with a leaf torn so far (their names: p003, s000)."""
     return {d.leaf.split("_", 1)[0] for d in view.leaves.damage}
 
 
@@ -183,7 +186,7 @@ class DeltaRecording:
         return np.array(values, dtype=np.float64)
 
     def _update_status(self, view: Any) -> bool:
-        torn = _torn(view)
+        torn = torn_plugs(view)
         changed = False
         for op in view.ops:
             now = cell_status(view, op, torn)
@@ -336,7 +339,7 @@ class DeltaVideo:
         marks = view.host.marks
         lines = [f"t = {view.t:7.3f} s"]
         op = self._current(view)
-        torn = _torn(view)
+        torn = torn_plugs(view)
         if op is not None:
             lines.append(f"cell {op.cell} ({op.truth}): {cell_status(view, op, torn)}")
         elif "start" not in marks:
