@@ -120,6 +120,19 @@ def test_cli_trial_record_writes_the_rrd_and_the_same_json(runs, tmp_path, capsy
     assert not list(tmp_path.glob(".*"))  # no temporary file left
 
 
+def test_a_recording_that_cannot_be_made_loses_no_results(runs, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("RERUN", "off")  # rerun refuses to record
+    rrd, out = tmp_path / "t.rrd", tmp_path / "t.json"
+    status = cli.main(["trial", "delta_refill", "--seed", str(SEED), *SETS, "--record", str(rrd),
+                       "--json", str(out)])  # fmt: skip
+    assert status == 5
+    assert "could not be started" in capsys.readouterr().err
+    assert _numbers(json.loads(out.read_text())) == _numbers(
+        json.loads(json.dumps(runs[0].to_dict()))
+    )
+    assert not rrd.exists() and not list(tmp_path.glob(".*"))
+
+
 def test_cli_trial_record_refuses_several_seeds(tmp_path, capsys):
     status = cli.main(["trial", "delta_refill", "--seeds", "1-2", *SETS,
                        "--record", str(tmp_path / "x.rrd")])  # fmt: skip

@@ -157,9 +157,14 @@ class DeltaRecording:
         from transplanter.viewing.recording import TrialRecorder
 
         model = view.model
-        self.recorder = TrialRecorder(
-            model, self.path, rate_hz=self.rate_hz, scalar_names=scalar_names(view.ops)
-        )
+        try:
+            self.recorder = TrialRecorder(
+                model, self.path, rate_hz=self.rate_hz, scalar_names=scalar_names(view.ops)
+            )
+        except Exception as exc:  # the trial goes on without it (exit status 5 at the end)
+            self.error = f"the recording {str(self.path)!r} could not be started: {exc}"
+            self.clock.next_t = math.inf
+            return
         self.arms = [model.jnt_qposadr[model.joint(n).id] for n in ARM_NAMES]
         self.platform = model.body("platform").id
         self.rotary = model.jnt_qposadr[model.joint("rotary").id]
