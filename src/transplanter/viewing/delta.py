@@ -324,8 +324,9 @@ class DeltaVideo:
         return marks.get(f"cell{cell}_start"), None if end is None else end + CELL_TAIL_S
 
     def _current(self, view: Any) -> Any:
-        """The op whose work is in progress (or whose tail is showing), else None."""
-        for op in view.ops:
+        """The op whose work is in progress (or, before the next starts, whose tail is
+        showing), else None."""
+        for op in reversed(view.ops):
             start, end = self._window(view, op.cell)
             if start is not None and view.t >= start and (end is None or view.t <= end):
                 return op
