@@ -10,9 +10,9 @@ import math
 from pathlib import Path
 from typing import Any
 
-from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds
+from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds, _show
 
-__all__ = ["handles", "run_trial"]
+__all__ = ["export", "handles", "render", "run_trial"]
 
 
 def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
@@ -24,6 +24,15 @@ def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
         return load_scenario(args.scenario, overrides).workcell.kind == "plug_trays"
     except ScenarioError:
         return False
+
+
+def export(scenario, target: Path) -> Path:
+    """`transplanter export` of the delta's job: the scene its trial builds for the
+    scenario's seed (twin.delta_refill.job_spec), meshes in assets/ beside it."""
+    from transplanter.scene.delta_scene import export_spec
+    from transplanter.twin.delta_refill import job_spec
+
+    return export_spec(job_spec(scenario), target)
 
 
 def summary_line(r) -> str:
@@ -45,19 +54,26 @@ def _definitions() -> str:
     return "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
 
 
-def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Path | None) -> int:
+def run_trial(
+    args: argparse.Namespace,
+    overrides: dict[str, Any],
+    json_path: Path | None,
+    record_path: Path | None = None,
+) -> int:
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.studies.stats import pooled_rate
     from transplanter.twin.delta_refill import run_delta_refill
 
-    for option, value in (("--record", args.record), ("--clips-of-failures",
-                                                       args.clips_of_failures),
+    for option, value in (("--clips-of-failures", args.clips_of_failures),
                           ("--eeprom", args.eeprom)):  # fmt: skip
         if value is not None:
             _err(f"{option}: not available for the delta's plug-tray trial (docs/delta.md)")
             return EXIT_REFUSED
     if args.seeds is not None and args.seed is not None:
         _err("--seeds runs one trial per seed: drop --seed")
+        return EXIT_REFUSED
+    if args.seeds is not None and record_path is not None:
+        _err("--seeds runs one trial per seed: drop --record (record one --seed)")
         return EXIT_REFUSED
     seeds = _seeds(args) if args.seeds is not None else [None]
     if seeds is None:
@@ -67,9 +83,20 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
-    results = []
+    results, outputs = [], []
     for seed in seeds:
-        result = run_delta_refill(scenario, seed)
+        if record_path is None:
+            result = run_delta_refill(scenario, seed)
+        else:
+            from transplanter.viewing.delta import DeltaRecording, run_observed
+
+            result = run_observed(scenario, seed, [DeltaRecording(record_path, args.record_rate)])
+            if result.recording_error is None:
+                shown = _show(record_path)
+                outputs.append(
+                    (f"recording written to {shown} (view it with: transplanter replay {shown})",
+                     None)
+                )  # fmt: skip
         results.append(result)
         print(summary_line(result))
     if args.seeds is None:
@@ -88,4 +115,44 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
             f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
         )
     summary = "definitions:\n" + _definitions()
-    return _finish(args, results, summary, payload, json_path)
+    return _finish(args, results, summary, payload, json_path, outputs=outputs)
+
+
+def render(
+    args: argparse.Namespace, overrides: dict[str, Any], target: Path, json_path: Path | None
+) -> int:
+    """`transplanter render` of the delta's job: the trial as `trial` runs it (the same
+    results) filmed by viewing.delta.DeltaVideo (--cells-of: only those cells' work)."""
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.viewing import delta, video
+
+    if args.seedlings_of is not None:
+        _err("render refused: the delta's job has cells, not seedlings: give --cells-of")
+        return EXIT_REFUSED
+    try:
+        scenario = load_scenario(args.scenario, overrides)
+        cells = None if args.cells_of is None else delta.parse_cells(args.cells_of)
+        observer = delta.DeltaVideo(
+            target, args.width, args.height, args.fps, args.camera, cells, args.shadows
+        )
+    except (ScenarioError, video.RenderRefused) as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    try:
+        result = delta.run_observed(scenario, None, [observer])
+    except (video.GLUnavailable, video.RenderRefused) as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    print(summary_line(result))
+    if observer.error is not None:
+        written = (None, f"render: {observer.error}")
+    else:
+        n = observer.frames
+        rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
+        written = (
+            f"video written to {_show(target)}: {n} frames at {args.fps:g} fps "
+            f"({n / args.fps:.1f} s), {args.width}x{args.height}, camera "
+            f"{_show(args.camera)}; rendering and encoding took {observer.render_s:.1f} s{rate}",
+            None,
+        )
+    return _finish(args, [result], None, result.to_dict(), json_path, outputs=[written])

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -392,9 +392,10 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
     return items, grips
 
 
-def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
+def run_delta_refill(sc, seed: int | None = None, observers=()) -> DeltaRefillResult:
     """One tray of the scenario `sc` (its [delta], [delta_refill] and [bus]), seed `seed`
-    (default the scenario's). Deterministic: the same inputs give the same result."""
+    (default the scenario's). Deterministic: the same inputs give the same result, with or
+    without `observers` (DeltaObserver: they only read the state, at their frame times)."""
     wall0 = time.perf_counter()
     seed = sc.seed if seed is None else seed
     job = sc.delta_refill
@@ -468,6 +469,8 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
     t_end = None
     k = 0
     raw = np.zeros(3, dtype=np.int64)
+    view = DeltaView(model, data, cfg, ops, host, cycle, physics, leaves, q0) if observers else None
+    next_look = view.attach(observers) if view is not None else math.inf
     while True:
         t = k * dt
         host.tick(t)
@@ -506,6 +509,8 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
             p.after_step(data, t, carried=span is not None and span[0] <= t < span[1])
         leaves.after_step(data, t)
         k += 1
+        if k * dt >= next_look:  # observers only at their frame times (math.inf without)
+            next_look = view.look(k * dt, command)
         if t_end is None and (host.done or host.error is not None):
             t_end = t + job.settle_after_s
         if t_end is not None and t >= t_end:
@@ -521,6 +526,57 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
     result.peak_joint_speed_deg_s = [round(math.degrees(v), 4) for v in peaks[0]]
     result.peak_joint_torque_nm = [round(float(v), 4) for v in peaks[1]]
     return result
+
+
+class DeltaObserver(Protocol):
+    """Watches a delta trial without changing it (`transplanter.viewing.delta`): `attach`
+    once the scene and the host exist (the power-on state), `look` at the first step whose
+    end reaches `next_t` (simulated s; it sets the next), `finish` after the result."""
+
+    next_t: float
+
+    def attach(self, view: DeltaView) -> None: ...
+
+    def look(self, view: DeltaView) -> None: ...
+
+    def finish(self, view: DeltaView, result: DeltaRefillResult) -> None: ...
+
+    def abort(self) -> None: ...
+
+
+@dataclass
+class DeltaView:
+    """What an observer may read of a running delta trial (never write): the model and its
+    data, the scene's config, the job, the host (its marks), the claws' valve schedule, the
+    free plugs' physics and the leaf watch; `t` and `command` (the drives' joint command,
+    rad) are those of the latest look."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    cfg: DeltaSceneConfig
+    ops: list
+    host: _Host
+    cycle: ClawCycle
+    physics: dict[str, PlugPhysics]
+    leaves: LeafWatch
+    command: np.ndarray
+    t: float = 0.0
+    observers: tuple = ()
+
+    def attach(self, observers) -> float:
+        """Attach every observer (power-on state at t = 0); the first look's time."""
+        self.observers = tuple(observers)
+        for o in self.observers:
+            o.attach(self)
+        return min(o.next_t for o in self.observers)
+
+    def look(self, t: float, command: np.ndarray) -> float:
+        """The observers due at `t` look; the next look's time."""
+        self.t, self.command = t, command
+        for o in self.observers:
+            if t >= o.next_t:
+                o.look(self)
+        return min(o.next_t for o in self.observers)
 
 
 def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives, fault,
@@ -616,3 +672,29 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
         sim_time_s=sim_t,
         valid=valid,
     )
+
+
+def job_spec(sc, seed: int | None = None) -> mujoco.MjSpec:
+    """The scene `run_delta_refill(sc, seed)` builds, as an MjSpec (`transplanter export`):
+    the same scene config, trays and job cells, with the `home` keyframe set to its power-on
+    state (arms, platform and claws)."""
+    seed = sc.seed if seed is None else seed
+    kin = DeltaKinematics.from_scenario(sc)
+    cfg = _scene_config(sc, kin)
+    planting = draw_tray(seed)
+    supply = draw_tray(seed + sc.delta_refill.supply_seed_offset)
+    ops = plan_job(sc, planting, supply)
+    cells = JobCells(
+        culled=tuple(o.cell for o in ops if o.truth == INFERIOR),
+        filled=tuple(o.cell for o in ops if o.truth == EMPTY),
+        supply=tuple(o.supply for o in ops if o.supply is not None),
+    )
+    spec = build_delta_spec(cfg, planting, supply, cells)
+    model = compile_scene(spec)
+    key = spec.add_key(name="home")
+    key.qpos = delta_robot.home_qpos(model, cfg, (0.0, 0.0, cfg.work_z_m)).tolist()
+    ctrl = np.zeros(model.nu)
+    ctrl[:3] = delta_robot.home_ctrl(cfg)
+    ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
+    key.ctrl = ctrl.tolist()
+    return spec
