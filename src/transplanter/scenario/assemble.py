@@ -38,10 +38,12 @@ __all__ = [
     "JudgeConfig",
     "ServoConfig",
     "TwinConfig",
+    "VisionConfig",
     "assemble",
     "fault_config",
     "machine_config",
     "scene_config",
+    "vision_config",
     "with_eeprom",
 ]
 
@@ -429,3 +431,80 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
         )
     except ValueError as exc:
         raise ScenarioError(f"the scenario does not make a buildable scene: {exc}") from None
+
+
+@dataclass(frozen=True)
+class VisionConfig:
+    """Seed 002's vision from a scenario's [vision]: the trays' seedling draw
+    (scene.plug_tray.SeedlingDraw), the imaging station's draw (scene.tray_camera.ImagingDraw),
+    the picture's size, the camera's mounting and the pipeline's thresholds as the pipeline
+    takes them (vision.pipeline.CameraMount, VisionThresholds)."""
+
+    seedlings: Any
+    imaging: Any
+    width_px: int
+    height_px: int
+    mount: Any
+    thresholds: Any
+
+
+def vision_config(scenario: Scenario) -> VisionConfig:
+    """[vision] as the draw, the camera and the pipeline take it (angles back in degrees,
+    lengths in mm, the leaf hue band in OpenCV's 0-180)."""
+    from transplanter.scene.plug_tray import SeedlingDraw
+    from transplanter.scene.tray_camera import ImagingDraw
+    from transplanter.vision.grading import GradingRule
+    from transplanter.vision.pipeline import CameraMount, VisionThresholds
+
+    v = scenario.vision
+    mm, deg = 1.0 / M_PER_MM, math.degrees
+
+    def span(pair, scale=1.0) -> tuple[float, float]:
+        return (pair[0] * scale, pair[1] * scale)
+
+    seedlings = SeedlingDraw.near_thresholds() if v.seedling_draw == "near_thresholds" else None
+    imaging = ImagingDraw(
+        light_scale=span(v.light_scale),
+        leaf_hue_deg=tuple(deg(a) for a in v.leaf_hue_rad),
+        leaf_saturation=span(v.leaf_saturation),
+        leaf_value=span(v.leaf_value),
+        leaf_jitter=v.leaf_jitter,
+        substrate_hue_deg=tuple(deg(a) for a in v.substrate_hue_rad),
+        substrate_saturation=span(v.substrate_saturation),
+        substrate_value=span(v.substrate_value),
+        yaw_deg=deg(v.tray_yaw_rad),
+        tip_deg=deg(v.tray_tip_rad),
+        shift_mm=v.tray_shift_m * mm,
+    )
+    thresholds = VisionThresholds(
+        white_percentile=v.white_percentile,
+        min_white_level=v.min_white_level,
+        min_contrast=v.min_contrast,
+        tray_band=span(v.tray_band),
+        close_fraction=v.close_fraction,
+        erode_mm=v.erode_m * mm,
+        open_mm=v.open_m * mm,
+        tray_aspect_tolerance=v.tray_aspect_tolerance,
+        px_per_mm=1.0 / (v.rectified_resolution_m * mm),
+        profile_level=v.profile_level,
+        hue=tuple(round(deg(a) / 2) for a in v.leaf_hue_band_rad),
+        min_saturation=v.leaf_min_saturation,
+        min_value=v.leaf_min_value,
+        min_component_mm2=v.min_component_mm2,
+        core_radius_mm=v.core_radius_m * mm,
+        rule=GradingRule(
+            min_leaf_area_mm2=v.min_leaf_area_mm2,
+            max_centroid_offset_mm=v.max_centroid_offset_m * mm,
+            min_secant_mm=v.min_secant_m * mm,
+            empty_area_mm2=v.empty_area_mm2,
+        ),
+    )
+    mount = CameraMount(height_mm=v.camera_height_m * mm, leaf_height_mm=v.leaf_height_m * mm)
+    return VisionConfig(
+        seedlings=seedlings or SeedlingDraw(),
+        imaging=imaging,
+        width_px=v.image_width_px,
+        height_px=v.image_height_px,
+        mount=mount,
+        thresholds=thresholds,
+    )
