@@ -27,7 +27,9 @@ from transplanter.scene.robots import delta as delta_robot
 from transplanter.twin.delta_refill import run_delta_refill
 
 KIN = DeltaKinematics()
-SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0}
+# the physics from the drawn truth (the pipeline's grading: tests/test_delta_grading.py)
+SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0,
+         "delta_refill.vision": "truth"}  # fmt: skip
 SEED = 10  # first job cell inferior, first healthy supply seedling a left-right crosser
 
 
@@ -151,7 +153,8 @@ def test_the_json_has_the_paper_columns_with_definitions(tmp_path, capsys):
     out = tmp_path / "r.json"
     status = cli.main(["trial", "delta_refill", "--seed", str(SEED), "--json", str(out),
                        "--set", "delta_refill.max_cells=1",
-                       "--set", "delta_refill.image_delay_ms=0"])  # fmt: skip
+                       "--set", "delta_refill.image_delay_ms=0",
+                       "--set", "delta_refill.vision=truth"])  # fmt: skip
     assert status == 0
     d = json.loads(out.read_text())
     for name in ("time_per_operation_s", "plants_per_hour", "trays_per_hour",
