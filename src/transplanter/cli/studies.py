@@ -128,6 +128,7 @@ def _sweep_parser(sub) -> None:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.studies.jobs import job_of
     from transplanter.studies.sweep import (
         SweepRefused,
         SweepSpec,
@@ -136,7 +137,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         parse_vary,
         run_sweep,
     )
-    from transplanter.studies.jobs import job_of
     from transplanter.twin.report import estimate_line
 
     seeds = _seeds(args)

@@ -726,9 +726,7 @@ def _schema_of(cls: type, section: str | None = None) -> dict[str, Key]:
     return out
 
 
-SCHEMA: dict[str, dict[str, Key]] = {
-    name: _schema_of(cls, name) for name, cls in SECTIONS.items()
-}
+SCHEMA: dict[str, dict[str, Key]] = {name: _schema_of(cls, name) for name, cls in SECTIONS.items()}
 
 DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
     "robot": {"kind": "fivebar"},
@@ -1248,8 +1246,8 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
     _check_faults(v["faults"])
     _check_plugs(v["plugs"], v["plug_claws"])
-    band = v["plug_bench"]["moisture_band_pct"] / 2
-    if v["workcell"]["kind"] == "plug_bench" and not 0 < v["plugs"]["moisture_pct"] - band < v["plugs"]["moisture_pct"] + band < 100:
+    band, moisture = v["plug_bench"]["moisture_band_pct"] / 2, v["plugs"]["moisture_pct"]
+    if v["workcell"]["kind"] == "plug_bench" and not 0 < moisture - band <= moisture + band < 100:
         raise ScenarioError(
             f"plugs.moisture_pct +- plug_bench.moisture_band_pct / 2 = "
             f"{v['plugs']['moisture_pct']:g} +- {band:g} % leaves (0, 100) %: a plug's "

@@ -200,9 +200,10 @@ class SweepSpec:
         if self.design == "L9" and (
             not 2 <= len(keys) <= 4 or any(len(a.values) != 3 for a in self.axes)
         ):
+            given = ", ".join(f"{a.key} ({len(a.values)} values)" for a in self.axes)
             raise SweepRefused(
                 "--design L9 takes 2 to 4 varied keys of three values each (its nine runs "
-                f"cover 4 factors at 3 levels); got {', '.join(f'{a.key} ({len(a.values)} values)' for a in self.axes)}"
+                f"cover 4 factors at 3 levels); got {given}"
             )
         if len(set(keys)) != len(keys):
             raise SweepRefused("--vary: a key is varied twice; give each key once")
@@ -225,8 +226,7 @@ class SweepSpec:
             from transplanter.studies.orthogonal import L9
 
             return [
-                {a.key: a.values[int(row[i]) - 1] for i, a in enumerate(self.axes)}
-                for row in L9
+                {a.key: a.values[int(row[i]) - 1] for i, a in enumerate(self.axes)} for row in L9
             ]
         return [
             dict(zip(self.keys, combo, strict=True))

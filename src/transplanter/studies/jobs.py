@@ -67,9 +67,9 @@ def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
         cycles=r.operations,
         valid=r.valid,
         fault=r.fault,
-        fault_kind=None if r.fault is None else next(
-            (k for k in ("drive_alarm", "controller_error") if k in r.failures), None
-        ),
+        fault_kind=None
+        if r.fault is None
+        else next((k for k in ("drive_alarm", "controller_error") if k in r.failures), None),
         sim_time_s=r.sim_time_s,
         wall_time_s=r.wall_time_s,
         warnings="",
@@ -177,4 +177,3 @@ def run_job(job: Job, scenario, seed: int, row: dict[str, Any], t0: float) -> di
     if row.get("wall_time_s") is None or row.get("error"):
         row["wall_time_s"] = time.perf_counter() - t0
     return row
-

@@ -198,9 +198,7 @@ def sweep_range_analysis(
         if spread:
             lines.append(
                 f"R over the {len(seeds)} seeds one at a time: "
-                + ", ".join(
-                    f"{LETTERS[i]} {lo:.3f}-{hi:.3f}" for i, (lo, hi) in enumerate(spread)
-                )
+                + ", ".join(f"{LETTERS[i]} {lo:.3f}-{hi:.3f}" for i, (lo, hi) in enumerate(spread))
             )
         rank = {fr.name: n + 1 for n, fr in enumerate(order(ranges))}
         for i, fr in enumerate(ranges):

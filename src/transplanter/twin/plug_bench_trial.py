@@ -113,10 +113,12 @@ def run_bench_trial(sc, seed: int | None = None) -> BenchRunResult:
     job = sc.plug_bench
     plugs, claws = plugs_config(sc), claws_config(sc)
     n = sc.meta.seedlings
-    rng = np.random.default_rng([seed, 2])  # a stream of its own: the trays use `seed`
     half = job.moisture_band_pct / 2
-    moisture = rng.uniform(plugs.moisture_pct - half, plugs.moisture_pct + half, size=n)
-    vigour = np.maximum(rng.normal(1.0, job.vigour_cv_pct / 100, size=n), 0.2)
+    moisture, vigour = np.zeros(n), np.zeros(n)
+    for i in range(n):  # seedling i's own stream: the first seedlings of a longer run are these
+        rng = np.random.default_rng([seed, 2, i])  # (the trays are drawn from `seed` itself)
+        moisture[i] = rng.uniform(plugs.moisture_pct - half, plugs.moisture_pct + half)
+        vigour[i] = max(rng.normal(1.0, job.vigour_cv_pct / 100), 0.2)
     fixed = math.degrees(job.fixed_rotary_rad)
     bench = BenchConfig(
         extraction_accel_m_s2=job.extraction_accel_m_s2,
@@ -126,9 +128,7 @@ def run_bench_trial(sc, seed: int | None = None) -> BenchRunResult:
     picks: list[dict[str, Any]] = []
     for i, (cell, geometry) in enumerate(_seedlings(seed, n)):
         grown = max(plugs.age_d - plugs.root_onset_d, 0.0) * float(vigour[i])
-        plug = replace(
-            plugs, moisture_pct=float(moisture[i]), age_d=plugs.root_onset_d + grown
-        )
+        plug = replace(plugs, moisture_pct=float(moisture[i]), age_d=plugs.root_onset_d + grown)
         rotary = rotary_for(cell, geometry, job.pose_judgement, fixed)
         r = run_pick(
             plug, claws, replace(bench, rotary_deg=rotary), centred_seedling(cell, geometry)
