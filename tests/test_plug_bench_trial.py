@@ -48,3 +48,18 @@ def test_a_moisture_band_leaving_0_100_is_refused_for_the_bench():
         load_scenario("plug_bench", {"plugs.moisture_pct": 96.0})
     # the tray job draws no band: the same moisture is its to use
     assert load_scenario("delta_refill", {"plugs.moisture_pct": 96.0}).plugs.moisture_pct == 96
+
+
+def test_transplanter_trial_runs_the_bench(tmp_path, capsys):
+    from transplanter import cli
+
+    out = tmp_path / "b.json"
+    status = cli.main(["trial", "plug_bench", "--seedlings", "3", "--json", str(out),
+                       *sum((["--set", f"{k}={v}"] for k, v in WET.items()
+                             if k != "scenario.seedlings"), [])])  # fmt: skip
+    assert status == 0
+    text = capsys.readouterr().out
+    assert text.startswith("seed 1: 1/3 seedlings arrived (33.3 %), dropped 2, substrate "
+                           "retention 83.0 %")  # fmt: skip
+    d = json.loads(out.read_text())
+    assert d["trial"] == "plug_bench" and d["successes"] == 1 and len(d["picks"]) == 3

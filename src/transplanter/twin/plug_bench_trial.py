@@ -64,6 +64,9 @@ class BenchRunResult:
     """Mean of the drawn moistures."""
     wall_time_s: float
     picks: list[dict[str, Any]] = field(default_factory=list)
+    valid: bool = True  # what `transplanter trial` asks of every result
+    fault: str | None = None
+    recording_error: str | None = None
 
     @property
     def success_rate(self) -> float:
