@@ -109,3 +109,12 @@ def test_a_sweeps_range_analysis_from_its_settings_and_runs():
     assert success_a["R_seed_min"] == pytest.approx(success_a["R_seed_max"])
     cycle = by["cycle_time_s", "C plug_bench.extraction_accel_m_s2"]
     assert cycle["R"] == 0.0
+
+
+def test_ties_are_printed_as_ties():
+    levels = np.array([row[:3] for row in L9])
+    # a response that varies only at A3: B and C are confounded in its three runs
+    values = [1, 1, 1, 1, 1, 1, 0.2, 0.7, 0.4]
+    text = format_range_table("success:", range_analysis(levels, values, NAMES))
+    assert "order: A > B = C" in text
+    assert "best levels: A1|A2 B2 C1" in text

@@ -126,9 +126,22 @@ def format_range_table(
     lines.append("R   " + "".join(f"  {fr.r:>{width}.{digits}f}" for fr in ranges))
     ranked = order(ranges)
     letter = {fr.name: letters[i] for i, fr in enumerate(ranges)}
-    lines.append("order: " + " > ".join(letter[fr.name] for fr in ranked))
-    lines.append("best levels: " + " ".join(f"{letter[fr.name]}{fr.best}" for fr in ranges))
+    text = letter[ranked[0].name]
+    for prev, fr in zip(ranked, ranked[1:], strict=False):
+        text += (" = " if _same(prev.r, fr.r) else " > ") + letter[fr.name]
+    lines.append("order: " + text)
+    best = []
+    for fr in ranges:  # levels tied with the best are named too: A1|A2
+        top = fr.k[fr.best - 1]
+        tied = [i + 1 for i, k in enumerate(fr.k) if _same(k, top)]
+        best.append("|".join(f"{letter[fr.name]}{level}" for level in tied))
+    lines.append("best levels: " + " ".join(best))
     return "\n".join(lines)
+
+
+def _same(a: float, b: float) -> bool:
+    """Equal but for rounding (a tie of two means or two ranges)."""
+    return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
 
 
 RESPONSES = (
