@@ -156,3 +156,16 @@ def test_the_l9_design_runs_the_nine_rows_of_the_orthogonal_array():
                   design="L9")  # fmt: skip
     with pytest.raises(SweepRefused, match="--design 'L27': choose one of full, L9"):
         SweepSpec("plug_bench", axes, (1,), 1, design="L27")
+
+
+def test_a_five_bar_sweeps_identity_does_not_hold_the_plug_sections():
+    axis = (Axis("taught.z_low_mm", (30.0,)),)
+
+    def digest(name, **over):
+        return SweepSpec(name, axis if name == "paper" else (Axis("plugs.age_d", (25.0,)),),
+                         (1,), 2, over).manifest()["scenario_digest"]  # fmt: skip
+
+    # [plugs] is not the five-bar's: its sweeps keep the digest they had before the plug
+    # sections existed (checked against e03f64d: 533902d7...), so their results resume
+    assert digest("paper", **{"plugs.moisture_pct": 75}) == digest("paper")
+    assert digest("plug_bench", **{"plugs.moisture_pct": 75}) != digest("plug_bench")

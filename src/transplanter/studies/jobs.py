@@ -27,6 +27,9 @@ from typing import Any
 
 __all__ = ["JOBS", "Job", "job_of", "run_job"]
 
+PLUG_SECTIONS = ("plugs", "plug_claws", "plug_bench")
+"""The scenario sections only these jobs read."""
+
 DELTA_FAILURES = (
     "cull_dropped",
     "cull_left",
