@@ -79,6 +79,29 @@ def quat(m: np.ndarray) -> np.ndarray:
     return np.array([w, x, y, z])
 
 
+CLOSEUP_M = ((0.0, -0.26, -0.05), (0.0, 0.0, -0.11), 40)
+"""The camera `claws_closeup` on the platform (platform frame: position, the point looked at,
+vertical field of view deg): the effector under it, from the side, for `transplanter render`.
+The world's cameras are the scene's (transplanter.scene.delta_scene.add_cameras)."""
+
+
+def look_at(pos, target) -> np.ndarray:
+    """A camera's xyaxes looking from `pos` at `target`, its x axis level."""
+    forward = np.asarray(target, float) - np.asarray(pos, float)
+    forward /= np.linalg.norm(forward)
+    x = np.cross(forward, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(x, forward)
+    return np.round(np.concatenate([x, y]), 4) + 0.0
+
+
+def camera(name: str, pos, target, fovy: float, indent: str) -> str:
+    return (
+        f'{indent}<camera name="{name}" pos="{fmt(*pos)}" xyaxes="{fmt(*look_at(pos, target))}" '
+        f'fovy="{fmt(fovy)}"/>'
+    )
+
+
 def xml(kin: DeltaKinematics | None = None) -> str:
     """The text of delta.xml for a delta (default: DeltaKinematics(), the scenario defaults)."""
     kin = kin or DeltaKinematics()
@@ -234,6 +257,7 @@ def xml(kin: DeltaKinematics | None = None) -> str:
             material="aluminium"/>
       <site name="tool_centre" pos="0 0 0"/>
 {chr(10).join(sites)}
+{camera("claws_closeup", *CLOSEUP_M, "      ")}
     </body>
   </worldbody>
 

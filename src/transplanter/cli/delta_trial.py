@@ -11,9 +11,9 @@ import math
 from pathlib import Path
 from typing import Any
 
-from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds
+from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds, _show
 
-__all__ = ["handles", "run_trial"]
+__all__ = ["export", "handles", "render", "run_trial"]
 
 
 def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
@@ -26,6 +26,15 @@ def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
         return kind in ("plug_trays", "plug_bench")  # the tray job, the claws' bench
     except ScenarioError:
         return False
+
+
+def export(scenario, target: Path) -> Path:
+    """`transplanter export` of the delta's job: the scene its trial builds for the
+    scenario's seed (twin.delta_refill.job_spec), meshes in assets/ beside it."""
+    from transplanter.scene.delta_scene import export_spec
+    from transplanter.twin.delta_refill import job_spec
+
+    return export_spec(job_spec(scenario), target)
 
 
 def summary_line(r) -> str:
@@ -61,19 +70,26 @@ def _definitions(bench: bool = False) -> str:
     return "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
 
 
-def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Path | None) -> int:
+def run_trial(
+    args: argparse.Namespace,
+    overrides: dict[str, Any],
+    json_path: Path | None,
+    record_path: Path | None = None,
+) -> int:
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.studies.stats import pooled_rate
     from transplanter.twin.delta_refill import run_delta_refill
 
-    for option, value in (("--record", args.record), ("--clips-of-failures",
-                                                       args.clips_of_failures),
+    for option, value in (("--clips-of-failures", args.clips_of_failures),
                           ("--eeprom", args.eeprom)):  # fmt: skip
         if value is not None:
             _err(f"{option}: not available for the delta's plug-tray trial (docs/delta.md)")
             return EXIT_REFUSED
     if args.seeds is not None and args.seed is not None:
         _err("--seeds runs one trial per seed: drop --seed")
+        return EXIT_REFUSED
+    if args.seeds is not None and record_path is not None:
+        _err("--seeds runs one trial per seed: drop --record (record one --seed)")
         return EXIT_REFUSED
     seeds = _seeds(args) if args.seeds is not None else [None]
     if seeds is None:
@@ -84,11 +100,27 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
     bench = scenario.workcell.kind == "plug_bench"
+    if bench and record_path is not None:
+        _err("--record: not available for the claws' bench (docs/plug_claws.md)")
+        return EXIT_REFUSED
     if bench:
         from transplanter.twin.plug_bench_trial import run_bench_trial
-    results = []
+    results, outputs = [], []
     for seed in seeds:
-        result = run_bench_trial(scenario, seed) if bench else run_delta_refill(scenario, seed)
+        if bench:
+            result = run_bench_trial(scenario, seed)
+        elif record_path is None:
+            result = run_delta_refill(scenario, seed)
+        else:
+            from transplanter.viewing.delta import DeltaRecording, run_observed
+
+            result = run_observed(scenario, seed, [DeltaRecording(record_path, args.record_rate)])
+            if result.recording_error is None:
+                shown = _show(record_path)
+                outputs.append(
+                    (f"recording written to {shown} (view it with: transplanter replay {shown})",
+                     None)
+                )  # fmt: skip
         results.append(result)
         print(bench_line(result) if bench else summary_line(result))
     if args.seeds is None:
@@ -113,4 +145,44 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
             f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
         )
     summary = "definitions:\n" + _definitions(bench)
-    return _finish(args, results, summary, payload, json_path)
+    return _finish(args, results, summary, payload, json_path, outputs=outputs)
+
+
+def render(
+    args: argparse.Namespace, overrides: dict[str, Any], target: Path, json_path: Path | None
+) -> int:
+    """`transplanter render` of the delta's job: the trial as `trial` runs it (the same
+    results) filmed by viewing.delta.DeltaVideo (--cells-of: only those cells' work)."""
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.viewing import delta, video
+
+    if args.seedlings_of is not None:
+        _err("render refused: the delta's job has cells, not seedlings: give --cells-of")
+        return EXIT_REFUSED
+    try:
+        scenario = load_scenario(args.scenario, overrides)
+        cells = None if args.cells_of is None else delta.parse_cells(args.cells_of)
+        observer = delta.DeltaVideo(
+            target, args.width, args.height, args.fps, args.camera, cells, args.shadows
+        )
+    except (ScenarioError, video.RenderRefused) as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    try:
+        result = delta.run_observed(scenario, None, [observer])
+    except (video.GLUnavailable, video.RenderRefused) as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    print(summary_line(result))
+    if observer.error is not None:
+        written = (None, f"render: {observer.error}")
+    else:
+        n = observer.frames
+        rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
+        written = (
+            f"video written to {_show(target)}: {n} frames at {args.fps:g} fps "
+            f"({n / args.fps:.1f} s), {args.width}x{args.height}, camera "
+            f"{_show(args.camera)}; rendering and encoding took {observer.render_s:.1f} s{rate}",
+            None,
+        )
+    return _finish(args, [result], None, result.to_dict(), json_path, outputs=[written])

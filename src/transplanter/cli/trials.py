@@ -120,7 +120,7 @@ def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter.cli import delta_trial  # the delta's plug-tray job: its own trial
 
     if delta_trial.handles(args, overrides):
-        return delta_trial.run_trial(args, overrides, targets["--json"])
+        return delta_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
@@ -359,9 +359,17 @@ def _render_parser(sub) -> None:
         "each from its first line to the release plus 0.5 s",
     )
     p.add_argument(
+        "--cells-of",
+        default=None,
+        metavar="I,J-K",
+        help="the delta's plug-tray job: film only the work on these planting cells (0-127, "
+        "as the results' cells[].index), each from its first line to its last plus 0.5 s",
+    )
+    p.add_argument(
         "--camera",
         default="overview",
-        help="named camera: overview, funnel, gripper_closeup (overview)",
+        help="named camera: overview, funnel, gripper_closeup; for the delta's job overview, "
+        "trays, claws_closeup (overview)",
     )
     p.add_argument("--fps", type=ascii_float, default=30.0, help="frames per second (30)")
     p.add_argument("--width", type=ascii_int, default=640, help="frame width in px (640)")
@@ -389,6 +397,18 @@ def cmd_render(args: argparse.Namespace) -> int:
     clash = _clash(outputs, _inputs(args))
     if clash is not None:
         _err(f"render refused: {clash}")
+        return EXIT_REFUSED
+    from transplanter.cli import delta_trial  # the delta's plug-tray job: its own trial
+
+    try:
+        overrides = _trial_overrides(args)
+    except ScenarioError as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    if delta_trial.handles(args, overrides):
+        return delta_trial.render(args, overrides, target, json_target)
+    if args.cells_of is not None:
+        _err("render refused: --cells-of is for the delta's plug-tray job; give --seedlings-of")
         return EXIT_REFUSED
     try:
         config = _single_trial_config(args)
@@ -484,7 +504,8 @@ def cmd_view(args: argparse.Namespace) -> int:
 def _export_parser(sub) -> None:
     p = sub.add_parser(
         "export",
-        help="write the scene a trial builds (pots, seedlings, conveyor, drop tube) as MJCF",
+        help="write the scene a trial builds (pots, seedlings, conveyor, drop tube; for the "
+        "delta's job its trays, plugs and bin) as MJCF",
     )
     add_options(p, "scenario")
     p.add_argument("out", type=Path, help="the .xml file to write (meshes go to assets/ beside)")
@@ -497,6 +518,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     import tempfile
 
     from transplanter import fileio
+    from transplanter.cli import delta_trial
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.scene import export_scene
@@ -506,7 +528,12 @@ def cmd_export(args: argparse.Namespace) -> int:
         clash = _clash([("OUT", args.out)], _inputs(args))
         if clash is not None:
             raise fileio.FileRefused(clash)
-        config = assemble(load_scenario(args.scenario, _trial_overrides(args)), preflight=False)
+        overrides = _trial_overrides(args)
+        delta = delta_trial.handles(args, overrides)  # the delta's plug trays: its own scene
+        if delta:
+            config = load_scenario(args.scenario, overrides)
+        else:
+            config = assemble(load_scenario(args.scenario, overrides), preflight=False)
     except (ScenarioError, fileio.FileRefused) as exc:
         _err(f"export refused: {exc}")
         return EXIT_REFUSED
@@ -515,7 +542,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     # program derives): os.replace puts the file in the link's place.
     staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
-        export_scene(config.scene, config.seed, staging / path.name)
+        if delta:
+            delta_trial.export(config, staging / path.name)
+        else:
+            export_scene(config.scene, config.seed, staging / path.name)
         _move_exported(staging, path)
     except (ScenarioError, fileio.FileRefused) as exc:
         _err(f"export refused: {exc}")

@@ -106,6 +106,11 @@ class DeltaController:
         for axis, letter in enumerate(self.kin.coordinates):
             if letter in words:
                 target[axis] = words[letter] * M_PER_MM
+        if parsed.command == "G0" and self.sgf.spline_transfer(start, target):
+            # a spline transfer: planned under these same limits (and the end effector's)
+            # when it starts; the SGF refuses it then if no timing meets them
+            self._target = target
+            return None
         speed = self._speed_m_s
         if "S" in words:
             speed = words["S"] * M_PER_MM

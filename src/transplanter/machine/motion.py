@@ -21,6 +21,9 @@ from transplanter.machine.steppers import count_at, step_counts
 from transplanter.units import M_PER_MM, show
 
 PROFILES = ("trapezoid", "scurve")
+PLANNERS = ("lines", "bspline5")
+"""How G0 moves: ``lines`` straight (the five-bar paper's firmware), ``bspline5`` along the
+quintic B-spline pick path (``machine.spline_motion``)."""
 
 MAX_POINTS_PER_MOVE = 1_000_000
 """Most interpolated points one move may have (100 m at the 0.1 mm default grid): a move
@@ -50,9 +53,30 @@ class MotionConfig:
     Arduino Mega): at most 1/this points per second, so path speed <= resolution / this."""
     min_speed_m_s: float = 0.002
     """Start and stop speed of every move."""
+    planner: str = "lines"
+    """``lines``: G0 and G1 are straight lines. ``bspline5``: a G0 is a pick-and-place transfer
+    along the time-optimal quintic B-spline through the pick path's key points
+    (``machine.spline_motion``); G1 stays a straight line."""
+    ee_accel_limit_m_s2: float = 8.83
+    """The end effector's acceleration limit of a ``bspline5`` move (an estimate:
+    ``planner_bspline.EE_ACCEL_LIMIT_M_S2``)."""
+    pick_lift_m: float = 0.100
+    """A ``bspline5`` transfer's vertical lift and descent (the paper's 100 mm)."""
+    pick_arc_m: float = 0.050
+    """A ``bspline5`` transfer's arc radius at the top of the lift (the paper's 50 mm)."""
+    pick_exit_m: float = 0.0
+    """0: a ``bspline5`` transfer through the paper's seven key points; above 0, with a key
+    point this high straight above each end (``planner_bspline.PickPath.exit_m``)."""
 
     def __post_init__(self) -> None:
-        for name in ("resolution_m", "accel_m_s2", "compute_time_per_point_s"):
+        for name in (
+            "resolution_m",
+            "accel_m_s2",
+            "compute_time_per_point_s",
+            "ee_accel_limit_m_s2",
+            "pick_lift_m",
+            "pick_arc_m",
+        ):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ValueError(f"MotionConfig.{name} must be a positive number, got {value!r}")
@@ -62,6 +86,15 @@ class MotionConfig:
             and self.min_speed_m_s >= 0
         ):
             raise ValueError(f"MotionConfig.min_speed_m_s must be >= 0, got {self.min_speed_m_s!r}")
+        if not (math.isfinite(self.pick_exit_m) and 0.0 <= self.pick_exit_m < self.pick_lift_m):
+            raise ValueError(
+                f"MotionConfig.pick_exit_m must be in [0, pick_lift_m = {self.pick_lift_m:g}) m, "
+                f"got {self.pick_exit_m!r}"
+            )
+        if self.planner not in PLANNERS:
+            raise ValueError(
+                f"MotionConfig.planner must be one of {PLANNERS}, got {self.planner!r}"
+            )
         if self.profile not in PROFILES:
             raise ValueError(
                 f"MotionConfig.profile must be one of {PROFILES}, got {self.profile!r}"
@@ -99,7 +132,8 @@ def bresenham_3d(start_idx, end_idx) -> np.ndarray:
 
 @dataclass
 class PlannedMove:
-    """A planned straight move: points, joint targets and step events of the arm's motors."""
+    """A planned move (a straight line, or a sampled spline transfer): points, joint targets and
+    step events of the arm's motors."""
 
     start_xyz: np.ndarray
     """(3,) m, where the move starts."""
@@ -130,6 +164,8 @@ class PlannedMove:
     compute time per point); empty when it cruises at the requested speed."""
     cruise_speed_m_s: float = math.nan
     """The speed the move cruises at where it is long enough to reach it (m/s)."""
+    spline_plan: object | None = None
+    """The ``planner_bspline.MovePlan`` a ``bspline5`` transfer samples; None for a line."""
 
     _counts: tuple[np.ndarray, ...] | None = field(
         default=None, init=False, repr=False, compare=False
@@ -232,7 +268,7 @@ def _profile_times(
     return t, v_peak
 
 
-def _step_events(
+def step_events(
     deltas: np.ndarray, t: np.ndarray
 ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
     """Spread each segment's |delta| steps evenly in its interval; the last lands on its end."""
@@ -362,7 +398,7 @@ def plan_line(
         # the machine is not where its counters say: step there at the motors' top rates
         duration = float(np.max(np.abs(correction) / rates))
         t = np.array([0.0, duration])
-        times, dirs = _step_events(correction[None, :], t)
+        times, dirs = step_events(correction[None, :], t)
         return PlannedMove(
             start, end, np.stack([start, start]), t, np.stack([joints[0], joints[0]]),
             np.stack([point_steps[0], point_steps[0]]), times, dirs, start_counts,
@@ -398,7 +434,7 @@ def plan_line(
         # only short end segments at extreme accelerations: give IK its time per point
         dt = np.maximum(dt, config.compute_time_per_point_s)
         t = np.concatenate([[0.0], np.cumsum(dt)])
-    times, dirs = _step_events(deltas, t)
+    times, dirs = step_events(deltas, t)
     return PlannedMove(
         start_xyz=start,
         end_xyz=end,

@@ -131,16 +131,27 @@ class PickPath:
 
     lift_m: float = 0.100
     radius_m: float = 0.050
+    exit_m: float = 0.0
+    """0: the paper's seven key points. Above 0: one more key point straight above the pick
+    point and one straight above the place point at this height (nine points, eight
+    intervals), so that the joint-space spline leaves and enters a cell nearly vertically:
+    through seven points it strays 7-11 mm sideways within the first 45 mm of the lift
+    (docs/planner.md, "Executed")."""
 
     def __post_init__(self) -> None:
         for name in ("lift_m", "radius_m"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"PickPath.{name} must be positive, got {value!r}")
+        if not (math.isfinite(self.exit_m) and 0.0 <= self.exit_m < self.lift_m):
+            raise ValueError(
+                f"PickPath.exit_m must be in [0, lift_m = {self.lift_m:g}) m, got {self.exit_m!r}"
+            )
 
 
 def key_points(start, end, path: PickPath | None = None) -> np.ndarray:
-    """(7, 3) key points Q0..Q6 (m) of a move from ``start`` to ``end`` (m, Z up)."""
+    """(7, 3) key points Q0..Q6 (m) of a move from ``start`` to ``end`` (m, Z up); (9, 3) with
+    the exit points of ``path.exit_m`` after Q0 and before Q6."""
     path = path or PickPath()
     p0, p6 = np.asarray(start, dtype=np.float64), np.asarray(end, dtype=np.float64)
     if p0.shape != (3,) or p6.shape != (3,) or not np.isfinite(np.append(p0, p6)).all():
@@ -160,6 +171,14 @@ def key_points(start, end, path: PickPath | None = None) -> np.ndarray:
     q5 = np.array([p6[0], p6[1], top - r])
     q4 = np.array([p6[0], p6[1], top]) - r * u
     q3 = 0.5 * (q2 + q4)
+    if path.exit_m > 0.0 and min(q1[2] - p0[2], q5[2] - p6[2]) <= path.exit_m:
+        raise MoveRefused(
+            "path", f"the exit points {path.exit_m * 1e3:g} mm above the ends are not below "
+            "the lifts' tops"
+        )  # fmt: skip
+    if path.exit_m > 0.0:
+        e0, e6 = p0 + [0.0, 0.0, path.exit_m], p6 + [0.0, 0.0, path.exit_m]
+        return np.stack([p0, e0, q1, q2, q3, q4, q5, e6, p6])
     return np.stack([p0, q1, q2, q3, q4, q5, p6])
 
 
@@ -181,13 +200,15 @@ def joint_nodes(kinematics: Kinematics, points) -> np.ndarray:
 
 
 def quintic_spline(nodes, intervals) -> BSpline:
-    """The quintic B-spline through the (7, n) joint nodes at times 0, cumsum(intervals), with
-    zero speed and acceleration at both ends (Eq. 9-13 of the paper)."""
+    """The quintic B-spline through the (7, n) joint nodes (or any k >= 2 nodes) at times 0,
+    cumsum(intervals), with zero speed and acceleration at both ends (Eq. 9-13 of the
+    paper)."""
     h = np.asarray(intervals, dtype=np.float64)
-    if h.shape != (N_INTERVALS,) or not (np.isfinite(h).all() and (h > 0).all()):
-        raise ValueError(f"a move needs {N_INTERVALS} positive interval lengths, got {intervals!r}")
-    t = np.concatenate([[0.0], np.cumsum(h)])
     nodes = np.asarray(nodes, dtype=np.float64)
+    count = nodes.shape[0] - 1
+    if h.shape != (count,) or not (np.isfinite(h).all() and (h > 0).all()):
+        raise ValueError(f"a move needs {count} positive interval lengths, got {intervals!r}")
+    t = np.concatenate([[0.0], np.cumsum(h)])
     zero = np.zeros(nodes.shape[1:])
     ends = [(1, zero), (2, zero)]
     return make_interp_spline(t, nodes, k=5, bc_type=(ends, ends))
@@ -463,7 +484,7 @@ def interval_usage(kinematics: Kinematics, nodes, intervals, limits: MoveLimits)
     joint torque and the end effector's acceleration (sampled; 0 where the limit is absent)."""
     spline = quintic_spline(nodes, intervals)
     peaks = exact_peaks(spline)
-    out = np.zeros((N_INTERVALS, 4))
+    out = np.zeros((len(intervals), 4))
     out[:, 0] = peaks["speed"].max(axis=1) / limits.joint_speed_rad_s
     out[:, 1] = peaks["accel"].max(axis=1) / limits.joint_accel_rad_s2
     if limits.joint_torque_nm is None and limits.ee_accel_m_s2 is None:
@@ -541,13 +562,13 @@ def _peaks_of(kinematics, nodes, h, limits) -> dict[str, np.ndarray]:
     tau, ee = at(ts)
     out["ee_accel"] = np.array(
         [_refine(lambda t: float(at(t)[1]), ts[i : i + 1], ee[i : i + 1], ee[i].max())
-         for i in range(N_INTERVALS)]
+         for i in range(len(h))]
     )  # fmt: skip
     if tau is not None:
         out["torque"] = np.array(
             [[_refine(lambda t, j=j: float(at(t)[0][j]), ts[i : i + 1], tau[i : i + 1, :, j],
                       tau[i, :, j].max()) for j in range(tau.shape[-1])]
-             for i in range(N_INTERVALS)]
+             for i in range(len(h))]
         )  # fmt: skip
     return out
 
@@ -595,7 +616,8 @@ def plan_move(
         history.append((evaluations[0], best))
         return total
 
-    h0 = np.asarray(START_SHAPE if start_shape is None else start_shape, dtype=np.float64)
+    count = nodes.shape[0] - 1
+    h0 = np.ones(count) if start_shape is None else np.asarray(start_shape, dtype=np.float64)
     h0 = h0 * scaled_total(h0, first=True) / h0.sum()  # the start shape, at its limit
     if method == "slsqp":
 
@@ -606,7 +628,7 @@ def plan_move(
 
         res = minimize(
             np.sum, h0, jac=lambda h: np.ones_like(h), method="SLSQP",
-            bounds=[(1e-4 * h0[0], None)] * N_INTERVALS,
+            bounds=[(1e-4 * h0[0], None)] * count,
             constraints=[{"type": "ineq", "fun": margins}],
             callback=lambda h: scaled_total(np.asarray(h)),
             options={"ftol": ftol, "maxiter": max_iterations},
@@ -617,11 +639,11 @@ def plan_move(
         if not (np.all(h > 0) and scaled_total(h) <= history[-1][1]):
             h = best_shape[0]
     elif method == "nelder-mead":
-        x0 = np.zeros(N_INTERVALS - 1)
+        x0 = np.zeros(count - 1)
         res = minimize(
             lambda x: scaled_total(np.exp(np.append(x, 0.0))), x0, method="Nelder-Mead",
             options={"xatol": 1e-6, "fatol": 1e-9, "maxfev": 40 * max_iterations,
-                     "initial_simplex": np.vstack([x0, x0 + 0.3 * np.eye(N_INTERVALS - 1)])},
+                     "initial_simplex": np.vstack([x0, x0 + 0.3 * np.eye(count - 1)])},
         )  # fmt: skip
         h = np.exp(np.append(res.x, 0.0))
     else:

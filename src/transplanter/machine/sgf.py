@@ -6,7 +6,11 @@ its reply when it is done, so replies come back in line order:
 - ``G0``/``G1``: planned from the current logical step counters with
   ``motion.plan_line`` before any step (every interpolated point checked); ``ok`` when the
   last step has been issued. Speed: ``S`` mm/s, or ``F`` mm/min, else the last one given,
-  else ``default_speed_m_s``. ``G0`` moves like ``G1``.
+  else ``default_speed_m_s``. ``G0`` moves like ``G1``, but with ``motion.planner =
+  "bspline5"``: a ``G0`` with horizontal travel is then a pick-and-place transfer along the
+  time-optimal quintic B-spline (``machine.spline_motion``: lift, arc, top, arc, descent,
+  timed by the arm's joint limits; its speed word is ignored), refused with ``error:33``
+  naming the limit when no timing meets it.
 - ``G4 P<ms>``: ``ok`` after the dwell. A dwell over ``gcode.MAX_DWELL_MS`` or a move
   planned to take over ``MAX_MOVE_S`` (an hour each) is refused with ``error:63``.
   ``M280``: servo command recorded, ``ok`` at once.
@@ -114,6 +118,10 @@ class SGFConfig:
         if not isinstance(self.homing, HomingConfig):
             raise ValueError(f"SGFConfig.homing must be a HomingConfig, got {self.homing!r}")
         object.__setattr__(self, "homing", self.homing.resolved(self.kinematics.axes))
+        if self.motion.planner == "bspline5":
+            from transplanter.machine.spline_motion import spline_limits
+
+            spline_limits(self.kinematics, self.motion)  # refuses an arm without joint limits
         self._check_steps_per_move()
         if not (math.isfinite(self.default_speed_m_s) and self.default_speed_m_s > 0):
             raise ValueError(
@@ -606,9 +614,14 @@ class SGF:
                 raise GcodeError(ErrorCode.LIMIT_SWITCH_CLOSED, self._hard_limit(axis, switch))
         config = self.config
         try:
-            move = plan_line(
-                self._logical, self._position, target, speed_m_s, kinematics, config.motion
-            )
+            if command == "G0" and self.spline_transfer(self._position, target):
+                move = self._plan_transfer(target)
+            else:
+                move = plan_line(
+                    self._logical, self._position, target, speed_m_s, kinematics, config.motion
+                )
+        except GcodeError:
+            raise
         except UnreachableError as error:
             shown = ", ".join(show(v / M_PER_MM) for v in target)
             raise GcodeError(
@@ -640,6 +653,30 @@ class SGF:
             return raw0 + (move.steps_at(rel) - start_steps)
 
         self._add_segment(t0, evaluate)
+
+    def spline_transfer(self, start, target) -> bool:
+        """Whether a G0 from ``start`` to ``target`` (m) is a spline transfer: under
+        ``motion.planner = "bspline5"``, unless it has no horizontal travel (a pick path turns
+        towards its target), which moves as a line."""
+        if self.config.motion.planner != "bspline5":
+            return False
+        return bool(np.hypot(*(np.asarray(target)[:2] - np.asarray(start)[:2])) >= 1e-6)
+
+    def _plan_transfer(self, target: np.ndarray) -> PlannedMove:
+        # imported here: scipy's optimiser is only loaded by a machine that runs splines
+        from transplanter.machine.planner_bspline import MoveRefused
+        from transplanter.machine.spline_motion import plan_spline_move
+
+        try:
+            return plan_spline_move(
+                self._logical, self._position, target, self.config.kinematics, self.config.motion
+            )
+        except MoveRefused as error:
+            shown = ", ".join(show(v / M_PER_MM) for v in target)
+            raise GcodeError(
+                ErrorCode.INVALID_TARGET,
+                f"G0 transfer to ({shown}) mm refused before it starts ({error.limit}): {error}",
+            ) from None
 
     def _too_slow(
         self, command: str, words: dict[str, float], speed_m_s: float, move: PlannedMove

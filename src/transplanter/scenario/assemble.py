@@ -223,6 +223,8 @@ def _machine(s: Scenario) -> Machine:
         accel_m_s2=mot.accel_m_s2,
         profile=mot.profile,
         compute_time_per_point_s=mot.compute_time_per_point_s,
+        planner=mot.planner,
+        ee_accel_limit_m_s2=mot.ee_accel_limit_m_s2,
     )
     sgf = SGFConfig(
         kinematics=kinematics,

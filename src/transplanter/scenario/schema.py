@@ -236,6 +236,12 @@ class DeltaRefillSection:
     segment_m: float = key("float", 0.01, 10, doc="interpolation grid of the controller")
     point_time_s: float = key("float", 1, 1e5, doc="the controller's IK time per point")
     lift_m: float = key("float", 10, 300, doc="lift above the work height (the paper: 100)")
+    arc_radius_m: float = key(
+        "float", 1, 300, doc="arc at the top of a bspline5 transfer's lift (the paper: 50)"
+    )
+    exit_m: float = key(
+        "float", 0, 299, doc="bspline5: key point straight above each end (0: the paper's 7)"
+    )
     release_above_m: float = key("float", 0, 50, doc="platform above work height at release")
     bin_release_above_m: float = key("float", 0, 200, doc="platform above work over the bin")
     bin_x_m: float = key("float", -1000, 1000, doc="the bin's centre X")
@@ -414,6 +420,15 @@ class MotionSection:
         0.01,
         1e6,
         doc="IK time per point: 198 ESP32 dual core, 276 single core, 4027 Arduino Mega",
+    )
+    planner: str = key(
+        "str",
+        choices=("lines", "bspline5"),
+        doc="lines: G0 and G1 straight; bspline5: a G0 is a time-optimal quintic B-spline "
+        "transfer (lift, arc, top, arc, descent) under the arm's joint limits",
+    )
+    ee_accel_limit_m_s2: float = key(
+        "float", 100, 1e6, doc="end-effector acceleration limit of a bspline5 transfer"
     )
 
 
@@ -756,6 +771,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "homing_rate_hz": 5000.0,
         "homing_locate_rate_hz": 500.0,
     },
+    "motion": {"planner": "lines", "ee_accel_limit_mm_s2": 8830.0},
     "delta_refill": {
         "image_delay_ms": 2000.0,
         "pose_judgement": True,
@@ -767,6 +783,8 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "segment_mm": 0.5,
         "point_time_us": 100.0,
         "lift_mm": 100.0,
+        "arc_radius_mm": 50.0,
+        "exit_mm": 10.0,
         "release_above_mm": 8.0,
         "bin_release_above_mm": 20.0,
         "bin_x_mm": 360.0,

@@ -30,10 +30,25 @@ from transplanter.scene.plug_physics import BIT_TRAY, add_cell, add_leaves, add_
 from transplanter.scene.plug_substrate import PlugsConfig, Substrate
 from transplanter.scene.plug_tray import Seedling, TrayDraw, TrayGeometry
 
-__all__ = ["DeltaSceneConfig", "JobCells", "build_delta_spec", "compile_scene", "models_dir"]
+__all__ = [
+    "DeltaSceneConfig",
+    "JobCells",
+    "build_delta_spec",
+    "compile_scene",
+    "export_spec",
+    "models_dir",
+]
 
 PLATFORM_HALF_THICKNESS_M = 0.01
 """The platform's collision disc is 20 mm thick: the claws' mount hangs under it."""
+CAMERAS_M = {
+    # name: (position, point looked at, vertical field of view deg), both relative to the
+    # work zone's centre: x 0, y midway between the trays, z the platform's work height
+    "overview": ((1.5, -1.2, 0.55), (0.05, 0.0, 0.25), 45.0),
+    "trays": ((0.8, 0.0, 0.6), (0.0, 0.0, -0.04), 50.0),
+}
+"""The scene's named cameras (`transplanter render`): the whole machine, and both trays and
+the bin from above the bin's side; `claws_closeup` rides on the platform (models/delta)."""
 
 
 def models_dir() -> Path:
@@ -178,6 +193,29 @@ def add_trays(
     _add_bin(spec, cfg)
 
 
+def _look_at_quat(pos, target) -> list[float]:
+    """The quaternion of a camera at `pos` looking at `target`, its x axis level."""
+    import numpy as np
+
+    forward = np.asarray(target, float) - np.asarray(pos, float)
+    forward /= np.linalg.norm(forward)
+    x = np.cross(forward, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(x, forward)
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.column_stack([x, y, -forward]).ravel())
+    return quat.tolist()
+
+
+def add_cameras(spec: mujoco.MjSpec, cfg: DeltaSceneConfig) -> None:
+    """The named cameras of CAMERAS_M, placed about the trays where `cfg` puts them."""
+    centre = (0.0, (cfg.planting_y_m + cfg.supply_y_m) / 2, cfg.work_z_m)
+    for name, (pos, target, fovy) in CAMERAS_M.items():
+        p = [c + d for c, d in zip(centre, pos, strict=True)]
+        t = [c + d for c, d in zip(centre, target, strict=True)]
+        spec.worldbody.add_camera(name=name, pos=p, quat=_look_at_quat(p, t), fovy=fovy)
+
+
 def _add_bin(spec: mujoco.MjSpec, cfg: DeltaSceneConfig) -> None:
     bx, by = cfg.bin_xy_m
     half, depth, t = cfg.bin_size_m / 2, cfg.bin_depth_m, 0.002
@@ -216,6 +254,13 @@ def build_delta_spec(
     kinds.workcell("plug_trays").populate_job(spec, cfg, planting, supply, job)
     spec.option.timestep = cfg.timestep_s
     spec.worldbody.add_light(pos=[0, 0, 0.5], dir=[0, 0, -1])
+    add_cameras(spec, cfg)
+    # the background of `transplanter render` (as the models' scene.xml): drawn only
+    spec.add_texture(
+        name="skybox", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.3, 0.5, 0.7], rgb2=[0, 0, 0],
+        width=512, height=3072,
+    )  # fmt: skip
     return spec
 
 
@@ -224,3 +269,62 @@ def compile_scene(spec: mujoco.MjSpec) -> mujoco.MjModel:
     silenced: `robots.delta.quiet_prefix_note`)."""
     with kinds.robot("delta").quiet_prefix_note():
         return spec.compile()
+
+
+def export_spec(spec: mujoco.MjSpec, out: str | Path, models: str | Path | None = None) -> Path:
+    """Write a delta scene's spec (`twin.delta_refill.job_spec`) as one MJCF file, with the
+    meshes of the delta and the claws in the `assets/` folder beside it (as the five-bar's
+    `build.export_scene`); returns the XML's path. It loads in MjModel.from_xml_path and
+    `python -m mujoco.viewer --mjcf OUT.xml`. MuJoCo's XML writer keeps 6 significant
+    digits: the file's numbers match the built scene's to about 5e-6 relative."""
+    import shutil
+
+    from transplanter import fileio
+
+    root = Path(models) if models is not None else models_dir()
+    target = fileio.check_output(out, ".xml")
+    with kinds.robot("delta").quiet_prefix_note():
+        xml = _claws_classes_renamed(spec.to_xml())
+    assets = target.parent / spec.meshdir
+    assets.mkdir(exist_ok=True)
+    wanted = {m.file for m in spec.meshes if m.file}
+    for folder in (root / "delta" / "assets", root / "effectors" / "plug_claws" / "assets"):
+        for mesh in sorted(folder.iterdir()):
+            if mesh.name in wanted:
+                shutil.copyfile(mesh, assets / mesh.name)
+    fileio.write_text_atomic(target, xml)
+    return target
+
+
+def _claws_classes_renamed(xml: str, mount: str = "claws_mount") -> str:
+    """The MJCF of a scene whose effector was attached without a prefix, its default classes
+    that share a name with the robot's (Menagerie's `visual` and `collision`: an MjSpec allows
+    it, an MJCF file does not) renamed `<effector class>_<name>`, and so are the references to
+    them in the effector's bodies (each element keeps its own class)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(xml)
+    top = root.find("default")
+    mount_body = root.find(f".//body[@name='{mount}']")
+    if top is None or mount_body is None:
+        return xml
+    own = mount_body.get("childclass")
+    effector = next((d for d in top.iter("default") if d.get("class") == own), None)
+    if effector is None:
+        return xml
+    inside = {id(d) for d in effector.iter("default")}
+    outside = {d.get("class") for d in top.iter("default") if id(d) not in inside}
+    renamed = {}
+    for d in effector.iter("default"):
+        name = d.get("class")
+        if d is not effector and name in outside:
+            renamed[name] = f"{own}_{name}"
+            d.set("class", renamed[name])
+    if not renamed:
+        return xml
+    for element in mount_body.iter():
+        for attr in ("class", "childclass"):
+            if element.get(attr) in renamed:
+                element.set(attr, renamed[element.get(attr)])
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode") + "\n"

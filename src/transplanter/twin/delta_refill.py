@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -135,6 +135,12 @@ class DeltaRefillResult:
     valid: bool = True
     """False when MuJoCo warned (an unstable step) or the job ran out of simulated time."""
     recording_error: str | None = None
+    planner: str = "lines"
+    """The controller's ``motion.planner``."""
+    peak_joint_speed_deg_s: list[float] = field(default_factory=list)
+    """The arms' largest measured speed in the physics (per arm)."""
+    peak_joint_torque_nm: list[float] = field(default_factory=list)
+    """The arms' largest torque at the joint from the servos in the physics (per arm)."""
 
     @property
     def successes(self) -> int:
@@ -164,6 +170,9 @@ class DeltaRefillResult:
             "fault": self.fault,
             "refused": self.refused,
             "peak_following_error_deg": self.peak_following_error_deg,
+            "planner": self.planner,
+            "peak_joint_speed_deg_s": self.peak_joint_speed_deg_s,
+            "peak_joint_torque_nm": self.peak_joint_torque_nm,
             "sim_time_s": self.sim_time_s,
             "valid": self.valid,
             "wall_time_s": self.wall_time_s,
@@ -274,7 +283,8 @@ def _scene_config(sc, kin: DeltaKinematics) -> DeltaSceneConfig:
 
 class _Host:
     """Sends the program one line at a time, waiting for each reply; host-side waits are
-    ("wait", seconds) items. Records when each cell's work starts and ends."""
+    ("wait", seconds) and ("wait_since", mark, seconds) items (the PLC's timers: until that
+    long after the mark). Records when each cell's work starts and ends."""
 
     def __init__(self, items: list, bus: ComBus):
         self.items, self.bus = items, bus
@@ -301,14 +311,24 @@ class _Host:
                 self.resume_at = t + item[1]
             elif isinstance(item, tuple) and item[0] == "mark":
                 self.marks[item[1]] = t
+            elif isinstance(item, tuple) and item[0] == "wait_since":
+                self.resume_at = max(t, self.marks[item[1]] + item[2])
             else:
                 self.bus.host_send(item, t)
                 self.waiting = True
 
 
 def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]]:
-    """The host's items and, in order, the plug each claws extension grips."""
+    """The host's items and, in order, the plug each claws extension grips.
+
+    ``motion.planner = "lines"``: every pick and place is straight lines (travel at the lift
+    height, approach down, claws, back up). ``"bspline5"``: after the first approach, one
+    ``G0`` per transfer from where the claws worked to where they work next (the controller
+    runs it as the paper's lift-arc-top-arc-descent spline), and the rotary cylinder swings
+    during the transfer that takes the claws to the cell it is set for (the claws extend once
+    its swing and settle are over, the PLC's timer from the swing's command)."""
     job, claws = sc.delta_refill, cfg.claws
+    spline = sc.motion.planner == "bspline5"
     stroke_ms = claws.cylinder_stroke_ms + 2 * claws.settle_ms
     work = cfg.work_z_m
     up = work + job.lift_m
@@ -317,27 +337,49 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
     grips: list[str] = []
     rotary = 0.0
     culls = 0
+    first = [True]
 
     def mm(v: float) -> str:
         return f"{v * 1e3:.3f}"
 
+    def go(x: float, y: float, z: float) -> None:
+        if spline and not first[0]:
+            items.append(f"G0 X{mm(x)} Y{mm(y)} Z{mm(z)}")
+        else:
+            items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
+                          f"G1 Z{mm(z)} S{v_app:g}"])  # fmt: skip
+        first[0] = False
+
+    def leave() -> None:
+        if not spline:
+            items.append(f"G1 Z{mm(up)} S{v_travel:g}")
+
+    swing_wait: list[float] = []
+
     def pick(x: float, y: float, plug: str) -> None:
-        items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
-                      f"G1 Z{mm(work)} S{v_app:g}", "M280 P0 S1", f"G4 P{stroke_ms:g}",
-                      f"G1 Z{mm(up)} S{v_travel:g}"])  # fmt: skip
+        go(x, y, work)
+        if swing_wait:
+            items.append(("wait_since", "rotary", swing_wait.pop()))
+        items.extend(["M280 P0 S1", f"G4 P{stroke_ms:g}"])
+        leave()
         grips.append(plug)
 
     def place(x: float, y: float, above: float) -> None:
-        items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
-                      f"G1 Z{mm(work + above)} S{v_app:g}", "M280 P0 S0",
-                      f"G4 P{stroke_ms:g}", f"G1 Z{mm(up)} S{v_travel:g}"])  # fmt: skip
+        go(x, y, work + above)
+        items.extend(["M280 P0 S0", f"G4 P{stroke_ms:g}"])
+        leave()
 
     for op in ops:
         items.append(("mark", f"cell{op.cell}_start"))
         x, y = cfg.cell_xy("planting", op.cell)
         if op.rotary_deg != rotary:
             swing = abs(op.rotary_deg - rotary) / 90.0 * claws.rotary_stroke_ms
-            items += [f"M280 P1 S{op.rotary_deg:g}", f"G4 P{swing + claws.settle_ms:g}"]
+            items.append(f"M280 P1 S{op.rotary_deg:g}")
+            if not spline or first[0]:
+                items.append(f"G4 P{swing + claws.settle_ms:g}")
+            else:
+                items.append(("mark", "rotary"))
+                swing_wait[:] = [(swing + claws.settle_ms) * 1e-3]
             rotary = op.rotary_deg
         if op.truth == INFERIOR:
             pick(x, y, plug_name("planting", op.cell))
@@ -348,13 +390,16 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             pick(sx, sy, plug_name("supply", op.supply))
             place(x, y, job.release_above_m)
         items.append(("mark", f"cell{op.cell}_end"))
+    if spline and not first[0]:
+        items.append(f"G1 Z{mm(up)} S{v_travel:g}")
     items += [("mark", "end"), "G28"]
     return items, grips
 
 
-def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
+def run_delta_refill(sc, seed: int | None = None, observers=()) -> DeltaRefillResult:
     """One tray of the scenario `sc` (its [delta], [delta_refill] and [bus]), seed `seed`
-    (default the scenario's). Deterministic: the same inputs give the same result."""
+    (default the scenario's). Deterministic: the same inputs give the same result, with or
+    without `observers` (DeltaObserver: they only read the state, at their frame times)."""
     wall0 = time.perf_counter()
     seed = sc.seed if seed is None else seed
     job = sc.delta_refill
@@ -393,6 +438,11 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
         accel_m_s2=job.path_accel_m_s2,
         profile="scurve",
         compute_time_per_point_s=job.point_time_s,
+        planner=sc.motion.planner,
+        ee_accel_limit_m_s2=sc.motion.ee_accel_limit_m_s2,
+        pick_lift_m=job.lift_m,
+        pick_arc_m=job.arc_radius_m,
+        pick_exit_m=job.exit_m,
     )
     sgf_cfg = SGFConfig(
         kinematics=kin,
@@ -410,6 +460,8 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
     host = _Host(["G28", "G90", *items], bus)
     cycle = ClawCycle(cfg.claws)
     arms = [model.jnt_qposadr[model.joint(n).id] for n in delta_robot.ARMS]
+    arm_dofs = [model.jnt_dofadr[model.joint(n).id] for n in delta_robot.ARMS]
+    peaks = np.zeros((2, 3))  # the arms' measured |speed| (rad/s) and |torque| (N m)
     eff = [model.actuator(n).id for n in plug_claws.ACTUATORS]
     gear = cfg.gear_ratio
     stroke = cfg.claws.cylinder_stroke_ms * 1e-3
@@ -421,6 +473,8 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
     t_end = None
     k = 0
     raw = np.zeros(3, dtype=np.int64)
+    view = DeltaView(model, data, cfg, ops, host, cycle, physics, leaves, q0) if observers else None
+    next_look = view.attach(observers) if view is not None else math.inf
     while True:
         t = k * dt
         host.tick(t)
@@ -452,11 +506,15 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
         for p in physics.values():
             p.before_step(data)
         mujoco.mj_step(model, data)
+        np.maximum(peaks[0], np.abs(data.qvel[arm_dofs]), out=peaks[0])
+        np.maximum(peaks[1], np.abs(data.qfrc_actuator[arm_dofs]), out=peaks[1])
         for name, p in physics.items():
             span = carried.get(name)
             p.after_step(data, t, carried=span is not None and span[0] <= t < span[1])
         leaves.after_step(data, t)
         k += 1
+        if k * dt >= next_look:  # observers only at their frame times (math.inf without)
+            next_look = view.look(k * dt, command)
         if t_end is None and (host.done or host.error is not None):
             t_end = t + job.settle_after_s
         if t_end is not None and t >= t_end:
@@ -467,8 +525,62 @@ def run_delta_refill(sc, seed: int | None = None) -> DeltaRefillResult:
     valid = t <= limit_s and not any(int(w.number) for w in data.warning)
     if fault is None and host.error is not None:
         fault = host.error
-    return _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives,
-                  fault, k * dt, time.perf_counter() - wall0, valid)  # fmt: skip
+    result = _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller,
+                    drives, fault, k * dt, time.perf_counter() - wall0, valid)  # fmt: skip
+    result.peak_joint_speed_deg_s = [round(math.degrees(v), 4) for v in peaks[0]]
+    result.peak_joint_torque_nm = [round(float(v), 4) for v in peaks[1]]
+    return result
+
+
+class DeltaObserver(Protocol):
+    """Watches a delta trial without changing it (`transplanter.viewing.delta`): `attach`
+    once the scene and the host exist (the power-on state), `look` at the first step whose
+    end reaches `next_t` (simulated s; it sets the next), `finish` after the result."""
+
+    next_t: float
+
+    def attach(self, view: DeltaView) -> None: ...
+
+    def look(self, view: DeltaView) -> None: ...
+
+    def finish(self, view: DeltaView, result: DeltaRefillResult) -> None: ...
+
+    def abort(self) -> None: ...
+
+
+@dataclass
+class DeltaView:
+    """What an observer may read of a running delta trial (never write): the model and its
+    data, the scene's config, the job, the host (its marks), the claws' valve schedule, the
+    free plugs' physics and the leaf watch; `t` and `command` (the drives' joint command,
+    rad) are those of the latest look."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    cfg: DeltaSceneConfig
+    ops: list
+    host: _Host
+    cycle: ClawCycle
+    physics: dict[str, PlugPhysics]
+    leaves: LeafWatch
+    command: np.ndarray
+    t: float = 0.0
+    observers: tuple = ()
+
+    def attach(self, observers) -> float:
+        """Attach every observer (power-on state at t = 0); the first look's time."""
+        self.observers = tuple(observers)
+        for o in self.observers:
+            o.attach(self)
+        return min(o.next_t for o in self.observers)
+
+    def look(self, t: float, command: np.ndarray) -> float:
+        """The observers due at `t` look; the next look's time."""
+        self.t, self.command = t, command
+        for o in self.observers:
+            if t >= o.next_t:
+                o.look(self)
+        return min(o.next_t for o in self.observers)
 
 
 def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives, fault,
@@ -559,7 +671,34 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
         fault=fault,
         refused=list(controller.refused),
         peak_following_error_deg=[round(math.degrees(v), 6) for v in drives.peak_error_rad],
+        planner=sc.motion.planner,
         wall_time_s=wall,
         sim_time_s=sim_t,
         valid=valid,
     )
+
+
+def job_spec(sc, seed: int | None = None) -> mujoco.MjSpec:
+    """The scene `run_delta_refill(sc, seed)` builds, as an MjSpec (`transplanter export`):
+    the same scene config, trays and job cells, with the `home` keyframe set to its power-on
+    state (arms, platform and claws)."""
+    seed = sc.seed if seed is None else seed
+    kin = DeltaKinematics.from_scenario(sc)
+    cfg = _scene_config(sc, kin)
+    planting = draw_tray(seed)
+    supply = draw_tray(seed + sc.delta_refill.supply_seed_offset)
+    ops = plan_job(sc, planting, supply)
+    cells = JobCells(
+        culled=tuple(o.cell for o in ops if o.truth == INFERIOR),
+        filled=tuple(o.cell for o in ops if o.truth == EMPTY),
+        supply=tuple(o.supply for o in ops if o.supply is not None),
+    )
+    spec = build_delta_spec(cfg, planting, supply, cells)
+    model = compile_scene(spec)
+    key = spec.add_key(name="home")
+    key.qpos = delta_robot.home_qpos(model, cfg, (0.0, 0.0, cfg.work_z_m)).tolist()
+    ctrl = np.zeros(model.nu)
+    ctrl[:3] = delta_robot.home_ctrl(cfg)
+    ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
+    key.ctrl = ctrl.tolist()
+    return spec

@@ -350,6 +350,16 @@ class TrialRecorder:
         )
         self.event_counts[kind] += 1
 
+    def log_at(self, t: float, entity: str, *archetypes) -> None:
+        """Log rerun archetypes on an entity at simulated time `t` now (for what changes
+        seldom, such as the delta's tray state; the poses and scalars go by `frame`)."""
+        if self.closed:
+            raise RuntimeError(f"recorder for {str(self.path)!r} is closed")
+        if not math.isfinite(t):
+            raise ValueError(f"log time must be finite, got {t!r}")
+        self._stream.set_time(TIMELINE, duration=float(t))
+        self._stream.log(entity, *archetypes)
+
     # -- writing ------------------------------------------------------------------------
 
     def _send_buffered_frames(self) -> None:
