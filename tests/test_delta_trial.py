@@ -140,6 +140,14 @@ def test_pose_judgement_off_damages_the_crossing_leaves(pair):
     assert cell.leaf_damage and cell.leaf_damage[0]["by"].startswith("stripper")
 
 
+def test_the_plugs_moisture_set_in_the_scenario_is_the_physics_moisture(pair):
+    wet = run_delta_refill(_scenario(**{"plugs.moisture_pct": 75.0}), SEED)
+    (dry_cell,), (wet_cell,) = pair[0].cells, wet.cells
+    assert dry_cell.retention == pytest.approx(0.87946, abs=1e-5)  # 65 %: the default
+    assert wet_cell.retention == pytest.approx(0.84889, abs=1e-5)  # 15.3 g, less cohesive
+    assert wet_cell.refilled == "seated"
+
+
 def test_same_seed_same_json(pair):
     a, b = (r.to_dict() for r in pair)
     for d in (a, b):
