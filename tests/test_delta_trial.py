@@ -142,6 +142,14 @@ def test_pose_judgement_off_damages_the_crossing_leaves(pair):
     assert cell.leaf_damage and cell.leaf_damage[0]["by"].startswith("stripper")
 
 
+def test_the_plugs_moisture_set_in_the_scenario_is_the_physics_moisture(pair):
+    wet = run_delta_refill(_scenario(**{"plugs.moisture_pct": 75.0}), SEED)
+    (dry_cell,), (wet_cell,) = pair[0].cells, wet.cells
+    assert dry_cell.retention == pytest.approx(0.87946, abs=1e-5)  # 65 %: the default
+    assert wet_cell.retention == pytest.approx(0.84889, abs=1e-5)  # 15.3 g, less cohesive
+    assert wet_cell.refilled == "seated"
+
+
 def test_same_seed_same_json(pair):
     a, b = (r.to_dict() for r in pair)
     for d in (a, b):
@@ -164,3 +172,21 @@ def test_the_json_has_the_paper_columns_with_definitions(tmp_path, capsys):
     assert isinstance(d["dropped"], int) and isinstance(d["failures"], dict)
     assert isinstance(d["cells"], list) and d["cells"][0]["culled"] == "binned"
     assert "time_per_operation_s" in capsys.readouterr().out
+
+
+def test_the_splines_take_less_time_than_lines_for_the_same_cell(pair):
+    spline, _ = pair
+    lines = run_delta_refill(_scenario(**{"motion.planner": "lines"}), SEED)
+    assert spline.planner == "bspline5" and lines.planner == "lines"
+    for r in (spline, lines):
+        (cell,) = r.cells
+        assert cell.culled == "binned" and cell.refilled == "seated", r.planner
+        assert r.fault is None and r.dropped == 0
+        # the arms' measured speed stays far inside V_max; the servos never give more than
+        # tau_max (their force range), the following error stays under the alarm
+        assert max(r.peak_joint_speed_deg_s) < 720.0
+        assert max(r.peak_joint_torque_nm) <= 12.0 + 1e-9
+        assert max(r.peak_following_error_deg) < 2.0
+    # seed 10's cell: 5.64 s with splines against 8.93 s with lines (no image delay)
+    assert spline.tray_time_s < 0.7 * lines.tray_time_s
+    assert max(spline.peak_joint_speed_deg_s) > max(lines.peak_joint_speed_deg_s)

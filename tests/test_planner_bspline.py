@@ -192,3 +192,17 @@ def test_plan_move_refuses_an_arm_without_limits_and_a_bad_point(capsys):
     assert "robot.kind=delta" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         cli.main(["plan-move", str(PAPER_PATH), "--from", "1,2", "--to", "250,-175,-800"])
+
+
+def test_plan_move_with_exit_points_plans_nine_key_points(tmp_path, capsys):
+    out = tmp_path / "move.json"
+    argv = ["plan-move", "delta_refill", "--from", "200,200,-800", "--to", "250,-175,-800",
+            "--exit-mm", "10", "--no-toppra", "--json", str(out)]  # fmt: skip
+    assert cli.main(argv) == 0
+    data = json.loads(out.read_text())
+    assert np.shape(data["nodes_deg"]) == (9, 3) and len(data["intervals_s"]) == 8
+    assert data["nodes_deg"][1][0] != data["nodes_deg"][0][0]  # 10 mm up: other joints
+    assert 0.80 < data["total_s"] < 0.8215  # one more interval to use: a little shorter
+    argv[argv.index("10")] = "200"
+    assert cli.main(argv) == 1
+    assert "--exit-mm" in capsys.readouterr().err

@@ -273,3 +273,63 @@ def test_a_scenario_nested_beyond_any_use_is_refused_in_one_line(tmp_path):
     # a value nested a little is refused with a bounded picture of it
     with pytest.raises(ScenarioError, match=r"expected a number, got \[\[\[\[\.\.\.\]\]\]\]\."):
         load_scenario("paper", {"pots.mass_g": [[[[[[[[1]]]]]]]]})
+
+
+# --- [plugs], [plug_claws] and [plug_bench]: the delta's jobs ----------------------------
+
+
+def test_the_plug_sections_default_to_the_scene_configs_and_give_back_what_is_set():
+    from dataclasses import fields
+
+    from transplanter.scenario.assemble import claws_config, plugs_config
+    from transplanter.scenario.schema import CELL_DEPTH_M, SCHEMA
+    from transplanter.scene.effectors.plug_claws import PlugClawsConfig
+    from transplanter.scene.plug_substrate import PlugsConfig
+
+    sc = load_scenario("delta_refill")
+    assert plugs_config(sc) == PlugsConfig() and claws_config(sc) == PlugClawsConfig()
+    # every field a key under its own name (file unit), but the tray's cell
+    assert {f.name for f in fields(PlugsConfig)} - set(SCHEMA["plugs"]) == {
+        "top_mm", "bottom_mm", "depth_mm"
+    }  # fmt: skip
+    assert {f.name for f in fields(PlugClawsConfig)} == set(SCHEMA["plug_claws"])
+    assert PlugsConfig().depth_mm * 1e-3 == CELL_DEPTH_M
+    sc = load_scenario("delta_refill", {"plugs.moisture_pct": 75, "plugs.clearance_mm": 0.3,
+                                        "plug_claws.insertion_angle_deg": 12.3,
+                                        "plug_claws.settle_ms": 31.7,
+                                        "plugs.reference_mass_g": 10.1})  # fmt: skip
+    assert sc.plugs.moisture_pct == 75.0 and sc.plug_claws.settle_s == pytest.approx(0.0317)
+    plugs, claws = plugs_config(sc), claws_config(sc)
+    assert (plugs.moisture_pct, plugs.clearance_mm, plugs.reference_mass_g) == (75, 0.3, 10.1)
+    assert (claws.insertion_angle_deg, claws.settle_ms) == (12.3, 31.7)  # exactly as written
+    # the metrics' settle_s keeps its own file key
+    assert "settle_s" in SCHEMA["metrics"] and "settle_ms" in SCHEMA["plug_claws"]
+
+
+@pytest.mark.parametrize(
+    "overrides, needle",
+    [
+        ({"plugs.moisture_pct": 150}, "plugs.moisture_pct"),
+        ({"plugs.moisture": 75}, "plugs.moisture: wrong unit; this value must be given as "
+                                 "'moisture_pct'"),
+        ({"plug_claws.rod_mm": 10}, "plug_claws.rod_mm must be below plug_claws.bore_mm"),
+        ({"plug_claws.insertion_depth_mm": 38, "plug_claws.tray_substrate_below_top_mm": 5},
+         "= 43 mm: the claws' tips would reach the floor of the 42 mm deep cell"),
+        ({"plugs.core_top_depth_mm": 38, "plugs.surface_below_top_mm": 10},
+         "the pin socket must lie inside the plug"),
+        ({"plug_bench.extraction_accel_mm_s2": 20}, "wrong unit; this value must be given as "
+                                                    "'extraction_accel_m_s2'"),
+    ],
+)  # fmt: skip
+def test_plug_keys_the_physics_cannot_use_are_refused_with_the_reason(overrides, needle):
+    with pytest.raises(ScenarioError) as info:
+        load_scenario("delta_refill", overrides)
+    assert needle in str(info.value)
+
+
+def test_the_bench_scenario_takes_the_papers_64_seedlings_without_a_conveyor():
+    sc = load_scenario("plug_bench")
+    assert sc.workcell.kind == "plug_bench" and sc.meta.seedlings == 64
+    assert sc.plug_bench.extraction_accel_m_s2 == 20.0  # m/s^2, as written
+    with pytest.raises(ScenarioError, match="more than the conveyor holds"):
+        load_scenario("paper", {"scenario.seedlings": 64})

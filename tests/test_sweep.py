@@ -381,3 +381,29 @@ def test_the_sweep_table_has_the_failures_by_kind_as_columns(tmp_path, capsys):
     high = next(line for line in lines if line.split()[0] == "68")
     assert int(low.split()[-1]) >= 1 and high.split()[-1] == "0"
     assert "{" not in "\n".join(lines)
+
+
+# --- the delta's jobs: the claws' bench as an L9 --------------------------------------------
+
+
+def test_an_l9_sweep_of_the_bench_prints_and_writes_its_range_analysis(tmp_path, capsys):
+    out = tmp_path / "l9"
+    status = main(["sweep", "plug_bench", "--vary", "plugs.moisture_pct=65,75,85",
+                   "--vary", "plugs.age_d=20,25,30",
+                   "--vary", "plug_bench.extraction_accel_m_s2=20,30,40", "--design", "L9",
+                   "--seeds", "1", "--seedlings", "1", "--out", str(out), "--quiet"])  # fmt: skip
+    text = capsys.readouterr().out
+    assert status == 0
+    assert text.startswith("9 runs: 9 settings x 1 seeds, 1 seedlings each")
+    assert "substrate_retention  leaf_damage_rate  moisture_pct_drawn" in text
+    assert "range analysis over 9 settings" in text and "order: " in text
+    assert (out / "range_analysis.txt").read_text().strip() in text
+    head = (out / "runs.csv").read_text().splitlines()[0].split(",")
+    assert head[-4:] == ["substrate_retention", "leaf_damage_rate", "dropped",
+                         "moisture_pct_drawn"]  # fmt: skip
+    ranges = (out / "range_analysis.csv").read_text().splitlines()
+    assert ranges[0].startswith("response,factor,k1,k2,k3,R,rank,best_level,best_value")
+    rows = [json.loads(line) for line in (out / "runs.jsonl").read_text().splitlines()]
+    assert [r["error"] for r in rows] == [None] * 9
+    # one seedling a run: the wet, young plug lifted at 40 m/s^2 (run 7) shears off its pins
+    assert [r["successes"] for r in rows] == [1, 1, 1, 1, 1, 1, 0, 1, 1]

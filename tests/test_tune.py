@@ -147,3 +147,15 @@ def test_saturation_note_when_perfect_points_tie_on_the_lower_bound():
     assert saturation_note([rows[0], rows[5]], rows[0]) is None
     assert saturation_note([_scored(0, 39), _scored(1, 38)], _scored(0, 39)) is None
     assert saturation_note([], None) is None
+
+
+def test_a_delta_jobs_study_is_identified_by_the_sections_it_reads():
+    from transplanter.studies.tune import scenario_digest
+
+    def digest(name, **over):
+        return scenario_digest(load_scenario(name, over))
+
+    # the five-bar's digest is its sections' as before: [plugs] is not one of them
+    assert digest("paper", **{"plugs.moisture_pct": 75}) == digest("paper")
+    assert digest("delta_refill", **{"plugs.moisture_pct": 75}) != digest("delta_refill")
+    assert digest("delta_refill", **{"delta_refill.lift_mm": 90}) != digest("delta_refill")

@@ -1,7 +1,8 @@
 """`transplanter trial` for the delta's cull-and-refill job (`[workcell] kind =
 "plug_trays"`): one tray per seed, headless (transplanter.twin.delta_refill); with --seeds the
 pooled success rate over the serviced cells (studies.stats.pooled_rate) and the means of the
-paper's three rates."""
+paper's three rates. The claws' bench (`[workcell] kind = "plug_bench"`,
+transplanter.twin.plug_bench_trial) likewise: one run of `scenario.seedlings` picks per seed."""
 
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
     from transplanter.scenario.schema import ScenarioError, load_scenario
 
     try:
-        return load_scenario(args.scenario, overrides).workcell.kind == "plug_trays"
+        kind = load_scenario(args.scenario, overrides).workcell.kind
+        return kind in ("plug_trays", "plug_bench")  # the tray job, the claws' bench
     except ScenarioError:
         return False
 
@@ -63,8 +65,22 @@ def summary_line(r) -> str:
     return line if r.fault is None else f"{line}\n  fault: {r.fault}"
 
 
-def _definitions() -> str:
+def bench_line(r) -> str:
+    """One run of the claws' bench (transplanter.twin.plug_bench_trial)."""
+    ret = "-" if r.substrate_retention is None else f"{100 * r.substrate_retention:.1f} %"
+    return (
+        f"seed {r.seed}: {r.successes}/{r.seedlings} seedlings arrived "
+        f"({100 * r.success_rate:.1f} %), dropped {r.dropped}, substrate retention {ret}, "
+        f"leaf damage {100 * r.leaf_damage_rate:.1f} %, {r.cycle_time_s:.3f} s per pick, "
+        f"moisture drawn {r.moisture_pct:.1f} % on average; wall {r.wall_time_s:.1f} s"
+    )
+
+
+def _definitions(bench: bool = False) -> str:
     from transplanter.twin.delta_refill import DEFINITIONS
+
+    if bench:
+        from transplanter.twin.plug_bench_trial import DEFINITIONS
 
     return "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
 
@@ -99,10 +115,18 @@ def run_trial(
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
+    bench = scenario.workcell.kind == "plug_bench"
+    if bench and record_path is not None:
+        _err("--record: not available for the claws' bench (docs/plug_claws.md)")
+        return EXIT_REFUSED
+    if bench:
+        from transplanter.twin.plug_bench_trial import run_bench_trial
     results, outputs = [], []
     for seed in seeds:
         try:
-            if record_path is None:
+            if bench:
+                result = run_bench_trial(scenario, seed)
+            elif record_path is None:
                 result = run_delta_refill(scenario, seed)
             else:
                 from transplanter.viewing.delta import DeltaRecording, run_observed
@@ -120,33 +144,41 @@ def run_trial(
                      None)
                 )  # fmt: skip
         results.append(result)
-        print(summary_line(result))
+        print(bench_line(result) if bench else summary_line(result))
     if args.seeds is None:
         payload: dict[str, Any] = results[0].to_dict()
     else:
         pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
         payload = {"trials": [r.to_dict() for r in results], "pooled": pooled.to_dict()}
-        for name in ("time_per_operation_s", "plants_per_hour", "trays_per_hour",
-                     "leaf_damage_rate", "tray_leaf_damage_rate"):  # fmt: skip
+        names = ("time_per_operation_s", "plants_per_hour", "trays_per_hour",
+                 "leaf_damage_rate", "tray_leaf_damage_rate")  # fmt: skip
+        if bench:
+            names = ("cycle_time_s", "leaf_damage_rate")
+        for name in names:
             values = [getattr(r, name) for r in results if math.isfinite(getattr(r, name))]
             payload[f"mean_{name}"] = sum(values) / len(values) if values else None
-        payload["pooled_leaf_damage"] = _pooled_damage(results)
-        payload["pooled_misgrades"] = _pooled_misgrades(results)
+        if not bench:
+            payload["pooled_leaf_damage"] = _pooled_damage(results)
+            payload["pooled_misgrades"] = _pooled_misgrades(results)
         lo, hi = pooled.ci95
+        what = "runs: {:.1f} % of seedlings arrived" if bench else (
+            "trays: {:.1f} % of serviced cells done"
+        )  # fmt: skip
         print(
-            f"pooled over {pooled.trials} trays: {100 * pooled.success_rate:.1f} % of serviced "
-            f"cells done ({pooled.successes}/{pooled.seedlings}), 95 % CI "
+            f"pooled over {pooled.trials} {what.format(100 * pooled.success_rate)} "
+            f"({pooled.successes}/{pooled.seedlings}), 95 % CI "
             f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
         )
-        d = payload["pooled_leaf_damage"]
-        print(
-            f"leaf damage pooled over {len(results)} trays ({d['vision']} grading, pose "
-            f"judgement {'on' if d['pose_judgement'] else 'off'}): {d['damaged']}/{d['picked']} "
-            f"refills ({100 * d['rate']:.2f} %, 95 % Wilson {100 * d['ci95'][0]:.1f}-"
-            f"{100 * d['ci95'][1]:.1f} %); misgrades: "
-            + (", ".join(f"{k} {v}" for k, v in payload["pooled_misgrades"].items()) or "none")
-        )
-    summary = "definitions:\n" + _definitions()
+        if not bench:
+            d = payload["pooled_leaf_damage"]
+            print(
+                f"leaf damage pooled over {len(results)} trays ({d['vision']} grading, pose "
+                f"judgement {'on' if d['pose_judgement'] else 'off'}): "
+                f"{d['damaged']}/{d['picked']} refills ({100 * d['rate']:.2f} %, 95 % Wilson "
+                f"{100 * d['ci95'][0]:.1f}-{100 * d['ci95'][1]:.1f} %); misgrades: "
+                + (", ".join(f"{k} {v}" for k, v in payload["pooled_misgrades"].items()) or "none")
+            )
+    summary = "definitions:\n" + _definitions(bench)
     return _finish(args, results, summary, payload, json_path, outputs=outputs)
 
 

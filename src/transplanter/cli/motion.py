@@ -29,8 +29,13 @@ def register(sub) -> None:
     )  # fmt: skip
     p.add_argument(
         "--ee-accel", type=float, default=None, metavar="M_S2",
-        help="end-effector acceleration limit in m/s^2 (default: the planner's 8.83, an "
-        "estimate, see docs/planner.md)",
+        help="end-effector acceleration limit in m/s^2 (default: the scenario's "
+        "motion.ee_accel_limit_mm_s2, 8830 unless set: an estimate, see docs/planner.md)",
+    )  # fmt: skip
+    p.add_argument(
+        "--exit-mm", type=float, default=0.0, metavar="MM",
+        help="a key point this high straight above each end, as delta_refill's transfers "
+        "(delta_refill.exit_mm); default 0: the paper's seven key points",
     )  # fmt: skip
     p.add_argument(
         "--no-toppra", action="store_true", help="skip the TOPP-RA yardstick"
@@ -75,7 +80,7 @@ def cmd_plan_move(args: argparse.Namespace) -> int:
             f"{kin.kind!r} has none (try --set robot.kind=delta)"
         )
         return 1
-    ee = pb.EE_ACCEL_LIMIT_M_S2 if args.ee_accel is None else args.ee_accel
+    ee = machine.sgf.motion.ee_accel_limit_m_s2 if args.ee_accel is None else args.ee_accel
     try:
         limits = pb.MoveLimits.of(kin, ee_accel_m_s2=ee)
     except ValueError as exc:
@@ -83,7 +88,12 @@ def cmd_plan_move(args: argparse.Namespace) -> int:
         return 1
     start, end = args.start * M_PER_MM, args.end * M_PER_MM
     try:
-        plan = pb.plan_move(kin, start, end, limits)
+        path = pb.PickPath(exit_m=args.exit_mm * M_PER_MM)
+    except ValueError as exc:
+        _err(f"--exit-mm: {exc}")
+        return 1
+    try:
+        plan = pb.plan_move(kin, start, end, limits, path=path)
         topp = None
         if not args.no_toppra:
             topp = pb.toppra_total(kin, plan.nodes, plan.intervals_s, limits)

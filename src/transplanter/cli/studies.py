@@ -109,12 +109,26 @@ def _sweep_parser(sub) -> None:
         help="process: a pool of processes on this machine (default); ray: a Ray cluster "
         "(pip install 'transplanter[ray]')",
     )
+    p.add_argument(
+        "--design",
+        choices=("full", "L9"),
+        default="full",
+        help="full: every combination (default); L9: the nine runs of the L9(3^4) orthogonal "
+        "array over 2-4 keys of three values each, with the range analysis (k1-k3, R per "
+        "key) printed and in range_analysis.txt / .csv",
+    )
+    p.add_argument(
+        "--range-analysis",
+        action="store_true",
+        help="the range analysis of a full grid too (each key's values are its levels)",
+    )
     _add(p, "--address", "--quiet", "--set")
     p.set_defaults(func=cmd_sweep)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.studies.jobs import job_of
     from transplanter.studies.sweep import (
         SweepRefused,
         SweepSpec,
@@ -132,25 +146,26 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         overrides = _overrides(args)
         axes = tuple(parse_vary(v) for v in args.vary)
         seedlings = _seedlings(args, overrides)
-        spec = SweepSpec(args.scenario, axes, tuple(seeds), seedlings, overrides)
-        spec.check()
+        spec = SweepSpec(args.scenario, axes, tuple(seeds), seedlings, overrides, args.design)
+        job = job_of(spec.check())  # the delta's tray or the claws' bench; None: the five-bar
         check_backend(args.backend, args.workers, args.address)
     except (ScenarioError, SweepRefused) as exc:
         _err(f"sweep refused: {exc}")
         return EXIT_REFUSED
+    each = "one tray" if job is not None and job.kind == "plug_trays" else f"{seedlings} seedlings"
     print(
         f"{spec.runs_total} runs: {len(spec.settings())} settings x {len(seeds)} seeds, "
-        f"{seedlings} seedlings each, {args.workers} {args.backend} worker(s)"
+        f"{each} each, {args.workers} {args.backend} worker(s)"
     )
     base = load_scenario(args.scenario, spec.base_overrides())
     pots = base.conveyor.rows * base.conveyor.cols
     estimate = estimate_line(spec.runs_total * seedlings, pots, args.workers)
-    if estimate is not None and not args.quiet:
+    if estimate is not None and not args.quiet and job is None:  # the five-bar's estimate
         print(f"{estimate}; a rerun resumes", file=sys.stderr)
     try:
         report = run_sweep(
             spec, args.out, backend=args.backend, workers=args.workers, address=args.address,
-            progress=_progress(args),
+            progress=_progress(args), range_analysis=args.range_analysis,
         )  # fmt: skip
     except (ScenarioError, SweepRefused) as exc:
         _err(f"sweep refused: {exc}")
@@ -173,9 +188,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             sums[f] += r.get(f) or 0
     names = [f.removeprefix("fail_") for f in kinds]
     head = "  ".join(f"{k:>{width}}" for k in spec.keys)
+    means = job.means if job is not None else ()  # the job's own columns, seeds averaged
     print(
         f"{head}  {'success':>16}  {'95 % CI':>13}  {'cycle s':>7}  errors"
         + "".join(f"  {n}" for n in names)
+        + "".join(f"  {m}" for m in means)
     )
     for a in report.settings:
         values = "  ".join(f"{format_value(a[k]):>{width}}" for k in spec.keys)
@@ -189,14 +206,23 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         rate = f"{100 * a['success_rate']:.1f} % ({a['successes']}/{a['seedlings']})"
         ci = f"{100 * a['ci95_low']:.1f}-{100 * a['ci95_high']:.1f} %"
         cycle = "-" if a["cycle_time_s"] is None else f"{a['cycle_time_s']:.3f}"
-        print(f"{values}  {rate:>16}  {ci:>13}  {cycle:>7}  {a['errors']:>6}{failures}")
+        own = "".join(
+            f"  {'-' if a.get(m) is None else format(a[m], '.4g'):>{len(m)}}" for m in means
+        )
+        print(f"{values}  {rate:>16}  {ci:>13}  {cycle:>7}  {a['errors']:>6}{failures}{own}")
     failed = [r for r in report.rows if r["error"] is not None]
     for r in failed[:5]:
         where = " ".join(f"{k}={format_value(r[k])}" for k in spec.keys)
         _err(f"run {where} seed {r['seed']}: {r['error']}")
     if len(failed) > 5:
         _err(f"... and {len(failed) - 5} more runs with an error (see runs.csv)")
-    print(f"results in {_show(args.out)}: runs.jsonl, runs.csv, settings.csv, sweep.json")
+    if report.range_text is not None:
+        print()
+        print(report.range_text)
+    elif report.range_note is not None:
+        _err(report.range_note)
+    ranged = ", range_analysis.txt, range_analysis.csv" if report.range_text else ""
+    print(f"results in {_show(args.out)}: runs.jsonl, runs.csv, settings.csv, sweep.json{ranged}")
     if report.plots:
         print("plots: " + ", ".join(_show(p.name) for p in report.plots))
     if report.plot_error:

@@ -40,8 +40,10 @@ __all__ = [
     "TwinConfig",
     "VisionConfig",
     "assemble",
+    "claws_config",
     "fault_config",
     "machine_config",
+    "plugs_config",
     "scene_config",
     "vision_config",
     "with_eeprom",
@@ -132,6 +134,37 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
         ),
         faults=faults,
     )
+
+
+def _file_unit_config(s: Scenario, section: str, cls: type):
+    """A config dataclass whose fields are the file keys of `section` (file units), from the
+    scenario's SI values: each key back in its file unit as the user wrote it (rounded to 15
+    significant digits, so that 32 mm is 32, not 32.000000000000004); fields that are not
+    keys keep their defaults."""
+    from transplanter.scenario.schema import SCHEMA, si_key
+
+    keys = SCHEMA[section]
+    values = getattr(s, section)
+    kwargs = {
+        f.name: float(f"{getattr(values, si_key(f.name)) / keys[f.name].scale:.15g}")
+        for f in dataclasses.fields(cls)
+        if f.name in keys
+    }
+    return cls(**kwargs)
+
+
+def plugs_config(s: Scenario):
+    """[plugs] as the scene's `PlugsConfig` (the delta's jobs)."""
+    from transplanter.scene.plug_substrate import PlugsConfig
+
+    return _file_unit_config(s, "plugs", PlugsConfig)
+
+
+def claws_config(s: Scenario):
+    """[plug_claws] as the scene's `PlugClawsConfig` (the delta's jobs)."""
+    from transplanter.scene.effectors.plug_claws import PlugClawsConfig
+
+    return _file_unit_config(s, "plug_claws", PlugClawsConfig)
 
 
 def fault_config(s: Scenario, machine: Machine) -> FaultConfig:

@@ -79,6 +79,8 @@ _UNIT_SUFFIXES = tuple(
         ("_mm_s2", "_mm_s", "_mm", "_m_s2", "_m_s", "_m", "_deg_s2", "_deg_s", "_deg",
          "_rad_s2", "_rad_s", "_rad", "_g", "_kg", "_ms",
          "_us", "_s", "_hz", "_nm", "_n", "_bps", "_kgm2", "_rev_s",
+         # the plugs' and claws' units (read as written: no SI scale)
+         "_pct", "_d", "_kpa", "_mpa", "_kg_m3", "_mm2", "_n_s_m", "_nm_rad",
          # units the schema never uses, so that `l1_cm` is reported as a wrong unit
          "_cm", "_in", "_mm_min", "_rev_min", "_rpm", "_min", "_lb", "_oz", "_n_mm"),
         key=len,
@@ -254,6 +256,86 @@ class DeltaRefillSection:
         doc="the grading map: the OpenCV pipeline on the camera's pictures (needs an "
         "offscreen GL context: MUJOCO_GL=egl or osmesa) or the drawn truth",
     )
+
+
+@dataclass(frozen=True)
+class PlugsSection:
+    """[plugs]: the plug of substrate and its laws (`transplanter.scene.plug_substrate.
+    PlugsConfig`, whose fields are the file keys), read by the delta's jobs. Optional: the
+    defaults are PlugsConfig's, estimates but for the paper's factors (docs/plug_claws.md). The
+    cell's shape (30 / 20 / 42 mm, the paper's tray) is the trays' and not a key."""
+
+    moisture_pct: float = key("float", 1, 99, doc="wet-basis water content (paper's factor A)")
+    age_d: float = key("float", 0, 365, doc="seedling age after sowing (paper's factor B)")
+    surface_below_top_m: float = key("float", 0, 20, doc="substrate surface below the cell top")
+    clearance_m: float = key("float", 0.01, 2, doc="plug-to-wall gap (numerical)")
+    core_top_depth_m: float = key("float", 1, 38, doc="top of the pin socket below the plug top")
+    adhesion_onset_speed_m_s: float = key("float", 0.01, 100, doc="full cell adhesion from")
+    dry_bulk_density_kg_m3: float = key("float", 10, 2000, doc="dry bulk density")
+    porosity_pct: float = key("float", 1, 99, doc="pore space: caps the wet density")
+    cohesion_kpa: float = key("float", 0.001, 1000, doc="root-free cohesion at the reference")
+    reference_moisture_pct: float = key("float", 1, 99, doc="moisture of the reference values")
+    cohesion_moisture_scale_pct: float = key("float", 0.1, 1000, doc="cohesion e-fold per")
+    root_onset_d: float = key("float", 0, 365, doc="age at which roots start to bind")
+    root_time_d: float = key("float", 0.1, 365, doc="time constant of root binding")
+    root_cohesion_gain: float = key("float", 0, 100, doc="cohesion x (1 + this R)")
+    wall_adhesion_kpa: float = key("float", 0, 1000, doc="root-free wall adhesion")
+    wall_adhesion_moisture_scale_pct: float = key("float", 0.1, 1000, doc="adhesion e-fold per")
+    root_wall_gain: float = key("float", 0, 100, doc="wall adhesion x (1 + this R)")
+    loose_fraction_pct: float = key("float", 0, 100, doc="root-free share that can break away")
+    root_loose_reduction_pct: float = key("float", 0, 100, doc="share of it roots bind")
+    weibull_modulus: float = key("float", 0.1, 20, doc="spread of the breaking loads")
+    bearing_factor: float = key("float", 0.1, 100, doc="N_c round a pin")
+    pin_bearing_mm2: float = key("float", 1, 2000, doc="bearing area of the two pins")
+    pin_friction: float = key("float", 0.05, 5, doc="pin-substrate friction at the reference")
+    pin_friction_per_pct: float = key("float", 0, 0.1, doc="friction lost per % of moisture")
+    wall_friction: float = key("float", 0, 5, doc="plug-wall friction")
+    substrate_timeconst_s: float = key("float", 2, 1000, doc="pin contact's solref time")
+    substrate_stiffening: float = key("float", 0, 100, doc="time constant / (1 + this R)")
+    reference_mass_kg: float = key("float", 0.1, 1000, doc="plug mass of the time constant")
+
+
+@dataclass(frozen=True)
+class PlugClawsSection:
+    """[plug_claws]: the plug-in claws (`transplanter.scene.effectors.plug_claws.
+    PlugClawsConfig`, whose fields are the file keys), read by the delta's jobs. Optional: the
+    defaults are PlugClawsConfig's estimates (docs/plug_claws.md)."""
+
+    insertion_angle_rad: float = key("float", 1, 45, doc="each claw's slide from vertical")
+    insertion_depth_m: float = key("float", 5, 38, doc="tips below the substrate at full stroke")
+    tip_offset_m: float = key("float", 1, 14, doc="tip from the cell's centre line")
+    tip_recess_m: float = key("float", 0, 20, doc="retracted tips inside the stripper")
+    stripper_drop_m: float = key("float", 20, 200, doc="stripper's underside below the mount")
+    work_gap_m: float = key("float", 0, 20, doc="stripper above the tray while the claws go in")
+    tray_substrate_below_top_m: float = key("float", 0, 20, doc="the stroke's substrate level")
+    claw_radius_m: float = key("float", 0.2, 5, doc="claw collision capsule radius")
+    pin_interference_m: float = key("float", 0, 5, doc="claw surface into the plug's core")
+    pressure_mpa: float = key("float", 0.01, 1.0, doc="cylinder supply pressure (gauge)")
+    bore_m: float = key("float", 2, 50, doc="cylinder bore")
+    rod_m: float = key("float", 1, 25, doc="cylinder rod")
+    cylinder_stroke_s: float = key("float", 10, 5000, doc="full stroke (throttled)")
+    cylinder_kv_n_s_m: float = key("float", 0.1, 10000, doc="stiffness of the flow limit")
+    rotary_stroke_s: float = key("float", 10, 5000, doc="the rotary cylinder's 90 deg swing")
+    rotary_torque_nm: float = key("float", 0.01, 100, doc="rotary cylinder torque")
+    rotary_kp_nm_rad: float = key("float", 0.01, 1000, doc="rotary cylinder stiffness")
+    settle_s: float = key("float", 0, 5000, doc="dwell after a stroke (switch, valve)")
+    leaf_damage_force_n: float = key("float", 0.01, 100, doc="a leaf pressed harder tears")
+
+
+@dataclass(frozen=True)
+class PlugBenchSection:
+    """[plug_bench]: the claws' test bench job (`[workcell] kind = "plug_bench"`; read only by
+    transplanter.twin.plug_bench_trial): `scenario.seedlings` picks, one seedling each, on the
+    bench of transplanter.scene.plug_bench, as the paper's end-effector tests (64 a run).
+    Optional: the defaults are estimates (docs/plug_claws.md)."""
+
+    extraction_accel_m_s2: float = key("float", 1, 200, doc="lift's peak (paper's factor C)")
+    move_accel_m_s2: float = key("float", 1, 200, doc="peak of the move to the target cell")
+    moisture_band_pct: float = key("float", 0, 40, doc="moisture drawn in its level +- half")
+    vigour_cv_pct: float = key("float", 0, 50, doc="spread of the seedlings' root growth")
+    pose_judgement: bool = key("bool", doc="turn the claws by the seedling's leaf layout")
+    fixed_rotary_rad: float = key("float", 0, 90, doc="rotary setting without pose judgement")
+    timestep_s: float = key("float", 0.1, 2, doc="physics step")
 
 
 @dataclass(frozen=True)
@@ -645,6 +727,18 @@ _FILE_KEY_OVERRIDES = {
     "image_delay_s": "image_delay_ms", "point_time_s": "point_time_us",
     "tray_change_s": "tray_change_ms", "settle_after_s": "settle_after_ms",
 }  # fmt: skip
+# The same, for a field of one section only (section, field): file key.
+_SECTION_FILE_KEYS = {
+    ("plugs", "substrate_timeconst_s"): "substrate_timeconst_ms",
+    ("plugs", "reference_mass_kg"): "reference_mass_g",
+    ("plug_claws", "cylinder_stroke_s"): "cylinder_stroke_ms",
+    ("plug_claws", "rotary_stroke_s"): "rotary_stroke_ms",
+    ("plug_claws", "settle_s"): "settle_ms",
+    ("plug_claws", "cylinder_kv_n_s_m"): "cylinder_kv_n_s_m",  # N s/m, N m/rad: as written
+    ("plug_claws", "rotary_kp_nm_rad"): "rotary_kp_nm_rad",
+    ("plug_bench", "extraction_accel_m_s2"): "extraction_accel_m_s2",  # m/s^2, as the paper's
+    ("plug_bench", "move_accel_m_s2"): "move_accel_m_s2",
+}
 _FILE_SUFFIX = {
     "_rad_s2": "_deg_s2", "_rad_s": "_deg_s", "_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm",
     "_rad": "_deg",
@@ -658,6 +752,9 @@ SECTIONS: dict[str, type] = {
     "arm": ArmSection,
     "delta": DeltaSection,
     "delta_refill": DeltaRefillSection,
+    "plugs": PlugsSection,
+    "plug_claws": PlugClawsSection,
+    "plug_bench": PlugBenchSection,
     "serial4": Serial4Section,
     "limits": LimitsSection,
     "drives": DrivesSection,
@@ -676,7 +773,9 @@ SECTIONS: dict[str, type] = {
 }
 
 
-def _file_key(field_name: str) -> str:
+def _file_key(field_name: str, section: str | None = None) -> str:
+    if (section, field_name) in _SECTION_FILE_KEYS:
+        return _SECTION_FILE_KEYS[section, field_name]
     if field_name in _FILE_KEY_OVERRIDES:
         return _FILE_KEY_OVERRIDES[field_name]
     for si, unit in _FILE_SUFFIX.items():
@@ -685,18 +784,18 @@ def _file_key(field_name: str) -> str:
     return field_name
 
 
-def _schema_of(cls: type) -> dict[str, Key]:
+def _schema_of(cls: type, section: str | None = None) -> dict[str, Key]:
     """{file key: Key} of a section dataclass, the scale taken from the file key's unit."""
     out = {}
     for f in fields(cls):
         spec: Key = f.metadata["key"]
-        file_key = _file_key(f.name)
+        file_key = _file_key(f.name, section)
         assert si_key(file_key) == f.name, (file_key, f.name)
         out[file_key] = replace(spec, scale=_SCALE.get(_unit_of(file_key) or "", 1.0))
     return out
 
 
-SCHEMA: dict[str, dict[str, Key]] = {name: _schema_of(cls) for name, cls in SECTIONS.items()}
+SCHEMA: dict[str, dict[str, Key]] = {name: _schema_of(cls, name) for name, cls in SECTIONS.items()}
 
 DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
     "robot": {"kind": "fivebar"},
@@ -749,6 +848,66 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "max_cells": 0,
         "supply_seed_offset": 1000003,
         "vision": "pipeline",
+    },
+    "plugs": {
+        "moisture_pct": 65.0,
+        "age_d": 25.0,
+        "surface_below_top_mm": 3.0,
+        "clearance_mm": 0.3,
+        "core_top_depth_mm": 20.0,
+        "adhesion_onset_speed_mm_s": 1.0,
+        "dry_bulk_density_kg_m3": 160.0,
+        "porosity_pct": 90.0,
+        "cohesion_kpa": 0.55,
+        "reference_moisture_pct": 65.0,
+        "cohesion_moisture_scale_pct": 25.0,
+        "root_onset_d": 12.0,
+        "root_time_d": 10.0,
+        "root_cohesion_gain": 3.0,
+        "wall_adhesion_kpa": 0.05,
+        "wall_adhesion_moisture_scale_pct": 40.0,
+        "root_wall_gain": 2.0,
+        "loose_fraction_pct": 40.0,
+        "root_loose_reduction_pct": 75.0,
+        "weibull_modulus": 2.0,
+        "bearing_factor": 9.0,
+        "pin_bearing_mm2": 200.0,
+        "pin_friction": 0.7,
+        "pin_friction_per_pct": 0.01,
+        "wall_friction": 0.4,
+        "substrate_timeconst_ms": 12.0,
+        "substrate_stiffening": 1.0,
+        "reference_mass_g": 11.0,
+    },
+    "plug_claws": {
+        "insertion_angle_deg": 12.0,
+        "insertion_depth_mm": 32.0,
+        "tip_offset_mm": 7.0,
+        "tip_recess_mm": 3.0,
+        "stripper_drop_mm": 60.0,
+        "work_gap_mm": 2.0,
+        "tray_substrate_below_top_mm": 3.0,
+        "claw_radius_mm": 1.0,
+        "pin_interference_mm": 1.5,
+        "pressure_mpa": 0.5,
+        "bore_mm": 10.0,
+        "rod_mm": 4.0,
+        "cylinder_stroke_ms": 150.0,
+        "cylinder_kv_n_s_m": 20.0,
+        "rotary_stroke_ms": 250.0,
+        "rotary_torque_nm": 0.3,
+        "rotary_kp_nm_rad": 2.0,
+        "settle_ms": 30.0,
+        "leaf_damage_force_n": 0.5,
+    },
+    "plug_bench": {
+        "extraction_accel_m_s2": 10.0,
+        "move_accel_m_s2": 10.0,
+        "moisture_band_pct": 10.0,
+        "vigour_cv_pct": 15.0,
+        "pose_judgement": True,
+        "fixed_rotary_deg": 0.0,
+        "timestep_ms": 1.0,
     },
     "serial4": {
         "l1_mm": 80.0,
@@ -828,6 +987,9 @@ class Scenario:
     arm: ArmSection
     delta: DeltaSection
     delta_refill: DeltaRefillSection
+    plugs: PlugsSection
+    plug_claws: PlugClawsSection
+    plug_bench: PlugBenchSection
     serial4: Serial4Section
     limits: LimitsSection
     drives: DrivesSection
@@ -1164,7 +1326,8 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         )
     conv = v["conveyor"]
     cells = conv["rows"] * conv["cols"]
-    if v["scenario"]["seedlings"] > cells:
+    on_conveyor = v["workcell"]["kind"] == "conveyor_tube"  # the plug jobs have no conveyor
+    if on_conveyor and v["scenario"]["seedlings"] > cells:
         raise ScenarioError(
             f"scenario.seedlings = {v['scenario']['seedlings']} is more than the conveyor holds "
             f"(conveyor.rows x conveyor.cols = {cells} pots)."
@@ -1193,6 +1356,40 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     if grip["close_rad"] >= grip["open_rad"]:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
     _check_faults(v["faults"])
+    _check_plugs(v["plugs"], v["plug_claws"])
+    band, moisture = v["plug_bench"]["moisture_band_pct"] / 2, v["plugs"]["moisture_pct"]
+    if v["workcell"]["kind"] == "plug_bench" and not 0 < moisture - band <= moisture + band < 100:
+        raise ScenarioError(
+            f"plugs.moisture_pct +- plug_bench.moisture_band_pct / 2 = "
+            f"{v['plugs']['moisture_pct']:g} +- {band:g} % leaves (0, 100) %: a plug's "
+            "moisture is drawn in that band; narrow it."
+        )
+
+
+CELL_DEPTH_M = 0.042
+"""Depth of a cell of the paper's 128-cell tray (`PlugsConfig.depth_mm`; not a key)."""
+
+
+def _check_plugs(plugs: dict[str, Any], claws: dict[str, Any]) -> None:
+    if claws["rod_m"] >= claws["bore_m"]:
+        raise ScenarioError(
+            "plug_claws.rod_mm must be below plug_claws.bore_mm (the return stroke pushes on "
+            "the annulus between them)."
+        )
+    tips = claws["tray_substrate_below_top_m"] + claws["insertion_depth_m"]
+    if tips >= CELL_DEPTH_M:
+        raise ScenarioError(
+            f"plug_claws.tray_substrate_below_top_mm + plug_claws.insertion_depth_mm = "
+            f"{tips * 1e3:g} mm: the claws' tips would reach the floor of the "
+            f"{CELL_DEPTH_M * 1e3:g} mm deep cell; make them shallower."
+        )
+    height = CELL_DEPTH_M - plugs["surface_below_top_m"]
+    if plugs["core_top_depth_m"] >= height:
+        raise ScenarioError(
+            f"plugs.core_top_depth_mm = {plugs['core_top_depth_m'] * 1e3:g} mm is below the "
+            f"plug's bottom ({height * 1e3:g} mm: the {CELL_DEPTH_M * 1e3:g} mm cell less "
+            "plugs.surface_below_top_mm); the pin socket must lie inside the plug."
+        )
 
 
 def _check_faults(f: dict[str, Any]) -> None:

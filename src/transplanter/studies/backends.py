@@ -56,6 +56,7 @@ def run_one(task: Mapping[str, Any]) -> dict[str, Any]:
     counts and times; a setting the scenario refuses or a trial that raised is a row with
     its `error` (never an exception)."""
     from transplanter.scenario.assemble import assemble
+    from transplanter.studies.jobs import job_of, run_job
     from transplanter.twin.trial import run_trial
 
     row: dict[str, Any] = {**task["setting"], "seed": task["seed"], **_empty_result()}
@@ -67,11 +68,15 @@ def run_one(task: Mapping[str, Any]) -> dict[str, Any]:
         "scenario.seedlings": task["seedlings"],
     }
     try:
-        config = assemble(load_scenario(task["scenario"], overrides), preflight=True)
+        scenario = load_scenario(task["scenario"], overrides)
+        job = job_of(scenario)  # the delta's tray or the claws' bench (studies.jobs), or None
+        config = None if job is not None else assemble(scenario, preflight=True)
     except ScenarioError as exc:
         row["error"] = f"setting refused: {exc}"
         row["wall_time_s"] = time.perf_counter() - t0
         return row
+    if job is not None:
+        return run_job(job, scenario, task["seed"], row, t0)
     try:
         result = run_trial(config)
     except Exception as exc:  # the physics or the firmware raised: a row, not a crash

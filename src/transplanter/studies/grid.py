@@ -187,11 +187,24 @@ class SweepSpec:
     seeds: tuple[int, ...]
     seedlings: int
     overrides: Mapping[str, Any] = field(default_factory=dict)
+    design: str = "full"
+    """'full': every combination of the axes' values; 'L9': the nine runs of the L9(3^4)
+    orthogonal array over 2-4 axes of three values each (studies.orthogonal.L9)."""
 
     def __post_init__(self) -> None:
         keys = [a.key for a in self.axes]
         if not keys:
             raise SweepRefused("a sweep needs at least one --vary KEY=...")
+        if self.design not in DESIGNS:
+            raise SweepRefused(f"--design {self.design!r}: choose one of {', '.join(DESIGNS)}")
+        if self.design == "L9" and (
+            not 2 <= len(keys) <= 4 or any(len(a.values) != 3 for a in self.axes)
+        ):
+            given = ", ".join(f"{a.key} ({len(a.values)} values)" for a in self.axes)
+            raise SweepRefused(
+                "--design L9 takes 2 to 4 varied keys of three values each (its nine runs "
+                f"cover 4 factors at 3 levels); got {given}"
+            )
         if len(set(keys)) != len(keys):
             raise SweepRefused("--vary: a key is varied twice; give each key once")
         for k in keys:
@@ -207,7 +220,14 @@ class SweepSpec:
         return tuple(a.key for a in self.axes)
 
     def settings(self) -> list[dict[str, Any]]:
-        """Every combination of the axes' values, the first key outermost."""
+        """Every combination of the axes' values, the first key outermost (with the L9
+        design: its nine runs, in the array's order)."""
+        if self.design == "L9":
+            from transplanter.studies.orthogonal import L9
+
+            return [
+                {a.key: a.values[int(row[i]) - 1] for i, a in enumerate(self.axes)} for row in L9
+            ]
         return [
             dict(zip(self.keys, combo, strict=True))
             for combo in itertools.product(*(a.values for a in self.axes))
@@ -215,6 +235,8 @@ class SweepSpec:
 
     @property
     def runs_total(self) -> int:
+        if self.design == "L9":
+            return 9 * len(self.seeds)
         return math.prod(len(a.values) for a in self.axes) * len(self.seeds)
 
     def base_overrides(self) -> dict[str, Any]:
@@ -238,10 +260,13 @@ class SweepSpec:
         scenario = self.check()
         # each run sets its own seed; the seedlings are a field of their own
         meta = dataclasses.replace(scenario.meta, seed=0, seedlings=0)
+        from transplanter.studies.jobs import PLUG_SECTIONS, job_of
+
+        # the plug sections are read only by the delta's jobs: a five-bar sweep's digest is
+        # the one it had before they existed (its results resume)
+        skip = ("path", "meta", "overrides") + (PLUG_SECTIONS if job_of(scenario) is None else ())
         sections = [meta] + [
-            getattr(scenario, f.name)
-            for f in dataclasses.fields(scenario)
-            if f.name not in ("path", "meta", "overrides")
+            getattr(scenario, f.name) for f in dataclasses.fields(scenario) if f.name not in skip
         ]
         digest = hashlib.sha256(repr(sections).encode()).hexdigest()
         return {
@@ -252,7 +277,7 @@ class SweepSpec:
             "vary": [{"key": a.key, "values": list(a.values)} for a in self.axes],
             "seeds": list(self.seeds),
             "seedlings": self.seedlings,
-        }
+        } | ({"design": self.design} if self.design != "full" else {})
 
 
 # Manifest fields that must match for a rerun to add to the results ("scenario" is the
@@ -264,7 +289,9 @@ MANIFEST_IDENTITY = (
     "vary",
     "seeds",
     "seedlings",
+    "design",  # absent for the full grid (a manifest written before designs existed)
 )
+DESIGNS = ("full", "L9")
 
 
 def task(

@@ -106,10 +106,13 @@ SETTING_FIELDS = (
 """The columns of a sweep's settings table after the varied keys."""
 
 
-def aggregate(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> list[dict[str, Any]]:
+def aggregate(
+    rows: Iterable[Mapping[str, Any]], keys: Sequence[str], means: Sequence[str] = ()
+) -> list[dict[str, Any]]:
     """One row per distinct value of `keys` (in first-seen order): the runs pooled with
     `stats.pooled_rate` (runs that raised or were refused are counted in `errors` only) and
-    the mean cycle time over all their timed cycles."""
+    the mean cycle time over all their timed cycles; each of `means` (a job's own columns)
+    averaged over the counted runs that have it."""
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault(json.dumps([row[k] for k in keys]), []).append(row)
@@ -129,6 +132,9 @@ def aggregate(rows: Iterable[Mapping[str, Any]], keys: Sequence[str]) -> list[di
                 ci95_high=pooled.ci95[1],
                 ci_method=pooled.method,
             )
+        for name in means:
+            values = [r[name] for r in counted if r.get(name) is not None]
+            agg[name] = sum(values) / len(values) if values else None
         out.append(agg)
     return out
 

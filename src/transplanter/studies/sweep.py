@@ -59,6 +59,7 @@ from transplanter.studies.grid import (
     parse_vary,
     run_key,
 )
+from transplanter.studies.jobs import job_of
 from transplanter.studies.stats import SETTING_FIELDS, aggregate, pool_runs
 
 __all__ = [
@@ -86,6 +87,7 @@ __all__ = [
 ]
 
 RUNS_JSONL, RUNS_CSV, SETTINGS_CSV = "runs.jsonl", "runs.csv", "settings.csv"
+RANGE_TXT, RANGE_CSV = "range_analysis.txt", "range_analysis.csv"
 MANIFEST = "sweep.json"
 
 
@@ -315,6 +317,8 @@ class SweepReport:
     interrupted: bool = False
     plots: list[Path] = field(default_factory=list)
     plot_error: str | None = None
+    range_text: str | None = None  # the range analysis (--design L9, --range-analysis)
+    range_note: str | None = None  # why it was not made
 
     @property
     def complete(self) -> bool:
@@ -330,6 +334,7 @@ def run_sweep(
     progress: bool = False,
     plots: bool = True,
     on_row: Callable[[dict[str, Any]], None] | None = None,
+    range_analysis: bool = False,
 ) -> SweepReport:
     """Run every (setting, seed) of the grid not yet in `out`, writing each row as it
     finishes; then the CSVs and the plots. Ctrl-C (or SIGTERM): the finished rows stay, the
@@ -345,14 +350,44 @@ def run_sweep(
         raise SweepRefused(f"--out {out} cannot be made: {exc.strerror or exc}") from None
     lock = DirLock(out)
     try:
-        return _run_locked(spec, out, manifest, backend, workers, address, progress, plots, on_row)
+        report = _run_locked(
+            spec, out, manifest, backend, workers, address, progress, plots, on_row,
+            range_analysis or spec.design == "L9",
+        )  # fmt: skip
+        if (range_analysis or spec.design == "L9") and not report.interrupted:
+            _write_range_analysis(spec, report)
+        return report
     finally:
         lock.release()
 
 
-def _run_locked(spec, out, manifest, backend, workers, address, progress, plots, on_row):
+def _write_range_analysis(spec: SweepSpec, report: SweepReport) -> None:
+    """range_analysis.txt and .csv in the sweep's directory (studies.orthogonal), once every
+    setting has a pooled success; otherwise `report.range_note` says why not."""
+    from transplanter.studies.orthogonal import sweep_range_analysis
+
+    missing = [s for s in report.settings if s["success_rate"] is None]
+    if not report.complete or missing:
+        report.range_note = (
+            f"no range analysis: {report.total - len(report.rows)} runs missing, "
+            f"{len(missing)} settings without a counted run"
+        )
+        return
+    axes = [(a.key, a.values) for a in spec.axes]
+    text, rows = sweep_range_analysis(axes, report.settings, report.rows)
+    fileio.write_text_atomic(report.out / RANGE_TXT, text + "\n", follow=False)
+    fields = list(dict.fromkeys(k for r in rows for k in r))
+    write_csv_atomic(report.out / RANGE_CSV, fields, rows)
+    report.range_text = text
+
+
+def _run_locked(spec, out, manifest, backend, workers, address, progress, plots, on_row,
+                ranged=False):  # fmt: skip
     """run_sweep once `out` is locked."""
-    check_out_files(out, (MANIFEST, RUNS_JSONL, RUNS_CSV, SETTINGS_CSV), spec.scenario)
+    extra = (RANGE_TXT, RANGE_CSV) if ranged else ()
+    check_out_files(out, (MANIFEST, RUNS_JSONL, RUNS_CSV, SETTINGS_CSV, *extra), spec.scenario)
+    job = job_of(spec.check())  # the delta's jobs add their own columns; None: the five-bar
+    fields, means = (job.fields, job.means) if job is not None else ((), ())
     resumed = check_manifest(out, manifest)
     if not resumed:
         fileio.write_json_atomic(out / MANIFEST, manifest, follow=False)
@@ -391,9 +426,9 @@ def _run_locked(spec, out, manifest, backend, workers, address, progress, plots,
             if bar is not None:
                 bar.close()
             rows = sort_rows(rows, spec)
-            settings = aggregate(rows, spec.keys)
-            write_csv_atomic(out / RUNS_CSV, (*spec.keys, *RESULT_FIELDS), rows)
-            write_csv_atomic(out / SETTINGS_CSV, (*spec.keys, *SETTING_FIELDS), settings)
+            settings = aggregate(rows, spec.keys, means)
+            write_csv_atomic(out / RUNS_CSV, (*spec.keys, *RESULT_FIELDS, *fields), rows)
+            write_csv_atomic(out / SETTINGS_CSV, (*spec.keys, *SETTING_FIELDS, *means), settings)
         if interrupts.take_pending() is not None:
             interrupted = True  # it came while the tables were written: they are whole
     finally:

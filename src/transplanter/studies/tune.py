@@ -215,8 +215,18 @@ def scenario_digest(scenario) -> str:
                     "taught",
                 )
             ]
+            + _job_sections(scenario)
         ).encode()  # fmt: skip
     ).hexdigest()
+
+
+def _job_sections(scenario) -> list:
+    """The sections a delta job reads (studies.jobs), none for the five-bar's trial (whose
+    digests stay as they were)."""
+    from transplanter.studies.jobs import job_of
+
+    job = job_of(scenario)
+    return [] if job is None else [getattr(scenario, f) for f in job.sections]
 
 
 TUNE_METRICS = ("success_ci95_low", "cycle_time_s")

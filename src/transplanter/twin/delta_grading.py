@@ -31,6 +31,8 @@ __all__ = [
     "from_truth",
     "grading_map",
     "leaf_extents_mm",
+    "truth_cell",
+    "truth_grades",
 ]
 
 TRUTH_HINT = "or grade from the drawn truth: --set delta_refill.vision=truth"
@@ -114,11 +116,14 @@ def leaf_extents_mm(cell: CellTruth, geometry: TrayGeometry) -> tuple[float, flo
     return ex, ey
 
 
+def truth_cell(cell: CellTruth, geometry: TrayGeometry) -> CellGrading:
+    """A drawn cell's truth as the map holds it: its class and its blades' reach."""
+    return CellGrading(cell.truth, *leaf_extents_mm(cell, geometry))
+
+
 def truth_grades(tray: TrayDraw) -> TrayGrades:
     """A drawn tray's truth as a map: the drawn classes and the blades' reach."""
-    return TrayGrades(
-        [CellGrading(c.truth, *leaf_extents_mm(c, tray.geometry)) for c in tray.cells]
-    )
+    return TrayGrades([truth_cell(c, tray.geometry) for c in tray.cells])
 
 
 def from_truth(planting: TrayDraw, supply: TrayDraw) -> GradingMap:

@@ -304,6 +304,8 @@ def plan_job(
 
 
 def _scene_config(sc, kin: DeltaKinematics) -> DeltaSceneConfig:
+    from transplanter.scenario.assemble import claws_config, plugs_config
+
     d, job = sc.delta, sc.delta_refill
     work_z = -0.8
     q0 = tuple(float(v) for v in kin.joints(np.array([0.0, 0.0, work_z])))
@@ -314,6 +316,8 @@ def _scene_config(sc, kin: DeltaKinematics) -> DeltaSceneConfig:
         home_q_rad=q0,
         work_z_m=work_z,
         bin_xy_m=(job.bin_x_m, job.bin_y_m),
+        claws=claws_config(sc),
+        plugs=plugs_config(sc),
     )
 
 
