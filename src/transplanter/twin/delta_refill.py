@@ -36,6 +36,7 @@ import numpy as np
 
 from transplanter.machine.bus import ComBus
 from transplanter.machine.delta_drives import DeltaController, PulseServos
+from transplanter.machine.gcode import format_number
 from transplanter.machine.kinematics.delta import DeltaKinematics
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.rig import SimulatedEndstops
@@ -382,17 +383,19 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
     def mm(v: float) -> str:
         return f"{v * 1e3:.3f}"
 
+    num = format_number  # a word's value as set, never rounded to another number
+
     def go(x: float, y: float, z: float) -> None:
         if spline and not first[0]:
             items.append(f"G0 X{mm(x)} Y{mm(y)} Z{mm(z)}")
         else:
-            items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
-                          f"G1 Z{mm(z)} S{v_app:g}"])  # fmt: skip
+            items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{num(v_travel)}",
+                          f"G1 Z{mm(z)} S{num(v_app)}"])  # fmt: skip
         first[0] = False
 
     def leave() -> None:
         if not spline:
-            items.append(f"G1 Z{mm(up)} S{v_travel:g}")
+            items.append(f"G1 Z{mm(up)} S{num(v_travel)}")
 
     swing_wait: list[float] = []
 
@@ -400,13 +403,13 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
         go(x, y, work)
         if swing_wait:
             items.append(("wait_since", "rotary", swing_wait.pop()))
-        items.extend(["M280 P0 S1", f"G4 P{stroke_ms:g}"])
+        items.extend(["M280 P0 S1", f"G4 P{num(stroke_ms)}"])
         leave()
         grips.append(plug)
 
     def place(x: float, y: float, above: float) -> None:
         go(x, y, work + above)
-        items.extend(["M280 P0 S0", f"G4 P{stroke_ms:g}"])
+        items.extend(["M280 P0 S0", f"G4 P{num(stroke_ms)}"])
         leave()
 
     for op in ops:
@@ -414,9 +417,9 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
         x, y = cfg.cell_xy("planting", op.cell)
         if op.rotary_deg != rotary:
             swing = abs(op.rotary_deg - rotary) / 90.0 * claws.rotary_stroke_ms
-            items.append(f"M280 P1 S{op.rotary_deg:g}")
+            items.append(f"M280 P1 S{num(op.rotary_deg)}")
             if not spline or first[0]:
-                items.append(f"G4 P{swing + claws.settle_ms:g}")
+                items.append(f"G4 P{num(swing + claws.settle_ms)}")
             else:
                 items.append(("mark", "rotary"))
                 swing_wait[:] = [(swing + claws.settle_ms) * 1e-3]
@@ -431,7 +434,7 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             place(x, y, job.release_above_m)
         items.append(("mark", f"cell{op.cell}_end"))
     if spline and not first[0]:
-        items.append(f"G1 Z{mm(up)} S{v_travel:g}")
+        items.append(f"G1 Z{mm(up)} S{num(v_travel)}")
     items += [("mark", "end"), "G28"]
     return items, grips
 
