@@ -53,6 +53,10 @@ class Job:
     means: tuple[str, ...]
     sections: tuple[str, ...]
     run: Callable[[Any, int, dict[str, Any]], None]
+    unit: str = "seedlings"
+    """What a row's `seedlings` counts."""
+    more: str = "--seedlings x seeds"
+    """How a user gives a point more of them."""
 
 
 def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
@@ -144,6 +148,8 @@ JOBS: dict[str, Job] = {
         ),
         sections=("delta", "delta_refill", "plugs", "plug_claws", "bus", "vision"),
         run=_delta,
+        unit="serviced cells",
+        more="delta_refill.max_cells (0: every cell of a tray) x seeds",
     ),
     "plug_bench": Job(
         "plug_bench",
