@@ -319,6 +319,7 @@ def _scene_config(sc, kin: DeltaKinematics) -> DeltaSceneConfig:
         bin_xy_m=(job.bin_x_m, job.bin_y_m),
         claws=claws_config(sc),
         plugs=plugs_config(sc),
+        timestep_s=sc.physics.timestep_s,
     )
 
 
