@@ -107,7 +107,8 @@ def plan_spline_move(
             f"{MAX_STEPS_PER_MOVE} a move"
         )
     times, dirs = step_events(deltas, t)
-    speeds = np.linalg.norm(np.diff(points, axis=0), axis=1) / np.maximum(np.diff(t), 1e-12)
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    speeds = seg / np.maximum(np.diff(t), 1e-12)
     return PlannedMove(
         start_xyz=start,
         end_xyz=end,
@@ -121,6 +122,6 @@ def plan_spline_move(
         end_steps=point_steps[-1].copy(),
         duration_s=float(duration),
         peak_speed_m_s=float(speeds.max(initial=0.0)),
-        path_m=np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]),
+        path_m=np.concatenate([[0.0], np.cumsum(seg)]),
         spline_plan=plan,
     )
