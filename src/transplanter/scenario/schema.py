@@ -715,6 +715,30 @@ class VisionSection:
     empty_area_mm2: float = key("float", 0, 1000, doc="less leaf area: an empty cell")
 
 
+@dataclass(frozen=True)
+class SerialArmSection:
+    """[serial_arm]: the serial arm's jobs (seed 004; read only by transplanter.twin.serial_arm):
+    the paper's ten targets, its 18 gripper trials and the pick-and-place of the pool_to_belt
+    workcell. Optional: the defaults are estimates (docs/serial_arm.md)."""
+
+    target_speed_m_s: float = key("float", 1, 1000, doc="G1 speed to each of the ten targets")
+    target_settle_s: float = key("float", 0, 10000, doc="dwell at a target before measuring")
+    travel_speed_m_s: float = key("float", 1, 1000, doc="G1 speed between stations")
+    approach_speed_m_s: float = key("float", 1, 1000, doc="G1 speed down to a grasp or release")
+    path_accel_m_s2: float = key("float", 1, 1e5, doc="the controller's path acceleration")
+    segment_m: float = key("float", 0.01, 10, doc="interpolation grid of the controller")
+    point_time_s: float = key("float", 1, 1e5, doc="IK time per interpolated point")
+    hover_m: float = key("float", 5, 200, doc="height above a grasp or release to come down from")
+    grasp_height_m: float = key("float", 5, 100, doc="grip centre above the pool floor")
+    release_above_m: float = key("float", 0, 100, doc="tomato's bottom above the belt at release")
+    grip_settle_s: float = key("float", 0, 10000, doc="dwell after the gripper's command")
+    release_settle_s: float = key("float", 0, 10000, doc="dwell after the release")
+    sensor_resolution_m: float = key("float", 0, 50, doc="reading's step (0: none; 10: whole cm)")
+    bruise_force_n: float = key("float", 0.1, 1000, doc="squeeze above it bruises a tomato")
+    bench_radius_m: float = key("float", 20, 160, doc="gripper trials: grip centre's radius")
+    bench_height_m: float = key("float", -50, 160, doc="gripper trials: its height (paper y)")
+
+
 # The file key of every field whose file unit differs from its SI unit.
 _FILE_KEY_OVERRIDES = {
     "mass_kg": "mass_g", "mass_sd_kg": "mass_sd_g", "mass_min_kg": "mass_min_g",
@@ -726,6 +750,8 @@ _FILE_KEY_OVERRIDES = {
     "shoot_mass_kg": "shoot_mass_g",
     "image_delay_s": "image_delay_ms", "point_time_s": "point_time_us",
     "tray_change_s": "tray_change_ms", "settle_after_s": "settle_after_ms",
+    "target_settle_s": "target_settle_ms", "grip_settle_s": "grip_settle_ms",
+    "release_settle_s": "release_settle_ms",
 }  # fmt: skip
 # The same, for a field of one section only (section, field): file key.
 _SECTION_FILE_KEYS = {
@@ -770,6 +796,7 @@ SECTIONS: dict[str, type] = {
     "faults": FaultsSection,
     "taught": TaughtSection,
     "vision": VisionSection,
+    "serial_arm": SerialArmSection,
 }
 
 
@@ -967,6 +994,24 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "min_secant_mm": 12.0,
         "empty_area_mm2": 10.0,
     },
+    "serial_arm": {
+        "target_speed_mm_s": 50.0,
+        "target_settle_ms": 1500.0,
+        "travel_speed_mm_s": 120.0,
+        "approach_speed_mm_s": 40.0,
+        "path_accel_mm_s2": 600.0,
+        "segment_mm": 0.5,
+        "point_time_us": 4027.0,
+        "hover_mm": 40.0,
+        "grasp_height_mm": 30.0,
+        "release_above_mm": 10.0,
+        "grip_settle_ms": 400.0,
+        "release_settle_ms": 400.0,
+        "sensor_resolution_mm": 0.0,
+        "bruise_force_n": 20.0,
+        "bench_radius_mm": 80.0,
+        "bench_height_mm": 80.0,
+    },
 }
 """Sections a file may leave out, with their values then: the paper's machine and job, and
 the delta's and serial arm's estimated defaults (a file's or --set's keys of such a section
@@ -1005,6 +1050,7 @@ class Scenario:
     faults: FaultsSection
     taught: TaughtSection
     vision: VisionSection
+    serial_arm: SerialArmSection
     overrides: tuple[tuple[str, Any], ...] = ()
     """The 'section.key' = value overrides applied on top of the file, as given."""
 
