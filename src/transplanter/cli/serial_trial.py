@@ -10,7 +10,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds
+from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds, _show
 
 __all__ = ["format_tables", "handles", "run_trial"]
 
@@ -47,9 +47,7 @@ def format_tables(r) -> str:
         err = " ".join(f"{v:.3f}" for v in row.error_cm)
         joints = " ".join(f"{v:.2f}" for v in row.joints_deg)
         pct = " ".join(_num(v) for v in row.joint_error_pct)
-        out.append(
-            f"{i:>2}  {cmd:>14}  {got:>20}  {paper:>16}  {err:>20}  {joints:>22}  {pct:>18}"
-        )
+        out.append(f"{i:>2}  {cmd:>14}  {got:>20}  {paper:>16}  {err:>20}  {joints:>22}  {pct:>18}")
     from transplanter.twin.serial_arm import PAPER_MEAN_ERRORS_CM, PAPER_MEAN_JOINT_ERRORS_PCT
 
     mean = " ".join(_num(v, "{:.3f}") for v in r.mean_error_cm)
@@ -90,7 +88,12 @@ def format_tables(r) -> str:
     return "\n".join(out)
 
 
-def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Path | None) -> int:
+def run_trial(
+    args: argparse.Namespace,
+    overrides: dict[str, Any],
+    json_path: Path | None,
+    record_path: Path | None = None,
+) -> int:
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.studies.stats import pooled_rate
     from transplanter.twin.serial_arm import DEFINITIONS, run_serial_arm
@@ -98,13 +101,15 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
     for option, value in (
         ("--clips-of-failures", args.clips_of_failures),
         ("--eeprom", args.eeprom),
-        ("--record", args.record),
     ):
         if value is not None:
             _err(f"{option}: not available for the serial arm's trial (docs/serial_arm.md)")
             return EXIT_REFUSED
     if args.seeds is not None and args.seed is not None:
         _err("--seeds runs one trial per seed: drop --seed")
+        return EXIT_REFUSED
+    if args.seeds is not None and record_path is not None:
+        _err("--seeds runs one trial per seed: drop --record (record one --seed)")
         return EXIT_REFUSED
     seeds = _seeds(args) if args.seeds is not None else [None]
     if seeds is None:
@@ -114,11 +119,22 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
-    results = []
+    results, outputs = [], []
     for seed in seeds:
-        result = run_serial_arm(scenario, seed)
+        recording = None
+        if record_path is not None:
+            from transplanter.viewing.serial_arm import SerialRecording
+
+            recording = SerialRecording(record_path, args.record_rate)
+        result = run_serial_arm(scenario, seed, recording=recording)
         results.append(result)
         print(format_tables(result))
+        if recording is not None and result.recording_error is None:
+            shown = _show(record_path)
+            outputs.append(
+                (f"recording of the pick and place written to {shown} (view it with: "
+                 f"transplanter replay {shown})", None)
+            )  # fmt: skip
     if args.seeds is None:
         payload: dict[str, Any] = results[0].to_dict()
     else:
@@ -136,4 +152,4 @@ def run_trial(args: argparse.Namespace, overrides: dict[str, Any], json_path: Pa
             f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
         )
     summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
-    return _finish(args, results, summary, payload, json_path)
+    return _finish(args, results, summary, payload, json_path, outputs=outputs)

@@ -124,7 +124,7 @@ def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter.cli import serial_trial  # the serial arm's jobs: their own trial
 
     if serial_trial.handles(args, overrides):
-        return serial_trial.run_trial(args, overrides, targets["--json"])
+        return serial_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")

@@ -115,15 +115,19 @@ DEFINITIONS = {
 
 # -- the scene -------------------------------------------------------------------------
 def _scene(sc, workcell: str | None, tomatoes: int | None = None, seed: int = 0):
-    """The serial arm with its gripper, optionally in a workcell (with ``tomatoes`` of the
-    pool, None: the scenario's count). Returns (model, data, scene config)."""
+    """The serial arm with its gripper, optionally in the pool_to_belt workcell (with
+    ``tomatoes`` in its pool; None: the scenario's count). Returns (spec, scene config)."""
     from transplanter.scene import serial_scene
 
-    cfg = serial_scene.serial_scene_config(sc)
     if workcell is None:
-        cfg = replace(cfg, workcell_kind=None, workcell=None)
-    elif tomatoes is not None:
-        cfg = replace(cfg, workcell=replace(cfg.workcell, count=tomatoes))
+        cfg = serial_scene.serial_scene_config(sc)
+    else:
+        from transplanter.scene.workcells import pool_to_belt
+
+        wc = pool_to_belt.pool_config(sc)
+        if tomatoes is not None:
+            wc = replace(wc, count=tomatoes)
+        cfg = serial_scene.serial_scene_config(sc, workcell_kind=workcell, workcell=wc)
     spec = serial_scene.build_serial_spec(cfg, seed)
     return spec, cfg
 
@@ -170,9 +174,7 @@ class _Ranger:
         dist = []
         for d in self.dirs:
             vec = rot @ d
-            dist.append(
-                mujoco.mj_ray(self.model, data, pos, vec, None, 1, self.body, self._geomid)
-            )
+            dist.append(mujoco.mj_ray(self.model, data, pos, vec, None, 1, self.body, self._geomid))
         self.last_cm = self.sensor.reading_cm(dist, self.rng)
         return self.last_cm
 
@@ -290,6 +292,7 @@ class _Rig:
             self.rangers["station"] = _Ranger(model, "station_sensor", noise, streams[1])
         self.k = 0
         self.raw = np.zeros(3, dtype=np.int64)
+        self.last_pulses = self.outputs.frame(self.raw)
         self.pending: list[tuple[float, int, float]] = []
         self.host: _Host | None = None
         self.gripper_log: list[tuple[float, float]] = []  # (t, commanded theta4 deg)
@@ -328,7 +331,8 @@ class _Rig:
                 self.outputs.set_gripper(value)
                 self.gripper_log.append((t, float(value)))
         if self.k % self.per_frame == 0:
-            self.bank.command(self.outputs.frame(self.raw))
+            self.last_pulses = self.outputs.frame(self.raw)
+            self.bank.command(self.last_pulses)
         if self.k % self.sense_every == 0:
             for ranger in self.rangers.values():
                 ranger.measure(data)
@@ -472,9 +476,9 @@ BASE_HORN_CORES_DEG = {"small": (0.0, 30.0), "medium": (60.0, 120.0), "any": (0.
 """Where the bench turns the base for a trial (the base servo's horn angle): row 4 needs a
 Small base angle (rule 4), rows 5-6 a Medium one (rules 5-6); every other row gives its term
 whatever the base angle (its three rules agree)."""
-SENSOR2_MARGIN_CM = 0.5
+SENSOR2_MARGIN_CM = 1.0
 """The stand-in tomato is set this far inside the row's range (the reading's noise, 3 mm sd,
-may still carry it across)."""
+may still carry it across: 1 cm is 3.3 sd)."""
 
 
 @dataclass
@@ -516,9 +520,7 @@ def _finite_cm(v: float) -> float | None:
     return None if v == NO_ECHO else float(v)
 
 
-def run_gripper_cases(
-    sc, seed: int | None = None
-) -> tuple[list[GripperCase], str | None, bool]:
+def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], str | None, bool]:
     """Table 6 on a bench: the pool_to_belt workcell with its lane empty, a stand-in tomato
     that the bench sets at the pool's station or takes away (sensor 1) and another on a stand
     in front of the gripper's sensor at a drawn distance in the row's range (sensor 2); the
@@ -666,6 +668,8 @@ class _Squeeze:
         self.pads = {model.geom(n).id for n in ("finger_left_pad", "finger_right_pad")}
         self.body_of = {int(model.body(n).id): n for n in tomatoes}
         self.peak = dict.fromkeys(tomatoes, 0.0)
+        self.now = 0.0
+        """One pad's normal force on the tomato in the gripper at the last step (N)."""
         self._f = np.zeros(6)
 
     def after_step(self, data) -> None:
@@ -684,18 +688,21 @@ class _Squeeze:
                 continue
             mujoco.mj_contactForce(self.model, data, i, self._f)
             total[name] = total.get(name, 0.0) + abs(float(self._f[0]))
+        self.now = 0.0
         for name, f in total.items():
             # one pad's normal force: the two pads squeeze the tomato between them
+            self.now = max(self.now, f / 2)
             if f / 2 > self.peak[name]:
                 self.peak[name] = f / 2
 
 
 def run_pick_place(
-    sc, seed: int | None = None
+    sc, seed: int | None = None, recording=None
 ) -> tuple[list[PickRecord], dict, str | None, bool]:
     """The pool_to_belt job: every tomato of the pool picked at the station and released
-    over the belt (module docstring). Returns the records, the job's totals and the host's
-    error (None when the program ended)."""
+    over the belt (module docstring). Returns the records, the job's totals, the host's
+    error (None when the program ended) and whether the physics stayed valid.
+    ``recording``: a `viewing.serial_arm.SerialRecording` (it only reads the state)."""
     from transplanter.scene.workcells import pool_to_belt
 
     seed = sc.seed if seed is None else seed
@@ -707,18 +714,22 @@ def run_pick_place(
     rig = _Rig(sc, model, data, seed)
     names = [f"tomato{i:02d}" for i in range(len(drawn))]
     records = [
-        PickRecord(i, t.diameter_m * 1e3, t.mass_kg * 1e3, t.friction)
-        for i, t in enumerate(drawn)
+        PickRecord(i, t.diameter_m * 1e3, t.mass_kg * 1e3, t.friction) for i, t in enumerate(drawn)
     ]
     body_ids = {n: model.body(n).id for n in names}
     squeeze = _Squeeze(model, body_ids)
     holding: list[int] = []  # the record being picked (squeeze counted while shut on it)
 
-    def watch(_t: float) -> None:
+    def watch(t: float) -> None:
         if holding:
             squeeze.after_step(data)
+        if recording is not None:
+            recording.squeeze_n = squeeze.now
+            recording.look(t)
 
     rig.on_step.append(watch)
+    if recording is not None:
+        recording.attach(rig)
     nominal = 0.5 * sum(wc.diameter_m)
     station = np.asarray(pool_to_belt.station_xyz(wc, nominal), dtype=np.float64)
     grasp_w = station.copy()
@@ -747,6 +758,14 @@ def run_pick_place(
                 "base_deg": round(readings["base_horn_deg"], 3),
             }
             rec.grip_deg, rec.grip_term = angle, FuzzyGripper.term_of(angle)
+            if recording is not None:
+                recording.fuzzy_deg = angle
+                g = rec.grip_inputs
+                text = (
+                    f"tomato {i}: sensor 1 {g['sensor1_cm']} cm, sensor 2 {g['sensor2_cm']} cm, "
+                    f"base {g['base_deg']:.1f} deg -> gripper {angle:.2f} deg ({rec.grip_term})"
+                )
+                recording.event(_t, "controller", text)
 
         return fn
 
@@ -809,6 +828,12 @@ def run_pick_place(
             rec.outcome = "dropped"
         if rec.outcome == "success" and rec.peak_squeeze_n > job.bruise_force_n:
             rec.outcome = "bruised"
+    if recording is not None:
+        for rec in records:
+            if rec.start_s is not None:
+                kind = "tomato" if rec.outcome == "success" else "failure"
+                recording.event(rig.t, kind, f"tomato {rec.index}: {rec.outcome}")
+        recording.finish(rig.t)
     totals = _pick_totals(records)
     totals["belt_travel_mm"] = round(float(pool_to_belt.belt_travel_m(data)) * 1e3, 3)
     return records, totals, error, rig.valid
@@ -896,8 +921,11 @@ class SerialArmResult:
         }
 
 
-def run_serial_arm(sc, seed: int | None = None, jobs=("targets", "gripper", "pick")):
-    """The serial arm's trial: the jobs named (all three by default), each in its scene."""
+def run_serial_arm(
+    sc, seed: int | None = None, jobs=("targets", "gripper", "pick"), recording=None
+):
+    """The serial arm's trial: the jobs named (all three by default), each in its scene;
+    ``recording`` (`viewing.serial_arm.SerialRecording`) films the pick and place."""
     wall0 = time.perf_counter()
     seed = sc.seed if seed is None else seed
     result = SerialArmResult(sc.meta.name, seed)
@@ -913,7 +941,9 @@ def run_serial_arm(sc, seed: int | None = None, jobs=("targets", "gripper", "pic
         if err:
             result.errors["gripper_cases"] = err
     if "pick" in jobs:
-        result.picks, result.pick_totals, err, ok = run_pick_place(sc, seed)
+        result.picks, result.pick_totals, err, ok = run_pick_place(sc, seed, recording)
+        if recording is not None:
+            result.recording_error = recording.error
         valid.append(ok)
         if err:
             result.errors["pick_place"] = err
