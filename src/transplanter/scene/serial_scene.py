@@ -55,7 +55,8 @@ class SerialSceneConfig:
     l2_m: float = 0.080
     """Elbow axis to the grip centre (the forearm is l2 less the gripper's reach)."""
     servos: tuple[str, str, str, str] = ("sg90", "mg996r", "mg996r", "sg90")
-    """The servo classes of base, shoulder, elbow and gripper."""
+    """The servo classes of base, shoulder, elbow and gripper (the last one is the gripper's:
+    it replaces `gripper.servo`)."""
     park_rad: tuple[float, float, float] = (0.0, np.pi / 2, -np.pi / 2)
     """The park pose (base, shoulder, elbow) at power-on."""
     timestep_s: float = 0.001
