@@ -167,6 +167,17 @@ def claws_config(s: Scenario):
     return _file_unit_config(s, "plug_claws", PlugClawsConfig)
 
 
+def fuzzy_gripper_config(s: Scenario):
+    """[fuzzy_gripper] as the scene's `FuzzyGripperConfig` (the serial arm's scene), its
+    servo class `[serial4] gripper_servo`."""
+    from dataclasses import replace
+
+    from transplanter.scene.effectors.fuzzy_gripper import FuzzyGripperConfig
+
+    config = _file_unit_config(s, "fuzzy_gripper", FuzzyGripperConfig)
+    return replace(config, servo=s.serial4.gripper_servo)
+
+
 def fault_config(s: Scenario, machine: Machine) -> FaultConfig:
     """The faults a scenario injects ([faults]); a lost reply beyond the PGF's program (it
     would never happen) is a ScenarioError."""

@@ -365,6 +365,29 @@ class Serial4Section:
 
 
 @dataclass(frozen=True)
+class FuzzyGripperSection:
+    """[fuzzy_gripper]: the serial arm's two-finger gripper sized for tomatoes
+    (`transplanter.scene.effectors.fuzzy_gripper.FuzzyGripperConfig`, whose fields are the file
+    keys; its servo class is `[serial4] gripper_servo`), read by the serial arm's scene.
+    Optional: the defaults are FuzzyGripperConfig's estimates (docs/serial_arm.md)."""
+
+    pivot_x_m: float = key("float", -100, 100, doc="finger pivots ahead of the mount (<0 behind)")
+    pivot_offset_m: float = key("float", 1, 100, doc="each pivot from the centre line")
+    finger_length_m: float = key("float", 10, 300, doc="pivot to the pad face's centre")
+    pad_inset_m: float = key("float", 0, 50, doc="pad face inward of the finger's pivot line")
+    pad_length_m: float = key("float", 2, 100, doc="pad along the finger")
+    pad_height_m: float = key("float", 2, 100, doc="pad across the finger plane")
+    pad_thickness_m: float = key("float", 0.5, 20, doc="rubber pad thickness")
+    pad_friction: float = key("float", 0.05, 3, doc="pads' sliding friction (theirs governs)")
+    grip_angle_rad: float = key("float", 0, 60, doc="servo angle: pads parallel, grip_center")
+    open_angle_rad: float = key("float", 0, 60, doc="servo angle at power-on (standby)")
+    sensor_height_m: float = key("float", 0, 100, doc="HC-SR04 axis above the finger plane")
+    finger_mass_kg: float = key("float", 0.1, 500, doc="one finger with its pad")
+    palm_mass_kg: float = key("float", 0.1, 500, doc="bracket and palm (no servo, no sensor)")
+    sensor_mass_kg: float = key("float", 0.1, 500, doc="HC-SR04 module")
+
+
+@dataclass(frozen=True)
 class LimitsSection:
     """[limits]: joint windows and conditioning limits the firmware enforces."""
 
@@ -764,6 +787,9 @@ _SECTION_FILE_KEYS = {
     ("plug_claws", "rotary_kp_nm_rad"): "rotary_kp_nm_rad",
     ("plug_bench", "extraction_accel_m_s2"): "extraction_accel_m_s2",  # m/s^2, as the paper's
     ("plug_bench", "move_accel_m_s2"): "move_accel_m_s2",
+    ("fuzzy_gripper", "finger_mass_kg"): "finger_mass_g",
+    ("fuzzy_gripper", "palm_mass_kg"): "palm_mass_g",
+    ("fuzzy_gripper", "sensor_mass_kg"): "sensor_mass_g",
 }
 _FILE_SUFFIX = {
     "_rad_s2": "_deg_s2", "_rad_s": "_deg_s", "_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm",
@@ -782,6 +808,7 @@ SECTIONS: dict[str, type] = {
     "plug_claws": PlugClawsSection,
     "plug_bench": PlugBenchSection,
     "serial4": Serial4Section,
+    "fuzzy_gripper": FuzzyGripperSection,
     "limits": LimitsSection,
     "drives": DrivesSection,
     "motion": MotionSection,
@@ -957,6 +984,22 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "elbow_servo": "mg996r",
         "gripper_servo": "sg90",
     },
+    "fuzzy_gripper": {
+        "pivot_x_mm": -10.0,
+        "pivot_offset_mm": 15.0,
+        "finger_length_mm": 80.0,
+        "pad_inset_mm": 8.0,
+        "pad_length_mm": 24.0,
+        "pad_height_mm": 20.0,
+        "pad_thickness_mm": 3.0,
+        "pad_friction": 0.9,
+        "grip_angle_deg": 22.5,
+        "open_angle_deg": 48.0,
+        "sensor_height_mm": 20.0,
+        "finger_mass_g": 6.0,
+        "palm_mass_g": 10.0,
+        "sensor_mass_g": 8.5,
+    },
     "vision": {
         "seedling_draw": "default",
         "image_width_px": 1600,
@@ -1036,6 +1079,7 @@ class Scenario:
     plug_claws: PlugClawsSection
     plug_bench: PlugBenchSection
     serial4: Serial4Section
+    fuzzy_gripper: FuzzyGripperSection
     limits: LimitsSection
     drives: DrivesSection
     motion: MotionSection
@@ -1398,6 +1442,12 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
             )
     if conv["index_time_s"] < 0.2:
         raise ScenarioError("conveyor.index_time_s must be at least 0.2 s (push and settle).")
+    fg = v["fuzzy_gripper"]
+    if fg["grip_angle_rad"] >= fg["open_angle_rad"]:
+        raise ScenarioError(
+            "fuzzy_gripper.grip_angle_deg must be below fuzzy_gripper.open_angle_deg (the "
+            "standby opens wider than the grip)."
+        )
     grip = v["gripper"]
     if grip["close_rad"] >= grip["open_rad"]:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")

@@ -33,10 +33,12 @@ __all__ = [
 ROBOTS = {
     "fivebar": "transplanter.scene.robots.fivebar",
     "delta": "transplanter.scene.robots.delta",
+    "serial4": "transplanter.scene.robots.serial4",
 }
 EFFECTORS = {
     "parallel_jaw": "transplanter.scene.effectors.parallel_jaw",
     "plug_claws": "transplanter.scene.effectors.plug_claws",
+    "fuzzy_gripper": "transplanter.scene.effectors.fuzzy_gripper",
 }
 WORKCELLS = {
     "conveyor_tube": "transplanter.scene.workcells.conveyor_tube",

@@ -1,0 +1,189 @@
+"""The serial arm's scene (seed 004: Dewi, Nurmaini, Risma, Oktarina and Roriz, *Inverse
+kinematic analysis of 4 DOF pick and place arm robot manipulator using fuzzy logic
+controller*, IJECE 10(2), 2020): the serial 4-DOF servo arm (models/serial4, robot kind
+'serial4') with the fuzzy gripper (models/effectors/fuzzy_gripper, effector kind
+'fuzzy_gripper') attached at its forearm's `tool_mount` by MjSpec attach, on a floor, and the
+workcell of the job where one is named (its module, found through `scene.kinds`, places what
+the job needs).
+
+World frame: the arm's base stands on the floor (z = 0) at the origin, z up; the shoulder axis
+is `SHOULDER_HEIGHT_M` above the floor. The kinematics (`transplanter.machine.kinematics.
+serial4`) works in the paper's frame (origin at the shoulder, x forward, y up, z sideways to
+the right): its point (x, y, z) is the world point (x, -z, 0.060 + y) (`paper_to_world`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from transplanter.machine.servo import servo_class
+from transplanter.scene import kinds
+from transplanter.scene.delta_scene import models_dir
+from transplanter.scene.effectors.fuzzy_gripper import FuzzyGripperConfig
+
+__all__ = [
+    "EFFECTOR",
+    "ROBOT",
+    "SHOULDER_HEIGHT_M",
+    "SerialSceneConfig",
+    "build_serial_spec",
+    "compile_scene",
+    "home_ctrl",
+    "home_qpos",
+    "paper_to_world",
+    "serial_scene_config",
+    "world_to_paper",
+]
+
+ROBOT = "serial4"
+EFFECTOR = "fuzzy_gripper"
+SHOULDER_HEIGHT_M = 0.060
+"""The shoulder axis above the floor (models/serial4: the turntable's height)."""
+
+
+@dataclass(frozen=True)
+class SerialSceneConfig:
+    """What the serial arm's scene is built from (SI). The arm's numbers come from `[serial4]`,
+    the gripper's from `[fuzzy_gripper]` (docs/serial_arm.md)."""
+
+    l1_m: float = 0.080
+    """Shoulder axis to elbow axis."""
+    l2_m: float = 0.080
+    """Elbow axis to the grip centre (the forearm is l2 less the gripper's reach)."""
+    servos: tuple[str, str, str, str] = ("sg90", "mg996r", "mg996r", "sg90")
+    """The servo classes of base, shoulder, elbow and gripper (the last one is the gripper's:
+    it replaces `gripper.servo`)."""
+    park_rad: tuple[float, float, float] = (0.0, np.pi / 2, -np.pi / 2)
+    """The park pose (base, shoulder, elbow) at power-on."""
+    timestep_s: float = 0.001
+    gripper: FuzzyGripperConfig = field(default_factory=FuzzyGripperConfig)
+    workcell_kind: str | None = None
+    """The workcell of the job (`scene.kinds.WORKCELLS`), or none: the arm on a bare floor."""
+    workcell: object | None = None
+    """The workcell module's config (its `apply` and `populate` take it)."""
+
+    def __post_init__(self) -> None:
+        if len(self.servos) != 4:
+            raise ValueError("SerialSceneConfig.servos: four servo classes (base, shoulder, "
+                             "elbow, gripper)")  # fmt: skip
+        for name in self.servos:
+            servo_class(name)
+        if self.gripper.servo != self.servos[3]:
+            object.__setattr__(self, "gripper", replace(self.gripper, servo=self.servos[3]))
+
+
+def serial_scene_config(sc, workcell_kind: str | None = None, workcell: object | None = None):
+    """The scene's config from a scenario: `[serial4]` (links, servos, park pose),
+    `[fuzzy_gripper]` and `[physics] timestep`; the workcell as given (its module reads its
+    own section)."""
+    from transplanter.scenario.assemble import fuzzy_gripper_config
+
+    s = sc.serial4
+    servos = (s.base_servo, s.shoulder_servo, s.elbow_servo, s.gripper_servo)
+    return SerialSceneConfig(
+        l1_m=s.l1_m,
+        l2_m=s.l2_m,
+        servos=servos,
+        park_rad=(s.park_base_rad, s.park_shoulder_rad, s.park_elbow_rad),
+        timestep_s=sc.physics.timestep_s,
+        gripper=replace(fuzzy_gripper_config(sc), servo=s.gripper_servo),
+        workcell_kind=workcell_kind,
+        workcell=workcell,
+    )
+
+
+def paper_to_world(p) -> np.ndarray:
+    """(..., 3) points of the paper's frame (x forward, y up, z to the right; origin at the
+    shoulder) in the world (z up, origin on the floor under the base): (x, -z, 0.060 + y)."""
+    p = np.asarray(p, dtype=np.float64)
+    return np.stack([p[..., 0], -p[..., 2], SHOULDER_HEIGHT_M + p[..., 1]], axis=-1)
+
+
+def world_to_paper(w) -> np.ndarray:
+    """The inverse of `paper_to_world`."""
+    w = np.asarray(w, dtype=np.float64)
+    return np.stack([w[..., 0], w[..., 2] - SHOULDER_HEIGHT_M, -w[..., 1]], axis=-1)
+
+
+def _add_floor(spec: mujoco.MjSpec) -> None:
+    spec.add_texture(
+        name="groundplane", type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, mark=mujoco.mjtMark.mjMARK_EDGE,
+        rgb1=[0.2, 0.3, 0.4], rgb2=[0.1, 0.2, 0.3], markrgb=[0.8, 0.8, 0.8], width=300,
+        height=300,
+    )  # fmt: skip
+    mat = spec.add_material(name="groundplane", texuniform=True, texrepeat=[5, 5],
+                            reflectance=0.2)  # fmt: skip
+    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "groundplane"
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+                            material="groundplane")  # fmt: skip
+    spec.worldbody.add_light(
+        pos=[0, 0, 1.5], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+    )
+    spec.add_texture(
+        name="skybox", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.3, 0.5, 0.7], rgb2=[0, 0, 0],
+        width=512, height=3072,
+    )  # fmt: skip
+
+
+def build_serial_spec(
+    cfg: SerialSceneConfig, seed: int | None = None, models: str | Path | None = None
+) -> mujoco.MjSpec:
+    """The scene's spec: a floor and a light, the serial arm (robot kind 'serial4') with the
+    fuzzy gripper attached at its `tool_mount` (effector kind 'fuzzy_gripper'), both made
+    the config's; and, where `cfg.workcell_kind` names one, that workcell (`apply`, then
+    `populate(spec, cfg.workcell, seed, decor=True)`). No keyframe: `home_qpos` and
+    `home_ctrl` give the power-on state."""
+    root = Path(models) if models is not None else models_dir()
+    robot = kinds.robot(ROBOT)
+    spec = mujoco.MjSpec.from_file(str(root / robot.MODEL / f"{robot.MODEL}.xml"))
+    robot.attach_effector(spec, root)
+    effector = kinds.effector(EFFECTOR)
+    effector.apply(spec, cfg.gripper)
+    effector.add_canopy_contact(spec, cfg.gripper)
+    robot.apply(spec, cfg)  # after the effector's: the forearm is l2 less its reach
+    robot.apply_inertials(spec, cfg)
+    spec.option.timestep = cfg.timestep_s
+    _add_floor(spec)
+    if cfg.workcell_kind:
+        cell = kinds.workcell(cfg.workcell_kind)
+        cell.apply(spec, cfg.workcell)
+        cell.populate(spec, cfg.workcell, seed, decor=True)
+    return spec
+
+
+def compile_scene(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """Compile the scene (MuJoCo's note on the gripper attached without a name prefix
+    silenced: `robots.delta.quiet_prefix_note`)."""
+    with kinds.robot(ROBOT).quiet_prefix_note():
+        return spec.compile()
+
+
+def home_joints(cfg: SerialSceneConfig) -> dict[str, float]:
+    """The arm's park pose and the fingers at half the standby servo angle (rad)."""
+    return {**kinds.robot(ROBOT).home_joints(cfg), **kinds.effector(EFFECTOR).home_joints(cfg)}
+
+
+def home_qpos(model: mujoco.MjModel, cfg: SerialSceneConfig) -> np.ndarray:
+    """The scene's qpos at power-on: the arm parked, the gripper open at its standby angle
+    (48 deg by default), everything else where its body is drawn."""
+    qpos = model.qpos0.copy()
+    for name, q in home_joints(cfg).items():
+        qpos[model.jnt_qposadr[model.joint(name).id]] = q
+    return qpos
+
+
+def home_ctrl(model: mujoco.MjModel, cfg: SerialSceneConfig) -> np.ndarray:
+    """The actuators' power-on commands: base, shoulder, elbow at the park pose, gripper at
+    its standby angle; any other actuator (a workcell's) at 0."""
+    ctrl = np.zeros(model.nu)
+    names = ("base", "shoulder", "elbow", "gripper")
+    values = [*kinds.robot(ROBOT).home_ctrl(cfg), *kinds.effector(EFFECTOR).home_ctrl(cfg)]
+    for name, value in zip(names, values, strict=True):
+        ctrl[model.actuator(name).id] = value
+    return ctrl
