@@ -388,6 +388,41 @@ class FuzzyGripperSection:
 
 
 @dataclass(frozen=True)
+class PoolToBeltSection:
+    """[pool_to_belt]: the serial arm's pick-and-place workcell (`[workcell] kind =
+    "pool_to_belt"`): the tomatoes queued in the sloping lane, sensor 1 across the pick
+    station, the belt conveyor (`transplanter.scene.workcells.pool_to_belt.PoolToBeltConfig`,
+    whose fields these are). Optional: the defaults are estimates (docs/serial_arm.md)."""
+
+    count: int = key("int", lo=1, hi=20, doc="tomatoes queued in the pool")
+    diameter_min_m: float = key("float", 20, 120, doc="smallest tomato diameter drawn")
+    diameter_max_m: float = key("float", 20, 120, doc="largest tomato diameter drawn")
+    mass_min_kg: float = key("float", 5, 1000, doc="lightest tomato (density x volume, clipped)")
+    mass_max_kg: float = key("float", 5, 1000, doc="heaviest tomato")
+    density_kg_m3: float = key("float", 500, 1500, doc="tomato density")
+    friction_low: float = key("float", 0, 3, doc="skin-pad friction, lowest drawn")
+    friction_high: float = key("float", 0, 3, doc="skin-pad friction, highest drawn")
+    contact_timeconst_s: float = key("float", 2, 100, doc="a tomato's contact time constant")
+    rolling_resistance_m: float = key("float", 0, 10, doc="lane's and belt's rolling friction")
+    station_x_m: float = key("float", -160, 160, doc="pick station (a middle tomato's centre)")
+    station_y_m: float = key("float", -160, 160)
+    lane_floor_z_m: float = key("float", 0, 200, doc="trough bottom at the stop above the floor")
+    lane_slope_rad: float = key("float", 0.5, 20, doc="lane's slope down to the stop")
+    trough_angle_rad: float = key("float", 3, 45, doc="trough faces' sideways rise")
+    lane_half_width_m: float = key("float", 10, 100, doc="trough rim from the centre line")
+    stop_height_m: float = key("float", 1, 100, doc="stop tab above the trough bottom")
+    sensor_offset_m: float = key("float", 10, 300, doc="sensor 1's face from the lane's line")
+    place_angle_rad: float = key("float", -90, 90, doc="base angle theta1 of the place spot")
+    place_radius_m: float = key("float", 20, 160, doc="place spot from the base axis")
+    belt_top_z_m: float = key("float", 0, 200, doc="belt's top face above the floor")
+    belt_width_m: float = key("float", 20, 300, doc="between the belt's side walls")
+    belt_sidewall_height_m: float = key("float", 0, 100, doc="side walls above the belt")
+    belt_speed_m_s: float = key("float", 1, 500, doc="belt speed")
+    cycle_s: float = key("float", 0.5, 120, doc="pick-and-place time the belt's length is for")
+    release_gap_m: float = key("float", 0, 100, doc="tomato's bottom above the belt at release")
+
+
+@dataclass(frozen=True)
 class LimitsSection:
     """[limits]: joint windows and conditioning limits the firmware enforces."""
 
@@ -752,8 +787,6 @@ class SerialArmSection:
     segment_m: float = key("float", 0.01, 10, doc="interpolation grid of the controller")
     point_time_s: float = key("float", 1, 1e5, doc="IK time per interpolated point")
     hover_m: float = key("float", 5, 200, doc="height above a grasp or release to come down from")
-    grasp_height_m: float = key("float", 5, 100, doc="grip centre above the pool floor")
-    release_above_m: float = key("float", 0, 100, doc="tomato's bottom above the belt at release")
     grip_settle_s: float = key("float", 0, 10000, doc="dwell after the gripper's command")
     release_settle_s: float = key("float", 0, 10000, doc="dwell after the release")
     sensor_resolution_m: float = key("float", 0, 50, doc="reading's step (0: none; 10: whole cm)")
@@ -790,6 +823,7 @@ _SECTION_FILE_KEYS = {
     ("fuzzy_gripper", "finger_mass_kg"): "finger_mass_g",
     ("fuzzy_gripper", "palm_mass_kg"): "palm_mass_g",
     ("fuzzy_gripper", "sensor_mass_kg"): "sensor_mass_g",
+    ("pool_to_belt", "contact_timeconst_s"): "contact_timeconst_ms",
 }
 _FILE_SUFFIX = {
     "_rad_s2": "_deg_s2", "_rad_s": "_deg_s", "_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm",
@@ -809,6 +843,7 @@ SECTIONS: dict[str, type] = {
     "plug_bench": PlugBenchSection,
     "serial4": Serial4Section,
     "fuzzy_gripper": FuzzyGripperSection,
+    "pool_to_belt": PoolToBeltSection,
     "limits": LimitsSection,
     "drives": DrivesSection,
     "motion": MotionSection,
@@ -1000,6 +1035,34 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "palm_mass_g": 10.0,
         "sensor_mass_g": 8.5,
     },
+    "pool_to_belt": {
+        "count": 6,
+        "diameter_min_mm": 50.0,
+        "diameter_max_mm": 70.0,
+        "mass_min_g": 70.0,
+        "mass_max_g": 150.0,
+        "density_kg_m3": 1000.0,
+        "friction_low": 0.4,
+        "friction_high": 0.8,
+        "contact_timeconst_ms": 8.0,
+        "rolling_resistance_mm": 1.0,
+        "station_x_mm": 115.0,
+        "station_y_mm": 0.0,
+        "lane_floor_z_mm": 20.0,
+        "lane_slope_deg": 5.0,
+        "trough_angle_deg": 12.0,
+        "lane_half_width_mm": 40.0,
+        "stop_height_mm": 30.0,
+        "sensor_offset_mm": 55.0,
+        "place_angle_deg": 90.0,
+        "place_radius_mm": 115.0,
+        "belt_top_z_mm": 25.0,
+        "belt_width_mm": 80.0,
+        "belt_sidewall_height_mm": 20.0,
+        "belt_speed_mm_s": 25.0,
+        "cycle_s": 6.0,
+        "release_gap_mm": 10.0,
+    },
     "vision": {
         "seedling_draw": "default",
         "image_width_px": 1600,
@@ -1046,8 +1109,6 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "segment_mm": 0.5,
         "point_time_us": 4027.0,
         "hover_mm": 40.0,
-        "grasp_height_mm": 30.0,
-        "release_above_mm": 10.0,
         "grip_settle_ms": 400.0,
         "release_settle_ms": 400.0,
         "sensor_resolution_mm": 0.0,
@@ -1080,6 +1141,7 @@ class Scenario:
     plug_bench: PlugBenchSection
     serial4: Serial4Section
     fuzzy_gripper: FuzzyGripperSection
+    pool_to_belt: PoolToBeltSection
     limits: LimitsSection
     drives: DrivesSection
     motion: MotionSection
@@ -1453,12 +1515,42 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
     _check_faults(v["faults"])
     _check_plugs(v["plugs"], v["plug_claws"])
+    _check_pool_to_belt(v["pool_to_belt"])
     band, moisture = v["plug_bench"]["moisture_band_pct"] / 2, v["plugs"]["moisture_pct"]
     if v["workcell"]["kind"] == "plug_bench" and not 0 < moisture - band <= moisture + band < 100:
         raise ScenarioError(
             f"plugs.moisture_pct +- plug_bench.moisture_band_pct / 2 = "
             f"{v['plugs']['moisture_pct']:g} +- {band:g} % leaves (0, 100) %: a plug's "
             "moisture is drawn in that band; narrow it."
+        )
+
+
+def _check_pool_to_belt(p: dict[str, Any]) -> None:
+    for lo, hi in (
+        ("diameter_min_mm", "diameter_max_mm"),
+        ("mass_min_g", "mass_max_g"),
+        ("friction_low", "friction_high"),
+    ):
+        if p[si_key(lo)] > p[si_key(hi)]:
+            raise ScenarioError(f"pool_to_belt.{lo} must not be above pool_to_belt.{hi}.")
+    d_max = p["diameter_max_m"]
+    if p["sensor_offset_m"] <= d_max / 2:
+        raise ScenarioError(
+            f"pool_to_belt.sensor_offset_mm = {p['sensor_offset_m'] * 1e3:g} mm: sensor 1 would "
+            f"stand inside the largest tomato (radius {d_max / 2 * 1e3:g} mm); move it out."
+        )
+    if p["belt_width_m"] <= d_max:
+        raise ScenarioError(
+            f"pool_to_belt.belt_width_mm = {p['belt_width_m'] * 1e3:g} mm: the largest tomato "
+            f"({d_max * 1e3:g} mm, pool_to_belt.diameter_max_mm) does not fit between the "
+            "belt's side walls; widen the belt."
+        )
+    reach = d_max / 2 * math.sin(p["trough_angle_rad"])
+    if p["lane_half_width_m"] <= reach:
+        raise ScenarioError(
+            f"pool_to_belt.lane_half_width_mm = {p['lane_half_width_m'] * 1e3:g} mm: the "
+            f"largest tomato rests on the trough's faces {reach * 1e3:.1f} mm from the centre "
+            "line, beyond their rims; widen the trough."
         )
 
 

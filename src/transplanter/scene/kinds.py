@@ -43,6 +43,7 @@ EFFECTORS = {
 WORKCELLS = {
     "conveyor_tube": "transplanter.scene.workcells.conveyor_tube",
     "plug_trays": "transplanter.scene.workcells.plug_trays",
+    "pool_to_belt": "transplanter.scene.workcells.pool_to_belt",
 }
 
 

@@ -532,7 +532,7 @@ def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], s
     seed = sc.seed if seed is None else seed
     job = sc.serial_arm
     spec, cfg = _scene(sc, "pool_to_belt", tomatoes=0, seed=seed)
-    diameter = 0.5 * sum(cfg.workcell.diameter_m)
+    diameter = cfg.workcell.nominal_diameter_m
     stands = {}
     for name in ("station_stand_in", "sensor2_stand_in"):
         body = spec.worldbody.add_body(name=name, mocap=True, pos=[CASE_STAND_AWAY_M, 0, 0])
@@ -730,14 +730,11 @@ def run_pick_place(
     rig.on_step.append(watch)
     if recording is not None:
         recording.attach(rig)
-    nominal = 0.5 * sum(wc.diameter_m)
-    station = np.asarray(pool_to_belt.station_xyz(wc, nominal), dtype=np.float64)
-    grasp_w = station.copy()
-    grasp_w[2] = job.grasp_height_m + float(pool_to_belt.pool_floor_z(wc))
-    grasp = world_to_paper(grasp_w)
-    place = world_to_paper(np.asarray(pool_to_belt.place_xyz(wc, nominal), dtype=np.float64))
-    release = place.copy()
-    release[1] += job.release_above_m
+    pool_to_belt.start_belt(data)
+    # the host knows the layout, not each tomato: it grips at a middle tomato's centre and
+    # releases a middle tomato's height over the belt
+    grasp = world_to_paper(pool_to_belt.station_xyz(wc))
+    release = world_to_paper(pool_to_belt.place_xyz(wc))
     up = np.array([0.0, job.hover_m, 0.0])
     park = _park_point(rig.kin)
 
@@ -814,15 +811,13 @@ def run_pick_place(
 
     rig.start(program())
     error = rig.run(limit_s=60.0 + 20.0 * len(drawn), settle_s=2.0)
-    start_xyz = {n: np.asarray(t.pose_xyz[:3]) for n, t in zip(names, drawn, strict=True)}
     for rec, name in zip(records, names, strict=True):
         rec.peak_squeeze_n = squeeze.peak[name]
         if rec.start_s is None:
             continue
-        pos = data.xpos[body_ids[name]]
         if pool_to_belt.on_belt(model, data, wc, name):
             rec.outcome = "success"
-        elif np.linalg.norm(pos[:2] - start_xyz[name][:2]) < 0.5 * rec.diameter_mm * 1e-3 + 0.02:
+        elif _in_pool(wc, data.xpos[body_ids[name]]):
             rec.outcome = "missed"
         else:
             rec.outcome = "dropped"
@@ -837,6 +832,23 @@ def run_pick_place(
     totals = _pick_totals(records)
     totals["belt_travel_mm"] = round(float(pool_to_belt.belt_travel_m(data)) * 1e3, 3)
     return records, totals, error, rig.valid
+
+
+def _in_pool(wc, xyz) -> bool:
+    """A point over the pool's lane (the station and the queue behind it)."""
+    station = pool_to_belt_station(wc)
+    x, y, z = (float(v) for v in xyz)
+    return (
+        abs(y - station[1]) <= wc.lane_half_width_m
+        and station[0] - wc.diameter_max_m <= x <= station[0] + wc.lane_length_m
+        and z <= station[2] + wc.diameter_max_m
+    )
+
+
+def pool_to_belt_station(wc) -> np.ndarray:
+    from transplanter.scene.workcells import pool_to_belt
+
+    return np.asarray(pool_to_belt.station_xyz(wc), dtype=np.float64)
 
 
 def _pick_totals(records: Iterable[PickRecord]) -> dict:
