@@ -1060,7 +1060,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "belt_width_mm": 80.0,
         "belt_sidewall_height_mm": 20.0,
         "belt_speed_mm_s": 25.0,
-        "cycle_s": 6.0,
+        "cycle_s": 12.0,
         "release_gap_mm": 10.0,
     },
     "vision": {

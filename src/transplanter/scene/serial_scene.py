@@ -141,7 +141,13 @@ def build_serial_spec(
     `home_ctrl` give the power-on state."""
     root = Path(models) if models is not None else models_dir()
     robot = kinds.robot(ROBOT)
-    spec = mujoco.MjSpec.from_file(str(root / robot.MODEL / f"{robot.MODEL}.xml"))
+    robot_file = root / robot.MODEL / f"{robot.MODEL}.xml"
+    if cfg.workcell_kind:  # the workcell's world merged in, as the five-bar's scene does
+        from transplanter.scene.build import merge_models, workcell_xml
+
+        spec = merge_models([robot_file, workcell_xml(cfg.workcell_kind, root)], "serial_scene")
+    else:
+        spec = mujoco.MjSpec.from_file(str(robot_file))
     robot.attach_effector(spec, root)
     effector = kinds.effector(EFFECTOR)
     effector.apply(spec, cfg.gripper)
@@ -149,7 +155,8 @@ def build_serial_spec(
     robot.apply(spec, cfg)  # after the effector's: the forearm is l2 less its reach
     robot.apply_inertials(spec, cfg)
     spec.option.timestep = cfg.timestep_s
-    _add_floor(spec)
+    if not any(g.type == mujoco.mjtGeom.mjGEOM_PLANE for g in spec.worldbody.geoms):
+        _add_floor(spec)
     if cfg.workcell_kind:
         cell = kinds.workcell(cfg.workcell_kind)
         cell.apply(spec, cfg.workcell)

@@ -476,6 +476,9 @@ BASE_HORN_CORES_DEG = {"small": (0.0, 30.0), "medium": (60.0, 120.0), "any": (0.
 """Where the bench turns the base for a trial (the base servo's horn angle): row 4 needs a
 Small base angle (rule 4), rows 5-6 a Medium one (rules 5-6); every other row gives its term
 whatever the base angle (its three rules agree)."""
+ARC_STEP_DEG = 20.0
+"""The bench turns the base in lines of at most this much of the circle (at the bench's 80 mm
+radius a 20 deg chord passes 1.2 mm inside the circle)."""
 SENSOR2_MARGIN_CM = 1.0
 """The stand-in tomato is set this far inside the row's range (the reading's noise, 3 mm sd,
 may still carry it across: 1 cm is 3.3 sd)."""
@@ -602,9 +605,15 @@ def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], s
     def program():
         yield "G28"
         yield "G90"
+        here = rig.base_horn_deg(rig.q0[0])
         for i, (_, horn, _) in enumerate(plan):
             yield f"M280 P0 S{format_number(round(rig.standby_deg, 2))}"
-            yield _g1(pose_point(horn), job.travel_speed_m_s)
+            # round the base along the bench's circle: a straight line between two far
+            # base angles would pass over the base axis, where the IK refuses
+            steps = max(1, math.ceil(abs(horn - here) / ARC_STEP_DEG))
+            for a in np.linspace(here, horn, steps + 1)[1:]:
+                yield _g1(pose_point(float(a)), job.travel_speed_m_s)
+            here = horn
             yield "M400"
             yield _Wait(job.target_settle_s)
             yield _Call(set_bench(i))

@@ -139,7 +139,7 @@ class PoolToBeltConfig:
     """The belt's side walls (a sidewall belt: they run with it) above its top face."""
     belt_speed_m_s: float = 0.025
     """The belt's speed (estimate: a small hobby conveyor)."""
-    cycle_s: float = 6.0
+    cycle_s: float = 12.0
     """Time per pick-and-place the belt is sized for: its plate carries count x cycle_s x
     belt_speed of travel before it reaches its end stop."""
     release_gap_m: float = 0.010
@@ -147,7 +147,7 @@ class PoolToBeltConfig:
 
     def __post_init__(self) -> None:
         checks = (
-            (self.count >= 1, "count must be at least 1"),
+            (self.count >= 0, "count must be 0 (an empty pool: a bench) or more"),
             (0 < self.diameter_min_m <= self.diameter_max_m, "0 < diameter_min <= diameter_max"),
             (0 < self.mass_min_kg <= self.mass_max_kg, "0 < mass_min <= mass_max"),
             (0 <= self.friction_low <= self.friction_high, "0 <= friction_low <= friction_high"),
@@ -176,13 +176,15 @@ class PoolToBeltConfig:
 
     @property
     def lane_length_m(self) -> float:
-        """The lane from the stop to its upper end: count of the largest tomatoes + margin."""
-        return self.count * (self.diameter_max_m + QUEUE_GAP_M) + LANE_END_MARGIN_M
+        """The lane from the stop to its upper end: count of the largest tomatoes + margin
+        (an empty pool's lane holds one)."""
+        return max(self.count, 1) * (self.diameter_max_m + QUEUE_GAP_M) + LANE_END_MARGIN_M
 
     @property
     def belt_travel_max_m(self) -> float:
-        """The belt's travel until its end stop: count x cycle_s x belt_speed."""
-        return self.count * self.cycle_s * self.belt_speed_m_s
+        """The belt's travel until its end stop: count x cycle_s x belt_speed (an empty
+        pool's belt: one cycle's)."""
+        return max(self.count, 1) * self.cycle_s * self.belt_speed_m_s
 
     @property
     def belt_length_m(self) -> float:
@@ -355,6 +357,8 @@ def tomato_name(index: int) -> str:
 def _queue_positions(cfg: PoolToBeltConfig, diameters: np.ndarray) -> list[np.ndarray]:
     """World centres of the tomatoes queued in the lane, the first against the stop, each
     next one QUEUE_GAP behind the one before along the lane's centre line."""
+    if len(diameters) == 0:  # an empty pool (a bench)
+        return []
     cos_a = math.cos(cfg.trough_angle_rad)
     s, zc = _rest_in_lane(cfg, float(diameters[0]))
     out = [_lane_to_world(cfg, [s, 0.0, zc])]
