@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from types import SimpleNamespace
 
 import mujoco
 import numpy as np
@@ -19,7 +18,7 @@ from transplanter.machine.fuzzy_gripper import NO_ECHO, UltrasonicSensor
 from transplanter.machine.kinematics.serial4 import Serial4Geometry, Serial4Kinematics, fk
 from transplanter.machine.servo import MG996R, SG90
 from transplanter.scenario.schema import load_scenario
-from transplanter.scene import kinds, serial_scene
+from transplanter.scene import serial_scene
 from transplanter.scene.effectors.fuzzy_gripper import FuzzyGripperConfig, reach_m
 from transplanter.scene.serial_scene import (
     SHOULDER_HEIGHT_M,
@@ -138,23 +137,22 @@ def test_paper_and_world_frames():
     np.testing.assert_allclose(world_to_paper(paper_to_world(p)), p)
 
 
-def test_a_workcell_is_applied_and_populated_through_kinds(monkeypatch):
-    calls = []
+def test_a_workcell_is_merged_applied_and_populated():
+    """The workcell's world (models/workcells/<MODEL>) merged with the arm, its `apply` and
+    `populate` run: the pool_to_belt cell brings its ground (no second floor), sensor 1, the
+    belt and the seed's tomatoes."""
+    from transplanter.scene.workcells.pool_to_belt import PoolToBeltConfig, draw_tomatoes
 
-    def add_box(spec, cfg):
-        calls.append(("apply", cfg))
-        spec.worldbody.add_geom(name="belt", type=mujoco.mjtGeom.mjGEOM_BOX,
-                                size=[0.05, 0.1, 0.01], pos=[0.2, 0, 0.01])  # fmt: skip
-
-    cell = SimpleNamespace(
-        apply=add_box,
-        populate=lambda spec, cfg, seed, decor: calls.append(("populate", cfg, seed, decor)),
-    )
-    monkeypatch.setattr(kinds, "workcell", lambda kind: cell if kind == "test_cell" else None)
-    cfg = SerialSceneConfig(workcell_kind="test_cell", workcell="its config")
+    pool = PoolToBeltConfig(count=2)
+    cfg = SerialSceneConfig(workcell_kind="pool_to_belt", workcell=pool)
     model = compile_scene(build_serial_spec(cfg, seed=7))
-    assert model.geom("belt").id >= 0
-    assert calls == [("apply", "its config"), ("populate", "its config", 7, True)]
+    planes = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE]
+    assert len(planes) == 1
+    assert model.site("station_sensor").id >= 0 and model.joint("belt").id >= 0
+    drawn = draw_tomatoes(pool, 7)
+    for t in drawn:
+        assert model.body(t.name).mass[0] == pytest.approx(t.mass_kg)
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "tomato02") == -1
 
 
 def test_the_servos_hold_the_park_pose_under_gravity():

@@ -75,8 +75,9 @@ class FuzzyGripperConfig:
     pad_thickness_mm: float = 3.0
     """The rubber pad's thickness."""
     pad_friction: float = 0.9
-    """Sliding friction of the pads (rubber on tomato skin, estimate); the pads have contact
-    priority, so theirs is the contact's friction."""
+    """Sliding friction of the pads (rubber, estimate): the contact's against an object of the
+    same contact priority (MuJoCo takes the larger of the two) or a lower one; the
+    pool_to_belt tomatoes have priority 1, so their drawn skin-pad friction governs."""
     grip_angle_deg: float = 22.5
     """Servo angle at which the pads are parallel and `grip_center` lies midway between them
     (the centroid of the fuzzy controller's Small)."""
