@@ -795,6 +795,23 @@ class SerialArmSection:
     bench_height_m: float = key("float", -50, 160, doc="gripper trials: its height (paper y)")
 
 
+@dataclass(frozen=True)
+class SerialPotsSection:
+    """[serial_pots]: the serial arm on the five-bar's pot line (`[robot] kind = "serial4"` in
+    the `conveyor_tube` workcell; read only by transplanter.twin.serial_pots): where its base
+    stands and how it picks a pot and drops it into the tube. Optional: estimates
+    (docs/serial_arm.md)."""
+
+    base_x_m: float = key("float", -1000, 1000, doc="the base plate's centre, workcell frame")
+    base_y_m: float = key("float", -1000, 1000)
+    base_z_m: float = key("float", -1000, 1000, doc="the base plate's height (a pedestal)")
+    base_yaw_rad: float = key("float", -180, 180, doc="the arm's forward from world +x")
+    grasp_z_m: float = key("float", 1, 200, doc="grip centre above the belt (a pot's bottom)")
+    release_gap_m: float = key("float", 0, 200, doc="pot's bottom above the funnel at release")
+    sensor_gap_m: float = key("float", 20, 400, doc="each cell's sensor 1 to the pot's wall")
+    sensor_z_m: float = key("float", 0, 200, doc="the sensors' axis above the belt")
+
+
 # The file key of every field whose file unit differs from its SI unit.
 _FILE_KEY_OVERRIDES = {
     "mass_kg": "mass_g", "mass_sd_kg": "mass_sd_g", "mass_min_kg": "mass_min_g",
@@ -859,6 +876,7 @@ SECTIONS: dict[str, type] = {
     "taught": TaughtSection,
     "vision": VisionSection,
     "serial_arm": SerialArmSection,
+    "serial_pots": SerialPotsSection,
 }
 
 
@@ -1116,6 +1134,16 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "bench_radius_mm": 80.0,
         "bench_height_mm": 80.0,
     },
+    "serial_pots": {
+        "base_x_mm": 0.0,
+        "base_y_mm": 60.0,
+        "base_z_mm": 0.0,
+        "base_yaw_deg": 90.0,
+        "grasp_z_mm": 40.0,
+        "release_gap_mm": 10.0,
+        "sensor_gap_mm": 25.0,
+        "sensor_z_mm": 12.0,
+    },
 }
 """Sections a file may leave out, with their values then: the paper's machine and job, and
 the delta's and serial arm's estimated defaults (a file's or --set's keys of such a section
@@ -1157,6 +1185,7 @@ class Scenario:
     taught: TaughtSection
     vision: VisionSection
     serial_arm: SerialArmSection
+    serial_pots: SerialPotsSection
     overrides: tuple[tuple[str, Any], ...] = ()
     """The 'section.key' = value overrides applied on top of the file, as given."""
 

@@ -65,6 +65,14 @@ class SerialSceneConfig:
     """The workcell of the job (`scene.kinds.WORKCELLS`), or none: the arm on a bare floor."""
     workcell: object | None = None
     """The workcell module's config (its `apply` and `populate` take it)."""
+    base_pos_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Where the arm's base plate stands in the world (the workcell's frame): the origin for
+    the pool_to_belt cell, a pedestal beside another job's line (its scene adds the pedestal)."""
+    base_yaw_rad: float = 0.0
+    """The base turned about the vertical: the arm's forward (theta1 = 0) along world +x
+    turned by this much."""
+    decor: bool = True
+    """The workcell's decor (a pot's seedling, its paper mesh) built too; off for physics only."""
 
     def __post_init__(self) -> None:
         if len(self.servos) != 4:
@@ -96,17 +104,27 @@ def serial_scene_config(sc, workcell_kind: str | None = None, workcell: object |
     )
 
 
-def paper_to_world(p) -> np.ndarray:
+def _yaw(yaw_rad: float) -> np.ndarray:
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def paper_to_world(p, base=(0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> np.ndarray:
     """(..., 3) points of the paper's frame (x forward, y up, z to the right; origin at the
-    shoulder) in the world (z up, origin on the floor under the base): (x, -z, 0.060 + y)."""
+    shoulder) in the world (z up): (x, -z, 0.060 + y) from the arm's base plate, turned by
+    ``yaw_rad`` about the vertical and standing at ``base`` (the world origin, no turn, on a
+    bare floor and in the pool_to_belt cell; `SerialSceneConfig.base_pos_m` and
+    `base_yaw_rad` beside another job's line)."""
     p = np.asarray(p, dtype=np.float64)
-    return np.stack([p[..., 0], -p[..., 2], SHOULDER_HEIGHT_M + p[..., 1]], axis=-1)
+    local = np.stack([p[..., 0], -p[..., 2], SHOULDER_HEIGHT_M + p[..., 1]], axis=-1)
+    return local @ _yaw(yaw_rad).T + np.asarray(base, dtype=np.float64)
 
 
-def world_to_paper(w) -> np.ndarray:
+def world_to_paper(w, base=(0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> np.ndarray:
     """The inverse of `paper_to_world`."""
-    w = np.asarray(w, dtype=np.float64)
-    return np.stack([w[..., 0], w[..., 2] - SHOULDER_HEIGHT_M, -w[..., 1]], axis=-1)
+    w = np.asarray(w, dtype=np.float64) - np.asarray(base, dtype=np.float64)
+    local = w @ _yaw(yaw_rad)
+    return np.stack([local[..., 0], local[..., 2] - SHOULDER_HEIGHT_M, -local[..., 1]], axis=-1)
 
 
 def _add_floor(spec: mujoco.MjSpec) -> None:
@@ -160,7 +178,7 @@ def build_serial_spec(
     if cfg.workcell_kind:
         cell = kinds.workcell(cfg.workcell_kind)
         cell.apply(spec, cfg.workcell)
-        cell.populate(spec, cfg.workcell, seed, decor=True)
+        cell.populate(spec, cfg.workcell, seed, decor=cfg.decor)
     return spec
 
 

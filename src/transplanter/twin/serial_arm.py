@@ -143,16 +143,16 @@ def _compile(spec, cfg):
     return model, data
 
 
-def world_to_paper(p) -> np.ndarray:
+def world_to_paper(p, base=(0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> np.ndarray:
     from transplanter.scene.serial_scene import world_to_paper as w2p
 
-    return np.asarray(w2p(p), dtype=np.float64)
+    return np.asarray(w2p(p, base, yaw_rad), dtype=np.float64)
 
 
-def paper_to_world(p) -> np.ndarray:
+def paper_to_world(p, base=(0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> np.ndarray:
     from transplanter.scene.serial_scene import paper_to_world as p2w
 
-    return np.asarray(p2w(p), dtype=np.float64)
+    return np.asarray(p2w(p, base, yaw_rad), dtype=np.float64)
 
 
 # -- the sensors -----------------------------------------------------------------------
@@ -236,9 +236,11 @@ class _Host:
 
 # -- the rig: controller, servos and physics stepped together ----------------------------
 class _Rig:
-    def __init__(self, sc, model, data, seed: int, flc: FuzzyGripper | None = None):
+    def __init__(self, sc, model, data, seed: int, flc: FuzzyGripper | None = None, cfg=None):
         job = sc.serial_arm
         self.sc, self.model, self.data = sc, model, data
+        self.base = tuple(getattr(cfg, "base_pos_m", (0.0, 0.0, 0.0)))
+        self.yaw = float(getattr(cfg, "base_yaw_rad", 0.0))
         self.kin = Serial4Kinematics.from_scenario(sc)
         self.flc = flc or FuzzyGripper()
         motion = MotionConfig(
@@ -297,6 +299,8 @@ class _Rig:
         self.host: _Host | None = None
         self.gripper_log: list[tuple[float, float]] = []  # (t, commanded theta4 deg)
         self.on_step: list[Callable[[float], None]] = []
+        self.before_step: list[Callable[[float], None]] = []
+        self.on_machine_event: list[Callable[[float, str], None]] = []
 
     # the readings the host gets: the last completed measurement of each sensor
     def readings(self) -> dict:
@@ -323,6 +327,10 @@ class _Rig:
             sgf.receive(line, t)
         for reply in sgf.poll(t, self.endstops.read(self.raw)):
             self.bus.device_send(reply, t)
+        if self.on_machine_event:
+            for t_event, name in sgf.drain_machine_events():
+                for fn in self.on_machine_event:
+                    fn(t_event, name)
         self.raw = sgf.pulses_at(t)[0]
         self.pending.extend(sgf.drain_servo_commands())
         while self.pending and self.pending[0][0] <= t:
@@ -337,6 +345,8 @@ class _Rig:
             for ranger in self.rangers.values():
                 ranger.measure(data)
         data.ctrl[self.acts] = self.bank.step(self.dt, -data.actuator_force[self.acts])
+        for fn in self.before_step:
+            fn(t)
         mujoco.mj_step(model, data)
         self.k += 1
         for fn in self.on_step:
@@ -362,7 +372,7 @@ class _Rig:
 
     # what the twin measures
     def grip_point_cm(self) -> np.ndarray:
-        return world_to_paper(self.data.site_xpos[self.grip_site]) * 100.0
+        return world_to_paper(self.data.site_xpos[self.grip_site], self.base, self.yaw) * 100.0
 
     def joints_rad(self) -> np.ndarray:
         return self.data.qpos[self.joint_adr].copy()
@@ -435,7 +445,7 @@ def run_targets(sc, seed: int | None = None) -> tuple[list[TargetRow], str | Non
     job = sc.serial_arm
     spec, cfg = _scene(sc, None, seed=seed)
     model, data = _compile(spec, cfg)
-    rig = _Rig(sc, model, data, seed)
+    rig = _Rig(sc, model, data, seed, cfg=cfg)
     rows: list[TargetRow] = []
     park = _park_point(rig.kin)
 
@@ -720,7 +730,7 @@ def run_pick_place(
     wc = cfg.workcell
     drawn = pool_to_belt.draw_tomatoes(wc, seed)
     model, data = _compile(spec, cfg)
-    rig = _Rig(sc, model, data, seed)
+    rig = _Rig(sc, model, data, seed, cfg=cfg)
     names = [f"tomato{i:02d}" for i in range(len(drawn))]
     records = [
         PickRecord(i, t.diameter_m * 1e3, t.mass_kg * 1e3, t.friction) for i, t in enumerate(drawn)

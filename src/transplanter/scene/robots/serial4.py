@@ -10,6 +10,8 @@ so that `grip_center` lies exactly l2 from the elbow axis (docs/serial_arm.md).
 
 from __future__ import annotations
 
+import math
+
 from pathlib import Path
 
 import mujoco
@@ -91,6 +93,9 @@ def apply(spec: mujoco.MjSpec, cfg) -> None:
             "finger_length_mm, pad_inset_mm, grip_angle_deg set it): the grip centre must lie "
             "l2 from the elbow axis"
         )
+    spec.body("base").pos = [float(v) for v in getattr(cfg, "base_pos_m", (0.0, 0.0, 0.0))]
+    yaw = float(getattr(cfg, "base_yaw_rad", 0.0))
+    spec.body("base").quat = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
     spec.geom("upper_arm").fromto = [0, 0, 0, l1, 0, 0]
     spec.geom("elbow_servo").pos = [l1, ELBOW_SERVO_Y_M, 0]
     spec.body("forearm").pos = [l1, 0, 0]
