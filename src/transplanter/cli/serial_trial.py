@@ -1,7 +1,9 @@
 """`transplanter trial` for the serial arm's jobs (`[robot] kind = "serial4"` in the
 `pool_to_belt` workcell, seed 004): the paper's ten targets (Tables 3-5), its 18 gripper
 trials (Table 6) and the pick-and-place of the pool's tomatoes (transplanter.twin.serial_arm),
-printed as tables beside the paper's numbers; with --seeds, the pick-and-place pooled."""
+printed as tables beside the paper's numbers; with --seeds, the pick-and-place pooled.
+`render serial_arm` runs the same trial and films its pick and place
+(viewing.serial_arm.SerialVideo)."""
 
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds, _show
 
-__all__ = ["format_tables", "handles", "run_trial"]
+__all__ = ["format_tables", "handles", "render", "run_trial"]
 
 
 def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
@@ -153,3 +155,60 @@ def run_trial(
         )
     summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
     return _finish(args, results, summary, payload, json_path, outputs=outputs)
+
+
+def _preflight(scenario, args: argparse.Namespace) -> None:
+    """Refuse before the trial runs: the camera is not in the pick-and-place scene, or no
+    OpenGL context can be made (video.RenderRefused, video.GLUnavailable)."""
+    from transplanter.twin.serial_arm import _compile, _scene
+    from transplanter.viewing import video
+
+    spec, cfg = _scene(scenario, "pool_to_belt", tomatoes=0)
+    model, _ = _compile(spec, cfg)
+    video.check_frames(args.width, args.height, args.fps, model.opt.timestep)
+    video.FrameGrabber(model, args.width, args.height, args.camera).close()
+
+
+def render(
+    args: argparse.Namespace, overrides: dict[str, Any], target: Path, json_path: Path | None
+) -> int:
+    """`transplanter render` of the serial arm: the trial as `trial` runs it (all three jobs,
+    the same results) with its pick and place filmed by viewing.serial_arm.SerialVideo."""
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.twin.serial_arm import DEFINITIONS, run_serial_arm
+    from transplanter.viewing import video
+    from transplanter.viewing.serial_arm import SerialVideo
+
+    for option, value in (("--seedlings-of", args.seedlings_of), ("--cells-of", args.cells_of)):
+        if value is not None:
+            _err(f"render refused: {option}: the serial arm's job has tomatoes, not seedlings or "
+                 "cells; it is filmed whole")  # fmt: skip
+            return EXIT_REFUSED
+    try:
+        scenario = load_scenario(args.scenario, overrides)
+        observer = SerialVideo(target, args.width, args.height, args.fps, args.camera, args.shadows)
+        _preflight(scenario, args)
+    except (ScenarioError, video.RenderRefused, video.GLUnavailable) as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    try:
+        result = run_serial_arm(scenario, None, recording=observer)
+    except (video.GLUnavailable, video.RenderRefused) as exc:
+        observer.abort()
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    result.recording_error = None  # the video's error is reported below, not as --record's
+    print(format_tables(result))
+    if observer.error is not None:
+        written: tuple[str | None, str | None] = (None, f"render: {observer.error}")
+    else:
+        n = observer.frames
+        rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
+        written = (
+            f"video of the pick and place written to {_show(target)}: {n} frames at "
+            f"{args.fps:g} fps ({n / args.fps:.1f} s), {args.width}x{args.height}, camera "
+            f"{_show(args.camera)}; rendering and encoding took {observer.render_s:.1f} s{rate}",
+            None,
+        )
+    summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
+    return _finish(args, [result], summary, result.to_dict(), json_path, outputs=[written])

@@ -28,8 +28,10 @@ from transplanter.scene.effectors.fuzzy_gripper import FuzzyGripperConfig
 __all__ = [
     "EFFECTOR",
     "ROBOT",
+    "CAMERAS",
     "SHOULDER_HEIGHT_M",
     "SerialSceneConfig",
+    "add_cameras",
     "build_serial_spec",
     "compile_scene",
     "home_ctrl",
@@ -43,6 +45,15 @@ ROBOT = "serial4"
 EFFECTOR = "fuzzy_gripper"
 SHOULDER_HEIGHT_M = 0.060
 """The shoulder axis above the floor (models/serial4: the turntable's height)."""
+CAMERAS = {
+    # name: (body, position, point looked at (both in the body's frame), vertical field of
+    # view deg)
+    "overview": ("world", (0.34, 0.28, 0.33), (0.08, -0.05, 0.07), 42.0),
+    "gripper_closeup": ("gripper_mount", (0.0, 0.11, 0.07), (0.06, 0.0, 0.0), 50.0),
+}
+"""The scene's named cameras (`transplanter render serial_arm`): the arm with the pool and
+the belt (a workcell's own `overview` is moved here), and the fingers seen from above the
+gripper's side, riding on it."""
 
 
 @dataclass(frozen=True)
@@ -149,13 +160,45 @@ def _add_floor(spec: mujoco.MjSpec) -> None:
     )  # fmt: skip
 
 
+def _look_at_quat(pos, target) -> list[float]:
+    """The quaternion of a camera at `pos` looking at `target`, its x axis level."""
+    forward = np.asarray(target, float) - np.asarray(pos, float)
+    forward /= np.linalg.norm(forward)
+    x = np.cross(forward, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(x, forward)
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.column_stack([x, y, -forward]).ravel())
+    return quat.tolist()
+
+
+def add_cameras(spec: mujoco.MjSpec) -> None:
+    """The named cameras of CAMERAS (a camera of that name already there, the workcell's
+    `overview`, is replaced), the headlight of models/serial4/scene.xml and a skybox: all
+    only drawn, no physics changes."""
+    for name, (body, pos, target, fovy) in CAMERAS.items():
+        old = spec.camera(name)
+        if old is not None:  # its orientation may be given another way (xyaxes)
+            spec.delete(old)
+        parent = spec.worldbody if body == "world" else spec.body(body)
+        parent.add_camera(name=name, pos=list(pos), quat=_look_at_quat(pos, target), fovy=fovy)
+    head = spec.visual.headlight  # as models/serial4/scene.xml: drawn only
+    head.diffuse, head.ambient, head.specular = [0.6] * 3, [0.3] * 3, [0.0] * 3
+    if not any(t.type == mujoco.mjtTexture.mjTEXTURE_SKYBOX for t in spec.textures):
+        spec.add_texture(
+            name="skybox", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+            builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.3, 0.5, 0.7], rgb2=[0, 0, 0],
+            width=512, height=3072,
+        )  # fmt: skip
+
+
 def build_serial_spec(
     cfg: SerialSceneConfig, seed: int | None = None, models: str | Path | None = None
 ) -> mujoco.MjSpec:
     """The scene's spec: a floor and a light, the serial arm (robot kind 'serial4') with the
     fuzzy gripper attached at its `tool_mount` (effector kind 'fuzzy_gripper'), both made
     the config's; and, where `cfg.workcell_kind` names one, that workcell (`apply`, then
-    `populate(spec, cfg.workcell, seed, decor=True)`). No keyframe: `home_qpos` and
+    `populate(spec, cfg.workcell, seed, decor=cfg.decor)`). No keyframe: `home_qpos` and
     `home_ctrl` give the power-on state."""
     root = Path(models) if models is not None else models_dir()
     robot = kinds.robot(ROBOT)
@@ -179,6 +222,7 @@ def build_serial_spec(
         cell = kinds.workcell(cfg.workcell_kind)
         cell.apply(spec, cfg.workcell)
         cell.populate(spec, cfg.workcell, seed, decor=cfg.decor)
+    add_cameras(spec)
     return spec
 
 

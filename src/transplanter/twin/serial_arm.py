@@ -533,6 +533,10 @@ def _finite_cm(v: float) -> float | None:
     return None if v == NO_ECHO else float(v)
 
 
+def _reading(cm: float | None) -> str:
+    return "no echo" if cm is None else f"{cm:.1f} cm"
+
+
 def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], str | None, bool]:
     """Table 6 on a bench: the pool_to_belt workcell with its lane empty, a stand-in tomato
     that the bench sets at the pool's station or takes away (sensor 1) and another on a stand
@@ -721,7 +725,9 @@ def run_pick_place(
     """The pool_to_belt job: every tomato of the pool picked at the station and released
     over the belt (module docstring). Returns the records, the job's totals, the host's
     error (None when the program ended) and whether the physics stayed valid.
-    ``recording``: a `viewing.serial_arm.SerialRecording` (it only reads the state)."""
+    ``recording``: an observer, `viewing.serial_arm.SerialRecording` or `SerialVideo` (it only
+    reads the state; it is told the tomato in progress, the controller's output and the
+    squeeze)."""
     from transplanter.scene.workcells import pool_to_belt
 
     seed = sc.seed if seed is None else seed
@@ -762,6 +768,8 @@ def run_pick_place(
             setattr(records[i], key, t)
             if key == "start_s":
                 holding[:] = [i]
+                if recording is not None:
+                    recording.tomato = i
 
         return fn
 
@@ -777,9 +785,10 @@ def run_pick_place(
             if recording is not None:
                 recording.fuzzy_deg = angle
                 g = rec.grip_inputs
+                s1, s2 = (_reading(g[k]) for k in ("sensor1_cm", "sensor2_cm"))
                 text = (
-                    f"tomato {i}: sensor 1 {g['sensor1_cm']} cm, sensor 2 {g['sensor2_cm']} cm, "
-                    f"base {g['base_deg']:.1f} deg -> gripper {angle:.2f} deg ({rec.grip_term})"
+                    f"tomato {i}: sensor 1 {s1}, sensor 2 {s2}, base {g['base_deg']:.1f} deg "
+                    f"-> gripper {angle:.2f} deg ({rec.grip_term})"
                 )
                 recording.event(_t, "controller", text)
 

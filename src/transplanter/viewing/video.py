@@ -192,6 +192,7 @@ class FrameGrabber:
                 f"{exc}. Headless, use MUJOCO_GL=egl (needs libEGL: a GPU driver or Mesa's "
                 "libegl1) or MUJOCO_GL=osmesa (libosmesa6); on a desktop, run with a display."
             ) from None
+        self.option = mujoco.MjvOption()  # MuJoCo's defaults; an observer may show more groups
         flags = self.renderer.scene.flags
         # Shadows and reflections cost about 4x with software GL (Mesa llvmpipe).
         flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
@@ -199,7 +200,7 @@ class FrameGrabber:
 
     def grab(self, data: Any) -> np.ndarray:
         """The camera's view of the current state, (height, width, 3) uint8 (a new array)."""
-        self.renderer.update_scene(data, camera=self.camera)
+        self.renderer.update_scene(data, camera=self.camera, scene_option=self.option)
         return self.renderer.render()
 
     def close(self) -> None:
