@@ -26,7 +26,7 @@ def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
         sc = load_scenario(args.scenario, overrides)
     except ScenarioError:
         return False
-    return sc.robot.kind == "serial4" and sc.workcell.kind == "pool_to_belt"
+    return sc.robot.kind == "serial4" and sc.workcell.kind in ("pool_to_belt", "conveyor_tube")
 
 
 def _num(v, fmt: str = "{:.2f}") -> str:
@@ -121,6 +121,11 @@ def run_trial(
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
+    if scenario.workcell.kind == "conveyor_tube":
+        if record_path is not None:
+            _err("--record: not available for the serial arm's pot job (docs/serial_arm.md)")
+            return EXIT_REFUSED
+        return _run_pots(args, scenario, seeds, json_path)
     results, outputs = [], []
     for seed in seeds:
         recording = None
@@ -212,3 +217,41 @@ def render(
         )
     summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
     return _finish(args, [result], summary, result.to_dict(), json_path, outputs=[written])
+
+
+def pots_line(r) -> str:
+    """One pot job's result in a line."""
+    d = r.to_dict()
+    kinds = ", ".join(f"{k} {v}" for k, v in d["outcomes"].items())
+    return (
+        f"serial arm on the pot line (seed {r.seed}): {r.successes}/{r.seedlings} seedlings "
+        f"into the tube ({100 * d['success_rate']:.1f} %; {kinds}); cycle "
+        f"{d['cycle_time_s']:.3f} s, {d['seedlings_per_hour']} seedlings/h; peak squeeze "
+        f"{d['peak_squeeze_n']:.2f} N; {r.sim_time_s:.1f} s simulated in {r.wall_s:.1f} s"
+    )
+
+
+def _run_pots(args: argparse.Namespace, scenario, seeds, json_path: Path | None) -> int:
+    from transplanter.studies.stats import pooled_rate
+    from transplanter.twin.serial_pots import DEFINITIONS, run_serial_pots
+
+    results = []
+    for seed in seeds:
+        result = run_serial_pots(scenario, seed)
+        results.append(result)
+        print(pots_line(result))
+    if args.seeds is None:
+        payload: dict[str, Any] = results[0].to_dict()
+    else:
+        pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
+        payload = {"trials": [r.to_dict() for r in results], "pooled": pooled.to_dict()}
+        cycles = [r.cycle_time_s for r in results if math.isfinite(r.cycle_time_s)]
+        payload["mean_cycle_time_s"] = sum(cycles) / len(cycles) if cycles else None
+        lo, hi = pooled.ci95
+        print(
+            f"pooled over {pooled.trials} runs: {100 * pooled.success_rate:.1f} % of seedlings "
+            f"into the tube ({pooled.successes}/{pooled.seedlings}), 95 % CI "
+            f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
+        )
+    summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
+    return _finish(args, results, summary, payload, json_path)

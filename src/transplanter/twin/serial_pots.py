@@ -41,7 +41,6 @@ from transplanter.twin.serial_arm import (
     _park_point,
     _Ranger,
     _Rig,
-    _Sense,
     _Squeeze,
     _Wait,
     world_to_paper,
@@ -55,7 +54,7 @@ PEDESTAL_HALF_M = 0.045
 """The pedestal under the arm's base plate: 90 mm square (estimate)."""
 
 DEFINITIONS = {
-    "success": "the pot inside the drop tube, below the funnel's throat, at the end",
+    "success": "the pot fell into the drop tube below the funnel's throat (then planted)",
     "missed": "the pot still on the belt (not lifted, or slipped back)",
     "dropped": "the pot neither in the tube nor on the belt",
     "no pot": "sensor 1 of the cell read no pot: the host skipped it",

@@ -11,7 +11,6 @@ so that `grip_center` lies exactly l2 from the elbow axis (docs/serial_arm.md).
 from __future__ import annotations
 
 import math
-
 from pathlib import Path
 
 import mujoco

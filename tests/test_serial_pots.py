@@ -1,0 +1,73 @@
+"""The serial arm on the five-bar's pot line (transplanter.twin.serial_pots): pots picked
+through host, bus, SGF, PWM frames and hobby servos, held by friction, dropped into the tube
+where the forearm has the grasp's pitch; the conveyor indexed by M710 between rows."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from transplanter import cli
+from transplanter.machine.kinematics.serial4 import Serial4Geometry, Serial4Kinematics
+from transplanter.scenario.schema import load_scenario
+from transplanter.twin.serial_pots import line_config, run_serial_pots, same_pitch_release
+
+
+@pytest.fixture(scope="module")
+def six():
+    """A row of five and the first pot of the next row (one conveyor index between)."""
+    sc = load_scenario("serial_arm_pots", {"scenario.seedlings": 6})
+    return sc, run_serial_pots(sc, 3)
+
+
+def test_the_pots_go_into_the_tube_row_after_row(six):
+    sc, r = six
+    assert r.fault is None and r.valid
+    assert [p.pot for p in r.records] == [f"pot_0_{c}" for c in range(5)] + ["pot_1_0"]
+    assert r.outcomes == {"success": 6}
+    for p in r.records:
+        # sensor 1 of the cell and sensor 2 on the gripper both Near: the controller's Small
+        assert p.grip_inputs["sensor1_cm"] < 5 and p.grip_inputs["sensor2_cm"] < 5
+        assert p.grip_term == "small"
+        # the fingers stopped on the 35 mm pot, short of the 22.5 deg they were sent to
+        assert p.gripper_reached_deg > 30
+        # an SG90's stall torque over the 40 mm fingers: about 4.4 N a pad, more at impact
+        assert 3.0 < p.peak_squeeze_n < 30.0
+    # the sixth pot came after an index: its pick started later than a row's cycle
+    gaps = np.diff([p.start_s for p in r.records])
+    assert gaps[-1] > gaps[:-1].max() + 0.5
+    d = r.to_dict()
+    assert d["seedlings_per_hour"] == pytest.approx(3600 / d["cycle_time_s"], rel=1e-3)
+    assert 5.0 < d["cycle_time_s"] < 12.0
+
+
+def test_the_release_has_the_grasps_pitch():
+    kin = Serial4Kinematics(geometry=Serial4Geometry(0.11, 0.11))
+    grasp = np.array([0.0, -0.02, -0.16])  # paper frame: ahead-right, below the shoulder
+    release = same_pitch_release(kin, grasp, np.array([0.08, 0.0, 0.0]))
+    qg, qr = kin.joints(grasp), kin.joints(release)
+    assert qg[1] + qg[2] == pytest.approx(qr[1] + qr[2], abs=1e-9)
+    assert math.hypot(release[0], release[2]) == pytest.approx(0.08)
+    with pytest.raises(ValueError, match="grasp's pitch"):
+        same_pitch_release(kin, grasp, np.array([0.30, 0.0, 0.0]))
+
+
+def test_the_line_is_the_scenarios_without_a_window():
+    sc = load_scenario("serial_arm_pots", {"conveyor.live_rows": 2})
+    line = line_config(sc)
+    assert (line.rows, line.cols, line.live_rows) == (8, 5, 8)
+    assert line.drop_tube_xy_m == pytest.approx((0.0, 0.14))
+
+
+def test_the_command_writes_the_pot_job(tmp_path, capsys):
+    out = tmp_path / "pots.json"
+    status = cli.main(["trial", "serial_arm_pots", "--seedlings", "2", "--seed", "4",
+                       "--json", str(out)])  # fmt: skip
+    assert status == 0
+    assert "2/2 seedlings into the tube" in capsys.readouterr().out
+    d = json.loads(out.read_text())
+    assert d["seedlings"] == 2 and len(d["pots"]) == 2 and d["outcomes"] == {"success": 2}
+    assert cli.main(["trial", "serial_arm_pots", "--record", str(tmp_path / "x.rrd")]) == 2
