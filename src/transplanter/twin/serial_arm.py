@@ -62,6 +62,7 @@ from transplanter.machine.sgf import SGF, SGFConfig
 __all__ = [
     "PAPER_TARGETS",
     "GripperCase",
+    "PoolToBeltJudge",
     "PickRecord",
     "SerialArmResult",
     "TargetRow",
@@ -839,18 +840,11 @@ def run_pick_place(
 
     rig.start(program())
     error = rig.run(limit_s=60.0 + 20.0 * len(drawn), settle_s=2.0)
+    judge = PoolToBeltJudge(model, wc, job.bruise_force_n)
     for rec, name in zip(records, names, strict=True):
         rec.peak_squeeze_n = squeeze.peak[name]
-        if rec.start_s is None:
-            continue
-        if pool_to_belt.on_belt(model, data, wc, name):
-            rec.outcome = "success"
-        elif _in_pool(wc, data.xpos[body_ids[name]]):
-            rec.outcome = "missed"
-        else:
-            rec.outcome = "dropped"
-        if rec.outcome == "success" and rec.peak_squeeze_n > job.bruise_force_n:
-            rec.outcome = "bruised"
+        if rec.start_s is not None:
+            rec.outcome = judge.outcome(data, name, rec.peak_squeeze_n)
     if recording is not None:
         for rec in records:
             if rec.start_s is not None:
@@ -862,21 +856,36 @@ def run_pick_place(
     return records, totals, error, rig.valid
 
 
-def _in_pool(wc, xyz) -> bool:
-    """A point over the pool's lane (the station and the queue behind it)."""
-    station = pool_to_belt_station(wc)
-    x, y, z = (float(v) for v in xyz)
-    return (
-        abs(y - station[1]) <= wc.lane_half_width_m
-        and station[0] - wc.diameter_max_m <= x <= station[0] + wc.lane_length_m
-        and z <= station[2] + wc.diameter_max_m
-    )
+class PoolToBeltJudge:
+    """The pool_to_belt job's judge (the workcell's ``JUDGE``): where a picked tomato came to
+    rest, and whether the pads squeezed it past the bruise threshold."""
 
+    def __init__(self, model, wc, bruise_force_n: float) -> None:
+        self.model, self.wc, self.bruise_force_n = model, wc, float(bruise_force_n)
 
-def pool_to_belt_station(wc) -> np.ndarray:
-    from transplanter.scene.workcells import pool_to_belt
+    def in_pool(self, xyz) -> bool:
+        """A point over the pool's lane (the station and the queue behind it)."""
+        from transplanter.scene.workcells import pool_to_belt
 
-    return np.asarray(pool_to_belt.station_xyz(wc), dtype=np.float64)
+        wc = self.wc
+        station = np.asarray(pool_to_belt.station_xyz(wc), dtype=np.float64)
+        x, y, z = (float(v) for v in xyz)
+        return (
+            abs(y - station[1]) <= wc.lane_half_width_m
+            and station[0] - wc.diameter_max_m <= x <= station[0] + wc.lane_length_m
+            and z <= station[2] + wc.diameter_max_m
+        )
+
+    def outcome(self, data, name: str, peak_squeeze_n: float) -> str:
+        """success, bruised (on the belt, squeezed too hard), missed (still in the pool) or
+        dropped (anywhere else)."""
+        from transplanter.scene.workcells import pool_to_belt
+
+        if pool_to_belt.on_belt(self.model, data, self.wc, name):
+            return "bruised" if peak_squeeze_n > self.bruise_force_n else "success"
+        if self.in_pool(data.xpos[self.model.body(name).id]):
+            return "missed"
+        return "dropped"
 
 
 def _pick_totals(records: Iterable[PickRecord]) -> dict:
