@@ -49,8 +49,6 @@ MOUNT = "gripper_mount"
 FINGERS = ("finger_left", "finger_right")
 PADS = ("finger_left_pad", "finger_right_pad")
 ACTUATOR = "gripper"
-SERVO_ARMATURE_KGM2 = {"sg90": 0.0002, "mg996r": 0.001}
-"""The gear train's reflected rotor inertia at the servo shaft (estimate, as models/serial4)."""
 
 
 @dataclass(frozen=True)
@@ -208,7 +206,7 @@ def apply(spec: mujoco.MjSpec, cfg) -> None:
     for name in FINGERS:
         joint = spec.joint(name)
         joint.damping = [2 * damping, 0.0, 0.0]
-        joint.armature = 2 * SERVO_ARMATURE_KGM2[servo.name]
+        joint.armature = 2 * servo.armature_kgm2
     act = spec.actuator(ACTUATOR)
     kp = servo.position_gain()
     act.gainprm = [kp] + [0] * 9

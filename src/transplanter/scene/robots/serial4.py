@@ -19,7 +19,6 @@ from transplanter.machine.servo import ServoClass, servo_class
 from transplanter.scene.robots.delta import quiet_prefix_note
 
 __all__ = [
-    "ARMATURE_KGM2",
     "EFFECTOR_MODEL",
     "INERTIAL_BODIES",
     "JOINTS",
@@ -44,8 +43,6 @@ EFFECTOR_MOUNT = "gripper_mount"
 MIN_FOREARM_M = 0.0
 """The forearm may be as short as nothing (the gripper then sits on the elbow servo's horn);
 an l2 shorter than the effector's reach is refused."""
-ARMATURE_KGM2 = {"sg90": 0.0002, "mg996r": 0.001}
-"""Each servo class's gear train reflected rotor inertia (estimate, docs/serial_arm.md)."""
 LINK_KG_PER_M = 0.25
 """The acrylic links' mass per length (the model's 20 g for an 80 mm upper arm)."""
 ELBOW_SERVO_Y_M = 0.02
@@ -106,7 +103,7 @@ def apply(spec: mujoco.MjSpec, cfg) -> None:
     for joint, servo in zip(JOINTS, _servos(cfg), strict=True):
         j = spec.joint(joint)
         j.damping = [servo.stall_torque_nm / servo.speed_rad_s, 0.0, 0.0]
-        j.armature = ARMATURE_KGM2[servo.name]
+        j.armature = servo.armature_kgm2
         act = spec.actuator(joint)
         kp = servo.position_gain()
         act.gainprm = [kp] + [0] * 9
