@@ -44,7 +44,7 @@ def test_the_ten_targets_come_to_rest_within_a_millimetre(targets):
         theta1, [0, 0, 0, 6.34, 6.34, 5.71, 26.57, 24.44, 22.62, 26.57], atol=0.01
     )
     errors = np.array([r.error_cm for r in rows])
-    assert errors.max() < 0.15  # cm: dead band, play and droop of the servos, per axis
+    assert errors.max() < 0.2  # cm: dead band, play and droop; the paper's largest is 0.2
     assert errors.mean(axis=0).max() < 0.1  # the paper's ~0.1 cm per axis
     assert errors.sum() > 0.1  # and they are there: the servos are not ideal
     for r in rows:  # the joints read within a degree of the IK (the base's SG90 play is 1 deg)
@@ -164,6 +164,12 @@ def test_the_command_prints_both_tables_and_the_same_seed_gives_the_same_json(tm
     assert {"sensor1_cm", "sensor2_cm", "base_deg", "angle_deg", "term"} <= set(row)
     assert {"commanded_cm", "reached_cm", "joints_deg"} <= set(da["targets"][0])
     assert all(math.isfinite(v) for v in da["mean_error_cm"])
+
+
+def test_a_step_that_does_not_divide_the_servo_frame_is_refused(capsys):
+    status = cli.main(["trial", "serial_arm", "--set", "physics.timestep_ms=0.3"])
+    assert status == 2
+    assert "must divide the servos' 20 ms PWM frame" in capsys.readouterr().err
 
 
 def test_ik_answers_in_the_papers_frame_or_says_why_not(capsys):

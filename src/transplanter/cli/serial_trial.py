@@ -121,6 +121,13 @@ def run_trial(
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
+    from transplanter.machine.servo_drives import frame_steps
+
+    try:
+        frame_steps(scenario.physics.timestep_s)
+    except ValueError as exc:
+        _err(f"scenario refused: {exc}")
+        return EXIT_REFUSED
     if scenario.workcell.kind == "conveyor_tube":
         if record_path is not None:
             _err("--record: not available for the serial arm's pot job (docs/serial_arm.md)")
@@ -165,9 +172,14 @@ def run_trial(
 def _preflight(scenario, args: argparse.Namespace) -> None:
     """Refuse before the trial runs: the camera is not in the pick-and-place scene, or no
     OpenGL context can be made (video.RenderRefused, video.GLUnavailable)."""
+    from transplanter.machine.servo_drives import frame_steps
     from transplanter.twin.serial_arm import _compile, _scene
     from transplanter.viewing import video
 
+    try:
+        frame_steps(scenario.physics.timestep_s)
+    except ValueError as exc:
+        raise video.RenderRefused(str(exc)) from None
     spec, cfg = _scene(scenario, "pool_to_belt", tomatoes=0)
     model, _ = _compile(spec, cfg)
     video.check_frames(args.width, args.height, args.fps, model.opt.timestep)
