@@ -260,11 +260,12 @@ class SweepSpec:
         scenario = self.check()
         # each run sets its own seed; the seedlings are a field of their own
         meta = dataclasses.replace(scenario.meta, seed=0, seedlings=0)
-        from transplanter.studies.jobs import PLUG_SECTIONS, job_of
+        from transplanter.studies.jobs import PLUG_SECTIONS, SERIAL_ONLY_SECTIONS, job_of
 
-        # the plug sections are read only by the delta's jobs: a five-bar sweep's digest is
-        # the one it had before they existed (its results resume)
-        skip = ("path", "meta", "overrides") + (PLUG_SECTIONS if job_of(scenario) is None else ())
+        # the plug and serial-arm sections are read only by the other machines' jobs: a
+        # five-bar sweep's digest is the one it had before they existed (its results resume)
+        others = (*PLUG_SECTIONS, *SERIAL_ONLY_SECTIONS) if job_of(scenario) is None else ()
+        skip = ("path", "meta", "overrides", *others)
         sections = [meta] + [
             getattr(scenario, f.name) for f in dataclasses.fields(scenario) if f.name not in skip
         ]
