@@ -810,6 +810,7 @@ class SerialPotsSection:
     release_gap_m: float = key("float", 0, 200, doc="pot's bottom above the funnel at release")
     sensor_gap_m: float = key("float", 20, 400, doc="each cell's sensor 1 to the pot's wall")
     sensor_z_m: float = key("float", 0, 200, doc="the sensors' axis above the belt")
+    attempts: int = key("int", lo=1, hi=10, doc="grasps of a pot sensor 1 still hears after")
 
 
 # The file key of every field whose file unit differs from its SI unit.
@@ -1143,6 +1144,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "release_gap_mm": 10.0,
         "sensor_gap_mm": 25.0,
         "sensor_z_mm": 12.0,
+        "attempts": 2,
     },
 }
 """Sections a file may leave out, with their values then: the paper's machine and job, and

@@ -154,6 +154,8 @@ class PotRecord:
     grip_term: str | None = None
     gripper_reached_deg: float | None = None
     peak_squeeze_n: float = 0.0
+    attempts: int = 0
+    """Grasps tried (another while sensor 1 still heard the pot in its cell after the lift)."""
 
     def as_dict(self) -> dict:
         r = lambda v: None if v is None else round(float(v), 4)  # noqa: E731
@@ -170,6 +172,7 @@ class PotRecord:
             "grip_term": self.grip_term,
             "gripper_reached_deg": r(self.gripper_reached_deg),
             "peak_squeeze_n": r(self.peak_squeeze_n),
+            "attempts": self.attempts,
         }
 
 
@@ -362,20 +365,32 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
                 tube = same_pitch_release(rig.kin, grasp, over_tube)
                 tube[1] = max(tube[1], float(paper(0.0, 0.0, lowest)[1]))
                 yield _Call(mark(i, "start_s"))
-                yield _g1(grasp + up, arm.travel_speed_m_s)
-                yield _g1(grasp, arm.approach_speed_m_s)
-                yield "M400"
-                yield _Wait(2 * SENSE_CYCLE_S)
-                readings = yield _Call(sense(col))
-                angle = rig.flc.control(
-                    readings["station"], readings["gripper"], readings["base_horn_deg"]
-                )
-                yield _Call(grip(i, readings, angle))
-                yield f"M280 P0 S{format_number(round(angle, 2))}"
-                yield f"G4 P{format_number(round(arm.grip_settle_s * 1e3, 3))}"
-                yield "M400"
-                yield _Call(reached(i))
-                yield _g1(grasp + up, arm.approach_speed_m_s)
+                for attempt in range(1, job.attempts + 1):
+                    records[i].attempts = attempt
+                    yield _g1(grasp + up, arm.travel_speed_m_s)
+                    yield _g1(grasp, arm.approach_speed_m_s)
+                    yield "M400"
+                    yield _Wait(2 * SENSE_CYCLE_S)
+                    readings = yield _Call(sense(col))
+                    angle = rig.flc.control(
+                        readings["station"], readings["gripper"], readings["base_horn_deg"]
+                    )
+                    yield _Call(grip(i, readings, angle))
+                    yield f"M280 P0 S{format_number(round(angle, 2))}"
+                    yield f"G4 P{format_number(round(arm.grip_settle_s * 1e3, 3))}"
+                    yield "M400"
+                    yield _Call(reached(i))
+                    yield _g1(grasp + up, arm.approach_speed_m_s)
+                    yield "M400"
+                    yield _Wait(2 * SENSE_CYCLE_S)
+                    readings = yield _Call(sense(col))
+                    if readings["station"] > DETECTED_CM:  # the cell is empty: the pot is up
+                        break
+                    yield standby  # sensor 1 still hears the pot in its cell: missed, again
+                    yield f"G4 P{format_number(round(arm.release_settle_s * 1e3, 3))}"
+                else:
+                    yield _Call(mark(i, "end_s"))
+                    continue
                 yield _g1(tube + up, arm.travel_speed_m_s)
                 yield _g1(tube, arm.approach_speed_m_s)
                 yield standby
