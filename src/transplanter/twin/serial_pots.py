@@ -10,10 +10,12 @@ in front of the line, turned to face it (`[serial_pots]`). Sensor 1 of the paper
 HC-SR04 per cell of the pickup row, in front of it, looking across the belt: it reads the pot
 in its cell (Near) or the next row behind (Medium: no pot). Sensor 2 is on the gripper. For
 every pot of the pickup row the host reads the cell's sensor, comes down over the pot, reads
-both sensors again, sends the fuzzy controller's angle, lifts the pot, carries it over the
-drop tube and opens to standby; after the row, `M710` indexes the conveyor (the five-bar's
-M-code: the SGF acknowledges it after `conveyor.index_time_ms`, the scene's conveyor drive
-moves the carriage).
+both sensors again, sends the fuzzy controller's angle and lifts; if the cell's sensor still
+hears the pot, the grasp missed and the host opens and tries again (`[serial_pots]
+attempts`); else it carries the pot over the drop tube and opens to standby. After the row,
+`M710` indexes the conveyor (the five-bar's M-code: the SGF acknowledges it after
+`conveyor.index_time_ms`, the scene's conveyor drive moves the carriage); a pot left on the
+belt goes over its front edge with the row.
 
 Judged from the physics at the end: a pot inside the tube below the funnel's throat is a
 success; one still on the belt was missed; anywhere else it was dropped.
