@@ -13,7 +13,7 @@ import pytest
 from transplanter import cli
 from transplanter.machine.kinematics.serial4 import Serial4Geometry, Serial4Kinematics
 from transplanter.scenario.schema import load_scenario
-from transplanter.twin.serial_pots import line_config, run_serial_pots, same_pitch_release
+from transplanter.twin.serial_pots import line_config, pitch_release, run_serial_pots
 
 
 @pytest.fixture(scope="module")
@@ -44,15 +44,26 @@ def test_the_pots_go_into_the_tube_row_after_row(six):
     assert 5.0 < d["cycle_time_s"] < 12.0
 
 
-def test_the_release_has_the_grasps_pitch():
+def test_the_release_leans_the_pot_no_more_than_allowed():
     kin = Serial4Kinematics(geometry=Serial4Geometry(0.11, 0.11))
     grasp = np.array([0.0, -0.02, -0.16])  # paper frame: ahead-right, below the shoulder
-    release = same_pitch_release(kin, grasp, np.array([0.08, 0.0, 0.0]))
-    qg, qr = kin.joints(grasp), kin.joints(release)
-    assert qg[1] + qg[2] == pytest.approx(qr[1] + qr[2], abs=1e-9)
-    assert math.hypot(release[0], release[2]) == pytest.approx(0.08)
+    over = np.array([0.08, 0.0, 0.0])
+    qg = kin.joints(grasp)
+
+    def lean(p):
+        q = kin.joints(p)
+        return abs((q[1] + q[2]) - (qg[1] + qg[2]))
+
+    exact = pitch_release(kin, grasp, over, -0.05, 0.0)  # the grasp's pitch: the pot upright
+    assert lean(exact) == pytest.approx(0.0, abs=1e-6)
+    assert math.hypot(exact[0], exact[2]) == pytest.approx(0.08)
+    tilted = pitch_release(kin, grasp, over, -0.05, math.radians(15))
+    assert lean(tilted) == pytest.approx(math.radians(15), abs=1e-6)  # lower, leaning 15 deg
+    assert tilted[1] < exact[1]
+    low = pitch_release(kin, grasp, over, 0.03, math.radians(15))  # the floor of the release
+    assert low[1] == pytest.approx(0.03) and lean(low) <= math.radians(15)
     with pytest.raises(ValueError, match="grasp's pitch"):
-        same_pitch_release(kin, grasp, np.array([0.30, 0.0, 0.0]))
+        pitch_release(kin, grasp, np.array([0.30, 0.0, 0.0]), -0.05, 0.1)
 
 
 def test_the_line_is_the_scenarios_without_a_window():

@@ -811,6 +811,7 @@ class SerialPotsSection:
     sensor_gap_m: float = key("float", 20, 400, doc="each cell's sensor 1 to the pot's wall")
     sensor_z_m: float = key("float", 0, 200, doc="the sensors' axis above the belt")
     attempts: int = key("int", lo=1, hi=10, doc="grasps of a pot sensor 1 still hears after")
+    release_tilt_rad: float = key("float", 0, 90, doc="most the pot leans at release (no wrist)")
 
 
 # The file key of every field whose file unit differs from its SI unit.
@@ -1145,6 +1146,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "sensor_gap_mm": 25.0,
         "sensor_z_mm": 12.0,
         "attempts": 2,
+        "release_tilt_deg": 15.0,
     },
 }
 """Sections a file may leave out, with their values then: the paper's machine and job, and

@@ -48,7 +48,7 @@ from transplanter.twin.serial_arm import (
     world_to_paper,
 )
 
-__all__ = ["PotRecord", "SerialPotsResult", "line_config", "run_serial_pots"]
+__all__ = ["PotRecord", "SerialPotsResult", "line_config", "pitch_release", "run_serial_pots"]
 
 DETECTED_CM = 5.0
 """Sensor 1 reads a pot in its cell when nearer than this (the controller's Near core)."""
@@ -80,11 +80,13 @@ def line_config(sc):
     return replace(line, live_rows=line.rows)  # every row's pots are bodies: no window
 
 
-def same_pitch_release(kin, grasp, over) -> np.ndarray:
-    """The point over ``over`` (paper frame x, z; its y unused) where the forearm has the pitch
-    it had at ``grasp``: the arm has no wrist, so the gripper, and the pot it holds, tilt with
-    the forearm (theta2 + theta3); released at the grasp's pitch, the pot hangs as it stood
-    on the belt. ValueError where no such point lies in reach."""
+def pitch_release(kin, grasp, over, lowest_y: float, max_tilt_rad: float) -> np.ndarray:
+    """The release point over ``over`` (paper frame x, z; its y unused): the arm has no
+    wrist, so the gripper, and the pot it holds, tilt with the forearm (theta2 + theta3); a
+    pot released at the grasp's pitch hangs as it stood on the belt, but over the tube, nearer
+    the base than the cells, that pitch lies high (a long fall). The lowest point at or above
+    ``lowest_y`` whose pitch differs from the grasp's by at most ``max_tilt_rad``; ValueError
+    where no point over ``over`` has the grasp's pitch within reach."""
     l1, l2 = kin.geometry.l1_m, kin.geometry.l2_m
     q = kin.joints(np.asarray(grasp, dtype=np.float64))
     pitch = float(q[1] + q[2])
@@ -93,8 +95,19 @@ def same_pitch_release(kin, grasp, over) -> np.ndarray:
     if not -1.0 <= c2 <= 1.0:
         raise ValueError(f"no point {r * 1e3:.1f} mm from the base axis has the grasp's pitch")
     theta2 = math.acos(c2)  # the upper arm above the horizontal (the elbow-up branch)
-    h = l1 * math.sin(theta2) + l2 * math.sin(pitch)
-    return np.array([float(over[0]), h, float(over[2])])
+    level = l1 * math.sin(theta2) + l2 * math.sin(pitch)  # the grasp's pitch exactly
+
+    def tilt(y: float) -> float:
+        j = kin.joints(np.array([float(over[0]), y, float(over[2])]))
+        return abs(float(j[1] + j[2]) - pitch)
+
+    lo, hi = float(lowest_y), max(float(lowest_y), level)
+    if tilt(lo) <= max_tilt_rad:
+        return np.array([float(over[0]), lo, float(over[2])])
+    for _ in range(40):  # the tilt falls as the point rises towards the grasp's pitch
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if tilt(mid) <= max_tilt_rad else (mid, hi)
+    return np.array([float(over[0]), hi, float(over[2])])
 
 
 def _scene(sc, seed: int):
@@ -364,8 +377,8 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
                     records[i].outcome = "no pot"
                     continue
                 grasp = paper(xs[col], line.pickup_row_y_m, job.grasp_z_m)
-                tube = same_pitch_release(rig.kin, grasp, over_tube)
-                tube[1] = max(tube[1], float(paper(0.0, 0.0, lowest)[1]))
+                low = float(paper(0.0, 0.0, lowest)[1])
+                tube = pitch_release(rig.kin, grasp, over_tube, low, job.release_tilt_rad)
                 yield _Call(mark(i, "start_s"))
                 for attempt in range(1, job.attempts + 1):
                     records[i].attempts = attempt
