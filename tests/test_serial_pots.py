@@ -27,18 +27,22 @@ def test_the_pots_go_into_the_tube_row_after_row(six):
     sc, r = six
     assert r.fault is None and r.valid
     assert [p.pot for p in r.records] == [f"pot_0_{c}" for c in range(5)] + ["pot_1_0"]
-    assert r.outcomes == {"success": 6}
-    for p in r.records:
+    assert set(r.outcomes) <= {"success", "missed", "dropped", "no pot"}
+    assert r.successes >= 4  # the physics decides each; most go in (docs/serial_arm.md)
+    picked = [p for p in r.records if p.start_s is not None]
+    for p in picked:
         # sensor 1 of the cell and sensor 2 on the gripper both Near: the controller's Small
-        assert p.grip_inputs["sensor1_cm"] < 5 and p.grip_inputs["sensor2_cm"] < 5
-        assert p.grip_term == "small"
-        # the fingers stopped on the 35 mm pot, short of the 22.5 deg they were sent to
-        assert p.gripper_reached_deg > 30
-        # an SG90's stall torque over the 40 mm fingers: about 4.4 N a pad, more at impact
-        assert 3.0 < p.peak_squeeze_n < 30.0
-    # the sixth pot came after an index: its pick started later than a row's cycle
-    gaps = np.diff([p.start_s for p in r.records])
-    assert gaps[-1] > gaps[:-1].max() + 0.5
+        assert p.grip_inputs["sensor1_cm"] < 5 and p.grip_term == "small"
+        assert 1 <= p.attempts <= sc.serial_pots.attempts
+    for p in r.records:
+        if p.outcome == "success":
+            # the fingers stopped on the 35 mm pot, short of the 22.5 deg they were sent to;
+            # an SG90's stall torque over the 40 mm fingers: about 4.4 N a pad, more at impact
+            assert p.gripper_reached_deg > 30 and 3.0 < p.peak_squeeze_n < 30.0
+        elif p.outcome == "no pot":
+            assert p.start_s is None  # sensor 1 heard none in the cell: skipped
+    # the sixth pot stood a row behind the pickup row: M710 brought it where the host grips
+    assert r.records[-1].outcome == "success"
     d = r.to_dict()
     assert d["seedlings_per_hour"] == pytest.approx(3600 / d["cycle_time_s"], rel=1e-3)
     assert 5.0 < d["cycle_time_s"] < 12.0
@@ -78,7 +82,8 @@ def test_the_command_writes_the_pot_job(tmp_path, capsys):
     status = cli.main(["trial", "serial_arm_pots", "--seedlings", "2", "--seed", "4",
                        "--json", str(out)])  # fmt: skip
     assert status == 0
-    assert "2/2 seedlings into the tube" in capsys.readouterr().out
+    assert "seedlings into the tube" in capsys.readouterr().out
     d = json.loads(out.read_text())
-    assert d["seedlings"] == 2 and len(d["pots"]) == 2 and d["outcomes"] == {"success": 2}
+    assert d["seedlings"] == 2 and len(d["pots"]) == 2
+    assert d["successes"] == d["outcomes"].get("success", 0) >= 1
     assert cli.main(["trial", "serial_arm_pots", "--record", str(tmp_path / "x.rrd")]) == 2
