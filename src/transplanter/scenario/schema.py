@@ -1146,7 +1146,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "sensor_gap_mm": 25.0,
         "sensor_z_mm": 12.0,
         "attempts": 2,
-        "release_tilt_deg": 5.0,
+        "release_tilt_deg": 0.0,
     },
 }
 """Sections a file may leave out, with their values then: the paper's machine and job, and
