@@ -61,6 +61,7 @@ from transplanter.machine.sgf import SGF, SGFConfig
 
 __all__ = [
     "PAPER_TARGETS",
+    "GripRecord",
     "GripperCase",
     "PoolToBeltJudge",
     "PickRecord",
@@ -650,28 +651,33 @@ def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], s
 
 
 # -- Fig. 8: pick and place ---------------------------------------------------------------
-@dataclass
-class PickRecord:
-    index: int
-    diameter_mm: float
-    mass_g: float
-    friction: float
+@dataclass(kw_only=True)
+class GripRecord:
+    """One object's pick as the host and the physics saw it: when it started and ended, the
+    controller's inputs and output at the grasp, where the fingers stopped, the squeeze."""
+
     outcome: str = "not picked"
     start_s: float | None = None
     end_s: float | None = None
     grip_inputs: dict | None = None
     grip_deg: float | None = None
     grip_term: str | None = None
-    peak_squeeze_n: float = 0.0
     gripper_reached_deg: float | None = None
+    peak_squeeze_n: float = 0.0
 
-    def as_dict(self) -> dict:
+    def take_grip(self, readings: dict, angle: float) -> None:
+        """The host's grasp: the sensors it read (station: sensor 1, gripper: sensor 2, in cm;
+        no echo: None), the base servo's angle and the controller's angle."""
+        self.grip_inputs = {
+            "sensor1_cm": _finite_cm(readings["station"]),
+            "sensor2_cm": _finite_cm(readings["gripper"]),
+            "base_deg": round(readings["base_horn_deg"], 3),
+        }
+        self.grip_deg, self.grip_term = angle, FuzzyGripper.term_of(angle)
+
+    def grip_dict(self) -> dict:
         r = lambda v: None if v is None else round(float(v), 4)  # noqa: E731
         return {
-            "index": self.index,
-            "diameter_mm": r(self.diameter_mm),
-            "mass_g": r(self.mass_g),
-            "friction": r(self.friction),
             "outcome": self.outcome,
             "start_s": r(self.start_s),
             "end_s": r(self.end_s),
@@ -680,6 +686,24 @@ class PickRecord:
             "grip_term": self.grip_term,
             "gripper_reached_deg": r(self.gripper_reached_deg),
             "peak_squeeze_n": r(self.peak_squeeze_n),
+        }
+
+
+@dataclass
+class PickRecord(GripRecord):
+    index: int
+    diameter_mm: float
+    mass_g: float
+    friction: float
+
+    def as_dict(self) -> dict:
+        r = lambda v: round(float(v), 4)  # noqa: E731
+        return {
+            "index": self.index,
+            "diameter_mm": r(self.diameter_mm),
+            "mass_g": r(self.mass_g),
+            "friction": r(self.friction),
+            **self.grip_dict(),
         }
 
 
@@ -777,12 +801,7 @@ def run_pick_place(
     def grip(i: int, readings: dict, angle: float):
         def fn(_t: float) -> None:
             rec = records[i]
-            rec.grip_inputs = {
-                "sensor1_cm": _finite_cm(readings["station"]),
-                "sensor2_cm": _finite_cm(readings["gripper"]),
-                "base_deg": round(readings["base_horn_deg"], 3),
-            }
-            rec.grip_deg, rec.grip_term = angle, FuzzyGripper.term_of(angle)
+            rec.take_grip(readings, angle)
             if recording is not None:
                 recording.fuzzy_deg = angle
                 g = rec.grip_inputs

@@ -32,13 +32,13 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from transplanter.machine.fuzzy_gripper import NO_ECHO, FuzzyGripper
+from transplanter.machine.fuzzy_gripper import NO_ECHO
 from transplanter.machine.gcode import format_number
 from transplanter.twin.serial_arm import (
     SENSE_CYCLE_S,
+    GripRecord,
     _Call,
     _compile,
-    _finite_cm,
     _g1,
     _park_point,
     _Ranger,
@@ -156,37 +156,21 @@ def _scene(sc, seed: int):
 
 
 @dataclass
-class PotRecord:
+class PotRecord(GripRecord):
     index: int
     pot: str
     row: int
     col: int
-    outcome: str = "not picked"
-    start_s: float | None = None
-    end_s: float | None = None
-    grip_inputs: dict | None = None
-    grip_deg: float | None = None
-    grip_term: str | None = None
-    gripper_reached_deg: float | None = None
-    peak_squeeze_n: float = 0.0
     attempts: int = 0
     """Grasps tried (another while sensor 1 still heard the pot in its cell after the lift)."""
 
     def as_dict(self) -> dict:
-        r = lambda v: None if v is None else round(float(v), 4)  # noqa: E731
         return {
             "index": self.index,
             "pot": self.pot,
             "row": self.row,
             "col": self.col,
-            "outcome": self.outcome,
-            "start_s": r(self.start_s),
-            "end_s": r(self.end_s),
-            "grip_inputs": self.grip_inputs,
-            "grip_deg": r(self.grip_deg),
-            "grip_term": self.grip_term,
-            "gripper_reached_deg": r(self.gripper_reached_deg),
-            "peak_squeeze_n": r(self.peak_squeeze_n),
+            **self.grip_dict(),
             "attempts": self.attempts,
         }
 
@@ -337,13 +321,7 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
 
     def grip(i: int, readings: dict, angle: float):
         def fn(_t: float) -> None:
-            rec = records[i]
-            rec.grip_inputs = {
-                "sensor1_cm": _finite_cm(readings["station"]),
-                "sensor2_cm": _finite_cm(readings["gripper"]),
-                "base_deg": round(readings["base_horn_deg"], 3),
-            }
-            rec.grip_deg, rec.grip_term = angle, FuzzyGripper.term_of(angle)
+            records[i].take_grip(readings, angle)
 
         return fn
 

@@ -28,6 +28,7 @@ import mujoco
 
 from transplanter.errors import TransplanterError
 from transplanter.machine.servo import ServoClass, servo_class
+from transplanter.scene.hobby_servo import apply_servo
 
 __all__ = [
     "ACTUATOR",
@@ -202,16 +203,7 @@ def apply(spec: mujoco.MjSpec, cfg) -> None:
     spec.geom("palm").mass = c.palm_mass_g * 1e-3
     servo = c.servo_class
     spec.geom("gripper_servo").mass = servo.mass_kg
-    damping = servo.stall_torque_nm / servo.speed_rad_s
-    for name in FINGERS:
-        joint = spec.joint(name)
-        joint.damping = [2 * damping, 0.0, 0.0]
-        joint.armature = 2 * servo.armature_kgm2
-    act = spec.actuator(ACTUATOR)
-    kp = servo.position_gain()
-    act.gainprm = [kp] + [0] * 9
-    act.biasprm = [0, -kp, act.biasprm[2]] + [0] * 7
-    act.forcerange = [-servo.stall_torque_nm, servo.stall_torque_nm]
+    apply_servo(spec, ACTUATOR, FINGERS, servo, share=2)  # each finger through the 2:1 gear
 
 
 def add_canopy_contact(spec: mujoco.MjSpec, cfg) -> None:

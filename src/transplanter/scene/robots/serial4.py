@@ -16,6 +16,7 @@ from pathlib import Path
 import mujoco
 
 from transplanter.machine.servo import ServoClass, servo_class
+from transplanter.scene.hobby_servo import apply_servo
 from transplanter.scene.robots.delta import quiet_prefix_note
 
 __all__ = [
@@ -101,14 +102,7 @@ def apply(spec: mujoco.MjSpec, cfg) -> None:
     if mount is not None and mount.frame is not None:  # attached at the site's pose then
         mount.frame.pos = [forearm, 0, 0]
     for joint, servo in zip(JOINTS, _servos(cfg), strict=True):
-        j = spec.joint(joint)
-        j.damping = [servo.stall_torque_nm / servo.speed_rad_s, 0.0, 0.0]
-        j.armature = servo.armature_kgm2
-        act = spec.actuator(joint)
-        kp = servo.position_gain()
-        act.gainprm = [kp] + [0] * 9
-        act.biasprm = [0, -kp, act.biasprm[2]] + [0] * 7
-        act.forcerange = [-servo.stall_torque_nm, servo.stall_torque_nm]
+        apply_servo(spec, joint, (joint,), servo)
 
 
 def apply_inertials(spec: mujoco.MjSpec, cfg) -> None:
