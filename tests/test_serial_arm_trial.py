@@ -180,3 +180,21 @@ def test_ik_answers_in_the_papers_frame_or_says_why_not(capsys):
     assert "cannot be reached" in capsys.readouterr().out
     assert cli.main(["ik", "100", "40", "--scenario", "serial_arm"]) == 2
     assert "give x, y and z" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "scenario, extra",
+    [
+        ("serial_arm", []),
+        ("serial_arm_pots", []),
+        ("plug_bench", []),
+        ("delta_refill", ["--set", "delta_refill.vision=truth"]),
+    ],  # fmt: skip
+)
+def test_a_job_that_keeps_its_bodies_awake_refuses_sleep(scenario, extra, capsys):
+    """These jobs' scenes never sleep: `physics.sleep = true` is refused, not ignored (their
+    scenario files say false)."""
+    assert load_scenario(scenario).physics.sleep is False
+    status = cli.main(["trial", scenario, "--set", "physics.sleep=true", *extra])
+    assert status == 2
+    assert "physics.sleep = true" in capsys.readouterr().err

@@ -133,7 +133,7 @@ def run_trial(
 
                 recording = DeltaRecording(record_path, args.record_rate)
                 result = run_observed(scenario, seed, [recording])
-        except (GradingUnavailable, GradingFailed) as exc:
+        except (GradingUnavailable, GradingFailed, ScenarioError) as exc:
             _err(f"trial refused: {exc}")
             return EXIT_REFUSED
         if record_path is not None:
@@ -237,7 +237,13 @@ def render(
 
     try:
         result = delta.run_observed(scenario, None, [observer])
-    except (video.GLUnavailable, video.RenderRefused, GradingUnavailable, GradingFailed) as exc:
+    except (
+        video.GLUnavailable,
+        video.RenderRefused,
+        GradingUnavailable,
+        GradingFailed,
+        ScenarioError,
+    ) as exc:
         _err(f"render refused: {exc}")
         return EXIT_REFUSED
     print(summary_line(result))

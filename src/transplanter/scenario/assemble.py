@@ -552,3 +552,14 @@ def vision_config(scenario: Scenario) -> VisionConfig:
         mount=mount,
         thresholds=thresholds,
     )
+
+
+def require_awake(scenario, job: str) -> None:
+    """A job whose scene keeps every body awake (the delta's tray and bench, the serial arm's
+    jobs) refuses `physics.sleep = true` rather than ignore it: sleeping is the five-bar's
+    pot-line setting (docs/edge_trials.md); ScenarioError naming the key."""
+    if scenario.physics.sleep:
+        raise ScenarioError(
+            f"physics.sleep = true: {job} keeps every body of its scene awake (sleeping is the "
+            "five-bar's pot-line setting); set physics.sleep = false"
+        )

@@ -41,6 +41,7 @@ from transplanter.machine.kinematics.delta import DeltaKinematics
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.sgf import SGFConfig
+from transplanter.scenario.assemble import require_awake
 from transplanter.scene.delta_scene import (
     DeltaSceneConfig,
     JobCells,
@@ -449,6 +450,7 @@ def run_delta_refill(
     `grades`: the host's grading map instead of the one `delta_refill.vision` gives
     (GradingUnavailable without a GL context for the pipeline's pictures, GradingFailed for a
     picture it cannot grade)."""
+    require_awake(sc, "the delta's tray job")
     wall0 = time.perf_counter()
     seed = sc.seed if seed is None else seed
     job = sc.delta_refill

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from transplanter.scenario.assemble import require_awake
 from transplanter.scene.plug_tray import draw_tray
 
 __all__ = ["BenchRunResult", "run_bench_trial"]
@@ -107,6 +108,7 @@ def _seedlings(seed: int, n: int):
 def run_bench_trial(sc, seed: int | None = None) -> BenchRunResult:
     """One run of the scenario `sc` ([plugs], [plug_claws], [plug_bench], its seedlings) with
     seed `seed` (default the scenario's)."""
+    require_awake(sc, "the claws' bench")
     from transplanter.scenario.assemble import claws_config, plugs_config
     from transplanter.scene.plug_bench import BenchConfig, centred_seedling, run_pick
     from transplanter.twin.delta_grading import truth_cell

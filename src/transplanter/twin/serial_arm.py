@@ -58,6 +58,7 @@ from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.servo import ServoMount
 from transplanter.machine.servo_drives import ServoBank, ServoOutputs, frame_steps
 from transplanter.machine.sgf import SGF, SGFConfig
+from transplanter.scenario.assemble import require_awake
 
 __all__ = [
     "PAPER_TARGETS",
@@ -443,6 +444,7 @@ def run_targets(sc, seed: int | None = None) -> tuple[list[TargetRow], str | Non
     """The paper's ten targets on the arm alone (no workcell): G28 to the standby pose, then
     for each target a G1 there, M400, the settle dwell, the grip centre and joints measured,
     back to standby."""
+    require_awake(sc, "the serial arm's targets")
     seed = sc.seed if seed is None else seed
     job = sc.serial_arm
     spec, cfg = _scene(sc, None, seed=seed)
@@ -546,6 +548,7 @@ def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], s
     arm turned to the row's base angle with the gripper at the bench height. The host reads
     both sensors, runs the controller and sends its angle; the gripper's reached angle is
     measured after the grip dwell."""
+    require_awake(sc, "the serial arm's gripper bench")
     from transplanter.scene.workcells import pool_to_belt
 
     seed = sc.seed if seed is None else seed
@@ -753,6 +756,7 @@ def run_pick_place(
     ``recording``: an observer, `viewing.serial_arm.SerialRecording` or `SerialVideo` (it only
     reads the state; it is told the tomato in progress, the controller's output and the
     squeeze)."""
+    require_awake(sc, "the serial arm's pick and place")
     from transplanter.scene.workcells import pool_to_belt
 
     seed = sc.seed if seed is None else seed

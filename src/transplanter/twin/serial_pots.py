@@ -34,6 +34,7 @@ import numpy as np
 
 from transplanter.machine.fuzzy_gripper import NO_ECHO
 from transplanter.machine.gcode import format_number
+from transplanter.scenario.assemble import require_awake
 from transplanter.twin.serial_arm import (
     SENSE_CYCLE_S,
     GripRecord,
@@ -235,6 +236,7 @@ class SerialPotsResult:
 def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     """`scenario.seedlings` pots of the scenario's pot line (seed `seed`, default the
     scenario's), picked row by row into the drop tube (module docstring)."""
+    require_awake(sc, "the serial arm's pot job")
     from transplanter.scene.conveyor import ConveyorDrive
     from transplanter.scene.geometry import cell_columns_x
 
