@@ -312,6 +312,12 @@ class _Rig:
         out["base_horn_deg"] = self.base_horn_deg(self.outputs.joints(self.raw)[0])
         return out
 
+    @property
+    def standby_line(self) -> str:
+        """The host's line that opens the gripper to standby (the controller's angle with
+        neither sensor hearing anything: Big)."""
+        return f"M280 P0 S{format_number(round(self.standby_deg, 2))}"
+
     def base_horn_deg(self, theta1_rad: float) -> float:
         return math.degrees(float(self.kin.mounts[0].horn(theta1_rad)))
 
@@ -400,6 +406,50 @@ def _g1(p_m, speed_m_s: float) -> str:
 
 def _park_point(kin: Serial4Kinematics) -> np.ndarray:
     return kin.point(np.array(kin.park_rad))
+
+
+def _ms(seconds: float) -> str:
+    return format_number(round(seconds * 1e3, 3))
+
+
+def grasp_items(rig: _Rig, rec, grasp, sense, on_grip=None):
+    """Host items of one grasp (a generator for ``yield from``): over ``grasp`` (paper
+    frame, m) at the hover height, down, both sensors read (``sense``: the host item that
+    answers them), the fuzzy controller's angle sent and dwelt on, where the fingers stopped
+    noted in ``rec`` (a GripRecord), back up. ``on_grip(t, readings, angle)``: called once
+    the record has taken the grip."""
+    job = rig.sc.serial_arm
+    up = np.array([0.0, job.hover_m, 0.0])
+    yield _g1(grasp + up, job.travel_speed_m_s)
+    yield _g1(grasp, job.approach_speed_m_s)
+    yield "M400"
+    yield _Wait(2 * SENSE_CYCLE_S)
+    readings = yield sense
+    angle = rig.flc.control(readings["station"], readings["gripper"], readings["base_horn_deg"])
+
+    def took(t: float) -> None:
+        rec.take_grip(readings, angle)
+        if on_grip is not None:
+            on_grip(t, readings, angle)
+
+    yield _Call(took)
+    yield f"M280 P0 S{format_number(round(angle, 2))}"
+    yield f"G4 P{_ms(job.grip_settle_s)}"
+    yield "M400"
+    yield _Call(lambda _t: setattr(rec, "gripper_reached_deg", rig.gripper_deg()))
+    yield _g1(grasp + up, job.approach_speed_m_s)
+
+
+def release_items(rig: _Rig, point):
+    """Host items of one release: over ``point`` at the hover height, down, the gripper
+    opened to standby and dwelt on, back up."""
+    job = rig.sc.serial_arm
+    up = np.array([0.0, job.hover_m, 0.0])
+    yield _g1(point + up, job.travel_speed_m_s)
+    yield _g1(point, job.approach_speed_m_s)
+    yield rig.standby_line
+    yield f"G4 P{_ms(job.release_settle_s)}"
+    yield _g1(point + up, job.approach_speed_m_s)
 
 
 # -- Tables 3-5: the ten targets --------------------------------------------------------
@@ -626,7 +676,7 @@ def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], s
         yield "G90"
         here = rig.base_horn_deg(rig.q0[0])
         for i, (_, horn, _) in enumerate(plan):
-            yield f"M280 P0 S{format_number(round(rig.standby_deg, 2))}"
+            yield rig.standby_line
             # round the base along the bench's circle: a straight line between two far
             # base angles would pass over the base axis, where the IK refuses
             steps = max(1, math.ceil(abs(horn - here) / ARC_STEP_DEG))
@@ -789,7 +839,6 @@ def run_pick_place(
     # releases a middle tomato's height over the belt
     grasp = world_to_paper(pool_to_belt.station_xyz(wc))
     release = world_to_paper(pool_to_belt.place_xyz(wc))
-    up = np.array([0.0, job.hover_m, 0.0])
     park = _park_point(rig.kin)
 
     def mark(i: int, key: str):
@@ -802,34 +851,25 @@ def run_pick_place(
 
         return fn
 
-    def grip(i: int, readings: dict, angle: float):
-        def fn(_t: float) -> None:
-            rec = records[i]
-            rec.take_grip(readings, angle)
-            if recording is not None:
-                recording.fuzzy_deg = angle
-                g = rec.grip_inputs
-                s1, s2 = (_reading(g[k]) for k in ("sensor1_cm", "sensor2_cm"))
-                text = (
-                    f"tomato {i}: sensor 1 {s1}, sensor 2 {s2}, base {g['base_deg']:.1f} deg "
-                    f"-> gripper {angle:.2f} deg ({rec.grip_term})"
-                )
-                recording.event(_t, "controller", text)
+    def controller_event(i: int):
+        def fn(t: float, readings: dict, angle: float) -> None:
+            if recording is None:
+                return
+            recording.fuzzy_deg = angle
+            g = records[i].grip_inputs
+            s1, s2 = (_reading(g[k]) for k in ("sensor1_cm", "sensor2_cm"))
+            text = (
+                f"tomato {i}: sensor 1 {s1}, sensor 2 {s2}, base {g['base_deg']:.1f} deg "
+                f"-> gripper {angle:.2f} deg ({records[i].grip_term})"
+            )
+            recording.event(t, "controller", text)
 
         return fn
-
-    def reached(i: int):
-        def fn(_t: float) -> None:
-            records[i].gripper_reached_deg = rig.gripper_deg()
-
-        return fn
-
-    standby = f"M280 P0 S{format_number(round(rig.standby_deg, 2))}"
 
     def program():
         yield "G28"
         yield "G90"
-        yield standby
+        yield rig.standby_line
         for i in range(len(drawn)):
             yield "M400"
             yield _Wait(2 * SENSE_CYCLE_S)
@@ -837,25 +877,8 @@ def run_pick_place(
             if readings["station"] == NO_ECHO:  # the pool is empty: standby
                 break
             yield _Call(mark(i, "start_s"))
-            yield _g1(grasp + up, job.travel_speed_m_s)
-            yield _g1(grasp, job.approach_speed_m_s)
-            yield "M400"
-            yield _Wait(2 * SENSE_CYCLE_S)
-            readings = yield _Sense()
-            angle = rig.flc.control(
-                readings["station"], readings["gripper"], readings["base_horn_deg"]
-            )
-            yield _Call(grip(i, readings, angle))
-            yield f"M280 P0 S{format_number(round(angle, 2))}"
-            yield f"G4 P{format_number(round(job.grip_settle_s * 1e3, 3))}"
-            yield "M400"
-            yield _Call(reached(i))
-            yield _g1(grasp + up, job.approach_speed_m_s)
-            yield _g1(release + up, job.travel_speed_m_s)
-            yield _g1(release, job.approach_speed_m_s)
-            yield standby
-            yield f"G4 P{format_number(round(job.release_settle_s * 1e3, 3))}"
-            yield _g1(release + up, job.approach_speed_m_s)
+            yield from grasp_items(rig, records[i], grasp, _Sense(), controller_event(i))
+            yield from release_items(rig, release)
             yield _g1(park, job.travel_speed_m_s)
             yield "M400"
             yield _Call(mark(i, "end_s"))

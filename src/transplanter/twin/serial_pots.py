@@ -33,7 +33,6 @@ import mujoco
 import numpy as np
 
 from transplanter.machine.fuzzy_gripper import NO_ECHO
-from transplanter.machine.gcode import format_number
 from transplanter.scenario.assemble import require_awake
 from transplanter.twin.serial_arm import (
     SENSE_CYCLE_S,
@@ -41,11 +40,14 @@ from transplanter.twin.serial_arm import (
     _Call,
     _compile,
     _g1,
+    _ms,
     _park_point,
     _Ranger,
     _Rig,
     _Squeeze,
     _Wait,
+    grasp_items,
+    release_items,
     world_to_paper,
 )
 
@@ -282,11 +284,9 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     def paper(x: float, y: float, z: float) -> np.ndarray:
         return world_to_paper(np.array([x, y, z]), base, yaw)
 
-    up = np.array([0.0, arm.hover_m, 0.0])
     over_tube = paper(*line.drop_tube_xy_m, z_top)
     lowest = z_top + job.release_gap_m + job.grasp_z_m  # the pot's bottom release_gap up
     park = _park_point(rig.kin)
-    standby = f"M280 P0 S{format_number(round(rig.standby_deg, 2))}"
 
     throat_r = line.funnel_throat_diameter_m / 2
     throat_z = line.funnel_top_z_m - line.funnel_height_m
@@ -321,18 +321,6 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
 
         return fn
 
-    def grip(i: int, readings: dict, angle: float):
-        def fn(_t: float) -> None:
-            records[i].take_grip(readings, angle)
-
-        return fn
-
-    def reached(i: int):
-        def fn(_t: float) -> None:
-            records[i].gripper_reached_deg = rig.gripper_deg()
-
-        return fn
-
     def sense(col: int):
         def fn(_t: float) -> dict:
             out = rig.readings()
@@ -344,7 +332,7 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     def program():
         yield "G28"
         yield "G90"
-        yield standby
+        yield rig.standby_line
         for row in range(line.rows):
             for col in range(line.cols):
                 i = row * line.cols + col
@@ -362,35 +350,18 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
                 yield _Call(mark(i, "start_s"))
                 for attempt in range(1, job.attempts + 1):
                     records[i].attempts = attempt
-                    yield _g1(grasp + up, arm.travel_speed_m_s)
-                    yield _g1(grasp, arm.approach_speed_m_s)
-                    yield "M400"
-                    yield _Wait(2 * SENSE_CYCLE_S)
-                    readings = yield _Call(sense(col))
-                    angle = rig.flc.control(
-                        readings["station"], readings["gripper"], readings["base_horn_deg"]
-                    )
-                    yield _Call(grip(i, readings, angle))
-                    yield f"M280 P0 S{format_number(round(angle, 2))}"
-                    yield f"G4 P{format_number(round(arm.grip_settle_s * 1e3, 3))}"
-                    yield "M400"
-                    yield _Call(reached(i))
-                    yield _g1(grasp + up, arm.approach_speed_m_s)
+                    yield from grasp_items(rig, records[i], grasp, _Call(sense(col)))
                     yield "M400"
                     yield _Wait(2 * SENSE_CYCLE_S)
                     readings = yield _Call(sense(col))
                     if readings["station"] > DETECTED_CM:  # the cell is empty: the pot is up
                         break
-                    yield standby  # sensor 1 still hears the pot in its cell: missed, again
-                    yield f"G4 P{format_number(round(arm.release_settle_s * 1e3, 3))}"
+                    yield rig.standby_line  # sensor 1 still hears the pot in its cell: missed
+                    yield f"G4 P{_ms(arm.release_settle_s)}"
                 else:
                     yield _Call(mark(i, "end_s"))
                     continue
-                yield _g1(tube + up, arm.travel_speed_m_s)
-                yield _g1(tube, arm.approach_speed_m_s)
-                yield standby
-                yield f"G4 P{format_number(round(arm.release_settle_s * 1e3, 3))}"
-                yield _g1(tube + up, arm.approach_speed_m_s)
+                yield from release_items(rig, tube)
                 yield "M400"
                 yield _Call(mark(i, "end_s"))
             if (row + 1) * line.cols >= n:
