@@ -3,8 +3,9 @@
 (`[workcell] kind`). Adding a kind adds its module and one line here.
 
 A robot module has ``MODEL`` (its folder, models/<MODEL>/<MODEL>.xml), ``INERTIAL_BODIES``,
+``ACTUATORS`` (its drives' actuator names: transplanter.twin.motors meters them),
 ``apply(spec, cfg)``, ``apply_inertials(spec, cfg)``, ``home_joints(cfg)`` and ``home_ctrl(cfg)``
-(its actuators' power-on commands, first in the model). An effector module has
+(its actuators' power-on commands, first in the model). An effector module has ``ACTUATORS``,
 ``apply(spec, cfg)``, ``add_canopy_contact(spec, cfg)``, ``home_joints(cfg)`` and
 ``home_ctrl(cfg)`` (its actuators follow the robot's). A workcell module has ``MODEL`` (its
 folder, models/workcells/<MODEL>/<MODEL>.xml), ``apply(spec, cfg)``,

@@ -29,6 +29,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from transplanter.twin.motors import motor_columns
+
 __all__ = ["JOBS", "Job", "job_of", "run_job"]
 
 PLUG_SECTIONS = ("plugs", "plug_claws", "plug_bench", "vision")
@@ -64,6 +66,11 @@ class Job:
     """What a row's `seedlings` counts."""
     more: str = "--seedlings x seeds"
     """How a user gives a point more of them."""
+    damage: tuple[str, ...] | None = None
+    """The failure columns that count a damaged seedling (`transplanter compare`'s damage
+    rate); None: the job does not judge damage."""
+    label: str = "cycle"
+    """What its `cycle_time_s` is."""
 
 
 def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
@@ -93,6 +100,7 @@ def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
         plants_per_hour=_finite(r.plants_per_hour),
         trays_per_hour=_finite(r.trays_per_hour),
         dropped=r.dropped,
+        **motor_columns(r.motors),
     )
     for kind in DELTA_FAILURES:
         row[f"fail_{kind}"] = r.failures.get(kind, 0)
@@ -152,6 +160,7 @@ def _serial_pick(scenario, seed: int, row: dict[str, Any]) -> None:
         warnings="",
         plants_per_hour=_finite(totals["tomatoes_per_hour"]),
         peak_squeeze_n=totals["peak_squeeze_n"],
+        **motor_columns(totals.get("motors")),
         **{f"fail_{k}": totals["outcomes"].get(k, 0) for k in ("bruised", "dropped", "missed")},
     )
     if not picked:
@@ -183,6 +192,7 @@ def _serial_pots(scenario, seed: int, row: dict[str, Any]) -> None:
         warnings="",
         plants_per_hour=d["seedlings_per_hour"],
         peak_squeeze_n=d["peak_squeeze_n"],
+        **motor_columns(r.motors),
         **{f"fail_{k.replace(' ', '_')}": r.outcomes.get(k, 0)
            for k in ("dropped", "missed", "no pot")},
     )  # fmt: skip
@@ -208,7 +218,6 @@ JOBS: dict[str, Job] = {
             "substrate_retention",
             "leaf_damage_rate",
             "tray_leaf_damage_rate",
-            "plants_per_hour",
             "trays_per_hour",
             "dropped",
             *(f"fail_{k}" for k in DELTA_FAILURES),
@@ -224,6 +233,8 @@ JOBS: dict[str, Job] = {
         run=_delta,
         unit="serviced cells",
         more="delta_refill.max_cells (0: every cell of a tray) x seeds",
+        damage=("fail_leaf_damage",),
+        label="time per operation",
     ),
     "plug_bench": Job(
         "plug_bench",
@@ -240,7 +251,6 @@ JOBS: dict[str, Job] = {
     "pool_to_belt": Job(
         "pool_to_belt",
         fields=(
-            "plants_per_hour",
             "peak_squeeze_n",
             "fail_bruised",
             "fail_dropped",
@@ -251,11 +261,11 @@ JOBS: dict[str, Job] = {
         run=_serial_pick,
         unit="tomatoes",
         more="pool_to_belt.count x seeds",
+        damage=("fail_bruised",),
     ),
     "serial4:conveyor_tube": Job(
         "serial4:conveyor_tube",
         fields=(
-            "plants_per_hour",
             "peak_squeeze_n",
             "fail_dropped",
             "fail_missed",

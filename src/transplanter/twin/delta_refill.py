@@ -62,6 +62,7 @@ from transplanter.twin.delta_grading import (
     grading_map,
     truth_grades,
 )
+from transplanter.twin.motors import MotorMeter
 from transplanter.vision.grading import EMPTY, HEALTHY, HEALTHY_LR, HEALTHY_UD, INFERIOR
 
 __all__ = ["DeltaRefillJudge", "DeltaRefillResult", "run_delta_refill"]
@@ -170,6 +171,8 @@ class DeltaRefillResult:
     """The map against the truth per tray (GradingMap.summary): confusion, wall times."""
     misgraded: list[dict] = field(default_factory=list)
     """Every misgraded cell the job acted on or passed over, with what it cost."""
+    motors: dict | None = None
+    """The drives' peak torque and mechanical work (transplanter.twin.motors)."""
 
     @property
     def successes(self) -> int:
@@ -205,6 +208,7 @@ class DeltaRefillResult:
             "vision": self.vision,
             "grading": self.grading,
             "misgraded": self.misgraded,
+            "motors": self.motors,
             "sim_time_s": self.sim_time_s,
             "valid": self.valid,
             "wall_time_s": self.wall_time_s,
@@ -467,6 +471,7 @@ def run_delta_refill(
     data.ctrl[:3] = delta_robot.home_ctrl(cfg)
     data.ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
     mujoco.mj_forward(model, data)
+    meter = MotorMeter(model, delta_robot.ACTUATORS, plug_claws.ACTUATORS)
     sub = Substrate(cfg.plugs)
     names = [plug_name("planting", i) for i in cells.culled if planting.cells[i].seedling] + [
         plug_name("supply", i) for i in cells.supply if supply.cells[i].seedling
@@ -553,6 +558,7 @@ def run_delta_refill(
         for p in physics.values():
             p.before_step(data)
         mujoco.mj_step(model, data)
+        meter.record(data)
         np.maximum(peaks[0], np.abs(data.qvel[arm_dofs]), out=peaks[0])
         np.maximum(peaks[1], np.abs(data.qfrc_actuator[arm_dofs]), out=peaks[1])
         for name, p in physics.items():
@@ -577,6 +583,7 @@ def run_delta_refill(
     _grading_costs(sc, result, planting, supply, grades)
     result.peak_joint_speed_deg_s = [round(math.degrees(v), 4) for v in peaks[0]]
     result.peak_joint_torque_nm = [round(float(v), 4) for v in peaks[1]]
+    result.motors = meter.report().to_dict()
     return result
 
 

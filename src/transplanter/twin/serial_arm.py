@@ -59,6 +59,9 @@ from transplanter.machine.servo import ServoMount
 from transplanter.machine.servo_drives import ServoBank, ServoOutputs, frame_steps
 from transplanter.machine.sgf import SGF, SGFConfig
 from transplanter.scenario.assemble import require_awake
+from transplanter.scene.effectors import fuzzy_gripper
+from transplanter.scene.robots import serial4 as serial_robot
+from transplanter.twin.motors import MotorMeter
 
 __all__ = [
     "PAPER_TARGETS",
@@ -278,6 +281,7 @@ class _Rig:
         self.bus = ComBus(baud_bps=sc.bus.baud_bps)
         names = ("base", "shoulder", "elbow", "gripper")
         self.acts = np.array([model.actuator(n).id for n in names])
+        self.motors = MotorMeter(model, serial_robot.ACTUATORS, fuzzy_gripper.ACTUATORS)
         self.joint_adr = np.array(
             [model.jnt_qposadr[model.joint(n).id] for n in ("base", "shoulder", "elbow")]
         )
@@ -357,6 +361,7 @@ class _Rig:
         for fn in self.before_step:
             fn(t)
         mujoco.mj_step(model, data)
+        self.motors.record(data)
         self.k += 1
         for fn in self.on_step:
             fn(self.k * self.dt)
@@ -899,6 +904,7 @@ def run_pick_place(
         recording.finish(rig.t)
     totals = _pick_totals(records)
     totals["belt_travel_mm"] = round(float(pool_to_belt.belt_travel_m(data)) * 1e3, 3)
+    totals["motors"] = rig.motors.report().to_dict()
     return records, totals, error, rig.valid
 
 

@@ -188,6 +188,8 @@ class SerialPotsResult:
     fault: str | None = None
     valid: bool = True
     recording_error: str | None = None
+    motors: dict | None = None
+    """The drives' peak torque and mechanical work (transplanter.twin.motors)."""
 
     @property
     def picked(self) -> list[PotRecord]:
@@ -228,6 +230,7 @@ class SerialPotsResult:
             "peak_squeeze_n": round(max((r.peak_squeeze_n for r in self.records), default=0), 4),
             "pots": [r.as_dict() for r in self.records],
             "sim_time_s": round(self.sim_time_s, 4),
+            "motors": self.motors,
             "fault": self.fault,
             "valid": self.valid,
             "definitions": DEFINITIONS,
@@ -389,5 +392,6 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     result.sim_time_s = rig.t
     result.fault = fault
     result.valid = rig.valid
+    result.motors = rig.motors.report().to_dict()
     result.wall_s = time.perf_counter() - wall0
     return result

@@ -31,6 +31,7 @@ from transplanter.machine.servo import ServoClass, servo_class
 from transplanter.scene.hobby_servo import apply_servo
 
 __all__ = [
+    "ACTUATORS",
     "ACTUATOR",
     "FINGERS",
     "MOUNT",
@@ -50,6 +51,7 @@ MOUNT = "gripper_mount"
 FINGERS = ("finger_left", "finger_right")
 PADS = ("finger_left_pad", "finger_right_pad")
 ACTUATOR = "gripper"
+ACTUATORS = (ACTUATOR,)
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,9 @@ from transplanter.scene.geometry import bridge_box, column_box
 MODEL = "fivebar"
 """The robot's Menagerie folder: models/fivebar/fivebar.xml."""
 
+ACTUATORS = ("theta1", "theta2", "z")
+"""The robot's drives (the kinds' interface: first in the model, the effector's next)."""
+
 INERTIAL_BODIES = (
     "platform", "link1", "passive1", "gripper", "jaw_left", "jaw_right", "link2", "passive2",
 )  # fmt: skip

@@ -20,6 +20,7 @@ from transplanter.scene.hobby_servo import apply_servo
 from transplanter.scene.robots.delta import quiet_prefix_note
 
 __all__ = [
+    "ACTUATORS",
     "EFFECTOR_MODEL",
     "INERTIAL_BODIES",
     "JOINTS",
@@ -39,6 +40,8 @@ MODEL = "serial4"
 
 INERTIAL_BODIES = ("turntable", "upper_arm", "forearm")
 JOINTS = ("base", "shoulder", "elbow")
+ACTUATORS = JOINTS
+"""The robot's drives, one hobby servo per joint (named as its joint)."""
 EFFECTOR_MODEL = "effectors/fuzzy_gripper/fuzzy_gripper.xml"
 EFFECTOR_MOUNT = "gripper_mount"
 MIN_FOREARM_M = 0.0
