@@ -849,6 +849,22 @@ _FILE_SUFFIX = {
     "_rad": "_deg",
 }  # fmt: skip
 
+
+@dataclass(frozen=True)
+class CostsSection:
+    """[costs]: what the machine's drives cost; not physics: `transplanter compare` reports
+    it beside what the machine does. The packaged scenarios' values are estimates
+    (docs/compare.md gives each part and its source); put your own quote here."""
+
+    drives_usd: float = key(
+        "float",
+        0,
+        1e7,
+        doc="the drives: motors with their drivers or amplifiers and gearboxes, servos, "
+        "cylinders and valves (US$; 0: not given)",
+    )
+
+
 SECTIONS: dict[str, type] = {
     "scenario": MetaSection,
     "robot": RobotSection,
@@ -879,6 +895,7 @@ SECTIONS: dict[str, type] = {
     "vision": VisionSection,
     "serial_arm": SerialArmSection,
     "serial_pots": SerialPotsSection,
+    "costs": CostsSection,
 }
 
 
@@ -1136,6 +1153,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "bench_radius_mm": 80.0,
         "bench_height_mm": 80.0,
     },
+    "costs": {"drives_usd": 0.0},
     "serial_pots": {
         "base_x_mm": 0.0,
         "base_y_mm": 60.0,
@@ -1190,6 +1208,7 @@ class Scenario:
     vision: VisionSection
     serial_arm: SerialArmSection
     serial_pots: SerialPotsSection
+    costs: CostsSection
     overrides: tuple[tuple[str, Any], ...] = ()
     """The 'section.key' = value overrides applied on top of the file, as given."""
 
