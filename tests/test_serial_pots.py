@@ -87,3 +87,21 @@ def test_the_command_writes_the_pot_job(tmp_path, capsys):
     assert d["seedlings"] == 2 and len(d["pots"]) == 2
     assert d["successes"] == d["outcomes"].get("success", 0) >= 1
     assert cli.main(["trial", "serial_arm_pots", "--record", str(tmp_path / "x.rrd")]) == 2
+
+
+def test_a_placement_the_arm_cannot_work_from_is_refused_naming_the_keys(capsys):
+    from transplanter.scenario.schema import ScenarioError
+    from transplanter.twin.serial_pots import check_placement
+
+    check_placement(load_scenario("serial_arm_pots"))  # the packaged placement reaches
+    far = load_scenario("serial_arm_pots", {"serial_pots.base_y_mm": -300})
+    with pytest.raises(ScenarioError, match=r"cannot reach the grasp of pickup column 1.*"
+                       r"l1\+l2=220\.0 mm.*serial_pots\.base_x_mm"):  # fmt: skip
+        check_placement(far)
+    behind = load_scenario("serial_arm_pots", {"serial_pots.base_y_mm": 200})
+    with pytest.raises(ScenarioError, match="release over the drop tube.*theta1"):
+        run_serial_pots(behind, 1)  # refused before anything is built
+    status = cli.main(["trial", "serial_arm_pots", "--seedlings", "1",
+                       "--set", "serial_pots.base_y_mm=-300"])  # fmt: skip
+    assert status == 2
+    assert "scenario refused" in capsys.readouterr().err

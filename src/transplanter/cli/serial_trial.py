@@ -134,6 +134,13 @@ def run_trial(
         if record_path is not None:
             _err("--record: not available for the serial arm's pot job (docs/serial_arm.md)")
             return EXIT_REFUSED
+        from transplanter.twin.serial_pots import check_placement
+
+        try:
+            check_placement(scenario)
+        except ScenarioError as exc:
+            _err(f"scenario refused: {exc}")
+            return EXIT_REFUSED
         return _run_pots(args, scenario, seeds, json_path)
     results, outputs = [], []
     for seed in seeds:

@@ -113,6 +113,56 @@ def pitch_release(kin, grasp, over, lowest_y: float, max_tilt_rad: float) -> np.
     return np.array([float(over[0]), hi, float(over[2])])
 
 
+PLACEMENT_KEYS = "serial_pots.base_x_mm, base_y_mm, base_z_mm, base_yaw_deg"
+
+
+def check_placement(sc) -> None:
+    """ScenarioError naming the placement keys when the arm on its pedestal cannot reach a
+    pickup cell, the hover point above it, or a release over the drop tube at the grasp's
+    pitch (the arm's reach, base-axis radius and joint windows: `Serial4Kinematics.check`);
+    nothing is built or run."""
+    from transplanter.machine.kinematics.serial4 import Serial4Kinematics
+    from transplanter.scenario.schema import ScenarioError
+    from transplanter.scene.geometry import cell_columns_x
+
+    job = sc.serial_pots
+    line = line_config(sc)
+    kin = Serial4Kinematics.from_scenario(sc)
+    base, yaw = (job.base_x_m, job.base_y_m, job.base_z_m), job.base_yaw_rad
+    where = f"the arm's base at ({', '.join(f'{1e3 * v:g}' for v in base)}) mm, yaw " \
+        f"{math.degrees(yaw):g} deg"  # fmt: skip
+    up = np.array([0.0, sc.serial_arm.hover_m, 0.0])
+    for col, x in enumerate(cell_columns_x(line)):
+        grasp = world_to_paper(np.array([x, line.pickup_row_y_m, job.grasp_z_m]), base, yaw)
+        report = kin.check(np.stack([grasp, grasp + up]))
+        for point, ok, why in zip(("the grasp", "the hover point above it"), report.ok,
+                                  report.reasons, strict=True):  # fmt: skip
+            if not ok:
+                raise ScenarioError(
+                    f"{where} cannot reach {point} of pickup column {col + 1} "
+                    f"(x {1e3 * x:.1f} mm on the belt): {why}; move it ({PLACEMENT_KEYS}) "
+                    "or change [serial4] l1_mm, l2_mm"
+                )
+        top = line.funnel_top_z_m
+        over = world_to_paper(np.array([*line.drop_tube_xy_m, top]), base, yaw)
+        lowest = float(world_to_paper(np.array([0.0, 0.0, top + job.release_gap_m
+                                                + job.grasp_z_m]), base, yaw)[1])  # fmt: skip
+        try:
+            release = pitch_release(kin, grasp, over, lowest, job.release_tilt_rad)
+        except ValueError as exc:
+            raise ScenarioError(
+                f"{where} cannot release column {col + 1}'s pot over the drop tube: {exc}; "
+                f"move it ({PLACEMENT_KEYS})"
+            ) from None
+        report = kin.check(np.stack([release, release + up]))
+        if not report.ok.all():
+            why = next(r for r in report.reasons if r)
+            raise ScenarioError(
+                f"{where} cannot reach the release over the drop tube for column {col + 1}: "
+                f"{why}; move it ({PLACEMENT_KEYS})"
+            )
+
+
 def _scene(sc, seed: int):
     from transplanter.scene import serial_scene
     from transplanter.scene.geometry import cell_columns_x
@@ -245,6 +295,7 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     from transplanter.scene.conveyor import ConveyorDrive
     from transplanter.scene.geometry import cell_columns_x
 
+    check_placement(sc)
     wall0 = time.perf_counter()
     seed = sc.seed if seed is None else seed
     job, arm = sc.serial_pots, sc.serial_arm
