@@ -221,7 +221,8 @@ def test_ctrl_c_keeps_finished_runs_and_exits_130(tmp_path):
         [sys.executable, "-m", "transplanter.cli", "sweep", "paper", "--vary",
          "taught.z_low_mm=30:40:0.5", "--seeds", "1", "--seedlings", "2", "--out", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip  (21 runs: the sweep cannot finish while a loaded machine polls)
+    )  # fmt: skip
+    # 21 runs: the sweep cannot finish before a loaded machine's poll sees the first one
     runs = out / "runs.jsonl"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (runs.exists() and runs.read_text().count("\n")):
