@@ -125,3 +125,19 @@ def test_the_five_bar_trial_reports_its_drives_and_lifting_costs_work():
     assert np.isfinite(d["plants_per_hour"]) and d["plants_per_hour"] == pytest.approx(
         3600 / d["cycle_time_s"]
     )
+
+
+def test_the_peak_is_what_a_drive_gives_for_milliseconds_not_a_single_step():
+    model, data = _wheel()
+    meter = MotorMeter(model, ["spin"])
+    for k in range(400):
+        data.ctrl[0] = 1.0 if k == 10 else (0.3 if 100 <= k < 300 else 0.0)
+        mujoco.mj_step(model, data)
+        meter.record(data)
+    # a 1 ms spike of 1 N m through the 5 ms lag: 1 - exp(-1/5); a 200 ms push of 0.3: 0.3
+    assert meter.report().peak[0] == pytest.approx(0.3, rel=1e-3)
+    spike = MotorMeter(model, ["spin"])
+    data.ctrl[0] = 1.0
+    mujoco.mj_step(model, data)
+    spike.record(data)
+    assert spike.report().peak[0] == pytest.approx(-math.expm1(-0.2))
