@@ -55,8 +55,9 @@ class MotionConfig:
     """Start and stop speed of every move."""
     planner: str = "lines"
     """``lines``: G0 and G1 are straight lines. ``bspline5``: a G0 is a pick-and-place transfer
-    along the time-optimal quintic B-spline through the pick path's key points
-    (``machine.spline_motion``); G1 stays a straight line."""
+    along the time-optimal quintic B-spline through the pick path's key points (the delta)
+    or the ``M720`` via points before it (the five-bar) (``machine.spline_motion``); G1 stays
+    a straight line."""
     ee_accel_limit_m_s2: float = 8.83
     """The end effector's acceleration limit of a ``bspline5`` move (an estimate:
     ``planner_bspline.EE_ACCEL_LIMIT_M_S2``)."""
