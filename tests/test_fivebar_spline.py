@@ -39,6 +39,12 @@ def test_the_five_bar_declares_joint_limits_from_its_drives():
     assert limits.names == ("arm1", "arm2", "z") and limits.ee_accel_m_s2 == pytest.approx(4.5)
     custom = load_scenario("paper", {"drives.arm_speed_limit_deg_s": 300.0})
     assert math.degrees(FiveBarKinematics.from_scenario(custom).joint_speed_limits[1]) == 300.0
+    # the jaws' limit is the [gripper]'s, not the delta's [motion] one
+    other = {"motion.planner": "bspline5", "motion.ee_accel_limit_mm_s2": 2000.0}
+    assert spline_limits(KIN, machine_config(load_scenario("paper", other)).sgf.motion) == limits
+    other["gripper.carry_accel_limit_mm_s2"] = 3000.0
+    carried = spline_limits(KIN, machine_config(load_scenario("paper", other)).sgf.motion)
+    assert carried.ee_accel_m_s2 == pytest.approx(3.0)
 
 
 def test_a_speed_limit_above_the_step_rate_is_refused_naming_the_fix():

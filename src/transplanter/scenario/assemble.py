@@ -245,6 +245,7 @@ def _machine(s: Scenario) -> Machine:
         compute_time_per_point_s=mot.compute_time_per_point_s,
         planner=mot.planner,
         ee_accel_limit_m_s2=mot.ee_accel_limit_m_s2,
+        carry_accel_limit_m_s2=grip.carry_accel_limit_m_s2,
     )
     sgf = SGFConfig(
         kinematics=kinematics,

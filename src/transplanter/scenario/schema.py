@@ -538,6 +538,13 @@ class GripperSection:
     open_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
     close_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
     release_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
+    carry_accel_limit_m_s2: float = key(
+        "float",
+        100,
+        1e6,
+        doc="bspline5: the jaws' acceleration limit on the five-bar's spline transfer, which "
+        "carries the seedling (its shoot bends more above it)",
+    )
 
 
 @dataclass(frozen=True)
@@ -946,6 +953,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "homing_locate_rate_hz": 500.0,
     },
     "motion": {"planner": "lines", "ee_accel_limit_mm_s2": 8830.0},
+    "gripper": {"carry_accel_limit_mm_s2": 4500.0},  # docs/planner.md, The five-bar
     "drives": {  # the five-bar's bspline5 limits (machine.kinematics.fivebar, docs/planner.md)
         "arm_speed_limit_deg_s": 712.5,
         "arm_accel_limit_deg_s2": 25000.0,
