@@ -188,3 +188,33 @@ def test_a_short_trial_with_bspline5_saves_the_lines_time_less_the_splines():
     # 1-3) less its spline (0.487, 0.367, 0.311 s), the handshakes the same
     np.testing.assert_allclose(lines.cycle_times - spline.cycle_times, [0.598, 0.463, 0.384],
                                atol=0.01)  # fmt: skip
+
+
+def test_the_preflight_refuses_a_taught_transfer_the_spline_cannot_make():
+    from transplanter.scenario.preflight import TaughtRefused, check_machine
+
+    first = dataclasses.replace(SPLINE.eeprom.pickups[0], approach_xy_m=(-0.160, 0.100))
+    eeprom = dataclasses.replace(SPLINE.eeprom, pickups=(first, *SPLINE.eeprom.pickups[1:]))
+    check_machine(dataclasses.replace(LINES, eeprom=eeprom))  # straight lines can
+    with pytest.raises(TaughtRefused, match=r"bspline5 transfer .* arm1 to 235\.9\d+ deg") as info:
+        check_machine(dataclasses.replace(SPLINE, eeprom=eeprom))
+    assert info.value.key == "taught.pickup[0]" and info.value.pickup == 0
+    assert "motion.planner = 'lines'" in str(info.value)
+
+
+def test_a_via_point_where_the_arm_is_merges_and_its_servo_acts_at_the_start():
+    sgf, link = _homed(SPLINE.sgf)
+    sgf.drain_servo_commands()
+    assert link.send("M720 X-90 Y215 Z60") == ["ok"]  # where the arm is
+    assert link.send("M280 P1 S120") == ["ok"]
+    assert link.send("M720 X0 Y140 Z60") == ["ok"]  # the target itself
+    t0 = link.t
+    assert link.send("G0 X0 Y140 Z60") == ["ok"]
+    two = plan_via_move(KIN, POINTS[[0, 2]], spline_limits(KIN, SPLINE.sgf.motion))
+    assert link.t - t0 == pytest.approx(two.total_s, abs=1e-3)
+    [(t_servo, servo, deg)] = sgf.drain_servo_commands()
+    assert (servo, deg, t_servo) == (1, 120.0, pytest.approx(t0, abs=1e-9))
+    # a G0 to where the arm is, through a via point there, is a line of no length
+    assert link.send("M720 X0 Y140") == ["ok"]
+    assert link.send("G0 X0 Y140 Z60") == ["ok"]
+    np.testing.assert_allclose(sgf.position_xyz, POINTS[2], atol=1e-12)

@@ -246,6 +246,7 @@ class SGF:
         # servo commands (via index, servo, deg) that act when the spline passes that via
         self._vias: list[np.ndarray] = []
         self._via_servos: list[tuple[int, int, float]] = []
+        self._via_nodes: list[int] = []
         self.killed_at: float | None = None
         """When an M112 stopped the machine; None once a G28 has homed it again."""
         self.stalls: list[tuple[float, int]] = []
@@ -648,9 +649,10 @@ class SGF:
                 raise GcodeError(ErrorCode.LIMIT_SWITCH_CLOSED, self._hard_limit(axis, switch))
         config = self.config
         try:
+            move = None
             if command == "G0" and (self._vias or self.spline_transfer(self._position, target)):
-                move = self._plan_transfer(target)
-            else:
+                move = self._plan_transfer(target)  # None: every via point is where it is
+            if move is None:
                 move = plan_line(
                     self._logical, self._position, target, speed_m_s, kinematics, config.motion
                 )
@@ -677,10 +679,13 @@ class SGF:
         job.move = move
         job.target_xyz = target
         job.t_done = job.t_start + move.duration_s
-        if move.spline_plan is not None and self._via_servos:
-            node_times = np.cumsum(move.spline_plan.intervals_s)
+        if self._via_servos:  # each at the time the spline passes its via point
+            node_times = [0.0]
+            if move.spline_plan is not None:
+                node_times += [float(t) for t in np.cumsum(move.spline_plan.intervals_s)]
             for via, servo, deg in self._via_servos:
-                self._servo_commands.append((job.t_start + float(node_times[via]), servo, deg))
+                node = self._via_nodes[via + 1] if move.spline_plan is not None else 0
+                self._servo_commands.append((job.t_start + node_times[node], servo, deg))
         self._clear_vias()
         t0, t_done = job.t_start, job.t_done
         raw0 = self._raw.copy()
@@ -732,7 +737,21 @@ class SGF:
             return False
         return bool(np.hypot(*(np.asarray(target)[:2] - np.asarray(start)[:2])) >= 1e-6)
 
-    def _plan_transfer(self, target: np.ndarray) -> PlannedMove:
+    def _transfer_points(self, target: np.ndarray) -> np.ndarray:
+        """The distinct points of a via transfer: where the arm is, the via points, the
+        target, each within 1 um of the one before merged into the later one (the start
+        kept exact); ``_via_nodes[i]`` is the node point i became (0 the start)."""
+        kept, nodes = [self._position], [0]
+        for p in [*self._vias, target]:
+            if np.linalg.norm(p - kept[-1]) >= 1e-6:
+                kept.append(p)
+            elif len(kept) > 1:
+                kept[-1] = p
+            nodes.append(len(kept) - 1)
+        self._via_nodes = nodes
+        return np.vstack(kept)
+
+    def _plan_transfer(self, target: np.ndarray) -> PlannedMove | None:
         # imported here: scipy's optimiser is only loaded by a machine that runs splines
         from transplanter.machine.planner_bspline import MoveRefused
         from transplanter.machine.spline_motion import (
@@ -744,7 +763,9 @@ class SGF:
         kinematics, motion = self.config.kinematics, self.config.motion
         try:
             if via_transfers(kinematics):
-                points = np.vstack([self._position, *self._vias, target])
+                points = self._transfer_points(target)
+                if len(points) < 2:
+                    return None
                 return plan_via_transfer(self._logical, points, kinematics, motion)
             return plan_spline_move(self._logical, self._position, target, kinematics, motion)
         except MoveRefused as error:
