@@ -228,6 +228,13 @@ def robot_kinematics(s: Scenario) -> Kinematics:
     return cls.from_scenario(s)
 
 
+def _via_transfers(kinematics: Kinematics) -> bool:
+    # imported here: scipy's optimiser is only loaded by a machine that runs splines
+    from transplanter.machine.spline_motion import via_transfers
+
+    return via_transfers(kinematics)
+
+
 def _machine(s: Scenario) -> Machine:
     mot, grip = s.motion, s.gripper
     kinematics = robot_kinematics(s)
@@ -238,6 +245,7 @@ def _machine(s: Scenario) -> Machine:
         compute_time_per_point_s=mot.compute_time_per_point_s,
         planner=mot.planner,
         ee_accel_limit_m_s2=mot.ee_accel_limit_m_s2,
+        carry_accel_limit_m_s2=grip.carry_accel_limit_m_s2,
     )
     sgf = SGFConfig(
         kinematics=kinematics,
@@ -261,6 +269,7 @@ def _machine(s: Scenario) -> Machine:
         stall_retries=s.recovery.stall_retries,
         stall_settle_s=s.recovery.stall_settle_s,
         reply_timeout_s=s.bus.reply_timeout_s,
+        spline_transfer=motion.planner == "bspline5" and _via_transfers(kinematics),
     )
     taught = s.taught
     taught_image = EepromImage(

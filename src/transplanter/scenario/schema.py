@@ -460,6 +460,16 @@ class DrivesSection:
         "float", 0.0, 10, doc="damping of the rotor against its field, unloaded rotor"
     )
     screw_efficiency: float = key("float", 0.01, 1.0, doc="lead screw efficiency")
+    arm_speed_limit_rad_s: float = key(
+        "float", 1, 1e5, doc="bspline5: each arm joint's speed limit (at most its step rate)"
+    )
+    arm_accel_limit_rad_s2: float = key(
+        "float", 1, 1e7, doc="bspline5: each arm joint's acceleration limit"
+    )
+    z_speed_limit_m_s: float = key(
+        "float", 0.1, 1e5, doc="bspline5: Z's speed limit (at most its step rate)"
+    )
+    z_accel_limit_m_s2: float = key("float", 1, 1e7, doc="bspline5: Z's acceleration limit")
     switch1_theta1_rad: float = key("float", -180, 360, doc="limit switch 1 trip angle")
     switch2_theta2_rad: float = key("float", -180, 360, doc="limit switch 2 trip angle")
     switch3_z_m: float = key("float", 0, 1000, doc="limit switch 3 (Z up) trip height")
@@ -489,7 +499,8 @@ class MotionSection:
         "str",
         choices=("lines", "bspline5"),
         doc="lines: G0 and G1 straight; bspline5: a G0 is a time-optimal quintic B-spline "
-        "transfer (lift, arc, top, arc, descent) under the arm's joint limits",
+        "transfer (the delta: lift, arc, top, arc, descent; the five-bar: lifted grip point, "
+        "retract point, drop point) under the arm's joint limits",
     )
     ee_accel_limit_m_s2: float = key(
         "float", 100, 1e6, doc="end-effector acceleration limit of a bspline5 transfer"
@@ -527,6 +538,13 @@ class GripperSection:
     open_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
     close_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
     release_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
+    carry_accel_limit_m_s2: float = key(
+        "float",
+        100,
+        1e6,
+        doc="bspline5: the jaws' acceleration limit on the five-bar's spline transfer, which "
+        "carries the seedling (its shoot bends more above it)",
+    )
 
 
 @dataclass(frozen=True)
@@ -952,6 +970,13 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "homing_locate_rate_hz": 500.0,
     },
     "motion": {"planner": "lines", "ee_accel_limit_mm_s2": 8830.0},
+    "gripper": {"carry_accel_limit_mm_s2": 4500.0},  # docs/planner.md, The five-bar
+    "drives": {  # the five-bar's bspline5 limits (machine.kinematics.fivebar, docs/planner.md)
+        "arm_speed_limit_deg_s": 712.5,
+        "arm_accel_limit_deg_s2": 25000.0,
+        "z_speed_limit_mm_s": 47.5,
+        "z_accel_limit_mm_s2": 25000.0,
+    },
     "delta_refill": {
         "image_delay_ms": 2000.0,
         "pose_judgement": True,

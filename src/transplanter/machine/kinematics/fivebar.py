@@ -444,6 +444,22 @@ def _wrap_pi(angle):
 SWITCH_NAMES = ("arm 1 home", "arm 2 home", "Z up", "Z down")
 """What each limit switch 1-4 is for (switches 1-3 home the axes; 4 is Z's lower hard limit)."""
 
+JOINT_SPEED_LIMITS = (math.radians(712.5), math.radians(712.5), 0.0475)
+"""Default joint speed limits of a ``bspline5`` transfer (arm 1, arm 2 in rad/s; Z in m/s):
+95 % of what the SGF's 20 kHz step rate allows the default drives (9600 microsteps per arm
+revolution: 750 deg/s; 400 microsteps per mm of Z: 50 mm/s), below the pull-out curve's
+corner (8 rev/s at the motor: 960 deg/s at the arm, 64 mm/s on Z). docs/planner.md."""
+JOINT_ACCEL_LIMITS = (math.radians(25000.0), math.radians(25000.0), 25.0)
+"""Default joint acceleration limits (rad/s^2, rad/s^2, m/s^2), estimates from half the
+pull-out torque (0.225 N m at the motor: a load angle of a third of a full step): the arm's
+0.675 N m less what an 80 g pot, the jaws and the passive links (0.283 kg at C) take at the
+8.83 m/s^2 end-effector limit through the largest Jacobian column of the workspace
+(0.127 m/rad: 0.316 N m), over an arm's own inertia (rotor through the belt 4.9e-5, active
+link 2.9e-4, half a passive link at the elbow 4.3e-4: 7.7e-4 kg m^2): 467 rad/s^2 = 26 700
+deg/s^2; Z: 177 N at the slide less 14 N of weight and 25 N of screw friction over 4.8 kg
+(the slide's 1.46 kg and the rotor's 3.33 kg through the screw): 28.6 m/s^2. Rounded down.
+docs/planner.md."""
+
 
 @dataclass(frozen=True)
 class FiveBarKinematics(Kinematics):
@@ -473,6 +489,16 @@ class FiveBarKinematics(Kinematics):
     """Lowest Z a move may target (limit switch 4, Z down, trips there)."""
     z_max_m: float = 0.160
     """Highest Z a move may target."""
+    joint_speed_limits: tuple[float, float, float] = JOINT_SPEED_LIMITS
+    """Joint speed limits of a ``bspline5`` transfer (arm 1, arm 2 in rad/s, Z in m/s); a
+    ``bspline5`` machine refuses one above what its drive's step rate allows
+    (``spline_motion.spline_limits``)."""
+    joint_accel_limits: tuple[float, float, float] = JOINT_ACCEL_LIMITS
+    """Joint acceleration limits of a ``bspline5`` transfer (rad/s^2, rad/s^2, m/s^2)."""
+
+    transfer_path = "via"
+    """How ``motion.planner = "bspline5"`` moves this arm: a ``G0`` is a spline through the
+    via points the host sent before it (``M720``), not the delta's pick path."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.geometry, FiveBarGeometry):
@@ -493,6 +519,7 @@ class FiveBarKinematics(Kinematics):
                 f"the five-bar needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
             )
         object.__setattr__(self, "drives", drives)
+        self._check_joint_limits()
         homes = (self.home_theta1_rad, self.home_theta2_rad, self.home_z_m)
         windows = (*(self.limits.motor_window(m) for m in (1, 2)), (self.z_min_m, self.z_max_m))
         axes = tuple(
@@ -500,6 +527,18 @@ class FiveBarKinematics(Kinematics):
             for d, h, w, s in zip(drives, homes, windows, SWITCH_NAMES, strict=False)
         )
         object.__setattr__(self, "_axes", axes)
+
+    def _check_joint_limits(self) -> None:
+        for label in ("joint_speed_limits", "joint_accel_limits"):
+            values = tuple(getattr(self, label))
+            if len(values) != 3 or not all(
+                isinstance(v, int | float) and math.isfinite(v) and v > 0 for v in values
+            ):
+                raise ValueError(
+                    f"the five-bar's {label} must be 3 positive numbers (arm 1, arm 2, Z), "
+                    f"got {values!r}"
+                )
+            object.__setattr__(self, label, tuple(float(v) for v in values))
 
     _shown_coordinates = 2  # the plane's x and y: Z has its own range check
 
@@ -601,6 +640,8 @@ class FiveBarKinematics(Kinematics):
             home_z_m=drv.switch3_z_m,
             z_min_m=lim.z_min_m,
             z_max_m=lim.z_max_m,
+            joint_speed_limits=(drv.arm_speed_limit_rad_s,) * 2 + (drv.z_speed_limit_m_s,),
+            joint_accel_limits=(drv.arm_accel_limit_rad_s2,) * 2 + (drv.z_accel_limit_m_s2,),
         )
 
     @classmethod
