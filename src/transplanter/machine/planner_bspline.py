@@ -20,14 +20,15 @@ a common factor) the smallest feasible scale is therefore closed form (:func:`mi
 intervals (minimise their sum, every interval's peak / limit <= 1) twice, the second run from
 the first's result, then refines the result's sampled peaks and rescales it; the search's
 evaluations are batched and vectorised (the spline's pieces from the quintic Hermite form, the
-seven points of a finite-difference gradient at once: :class:`_Evaluator`); a Nelder-Mead search over the shape alone and a plain particle
-swarm (:func:`pso_search`) are kept for comparison (docs/planner.md). The joint speed,
+seven points of a finite-difference gradient at once: :class:`_Evaluator`); a Nelder-Mead
+search over the shape alone and a plain particle swarm (:func:`pso_search`) are kept for
+comparison (docs/planner.md). The joint speed,
 acceleration and jerk peaks are exact: on every interval each joint's spline is a quintic
 polynomial, and its derivatives' extrema are at the interval's ends or at the real roots of the
 next derivative (:func:`exact_peaks`). Torque and the end effector's acceleration are not
 polynomials in time: they are sampled on every interval during the search (the largest sample
 raised to the vertex of the parabola through its neighbours) and the final plan's peaks are
-refined by a bounded scalar maximisation around the largest sample. The yardstick
+refined by a zooming grid search around the largest sample. The yardstick
 :func:`toppra_total` is TOPP-RA (Pham and Pham 2018) along the same path.
 
 Pure numpy/scipy (the firmware side); written against the :class:`Kinematics` interface
@@ -416,7 +417,7 @@ def minimal_scale(
     """For intervals h, the smallest s such that the spline on s h meets each limit: speed
     max|q'| / V, accel sqrt(max|q''| / A) (exact peaks), end effector sqrt(max|X''| / a),
     torque from |G + D / s^2| <= tau at every sample (``refine``: each interval's largest
-    sample refined by a bounded scalar maximisation)."""
+    sample refined by a zooming grid search, :func:`_refine_batch`)."""
     spline = quintic_spline(nodes, intervals)
     peaks = exact_peaks(spline)
     s_v = float(peaks["speed"].max()) / limits.joint_speed_rad_s
@@ -757,7 +758,7 @@ def _check_joint_windows(kinematics: Kinematics, nodes, intervals) -> None:
 
 def _peaks_of(kinematics, nodes, h, limits) -> dict[str, np.ndarray]:
     """Exact speed, accel and jerk peaks; torque and end-effector peaks per interval from 400
-    samples each, refined by a bounded maximisation around the largest."""
+    samples each, refined by a zooming grid search around the largest."""
     spline = quintic_spline(nodes, h)
     out = exact_peaks(spline)
     d1, d2 = spline.derivative(1), spline.derivative(2)
