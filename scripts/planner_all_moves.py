@@ -341,7 +341,7 @@ def main() -> None:
     parser.add_argument("--out", default=str(ROOT / "results" / "planner_all_moves.csv"))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-moves", type=int, default=None, help="stop after N (resume later)")
-    parser.add_argument("--flush", type=int, default=50, help="rewrite the file every N moves")
+    parser.add_argument("--flush", type=int, default=100, help="rewrite the file every N moves")
     parser.add_argument("--no-symmetry", action="store_true", help="plan all 16 384 directly")
     parser.add_argument("--report", action="store_true", help="only summarise the file")
     parser.add_argument("--verify-mirror", type=int, default=0, metavar="N")
