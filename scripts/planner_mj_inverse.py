@@ -7,7 +7,8 @@ limits; along the planned spline, the three actuated joints' torques by ``mj_inv
 delta model (transplanter.scene.delta_inverse: the closed chain's state from the arms' motion,
 the torques by virtual work) and by ``DeltaKinematics.inverse_dynamics`` (Eq. 9). The same for
 the move planned with the end effector left free (the torque limit binds), to see whether the
-planner's 12 N m on Eq. 9 keeps MuJoCo's torques under 12 N m.
+planner's 12 N m on Eq. 9 keeps MuJoCo's torques under 12 N m, and for the longest tray move
+(corner to far corner), whose Eq. 9 torque comes nearest the limit of the tray moves.
 
     python scripts/planner_mj_inverse.py [--samples 801] [--no-plot]
 
@@ -29,10 +30,12 @@ ROOT = Path(__file__).resolve().parents[1]
 MM = 1e-3
 START = np.array([200.0, 200.0, -800.0]) * MM
 END = np.array([250.0, -175.0, -800.0]) * MM
+LONGEST_FROM = np.array([-265.3125, -285.125, -800.0]) * MM
+LONGEST_TO = np.array([265.3125, 285.125, -800.0]) * MM
 
 
-def compare(kin, inv, limits, samples: int) -> dict:
-    plan = pb.plan_move(kin, START, END, limits)
+def compare(kin, inv, limits, samples: int, start=START, end=END) -> dict:
+    plan = pb.plan_move(kin, start, end, limits)
     spline = plan.spline()
     t = np.linspace(0.0, plan.total_s, samples)
     q, qd, qdd = spline(t), spline(t, nu=1), spline(t, nu=2)
@@ -122,6 +125,9 @@ def main() -> None:
     report("the paper's example", example)
     free = compare(kin, inv, pb.MoveLimits.of(kin, ee_accel_m_s2=1000.0), args.samples)
     report("the same move, end effector free", free)
+    # the longest tray move (corner to far corner, docs/planner.md), the largest Eq. 9 peak
+    longest = compare(kin, inv, limits, args.samples, LONGEST_FROM, LONGEST_TO)
+    report("the longest tray move", longest)
     if not args.no_plot:
         plot(example, free, ROOT / "docs" / "img" / "planner_mj_inverse.png")
 
