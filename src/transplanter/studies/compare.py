@@ -249,7 +249,7 @@ def _fmt(v: Any, spec: str) -> str:
 def format_table(rows: Sequence[Mapping[str, Any]], floor: float) -> str:
     """The comparison as text (what `compare` prints and writes to compare.txt)."""
     head = (
-        f"{'#':>2}  {'scenario':<20} {'robot':<8} {'effector':<13} {'job':<13} "
+        f"{'#':>2}  {'scenario':<22} {'robot':<8} {'effector':<13} {'job':<13} "
         f"{'success':>13} {'95 % CI':>13} "
         f"{'cycle s':>7} {'plants/h':>8} {'damage':>7} {'torque':>7} {'J/seedl.':>8} "
         f"{'W':>6} {'drives $':>8} {'$/(pl/h)':>8}"
@@ -265,7 +265,7 @@ def format_table(rows: Sequence[Mapping[str, Any]], floor: float) -> str:
         ci = "-" if r["ci95"] is None else f"{100 * r['ci95'][0]:.1f}-{100 * r['ci95'][1]:.1f} %"
         damage = "-" if r["damage_rate"] is None else f"{100 * r['damage_rate']:.1f} %"
         lines.append(
-            f"{r['rank']:>2}  {r['scenario'][:20]:<20} {r['robot']:<8} {r['effector'][:13]:<13} "
+            f"{r['rank']:>2}  {r['scenario'][:22]:<22} {r['robot']:<8} {r['effector'][:13]:<13} "
             f"{r['workcell'][:13]:<13} {success:>13} {ci:>13} "
             f"{_fmt(r['cycle_time_s'], '.3f'):>7} {_fmt(r['plants_per_hour'], '.0f'):>8} "
             f"{damage:>7} {_fmt(r['peak_motor_torque_nm'], '.3f'):>7} "
