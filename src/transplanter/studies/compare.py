@@ -390,10 +390,9 @@ def plot_compare(rows: Sequence[Mapping[str, Any]], floor: float, path: Path) ->
     """compare.png: plants per hour, pooled success with its interval and the floor, cycle,
     and the drives' energy per seedling, one bar per scenario in rank order (hatched: below
     the floor). Written atomically."""
-    import matplotlib
+    from transplanter.studies.plots import _pyplot, _save
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
 
     names = [f"{r['rank']}. {r['scenario']}" for r in rows]
     hatch = ["" if r["meets_floor"] else "//" for r in rows]
@@ -438,13 +437,4 @@ def plot_compare(rows: Sequence[Mapping[str, Any]], floor: float, path: Path) ->
         f"{len(rows)} machine(s) on their jobs, {which} each; hatched: pooled success below "
         f"the {100 * floor:g} % floor"
     )
-    tmp = fileio.temp_beside(path)
-    try:
-        fig.savefig(tmp, format="png", dpi=110)
-    except BaseException:
-        fileio.discard(tmp)
-        raise
-    finally:
-        plt.close(fig)
-    fileio.commit(tmp, path, follow=False)
-    return path
+    return _save(fig, path)
