@@ -198,3 +198,16 @@ def test_a_job_that_keeps_its_bodies_awake_refuses_sleep(scenario, extra, capsys
     status = cli.main(["trial", scenario, "--set", "physics.sleep=true", *extra])
     assert status == 2
     assert "physics.sleep = true" in capsys.readouterr().err
+
+
+def test_a_motion_key_set_for_the_serial_arm_is_refused_not_ignored(capsys):
+    from transplanter.scenario.schema import ScenarioError
+    from transplanter.twin.serial_arm import require_own_motion, run_pick_place
+
+    require_own_motion(load_scenario("serial_arm"), "x")  # the file's own [motion]: fine
+    sc = load_scenario("serial_arm", {"motion.accel_mm_s2": 2000, "serial_arm.hover_mm": 30})
+    with pytest.raises(ScenarioError, match=r"motion\.accel_mm_s2: the serial arm's pick.*"
+                       r"\[serial_arm\] travel_speed_mm_s"):  # fmt: skip
+        run_pick_place(sc, 1)
+    assert cli.main(["trial", "serial_arm_pots", "--set", "motion.planner=bspline5"]) == 2
+    assert "does not read [motion]" in capsys.readouterr().err

@@ -123,10 +123,12 @@ def run_trial(
         return EXIT_REFUSED
     from transplanter.machine.servo_drives import frame_steps
     from transplanter.scenario.assemble import require_awake
+    from transplanter.twin.serial_arm import require_own_motion
 
     try:
         frame_steps(scenario.physics.timestep_s)
         require_awake(scenario, "the serial arm's trial")
+        require_own_motion(scenario, "the serial arm's trial")
     except ValueError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
@@ -183,12 +185,13 @@ def _preflight(scenario, args: argparse.Namespace) -> None:
     OpenGL context can be made (video.RenderRefused, video.GLUnavailable)."""
     from transplanter.machine.servo_drives import frame_steps
     from transplanter.scenario.assemble import require_awake
-    from transplanter.twin.serial_arm import _compile, _scene
+    from transplanter.twin.serial_arm import _compile, _scene, require_own_motion
     from transplanter.viewing import video
 
     try:
         frame_steps(scenario.physics.timestep_s)
         require_awake(scenario, "the serial arm's trial")
+        require_own_motion(scenario, "the serial arm's trial")
     except ValueError as exc:
         raise video.RenderRefused(str(exc)) from None
     spec, cfg = _scene(scenario, "pool_to_belt", tomatoes=0)

@@ -74,6 +74,7 @@ __all__ = [
     "run_gripper_cases",
     "run_pick_place",
     "run_serial_arm",
+    "require_own_motion",
     "run_targets",
 ]
 
@@ -495,11 +496,28 @@ class TargetRow:
         }
 
 
+def require_own_motion(sc, job: str) -> None:
+    """The serial arm's controller takes its motion from `[serial_arm]` (speeds, path
+    acceleration, grid, IK time); `[motion]` is the five-bar's and the delta's. A `--set
+    motion.*` given for a serial job is refused (ScenarioError naming the keys and the ones
+    to use), never ignored."""
+    from transplanter.scenario.schema import ScenarioError
+
+    given = [k for k, _ in sc.overrides if k.split(".", 1)[0] == "motion"]
+    if given:
+        raise ScenarioError(
+            f"{', '.join(given)}: {job} does not read [motion] (the five-bar's and the "
+            "delta's controllers do); its motion is [serial_arm] travel_speed_mm_s, "
+            "approach_speed_mm_s, path_accel_mm_s2, segment_mm, point_time_us"
+        )
+
+
 def run_targets(sc, seed: int | None = None) -> tuple[list[TargetRow], str | None, bool]:
     """The paper's ten targets on the arm alone (no workcell): G28 to the standby pose, then
     for each target a G1 there, M400, the settle dwell, the grip centre and joints measured,
     back to standby."""
     require_awake(sc, "the serial arm's targets")
+    require_own_motion(sc, "the serial arm's targets")
     seed = sc.seed if seed is None else seed
     job = sc.serial_arm
     spec, cfg = _scene(sc, None, seed=seed)
@@ -604,6 +622,7 @@ def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], s
     both sensors, runs the controller and sends its angle; the gripper's reached angle is
     measured after the grip dwell."""
     require_awake(sc, "the serial arm's gripper bench")
+    require_own_motion(sc, "the serial arm's gripper bench")
     from transplanter.scene.workcells import pool_to_belt
 
     seed = sc.seed if seed is None else seed
@@ -812,6 +831,7 @@ def run_pick_place(
     reads the state; it is told the tomato in progress, the controller's output and the
     squeeze)."""
     require_awake(sc, "the serial arm's pick and place")
+    require_own_motion(sc, "the serial arm's pick and place")
     from transplanter.scene.workcells import pool_to_belt
 
     seed = sc.seed if seed is None else seed

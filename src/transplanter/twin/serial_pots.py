@@ -48,6 +48,7 @@ from transplanter.twin.serial_arm import (
     _Wait,
     grasp_items,
     release_items,
+    require_own_motion,
     world_to_paper,
 )
 
@@ -292,6 +293,7 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     """`scenario.seedlings` pots of the scenario's pot line (seed `seed`, default the
     scenario's), picked row by row into the drop tube (module docstring)."""
     require_awake(sc, "the serial arm's pot job")
+    require_own_motion(sc, "the serial arm's pot job")
     from transplanter.scene.conveyor import ConveyorDrive
     from transplanter.scene.geometry import cell_columns_x
 
