@@ -29,9 +29,9 @@ so a resumed run gives the same rows, bit for bit, as one without a break.
 
 ``--report`` (also run at the end of a complete run) writes the summary (count within the
 limits, max, histogram, timing) to docs/data/planner_all_moves.json and the histogram to
-docs/img/planner_all_moves.png, from whatever rows the file holds. ``--toppra N`` adds
-TOPP-RA's optimum along the path (Pham and Pham 2018) for a seeded sample of N planned moves
-to a second file (about 2 s a move).
+docs/img/planner_all_moves.png, from whatever rows the file holds. Each planned move also
+gets TOPP-RA's optimum along its path (Pham and Pham 2018; `planner_bspline.toppra_total`,
+about 0.13 s a move) and the ratio of the plan's total to it (``--no-toppra``: plans only).
 """
 
 from __future__ import annotations
@@ -59,7 +59,8 @@ FIELDS = (
      "distance_mm", "total_s"]
     + [f"h{k}_s" for k in range(1, 7)]
     + ["binding", "speed_deg_s", "accel_deg_s2", "jerk_deg_s3", "torque_nm", "ee_accel_m_s2",
-       "within_limits", "evaluations", "cpu_s", "wall_s", "planned"]
+       "within_limits", "evaluations", "cpu_s", "wall_s", "planned", "toppra_total_s", "ratio",
+       "toppra_cpu_s"]
 )  # fmt: skip
 
 
@@ -110,11 +111,18 @@ def move_order(seed: int, symmetry: bool) -> list[tuple[int, int]]:
     return list(dict.fromkeys(first + rest))
 
 
-def plan_row(kin, limits, move: tuple[int, int]) -> dict:
+def plan_row(kin, limits, move: tuple[int, int], toppra: bool = True) -> dict:
+    """The move's plan and, with ``toppra``, TOPP-RA's optimum along its path (its CPU time
+    apart from the plan's)."""
     i, j = move
     wall, cpu = time.perf_counter(), time.process_time()
     plan = pb.plan_move(kin, SUPPLY[i], PLANTING[j], limits)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+    topp, topp_cpu = "", ""
+    if toppra:
+        topp_cpu = time.process_time()
+        topp = pb.toppra_total(kin, plan.nodes, plan.intervals_s, limits)
+        topp_cpu = time.process_time() - topp_cpu
     peaks = plan.peaks
     row = {
         "supply": i,
@@ -131,6 +139,9 @@ def plan_row(kin, limits, move: tuple[int, int]) -> dict:
         "cpu_s": cpu,
         "wall_s": wall,
         "planned": "direct",
+        "toppra_total_s": topp,
+        "ratio": plan.total_s / topp if toppra else "",
+        "toppra_cpu_s": topp_cpu,
     }
     row["within_limits"] = within(row, limits)
     return _with_cells(row)
@@ -158,11 +169,17 @@ def _with_cells(row: dict) -> dict:
 
 
 def mirrored_row(row: dict) -> dict:
-    """The image move's row: the same peaks, the intervals reversed."""
+    """The image move's row: the same peaks, the intervals reversed, TOPP-RA's optimum the
+    same (its path is the image's run backwards: the same limits hold along it, so the same
+    fastest traversal; on the reversed grid TOPP-RA's discretised answer differs from the
+    original's by its gridding, measured by ``--verify-mirror``)."""
     i, j = image((int(row["supply"]), int(row["planting"])))
     h = np.array([float(row[f"h{k}_s"]) for k in range(6, 0, -1)])
-    out = dict(row, supply=i, planting=j, planned="mirror", cpu_s=0.0, wall_s=0.0)
+    out = dict(row, supply=i, planting=j, planned="mirror", cpu_s=0.0, wall_s=0.0,
+               toppra_cpu_s=0.0 if row.get("toppra_total_s") not in (None, "") else "")  # fmt: skip
     out.update({f"h{k + 1}_s": float(v) for k, v in enumerate(h)}, total_s=float(h.sum()))
+    if out.get("toppra_total_s") not in (None, ""):
+        out["ratio"] = out["total_s"] / float(out["toppra_total_s"])
     return _with_cells(out)
 
 
@@ -181,7 +198,7 @@ def write_rows(path: Path, rows: dict[tuple[int, int], dict]) -> None:
         writer = csv.DictWriter(f, fieldnames=FIELDS)
         writer.writeheader()
         for key in sorted(rows):
-            writer.writerow({k: _fmt(rows[key][k]) for k in FIELDS})
+            writer.writerow({k: _fmt(rows[key].get(k, "")) for k in FIELDS})
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
@@ -203,7 +220,7 @@ def run(args) -> None:
     print(f"{len(rows)} rows in {path}; planning {len(todo)} moves", flush=True)
     started, since = time.perf_counter(), 0
     for n, move in enumerate(todo, start=1):
-        row = plan_row(kin, limits, move)
+        row = plan_row(kin, limits, move, toppra=not args.no_toppra)
         rows[move] = row
         if not args.no_symmetry and image(move) != move:
             rows[image(move)] = mirrored_row(row)
@@ -229,40 +246,20 @@ def verify_mirror(args) -> None:
     planned = sorted(k for k, r in rows.items() if r["planned"] == "direct" and image(k) != k)
     rng = np.random.default_rng(args.seed + 1)
     pick = [planned[k] for k in rng.choice(len(planned), size=args.verify_mirror, replace=False)]
-    diffs = []
+    diffs, topp = [], []
     for move in pick:
-        twin = plan_row(kin, limits, image(move))
+        twin = plan_row(kin, limits, image(move), toppra=not args.no_toppra)
         diffs.append(float(twin["total_s"]) - float(rows[move]["total_s"]))
         print(f"{move} -> {image(move)}: {rows[move]['total_s']} vs {twin['total_s']}")
-    diffs = np.asarray(diffs)
-    print(
-        f"image planned directly - its twin: max {diffs.max():+.3e} s, min {diffs.min():+.3e} "
-        f"s, median |d| {np.median(np.abs(diffs)):.3e} s over {len(diffs)} moves"
-    )
-
-
-def toppra_sample(args) -> None:
-    kin = DeltaKinematics()
-    limits = pb.MoveLimits.of(kin)
-    rows = read_rows(Path(args.out))
-    planned = sorted(k for k, r in rows.items() if r["planned"] == "direct")
-    rng = np.random.default_rng(args.seed + 2)
-    pick = [planned[k] for k in rng.choice(len(planned), size=args.toppra, replace=False)]
-    out = []
-    for i, j in pick:
-        r = rows[(i, j)]
-        h = np.array([float(r[f"h{k}_s"]) for k in range(1, 7)])
-        nodes = pb.joint_nodes(kin, pb.key_points(SUPPLY[i], PLANTING[j]))
-        topp = pb.toppra_total(kin, nodes, h, limits)
-        out.append({"supply": i, "planting": j, "total_s": float(r["total_s"]),
-                    "toppra_total_s": topp, "ratio": float(r["total_s"]) / topp})  # fmt: skip
-    path = Path(args.out).with_name(Path(args.out).stem + "_toppra.json")
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(out, indent=1))
-    os.replace(tmp, path)
-    ratio = np.array([o["ratio"] for o in out])
-    print(f"spline / TOPP-RA over {len(out)} moves: min {ratio.min():.4f}, median "
-          f"{np.median(ratio):.4f}, max {ratio.max():.4f}; wrote {path}")  # fmt: skip
+        if twin["toppra_total_s"] != "" and rows[move].get("toppra_total_s", "") != "":
+            topp.append(float(twin["toppra_total_s"]) - float(rows[move]["toppra_total_s"]))
+    for name, d in (("plan", diffs), ("TOPP-RA", topp)):
+        if d:
+            d = np.asarray(d)
+            print(
+                f"{name}: image planned directly - its twin: max {d.max():+.3e} s, min "
+                f"{d.min():+.3e} s, median |d| {np.median(np.abs(d)):.3e} s over {len(d)} moves"
+            )
 
 
 def report(args) -> None:
@@ -284,6 +281,12 @@ def report(args) -> None:
     counts, _ = np.histogram(total, bins=edges)
     peak = {name: float(max(float(rows[k][name]) for k in keys))
             for name in ("speed_deg_s", "accel_deg_s2", "torque_nm", "ee_accel_m_s2")}  # fmt: skip
+    has_topp = [k for k in keys if rows[k].get("toppra_total_s", "") not in ("", None)]
+    topp = np.array([float(rows[k]["toppra_total_s"]) for k in has_topp])
+    ratio = np.array([float(rows[k]["ratio"]) for k in has_topp])
+    topp_cpu = np.array(
+        [float(rows[k]["toppra_cpu_s"]) for k in has_topp if rows[k]["planned"] == "direct"]
+    )
     summary = {
         "moves": len(keys),
         "planned_directly": len(direct),
@@ -307,6 +310,24 @@ def report(args) -> None:
         "wall_s_per_planned_move": {"median": float(np.median(wall)), "mean": float(wall.mean()),
                                     "max": float(wall.max()), "sum": float(wall.sum())},
     }  # fmt: skip
+    if len(has_topp):
+        low, high = has_topp[int(np.argmin(ratio))], has_topp[int(np.argmax(ratio))]
+        redges = np.round(np.arange(1.10, 1.20001, 0.01), 2)
+        rcounts, _ = np.histogram(ratio, bins=redges)
+        summary["toppra"] = {
+            "moves": len(has_topp),
+            "max_toppra_total_s": float(topp.max()),
+            "min_toppra_total_s": float(topp.min()),
+            "median_toppra_total_s": float(np.median(topp)),
+            "ratio_min": float(ratio.min()), "ratio_min_move": list(low),
+            "ratio_median": float(np.median(ratio)), "ratio_mean": float(ratio.mean()),
+            "ratio_max": float(ratio.max()), "ratio_max_move": list(high),
+            "ratio_outside_histogram": int(((ratio < redges[0]) | (ratio >= redges[-1])).sum()),
+            "ratio_histogram_edges": redges.tolist(),
+            "ratio_histogram_counts": rcounts.tolist(),
+            "cpu_s_per_planned_move": {"median": float(np.median(topp_cpu)),
+                                       "sum": float(topp_cpu.sum())},
+        }  # fmt: skip
     data = ROOT / "docs" / "data" / "planner_all_moves.json"
     data.parent.mkdir(parents=True, exist_ok=True)
     tmp = data.with_name(data.name + ".tmp")
@@ -320,15 +341,28 @@ def report(args) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4))
-    ax.hist(total, bins=np.arange(0.60, 1.40001, 0.01), color="C0",
+    fig, axes = plt.subplots(1, 2 if len(has_topp) else 1, figsize=(12 if len(has_topp) else 7, 4))
+    ax = axes[0] if len(has_topp) else axes
+    bins = np.arange(0.50, 1.40001, 0.01)
+    ax.hist(total, bins=bins, color="C0", alpha=0.8,
             label=f"quintic B-spline, {len(keys)} moves")  # fmt: skip
+    if len(has_topp):
+        ax.hist(topp, bins=bins, color="C2", alpha=0.6,
+                label=f"TOPP-RA on the same paths, {len(has_topp)} moves")  # fmt: skip
     ax.axvline(PAPER_LINE_S, color="r", ls="--", label=f"paper's bound {PAPER_LINE_S} s")
     ax.axvline(total.max(), color="k", ls=":", label=f"max {total.max():.4f} s")
     ax.set_xlabel("move time (s)")
     ax.set_ylabel("moves (0.01 s bins)")
     ax.set_title("Every supply -> planting cell move, default delta, a_ee 8.83 m/s^2")
     ax.legend(fontsize=8)
+    if len(has_topp):
+        axes[1].hist(ratio, bins=np.arange(1.10, 1.20001, 0.002), color="C1")
+        axes[1].axvline(np.median(ratio), color="k", ls=":",
+                        label=f"median {np.median(ratio):.4f}")  # fmt: skip
+        axes[1].set_xlabel("spline total / TOPP-RA total")
+        axes[1].set_ylabel("moves (0.002 bins)")
+        axes[1].set_title("The spline's price over the time-optimal traversal")
+        axes[1].legend(fontsize=8)
     fig.tight_layout()
     img = ROOT / "docs" / "img" / "planner_all_moves.png"
     fig.savefig(img, dpi=110)
@@ -345,15 +379,15 @@ def main() -> None:
     parser.add_argument("--no-symmetry", action="store_true", help="plan all 16 384 directly")
     parser.add_argument("--report", action="store_true", help="only summarise the file")
     parser.add_argument("--verify-mirror", type=int, default=0, metavar="N")
-    parser.add_argument("--toppra", type=int, default=0, metavar="N")
+    parser.add_argument(
+        "--no-toppra", action="store_true", help="plans only (no TOPP-RA yardstick: faster)"
+    )
     args = parser.parse_args()
     logging.disable(logging.WARNING)
     if args.report:
         report(args)
     elif args.verify_mirror:
         verify_mirror(args)
-    elif args.toppra:
-        toppra_sample(args)
     else:
         run(args)
 

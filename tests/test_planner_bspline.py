@@ -129,6 +129,52 @@ def test_toppra_is_no_slower_than_the_spline_along_its_own_path(plan):
     assert 1.0 < plan.total_s / topp < 1.3
 
 
+def test_toppra_batched_coefficients_equal_toppras_point_by_point(plan, monkeypatch):
+    """The delta's second-order constraints are evaluated over the whole grid in one call;
+    their coefficients are those of toppra's own loop over the grid points, and so is the
+    example's optimum."""
+    import toppra
+
+    spline = pb.quintic_spline(plan.nodes, plan.intervals_s)
+    end = float(np.sum(plan.intervals_s))
+
+    class Path(toppra.interpolator.AbstractGeometricPath):
+        def __call__(self, s, order=0):
+            return spline(np.asarray(s, dtype=np.float64), nu=order)
+
+        @property
+        def dof(self):
+            return 3
+
+        @property
+        def path_interval(self):
+            return np.array([0.0, end])
+
+    grid = np.linspace(0.0, end, 41)
+    tau = np.tile([-12.0, 12.0], (3, 1))
+    loop = toppra.constraint.SecondOrderConstraint.joint_torque_constraint(
+        KIN.inverse_dynamics, tau, np.zeros(3)
+    )
+    batched = pb._batched_second_order(toppra)(
+        KIN.inverse_dynamics, loop.constraint_F, loop.constraint_g, 3
+    )
+    for a, b in zip(
+        loop.compute_constraint_params(Path(), grid),
+        batched.compute_constraint_params(Path(), grid),
+        strict=True,
+    ):
+        if a is None:
+            assert b is None
+        else:
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12)
+    fast = pb.toppra_total(KIN, plan.nodes, plan.intervals_s, LIMITS)
+    monkeypatch.setattr(pb, "_batched_second_order", lambda t: t.constraint.SecondOrderConstraint)
+    assert fast == pytest.approx(
+        pb.toppra_total(KIN, plan.nodes, plan.intervals_s, LIMITS), abs=1e-12
+    )
+    assert fast == pytest.approx(0.7230, abs=2e-4)  # docs/planner.md
+
+
 def test_same_inputs_give_the_same_plan(plan):
     again = pb.plan_move(KIN, START, END, LIMITS)
     np.testing.assert_array_equal(again.intervals_s, plan.intervals_s)
