@@ -211,3 +211,13 @@ def test_a_motion_key_set_for_the_serial_arm_is_refused_not_ignored(capsys):
         run_pick_place(sc, 1)
     assert cli.main(["trial", "serial_arm_pots", "--set", "motion.planner=bspline5"]) == 2
     assert "does not read [motion]" in capsys.readouterr().err
+
+
+def test_a_motion_section_in_a_serial_scenario_file_is_refused_not_ignored(tmp_path, capsys):
+    """A user's file on the serial arm's pot job that writes [motion] (which its controller
+    does not read) is refused naming the keys, before anything runs."""
+    path = tmp_path / "mine.toml"
+    path.write_text('[scenario]\nbase = "serial_arm_pots"\n[motion]\naccel_mm_s2 = 3000.0\n')
+    assert cli.main(["trial", str(path), "--seedlings", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "motion.accel_mm_s2" in err and "remove the [motion] section" in err

@@ -30,6 +30,7 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "check_value",
+    "file_keys",
     "key_spec",
     "load_scenario",
     "parse_value",
@@ -1369,6 +1370,21 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     if base is None:
         return raw
     return _merge(_read_raw(_base_path(path, base), (*seen, path)), raw)
+
+
+def file_keys(scenario: Scenario, section: str) -> list[str]:
+    """The keys of `section` that the scenario's own file writes (not its `base` files: a
+    packaged job's base carries sections that job documents as unread), sorted; [] for a
+    scenario without a file. What a job that does not read a section refuses."""
+    if scenario.path is None:
+        return []
+    path = Path(scenario.path)
+    try:
+        raw = tomllib.loads(fileio.read_text_input(path, MAX_SCENARIO_BYTES, "scenario"))
+    except (fileio.FileRefused, tomllib.TOMLDecodeError) as exc:
+        raise ScenarioError(f"{path}: {exc}") from None
+    table = raw.get(section, {})
+    return sorted(table) if isinstance(table, dict) else []
 
 
 def _base_path(path: Path, base: Any) -> Path:

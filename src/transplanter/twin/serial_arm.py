@@ -500,15 +500,17 @@ def require_own_motion(sc, job: str) -> None:
     """The serial arm's controller takes its motion from `[serial_arm]` (speeds, path
     acceleration, grid, IK time); `[motion]` is the five-bar's and the delta's. A `--set
     motion.*` given for a serial job is refused (ScenarioError naming the keys and the ones
-    to use), never ignored."""
-    from transplanter.scenario.schema import ScenarioError
+    to use), never ignored; so is a `[motion]` section in the scenario's own file."""
+    from transplanter.scenario.schema import ScenarioError, file_keys
 
     given = [k for k, _ in sc.overrides if k.split(".", 1)[0] == "motion"]
+    given += [f"motion.{k}" for k in file_keys(sc, "motion") if f"motion.{k}" not in given]
     if given:
         raise ScenarioError(
             f"{', '.join(given)}: {job} does not read [motion] (the five-bar's and the "
             "delta's controllers do); its motion is [serial_arm] travel_speed_mm_s, "
-            "approach_speed_mm_s, path_accel_mm_s2, segment_mm, point_time_us"
+            "approach_speed_mm_s, path_accel_mm_s2, segment_mm, point_time_us: remove the "
+            "[motion] section from the scenario file and set those instead"
         )
 
 
