@@ -97,6 +97,15 @@ class TwinConfig:
 def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
     """The twin's configs for a scenario; with preflight, every taught point and move is
     checked first (ScenarioError naming the key)."""
+    require_kinds(
+        scenario,
+        "the five-bar's pot trial",
+        None,
+        "parallel_jaw",
+        "its jaws are drawn in the five-bar's own model, models/fivebar; the fuzzy gripper "
+        "runs on the serial arm (serial_arm, serial_arm_pots), the plug claws on the delta "
+        "(delta_refill)",
+    )
     machine = machine_config(scenario)
     if preflight:
         from transplanter.scenario.preflight import check_program
@@ -561,6 +570,26 @@ def vision_config(scenario: Scenario) -> VisionConfig:
         mount=mount,
         thresholds=thresholds,
     )
+
+
+def require_kinds(scenario, job: str, robot: str | None, effector: str, why: str) -> None:
+    """A job built for one robot and one effector refuses a scenario whose `[robot] kind` or
+    `[effector] kind` names another, rather than run its own and ignore the value (`why`:
+    what the job's scene and host are built around, and where the other kinds run);
+    ScenarioError naming the key. `robot` None: any robot (the job dispatches by it)."""
+    wrong = []
+    if robot is not None and scenario.robot.kind != robot:
+        wrong.append(f'robot.kind = "{scenario.robot.kind}"')
+    if scenario.effector.kind != effector:
+        wrong.append(f'effector.kind = "{scenario.effector.kind}"')
+    if wrong:
+        wanted = ([f'robot.kind = "{robot}"'] if robot is not None else []) + [
+            f'effector.kind = "{effector}"'
+        ]
+        raise ScenarioError(
+            f"{' and '.join(wrong)}: {job} runs {' with '.join(wanted)} only ({why}); "
+            f"set {' and '.join(wanted)}, or choose the scenario of the job that has yours"
+        )
 
 
 def require_awake(scenario, job: str) -> None:

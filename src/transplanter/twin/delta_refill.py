@@ -41,7 +41,7 @@ from transplanter.machine.kinematics.delta import DeltaKinematics
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.sgf import SGFConfig
-from transplanter.scenario.assemble import require_awake
+from transplanter.scenario.assemble import require_awake, require_kinds
 from transplanter.scene.delta_scene import (
     DeltaSceneConfig,
     JobCells,
@@ -455,6 +455,7 @@ def run_delta_refill(
     (GradingUnavailable without a GL context for the pipeline's pictures, GradingFailed for a
     picture it cannot grade)."""
     require_awake(sc, "the delta's tray job")
+    require_delta(sc)
     wall0 = time.perf_counter()
     seed = sc.seed if seed is None else seed
     job = sc.delta_refill
@@ -738,10 +739,26 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
     )
 
 
+def require_delta(sc) -> None:
+    """ScenarioError unless the scenario runs the delta with the plug claws: the tray job's
+    scene hangs the delta over the two 566 x 286 mm trays and the bin, and its host plans the
+    delta's transfers (docs/compare.md: neither the five-bar's nor the serial arm's
+    workspace covers the trays)."""
+    require_kinds(
+        sc,
+        "the plug-tray job",
+        "delta",
+        "plug_claws",
+        "its scene hangs the delta and its claws over two 566 x 286 mm trays and a bin; the "
+        "five-bar's and the serial arm's workspaces do not cover them (docs/compare.md)",
+    )
+
+
 def job_spec(sc, seed: int | None = None) -> mujoco.MjSpec:
     """The scene `run_delta_refill(sc, seed)` builds, as an MjSpec (`transplanter export`):
     the same scene config, trays and job cells, with the `home` keyframe set to its power-on
     state (arms, platform and claws)."""
+    require_delta(sc)
     seed = sc.seed if seed is None else seed
     kin = DeltaKinematics.from_scenario(sc)
     cfg = _scene_config(sc, kin)

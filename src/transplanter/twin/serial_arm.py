@@ -497,12 +497,23 @@ class TargetRow:
 
 
 def require_own_motion(sc, job: str) -> None:
-    """The serial arm's controller takes its motion from `[serial_arm]` (speeds, path
-    acceleration, grid, IK time); `[motion]` is the five-bar's and the delta's. A `--set
-    motion.*` given for a serial job is refused (ScenarioError naming the keys and the ones
-    to use), never ignored; so is a `[motion]` section in the scenario's own file."""
+    """A serial job runs the serial arm with its fuzzy gripper (another `[robot]` or
+    `[effector] kind` is refused, naming it). The arm's controller takes its motion from
+    `[serial_arm]` (speeds, path acceleration, grid, IK time); `[motion]` is the five-bar's
+    and the delta's. A `--set motion.*` given for a serial job is refused (ScenarioError
+    naming the keys and the ones to use), never ignored; so is a `[motion]` section in the
+    scenario's own file."""
+    from transplanter.scenario.assemble import require_kinds
     from transplanter.scenario.schema import ScenarioError, file_keys
 
+    require_kinds(
+        sc,
+        job,
+        "serial4",
+        "fuzzy_gripper",
+        "the arm's host drives the fuzzy gripper from its two ultrasonic sensors, attached at "
+        "the forearm's tool_mount",
+    )
     given = [k for k, _ in sc.overrides if k.split(".", 1)[0] == "motion"]
     given += [f"motion.{k}" for k in file_keys(sc, "motion") if f"motion.{k}" not in given]
     if given:
