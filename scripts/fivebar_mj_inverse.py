@@ -55,7 +55,7 @@ def row(name: str, r: dict) -> dict:
         "total_s": round(plan.total_s, 4),
         "binding": plan.binding,
         "peak_lumped_nm": round(float(np.abs(r["lumped"]).max()), 5),
-        "peak_mj_inverse_nm": round(float(np.abs(mj.torque).max()), 5),
+        "peak_mj_inverse_nm": round(float(np.abs(mj.torque).max()), 6),
         "max_diff_nm": round(float(np.abs(diff).max()), 5),
         "rms_diff_nm": round(float(np.sqrt(np.mean(diff**2))), 5),
         "damping_part_nm": round(float(np.abs(mj.damping).max()), 5),
