@@ -52,13 +52,17 @@ _FD_STEP = 1e-4  # the central differences' step in the joints (rad or m)
 @dataclass(frozen=True)
 class JointLimits:
     """Per-joint limits in each joint's SI unit (rad/s and rad/s^2 for a rotary joint, m/s
-    and m/s^2 for a slide) and the end effector's acceleration (m/s^2; None leaves it out).
-    ``names`` name the joints in refusals and in the binding limit."""
+    and m/s^2 for a slide), the end effector's acceleration (m/s^2; None leaves it out) and
+    the motor torque of the first ``len(torque_nm)`` joints (N m, as the kinematics'
+    ``inverse_dynamics`` gives it for those joints: the five-bar's arm motors at their
+    shafts; None leaves it out). ``names`` name the joints in refusals and in the binding
+    limit."""
 
     speed: tuple[float, ...]
     accel: tuple[float, ...]
     names: tuple[str, ...]
     ee_accel_m_s2: float | None = None
+    torque_nm: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         n = len(self.names)
@@ -76,6 +80,15 @@ class JointLimits:
         e = self.ee_accel_m_s2
         if e is not None and not (isinstance(e, int | float) and math.isfinite(e) and e > 0):
             raise ValueError(f"JointLimits.ee_accel_m_s2 must be positive or None, got {e!r}")
+        tau = self.torque_nm
+        if tau is not None and not (
+            0 < len(tau) <= n
+            and all(isinstance(v, int | float) and math.isfinite(v) and v > 0 for v in tau)
+        ):
+            raise ValueError(
+                f"JointLimits.torque_nm must be positive torques of the first 1-{n} joints or "
+                f"None, got {tau!r}"
+            )
 
 
 def _ee_accel(kinematics: Kinematics, q, qd, qdd) -> np.ndarray:
@@ -110,9 +123,18 @@ def _ee_peaks(kinematics: Kinematics, spline, per_interval: int) -> np.ndarray:
     return np.linalg.norm(xdd, axis=-1).max(axis=1)
 
 
+def _torque_peaks(kinematics: Kinematics, spline, per_interval: int, joints: int) -> np.ndarray:
+    """(intervals, joints) the largest sampled |torque| of each interval of the first
+    ``joints`` joints (the kinematics' ``inverse_dynamics``)."""
+    ts = _samples(spline, per_interval)
+    q, qd, qdd = (spline(ts, nu=k)[..., :joints] for k in (0, 1, 2))
+    return np.abs(kinematics.inverse_dynamics(q, qd, qdd)).max(axis=1)
+
+
 def via_usage(kinematics: Kinematics, nodes, intervals, limits: JointLimits, samples: int):
-    """(speed (intervals, n), accel (intervals, n), ee (intervals,)): each interval's peak
-    over its limit at the intervals as given (1 = at the limit; ee 0 without its limit)."""
+    """(speed (intervals, n), accel (intervals, n), ee (intervals,), torque (intervals, k)):
+    each interval's peak over its limit at the intervals as given (1 = at the limit; ee 0
+    without its limit; torque (intervals, 0) without its limits)."""
     spline = quintic_spline(nodes, intervals)
     peaks = exact_peaks(spline)
     speed = peaks["speed"] / np.asarray(limits.speed)
@@ -120,19 +142,34 @@ def via_usage(kinematics: Kinematics, nodes, intervals, limits: JointLimits, sam
     ee = np.zeros(len(intervals))
     if limits.ee_accel_m_s2 is not None:
         ee = _ee_peaks(kinematics, spline, samples) / limits.ee_accel_m_s2
-    return speed, accel, ee
+    torque = np.zeros((len(intervals), 0))
+    if limits.torque_nm is not None:
+        k = len(limits.torque_nm)
+        torque = _torque_peaks(kinematics, spline, samples, k) / np.asarray(limits.torque_nm)
+    return speed, accel, ee, torque
 
 
 def _scale(kinematics, nodes, h, limits, samples) -> tuple[str, float]:
     """(binding limit, smallest scale s) of the shape h: the joint speed usage scales as
-    1/s, the accelerations' as 1/s^2."""
-    speed, accel, ee = via_usage(kinematics, nodes, h, limits, samples)
+    1/s, the accelerations' and the torques' as 1/s^2 (the torque has no static part: the
+    five-bar's arms turn in a horizontal plane). A torque that is not finite (a sample at a
+    singular pose) is refused naming the joint torque."""
+    speed, accel, ee, torque = via_usage(kinematics, nodes, h, limits, samples)
     candidates = []
     for j, name in enumerate(limits.names):
         candidates.append((f"joint speed ({name})", float(speed[:, j].max())))
         candidates.append((f"joint acceleration ({name})", math.sqrt(float(accel[:, j].max()))))
     if limits.ee_accel_m_s2 is not None:
         candidates.append(("end-effector acceleration", math.sqrt(float(ee.max()))))
+    for j in range(torque.shape[1]):
+        usage = float(torque[:, j].max())
+        if not math.isfinite(usage):
+            raise MoveRefused(
+                "joint torque",
+                f"the {limits.names[j]} motor's torque along the spline is not finite (a "
+                "sample at a singular pose); move the via points away from the singularity",
+            )
+        candidates.append((f"joint torque ({limits.names[j]})", math.sqrt(usage)))
     return max(candidates, key=lambda c: c[1])
 
 
@@ -216,6 +253,8 @@ def plan_via_move(
     peaks = exact_peaks(spline)
     if limits.ee_accel_m_s2 is not None:
         peaks["ee_accel"] = _ee_peaks(kinematics, spline, _FINAL_SAMPLES)
+    if limits.torque_nm is not None:
+        peaks["torque"] = _torque_peaks(kinematics, spline, _FINAL_SAMPLES, len(limits.torque_nm))
     return MovePlan(
         points_m=pts,
         nodes=nodes,

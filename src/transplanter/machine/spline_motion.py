@@ -55,17 +55,27 @@ def spline_limits(kinematics: Kinematics, config: MotionConfig) -> MoveLimits | 
     """The limits a spline move is planned under: the arm's declared joint speed,
     acceleration (and torque, where it has inverse dynamics) and ``config``'s end-effector
     acceleration; per joint (``JointLimits``) for an arm with via transfers (the five-bar's
-    ``joint_speed_limits``, ``joint_accel_limits``, and ``config.carry_accel_limit_m_s2`` for
-    the end effector where it is given). ValueError naming what is missing when
-    the arm declares no joint limits (a spline's time law is only defined against them)."""
+    ``joint_speed_limits``, ``joint_accel_limits``, its arm motors' ``arm_torque_limit_nm``
+    where it declares one (ValueError if it has no ``masses`` to plan it with), and
+    ``config.carry_accel_limit_m_s2`` for the end effector where it is given). ValueError
+    naming what is missing when the arm declares no joint limits (a spline's time law is only
+    defined against them)."""
     if via_transfers(kinematics):
         _check_step_rates(kinematics)
         carry = config.carry_accel_limit_m_s2
+        torque = getattr(kinematics, "arm_torque_limit_nm", None)
+        if torque is not None and getattr(kinematics, "masses", None) is None:
+            raise ValueError(
+                f"motion.planner = 'bspline5': the {kinematics.kind!r} arm's torque limit "
+                f"({torque:g} N m, drives.arm_torque_limit_nm) needs its dynamics model, and "
+                "this arm has none (its masses are None)"
+            )
         return JointLimits(
             speed=tuple(kinematics.joint_speed_limits),
             accel=tuple(kinematics.joint_accel_limits),
             names=tuple(axis.name for axis in kinematics.axes),
             ee_accel_m_s2=config.ee_accel_limit_m_s2 if carry is None else carry,
+            torque_nm=None if torque is None else (float(torque),) * 2,
         )
     missing = [
         name

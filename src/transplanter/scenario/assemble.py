@@ -245,8 +245,24 @@ def _via_transfers(kinematics: Kinematics) -> bool:
 
 
 def _machine(s: Scenario) -> Machine:
-    mot, grip = s.motion, s.gripper
     kinematics = robot_kinematics(s)
+    arm_masses = getattr(scene_kinds.robot(s.robot.kind), "arm_masses", None)
+    if arm_masses is None:
+        return _machine_of(s, kinematics)
+    # The arm's lumped dynamics take the MuJoCo model's masses and inertias (the robot
+    # alone, compiled from this scenario's scene config, whose power-on pose comes from a
+    # machine without the torque limit) and, at C, the heaviest pot the scenario draws with
+    # its shoot.
+    from transplanter.scene.build import robot_model
+
+    bare = _machine_of(s, dataclasses.replace(kinematics, arm_torque_limit_nm=None))
+    carried = s.pots.mass_max_kg + s.pots.shoot_mass_kg
+    masses = arm_masses(robot_model(scene_config(s, bare)), carried)
+    return _machine_of(s, dataclasses.replace(kinematics, masses=masses))
+
+
+def _machine_of(s: Scenario, kinematics: Kinematics) -> Machine:
+    mot, grip = s.motion, s.gripper
     motion = MotionConfig(
         resolution_m=mot.resolution_m,
         accel_m_s2=mot.accel_m_s2,

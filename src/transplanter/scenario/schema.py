@@ -467,6 +467,13 @@ class DrivesSection:
     arm_accel_limit_rad_s2: float = key(
         "float", 1, 1e7, doc="bspline5: each arm joint's acceleration limit"
     )
+    arm_torque_limit_nm: float = key(
+        "float",
+        0.001,
+        100,
+        doc="bspline5: each arm motor's torque limit at its shaft, of the lumped dynamics "
+        "(at most the pull-out torque at the arms' speed limit)",
+    )
     z_speed_limit_m_s: float = key(
         "float", 0.1, 1e5, doc="bspline5: Z's speed limit (at most its step rate)"
     )
@@ -975,6 +982,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
     "drives": {  # the five-bar's bspline5 limits (machine.kinematics.fivebar, docs/planner.md)
         "arm_speed_limit_deg_s": 712.5,
         "arm_accel_limit_deg_s2": 25000.0,
+        "arm_torque_limit_nm": 0.225,
         "z_speed_limit_mm_s": 47.5,
         "z_accel_limit_mm_s2": 25000.0,
     },
@@ -1516,6 +1524,31 @@ def _pickups(section: str, key: str, raw: Any) -> tuple[TaughtPickup, ...]:
     return tuple(out)
 
 
+def pullout_torque_nm(drv: Mapping[str, Any], speed_rad_s: float) -> float:
+    """The arm motor's pull-out torque (N m at its shaft) at an arm speed: the holding torque
+    up to the corner speed, falling as corner / speed above it (docs/drives.md)."""
+    rev_s = speed_rad_s * drv["arm_belt_ratio"] / (2.0 * math.pi)
+    return drv["holding_torque_nm"] * min(1.0, drv["pullout_corner_rev_s"] / max(rev_s, 1e-12))
+
+
+def _check_arm_torque_limit(drv: Mapping[str, Any]) -> None:
+    """The planner's arm torque limit is a torque the stepper gives: at most its pull-out
+    torque at the arms' speed limit (above it the rotor slips before the limit binds)."""
+    limit = drv["arm_torque_limit_nm"]
+    pullout = pullout_torque_nm(drv, drv["arm_speed_limit_rad_s"])
+    if limit > pullout:
+        raise ScenarioError(
+            f"drives.arm_torque_limit_nm = {limit:g} N m is above what the arm motor can give: "
+            f"its pull-out torque at the arms' speed limit (drives.arm_speed_limit_deg_s = "
+            f"{math.degrees(drv['arm_speed_limit_rad_s']):g}) is {pullout:.4g} N m "
+            f"(drives.holding_torque_nm = {drv['holding_torque_nm']:g}, falling above "
+            f"drives.pullout_corner_rev_s = {drv['pullout_corner_rev_s']:g} rev/s at the "
+            "motor); a planned torque above it would make the rotor slip. Set "
+            f"drives.arm_torque_limit_nm to at most {pullout:.4g} (the default is half the "
+            "pull-out torque: a load angle of a third of a full step, docs/planner.md)."
+        )
+
+
 def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     lim, taught = v["limits"], v["taught"]
     for lo, hi in (
@@ -1556,6 +1589,7 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
             raise ScenarioError(
                 f"drives.{key} (a limit switch) must lie inside {window}.{lo}..{hi}."
             )
+    _check_arm_torque_limit(drv)
     if not z_min < drv["switch3_z_m"] <= z_max:
         raise ScenarioError(
             "drives.switch3_z_mm (limit switch 3) must lie in (limits.z_min_mm, limits.z_max_mm]."

@@ -179,6 +179,24 @@ def scene_spec(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjS
     return spec
 
 
+def robot_spec(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjSpec:
+    """The robot of the config's kind alone: its MJCF with the robot's and the effector's
+    config applied and its inertials derived, as :func:`scene_spec` does, without the
+    workcell; its masses and inertias are the scene's."""
+    robot = kinds.robot(cfg.robot_kind)
+    spec = mujoco.MjSpec.from_file(str(robot_xml(cfg.robot_kind, models)))
+    apply_options(spec, cfg)
+    robot.apply(spec, cfg)
+    kinds.effector(cfg.effector_kind).apply(spec, cfg)
+    robot.apply_inertials(spec, cfg)
+    return spec
+
+
+def robot_model(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjModel:
+    """:func:`robot_spec` compiled."""
+    return robot_spec(cfg, models).compile()
+
+
 def compile_with_home(spec: mujoco.MjSpec, cfg: SceneConfig) -> mujoco.MjModel:
     """Set the `home` keyframe (qpos0 for the joints it does not name) and compile."""
     model0 = spec.compile()
