@@ -39,9 +39,12 @@ def test_an_override_reaches_the_physics_and_the_firmware():
 
 def test_a_scene_the_builder_refuses_is_a_scenario_error():
     s = paper_scenario(**{"pots.placement_max_mm": 4.5})  # 35 + 9 + 2 mm > 45 mm cells
-    machine = machine_config(s)
+    # the machine reads the arms' masses from the compiled robot model, whose scene config
+    # the builder checks first: refused there already
     with pytest.raises(ScenarioError, match="pots do not fit their cells"):
-        scene_config(s, machine)
+        machine_config(s)
+    with pytest.raises(ScenarioError, match="pots do not fit their cells"):
+        scene_config(s, machine_config(paper_scenario()))
 
 
 def test_a_taught_value_finer_than_the_eeprom_is_refused_not_rounded():
