@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from transplanter.scene.closed_chain import chain_motion, unconstrained_inverse
 from transplanter.scene.delta_scene import models_dir
 
 __all__ = ["DeltaInverse", "load_delta_model"]
@@ -106,34 +107,14 @@ class DeltaInverse:
         q, qd, qdd = (np.asarray(v, dtype=np.float64) for v in (q, qd, qdd))
         qpos = self._close(q, self.qpos if qpos_guess is None else qpos_guess)
         res, jac = self._equality_rows(qpos)
-        ja, jp = jac[:, self.arm_dof], jac[:, self.passive_dof]
-        g = np.zeros((m.nv, 3))
-        g[self.arm_dof] = np.eye(3)
-        g[self.passive_dof] = -np.linalg.solve(jp, ja)
-        qvel = g @ qd
-        eps = 1e-6
-        jdot = []
-        for sign in (1.0, -1.0):
-            shifted = qpos.copy()
-            mujoco.mj_integratePos(m, shifted, qvel, sign * eps)
-            jdot.append(self._equality_rows(shifted)[1])
-        jdot_qvel = (jdot[0] - jdot[1]) @ qvel / (2.0 * eps)
-        qacc = np.zeros(m.nv)
-        qacc[self.arm_dof] = qdd
-        qacc[self.passive_dof] = -np.linalg.solve(jp, ja @ qdd + jdot_qvel)
+        qvel, qacc, g = chain_motion(
+            m, qpos, jac, self._equality_rows, self.arm_dof, self.passive_dof, qd, qdd
+        )
         return qpos, qvel, qacc, g, float(np.abs(res).max())
 
     def _inverse(self, qpos, qvel, qacc) -> np.ndarray:
         """qfrc_inverse with the constraints off: M qacc + c - passive."""
-        m, d = self.model, self.data
-        saved = m.opt.disableflags
-        m.opt.disableflags = saved | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
-        try:
-            d.qpos[:], d.qvel[:], d.qacc[:] = qpos, qvel, qacc
-            mujoco.mj_inverse(m, d)
-            return d.qfrc_inverse.copy()
-        finally:
-            m.opt.disableflags = saved
+        return unconstrained_inverse(self.model, self.data, qpos, qvel, qacc)
 
     # -- the torques --------------------------------------------------------------------
     def torques(self, q, qd, qdd) -> InverseResult:
