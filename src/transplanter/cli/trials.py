@@ -125,6 +125,10 @@ def cmd_trial(args: argparse.Namespace) -> int:
 
     if serial_trial.handles(args, overrides):
         return serial_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
+    from transplanter.cli import delta_pots_trial  # the delta on the pot line: its own trial
+
+    if delta_pots_trial.handles(args, overrides):
+        return delta_pots_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")

@@ -80,6 +80,11 @@ DEFINITIONS = {
     "seedlings_per_hour": "3600 / cycle_time_s",
 }
 PLACEMENT_KEYS = "delta_pots.base_x_mm, base_y_mm, base_z_mm"
+POWER_ON_M = np.array([0.0, 0.0, -0.8])
+"""The platform centre at power-on, in the delta's frame: the pose models/delta is drawn in
+(delta_refill's work height), where the rods of its closed chains start consistent."""
+POWER_ON_CLEARANCE_M = 0.02
+"""At power-on the grip centre is at least this high above the pots' tops."""
 GRIPPER_QUAT = (0.5, 0.5, 0.5, -0.5)
 """The gripper's mount under the platform: its forward axis (the fingers) along world -z,
 its closing axis along world x (along the row), its sensor side towards world -y."""
@@ -150,6 +155,16 @@ def check_placement(sc) -> None:
     kin = DeltaKinematics.from_scenario(sc)
     line = line_config(sc)
     where = "the delta's base at (" + ", ".join(f"{1e3 * v:g}" for v in _base(sc)) + ") mm"
+    top = line.pot_height_m + POWER_ON_CLEARANCE_M
+    start = _base(sc)[2] + POWER_ON_M[2] - tool_drop_m(sc)
+    if start < top:
+        raise ScenarioError(
+            f"{where} puts the gripper into the line at power-on (the platform "
+            f"{-1e3 * POWER_ON_M[2]:g} mm below the base, as models/delta is drawn: grip centre "
+            f"{1e3 * start:.1f} mm above the belt, under the pots' tops + "
+            f"{1e3 * POWER_ON_CLEARANCE_M:g} mm = {1e3 * top:.1f} mm); raise it "
+            f"({PLACEMENT_KEYS})"
+        )
     for name, grip in _points(sc, line).items():
         p = platform_point(sc, grip)
         report = kin.check(p[None, :])
@@ -227,6 +242,8 @@ class DeltaPotsResult:
     fault: str | None = None
     valid: bool = True
     refused: list[str] = field(default_factory=list)
+    recording_error: str | None = None
+    """Always None: the job has no recording (the trial command's outputs ask)."""
     peak_following_error_deg: list[float] = field(default_factory=list)
     motors: dict | None = None
     """The drives' peak torque and mechanical work (transplanter.twin.motors)."""
@@ -319,10 +336,11 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
     def plat(grip_world) -> np.ndarray:
         return platform_point(sc, grip_world)
 
-    q0 = kin.joints(plat(park))
+    # power-on: the delta as drawn (its closed chains' rods consistent), as delta_refill's
+    q0 = kin.joints(POWER_ON_M)
     base = _base(sc)
     cfg = SimpleNamespace(gear_ratio=d.gear_ratio, home_q_rad=tuple(float(v) for v in q0))
-    data.qpos[:] = delta_robot.home_qpos(model, cfg, base + plat(park))
+    data.qpos[:] = delta_robot.home_qpos(model, cfg, base + POWER_ON_M)
     for name, q in fuzzy_gripper.home_joints(grip).items():
         data.qpos[model.jnt_qposadr[model.joint(name).id]] = q
     arm_acts = [model.actuator(n).id for n in delta_robot.ACTUATORS]
