@@ -11,7 +11,12 @@ from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds
 
-__all__ = ["handles", "pots_line", "run_trial"]
+__all__ = ["NOT_FILMED", "handles", "pots_line", "run_trial"]
+
+NOT_FILMED = (
+    "the delta's pot job (robot delta in the conveyor_tube workcell) runs headless only: "
+    "transplanter trial, sweep and compare (render, view and export do not build its scene yet)"
+)
 
 
 def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
