@@ -843,6 +843,9 @@ class DeltaPotsSection:
     base_y_m: float = key("float", -2000, 2000)
     base_z_m: float = key("float", -2000, 3000, doc="the base above the belt's top")
     mount_drop_m: float = key("float", 0, 200, doc="gripper's mount below the platform's face")
+    gripper_yaw_rad: float = key(
+        "float", -180, 180, doc="the gripper about the vertical: 0 closes along the row (x)"
+    )
     grasp_z_m: float = key("float", 1, 200, doc="grip centre above the belt (a pot's bottom)")
     hover_m: float = key("float", 5, 300, doc="above a grasp or release to come down from")
     release_gap_m: float = key("float", 0, 200, doc="pot's bottom above the funnel at release")
@@ -1216,6 +1219,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "base_y_mm": 180.0,
         "base_z_mm": 960.0,
         "mount_drop_mm": 20.0,
+        "gripper_yaw_deg": 90.0,
         "grasp_z_mm": 30.0,
         "hover_mm": 60.0,
         "release_gap_mm": 10.0,

@@ -7,8 +7,11 @@ a drop tube), so that its cycle and success stand beside the five-bar's and the 
 The scene: the delta (models/delta) with its base frame at `[delta_pots] base_*` over the
 line, the workcell merged in as the serial arm's scene merges it, and the fuzzy gripper of
 seed 004 (models/effectors/fuzzy_gripper, sized for these pots by the serial arm's scenario)
-attached under the platform by MjSpec attach, its fingers pointing down and closing along
-the row (world x, between a pot and its neighbours, as on the serial arm). The pot is held by
+attached under the platform by MjSpec attach, its fingers pointing down and, at the default
+`gripper_yaw_deg = 90`, closing across the belt (world y): the front pad meets nothing but the
+pot, the back one goes down in the 10 mm gap to the next row (closing along the row, as the
+serial arm's do, both pads go down between neighbours, and the cells' 3 mm play puts one on a
+neighbour's rim now and then). The pot is held by
 the pads' friction only: the only equalities in the scene are the delta's own six that close
 its parallelograms and the gripper's finger coupling.
 
@@ -27,8 +30,9 @@ is grasped again (`attempts`).
 
 For every pot of the pickup row: over the pot at `hover_mm`, down, grip, dwell, up; over the
 drop tube, down until the pot's bottom is `release_gap_mm` above the funnel, open, up. With
-`motion.planner = "bspline5"` the transfers (hover over the pot to the release, release to
-the next pot's hover) are `G0` lines, the controller's time-optimal splines. After each row
+`motion.planner = "bspline5"` the transfers (from the lift over the pot down onto the
+release, from the release down onto the next pot) are `G0` lines, the controller's
+time-optimal splines (lift, arc, top, arc, descent). After each row
 the arm parks over the tube and `M710` indexes the conveyor (as serial_pots).
 
 Judged as serial_pots: a pot inside the tube below the funnel's throat is a success; one
@@ -86,8 +90,9 @@ POWER_ON_M = np.array([0.0, 0.0, -0.8])
 POWER_ON_CLEARANCE_M = 0.02
 """At power-on the grip centre is at least this high above the pots' tops."""
 GRIPPER_QUAT = (0.5, 0.5, 0.5, -0.5)
-"""The gripper's mount under the platform: its forward axis (the fingers) along world -z,
-its closing axis along world x (along the row), its sensor side towards world -y."""
+"""The gripper's mount under the platform at `gripper_yaw_deg = 0`: its forward axis (the
+fingers) along world -z, its closing axis along world x (along the row), its sensor side
+towards world -y; the yaw turns it about the vertical."""
 
 
 def _rot(quat) -> np.ndarray:
@@ -209,8 +214,13 @@ def scene_spec(sc, seed: int):
         gripper.delete(key)
     spec.option.impratio = gripper.option.impratio  # the gripper's friction-cone setting
     half = float(spec.geom("platform").size[1])
+    turn = np.array(
+        [math.cos(job.gripper_yaw_rad / 2), 0.0, 0.0, math.sin(job.gripper_yaw_rad / 2)]
+    )
+    quat = np.zeros(4)
+    mujoco.mju_mulQuat(quat, turn, np.asarray(GRIPPER_QUAT, dtype=np.float64))
     frame = spec.body("platform").add_frame(
-        pos=[0.0, 0.0, -half - job.mount_drop_m], quat=list(GRIPPER_QUAT)
+        pos=[0.0, 0.0, -half - job.mount_drop_m], quat=quat.tolist()
     )
     with delta_robot.quiet_prefix_note():
         frame.attach_body(gripper.body(fuzzy_gripper.MOUNT), "", "")
@@ -449,9 +459,15 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
         x, y, z = (_mm(v) for v in plat(grip_world))
         return f"G0 X{x} Y{y} Z{z}"
 
-    def transfer(grip_world):
-        """To the hover point over ``grip_world``: a spline (bspline5) or a travel line."""
-        return g0(grip_world + up) if spline else g1(grip_world + up, v_travel)
+    def onto(grip_world):
+        """Host lines onto ``grip_world`` from wherever the gripper is: one spline (bspline5:
+        its lift, arc, top, arc and descent, straight down its last `exit_mm`), or a travel
+        line to the hover point over it and the approach line down."""
+        if spline:
+            yield g0(grip_world)
+        else:
+            yield g1(grip_world + up, v_travel)
+            yield g1(grip_world, v_app)
 
     def took(rec: PotRecord):
         def fn(_t: float) -> None:
@@ -480,8 +496,7 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
                 yield _Call(mark(i, "start_s"))
                 for attempt in range(1, job.attempts + 1):
                     records[i].attempts = attempt
-                    yield transfer(grasp)
-                    yield g1(grasp, v_app)
+                    yield from onto(grasp)
                     yield "M400"
                     yield grip_line
                     yield f"G4 P{_mm(job.grip_settle_s)}"
@@ -498,11 +513,11 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
                 else:
                     yield _Call(mark(i, "end_s"))
                     continue
-                yield transfer(release)
-                yield g1(release, v_app)
+                yield from onto(release)
                 yield open_line
                 yield f"G4 P{_mm(job.release_settle_s)}"
-                yield g1(release + up, v_app)
+                if not spline:  # a spline leaves the release upwards itself
+                    yield g1(release + up, v_app)
                 yield "M400"
                 yield _Call(mark(i, "end_s"))
             if (row + 1) * line.cols >= n:
