@@ -1231,7 +1231,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "point_time_us": 100.0,
         "lift_mm": 60.0,
         "arc_radius_mm": 30.0,
-        "exit_mm": 10.0,
+        "exit_mm": 35.0,
         "following_error_limit_deg": 2.0,
         "grip_settle_ms": 300.0,
         "release_settle_ms": 300.0,
