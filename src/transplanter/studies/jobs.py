@@ -319,6 +319,8 @@ JOBS: dict[str, Job] = {
             "delta_pots",
             "motion",
             "fuzzy_gripper",
+            "serial4",  # its gripper_servo: the gripper's servo class
+            "serial_arm",  # its sensor_resolution_mm: the cells' HC-SR04s
             "bus",
             "physics",
             "conveyor",
