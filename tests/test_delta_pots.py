@@ -110,3 +110,15 @@ def test_studies_and_the_trial_dispatch_it():
     assert job_of(sc).kind == "delta:conveyor_tube"
     assert job_of(load_scenario("serial_arm_pots")).kind == "serial4:conveyor_tube"
     assert job_of(load_scenario("paper")) is None
+
+
+def test_a_study_run_is_a_row_of_pots():
+    from transplanter.studies.backends import run_one
+    from transplanter.studies.grid import task
+
+    row = run_one(task("delta_pots", {}, {"delta_pots.grip_deg": 22.5}, 1, 1))
+    assert row["error"] is None, row["error"]
+    assert (row["successes"], row["seedlings"], row["cycles"]) == (1, 1, 0)
+    assert row["cycle_time_s"] is None  # one pick: no cycle between two
+    assert row["fail_dropped"] == row["fail_missed"] == row["fail_no_pot"] == 0
+    assert row["valid"] is True and row["peak_squeeze_n"] > 5
