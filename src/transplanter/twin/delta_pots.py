@@ -11,9 +11,9 @@ attached under the platform by MjSpec attach, its fingers pointing down and, at 
 `gripper_yaw_deg = 90`, closing across the belt (world y): the front pad meets nothing but the
 pot, the back one goes down in the 10 mm gap to the next row (closing along the row, as the
 serial arm's do, both pads go down between neighbours, and the cells' 3 mm play puts one on a
-neighbour's rim now and then). The pot is held by
-the pads' friction only: the only equalities in the scene are the delta's own six that close
-its parallelograms and the gripper's finger coupling.
+neighbour's rim now and then). The pot is held by the pads' friction only: the only
+equalities in the scene are the delta's own six that close its parallelograms and the
+gripper's finger coupling.
 
 The chain is the delta's (`twin.delta_refill`): host over the bus, the controller
 (`DeltaController`: the SGF with `DeltaKinematics` at every interpolated point and the
@@ -32,8 +32,8 @@ For every pot of the pickup row: over the pot at `hover_mm`, down, grip, dwell, 
 drop tube, down until the pot's bottom is `release_gap_mm` above the funnel, open, up. With
 `motion.planner = "bspline5"` the transfers (from the lift over the pot down onto the
 release, from the release down onto the next pot) are `G0` lines, the controller's
-time-optimal splines (lift, arc, top, arc, descent). After each row
-the arm parks over the tube and `M710` indexes the conveyor (as serial_pots).
+time-optimal splines (lift, arc, top, arc, descent). After each row the arm parks over the
+tube and `M710` indexes the conveyor (as serial_pots).
 
 Judged as serial_pots: a pot inside the tube below the funnel's throat is a success; one
 still on the belt was missed; anywhere else it was dropped.
@@ -310,7 +310,13 @@ class DeltaPotsResult:
 
 
 def _mm(v: float) -> str:
+    """Metres (or m/s) as a G-code word's mm (mm/s), to the micrometre."""
     return format_number(round(float(v) * 1e3, 3))
+
+
+def _ms(seconds: float) -> str:
+    """Seconds as a `G4 P` word's milliseconds."""
+    return format_number(round(float(seconds) * 1e3, 3))
 
 
 def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
@@ -499,7 +505,7 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
                     yield from onto(grasp)
                     yield "M400"
                     yield grip_line
-                    yield f"G4 P{_mm(job.grip_settle_s)}"
+                    yield f"G4 P{_ms(job.grip_settle_s)}"
                     yield "M400"
                     yield _Call(took(records[i]))
                     yield g1(grasp + up, v_app)
@@ -509,13 +515,13 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
                     if reading > DETECTED_CM:  # the cell is empty: the pot is up
                         break
                     yield open_line  # sensor 1 still hears the pot in its cell: missed
-                    yield f"G4 P{_mm(job.release_settle_s)}"
+                    yield f"G4 P{_ms(job.release_settle_s)}"
                 else:
                     yield _Call(mark(i, "end_s"))
                     continue
                 yield from onto(release)
                 yield open_line
-                yield f"G4 P{_mm(job.release_settle_s)}"
+                yield f"G4 P{_ms(job.release_settle_s)}"
                 if not spline:  # a spline leaves the release upwards itself
                     yield g1(release + up, v_app)
                 yield "M400"
