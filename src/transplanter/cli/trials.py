@@ -125,6 +125,10 @@ def cmd_trial(args: argparse.Namespace) -> int:
 
     if serial_trial.handles(args, overrides):
         return serial_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
+    from transplanter.cli import delta_pots_trial  # the delta on the pot line: its own trial
+
+    if delta_pots_trial.handles(args, overrides):
+        return delta_pots_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
@@ -415,6 +419,11 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     if serial_trial.handles(args, overrides):
         return serial_trial.render(args, overrides, target, json_target)
+    from transplanter.cli import delta_pots_trial
+
+    if delta_pots_trial.handles(args, overrides):
+        _err(f"render refused: {delta_pots_trial.NOT_FILMED}")
+        return EXIT_REFUSED
     if args.cells_of is not None:
         _err("render refused: --cells-of is for the delta's plug-tray job; give --seedlings-of")
         return EXIT_REFUSED
@@ -488,10 +497,13 @@ def cmd_view(args: argparse.Namespace) -> int:
             f"(needs {video.INSTALL_HINT}), or run view on a machine with a display"
         )
         return EXIT_REFUSED
+    from transplanter.cli import delta_pots_trial
     from transplanter.scenario.schema import ScenarioError
     from transplanter.twin.report import format_summary
 
     try:
+        if delta_pots_trial.handles(args, _trial_overrides(args)):
+            raise ScenarioError(delta_pots_trial.NOT_FILMED)
         config = _single_trial_config(args)
     except ScenarioError as exc:
         _err(f"view refused: {exc}")
@@ -537,6 +549,10 @@ def cmd_export(args: argparse.Namespace) -> int:
         if clash is not None:
             raise fileio.FileRefused(clash)
         overrides = _trial_overrides(args)
+        from transplanter.cli import delta_pots_trial
+
+        if delta_pots_trial.handles(args, overrides):
+            raise ScenarioError(delta_pots_trial.NOT_FILMED)
         delta = delta_trial.handles(args, overrides)  # the delta's plug trays: its own scene
         if delta:
             config = load_scenario(args.scenario, overrides)

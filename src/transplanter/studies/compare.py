@@ -420,8 +420,9 @@ def plot_compare(rows: Sequence[Mapping[str, Any]], floor: float, path: Path) ->
         ax.set_title(title)
         ax.grid(axis="x", alpha=0.3)
     ax = axes[0, 1]
-    lo = [100 * (r["success_rate"] - r["ci95"][0]) if r["ci95"] else 0 for r in rows]
-    hi = [100 * (r["ci95"][1] - r["success_rate"]) if r["ci95"] else 0 for r in rows]
+    # never below 0: Wilson's upper end at 60/60 is 0.9999999999999998, under the rate's 1.0
+    lo = [max(100 * (r["success_rate"] - r["ci95"][0]), 0.0) if r["ci95"] else 0 for r in rows]
+    hi = [max(100 * (r["ci95"][1] - r["success_rate"]), 0.0) if r["ci95"] else 0 for r in rows]
     ax.errorbar(
         [0 if math.isnan(x) else x for x in values("success_rate", 100)], y,
         xerr=[lo, hi], fmt="none", ecolor="black", capsize=4,

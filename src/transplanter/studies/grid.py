@@ -266,7 +266,10 @@ class SweepSpec:
 
         # the plug and serial-arm sections are read only by the other machines' jobs: a
         # five-bar sweep's digest is the one it had before they existed (its results resume)
-        others = (*PLUG_SECTIONS, *SERIAL_ONLY_SECTIONS) if job_of(scenario) is None else ()
+        job = job_of(scenario)
+        others = (*PLUG_SECTIONS, *SERIAL_ONLY_SECTIONS) if job is None else ()
+        if job is None or job.kind != "delta:conveyor_tube":  # added after the others' sweeps
+            others = (*others, "delta_pots")
         # what the drives cost is not physics: no run's result depends on it
         skip = ("path", "meta", "overrides", "costs", *others)
         sections = [meta] + [

@@ -2,8 +2,9 @@
 robot, where one workcell serves several: as `transplanter trial` dispatches): the delta's
 cull-and-refill tray (`plug_trays`, transplanter.twin.delta_refill), the claws' bench
 (`plug_bench`, transplanter.twin.plug_bench_trial), the serial arm's tomatoes to the belt
-(`pool_to_belt`, transplanter.twin.serial_arm's pick and place) and the serial arm on the
-five-bar's pot line (`serial4` in `conveyor_tube`, transplanter.twin.serial_pots).
+(`pool_to_belt`, transplanter.twin.serial_arm's pick and place), the serial arm on the
+five-bar's pot line (`serial4` in `conveyor_tube`, transplanter.twin.serial_pots) and the
+delta on it (`delta` in `conveyor_tube`, transplanter.twin.delta_pots).
 `sweep_backends.run_one` asks `job_of(scenario)`; None is the five-bar's trial, run as before.
 
 A job's row has the sweep's columns (`RESULT_FIELDS`) with the studies' meaning, so that the
@@ -15,7 +16,7 @@ pooling, the interval, resume and tuning work unchanged:
 - `cycle_time_s` over `cycles`: the delta's time per operation over its operations; the
   bench's mean pick over its picks;
 - the serial arm: tomatoes on the belt / tomatoes picked; pots into the tube / seedlings; its
-  mean time from one pick's start to the next's;
+  mean time from one pick's start to the next's; the delta on the pot line likewise;
 
 plus the job's own columns (`Job.fields`), of which `Job.means` are averaged over a
 setting's runs in settings.csv.
@@ -202,6 +203,35 @@ def _serial_pots(scenario, seed: int, row: dict[str, Any]) -> None:
         row["error"] = f"fault: {r.fault}"
 
 
+def _delta_pots(scenario, seed: int, row: dict[str, Any]) -> None:
+    from transplanter.twin.delta_pots import run_delta_pots
+
+    r = run_delta_pots(scenario, seed)
+    d = r.to_dict()
+    row.update(
+        successes=r.successes,
+        seedlings=r.seedlings,
+        success_rate=d["success_rate"],
+        cycle_time_s=_finite(r.cycle_time_s),
+        cycle_time_sd_s=None,
+        cycles=max(len(r.picked) - 1, 0),
+        valid=r.valid,
+        fault=r.fault,
+        sim_time_s=r.sim_time_s,
+        wall_time_s=r.wall_s,
+        warnings="",
+        plants_per_hour=d["seedlings_per_hour"],
+        peak_squeeze_n=d["peak_squeeze_n"],
+        **motor_columns(r.motors),
+        **{f"fail_{k.replace(' ', '_')}": r.outcomes.get(k, 0)
+           for k in ("dropped", "missed", "no pot")},
+    )  # fmt: skip
+    if not r.valid:
+        row["error"] = "trial not valid: MuJoCo warned or the job ran out of simulated time"
+    elif r.fault:
+        row["error"] = f"fault: {r.fault}"
+
+
 def _sd(values) -> float:
     m = sum(values) / len(values)
     return math.sqrt(sum((v - m) ** 2 for v in values) / (len(values) - 1))
@@ -274,6 +304,30 @@ JOBS: dict[str, Job] = {
         means=("plants_per_hour", "peak_squeeze_n"),
         sections=(*SERIAL_SECTIONS, "serial_pots", "conveyor", "pots", "drop_tube"),
         run=_serial_pots,
+    ),
+    "delta:conveyor_tube": Job(
+        "delta:conveyor_tube",
+        fields=(
+            "peak_squeeze_n",
+            "fail_dropped",
+            "fail_missed",
+            "fail_no_pot",
+        ),  # fmt: skip
+        means=("plants_per_hour", "peak_squeeze_n"),
+        sections=(
+            "delta",
+            "delta_pots",
+            "motion",
+            "fuzzy_gripper",
+            "serial4",  # its gripper_servo: the gripper's servo class
+            "serial_arm",  # its sensor_resolution_mm: the cells' HC-SR04s
+            "bus",
+            "physics",
+            "conveyor",
+            "pots",
+            "drop_tube",
+        ),
+        run=_delta_pots,
     ),
 }
 """The jobs by workcell kind, or by "robot:workcell" where the workcell's own job is another

@@ -1,0 +1,109 @@
+"""`transplanter trial` for the delta on the five-bar's pot line (`[robot] kind = "delta"` in
+the `conveyor_tube` workcell; transplanter.twin.delta_pots): one run of `--seedlings` pots
+per seed, a line each; with --seeds the pooled success rate over the pots."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds
+
+__all__ = ["NOT_FILMED", "handles", "pots_line", "run_trial"]
+
+NOT_FILMED = (
+    "the delta's pot job (robot delta in the conveyor_tube workcell) runs headless only: "
+    "transplanter trial, sweep and compare (render, view and export do not build its scene yet)"
+)
+
+
+def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
+    """The scenario's job is the delta's on the pot line (a scenario that does not load is
+    left to the trial command's own refusal)."""
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+
+    try:
+        sc = load_scenario(args.scenario, overrides)
+    except ScenarioError:
+        return False
+    return sc.robot.kind == "delta" and sc.workcell.kind == "conveyor_tube"
+
+
+def pots_line(r) -> str:
+    """One run's result in a line."""
+    d = r.to_dict()
+    kinds = ", ".join(f"{k} {v}" for k, v in d["outcomes"].items())
+    cycle = "-" if not math.isfinite(r.cycle_time_s) else f"{r.cycle_time_s:.3f} s"
+    line = (
+        f"delta on the pot line (seed {r.seed}, {r.planner}): {r.successes}/{r.seedlings} "
+        f"seedlings into the tube ({100 * d['success_rate']:.1f} %; {kinds}); cycle {cycle}, "
+        f"{d['seedlings_per_hour']} seedlings/h; peak squeeze {d['peak_squeeze_n']:.2f} N; "
+        f"{r.sim_time_s:.1f} s simulated in {r.wall_s:.1f} s"
+    )
+    if r.fault:
+        line += f"\n  fault: {r.fault}"
+    return line
+
+
+def run_trial(
+    args: argparse.Namespace,
+    overrides: dict[str, Any],
+    json_path: Path | None,
+    record_path: Path | None = None,
+) -> int:
+    from transplanter.machine.servo_drives import frame_steps
+    from transplanter.scenario.assemble import require_awake
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.studies.stats import pooled_rate
+    from transplanter.twin.delta_pots import (
+        DEFINITIONS,
+        check_placement,
+        require_delta_gripper,
+        run_delta_pots,
+    )
+
+    for option, value in (
+        ("--clips-of-failures", args.clips_of_failures),
+        ("--eeprom", args.eeprom),
+        ("--record", record_path),
+    ):
+        if value is not None:
+            _err(f"{option}: not available for the delta's pot job (docs/compare.md)")
+            return EXIT_REFUSED
+    if args.seeds is not None and args.seed is not None:
+        _err("--seeds runs one trial per seed: drop --seed")
+        return EXIT_REFUSED
+    seeds = _seeds(args) if args.seeds is not None else [None]
+    if seeds is None:
+        return EXIT_REFUSED
+    try:
+        scenario = load_scenario(args.scenario, overrides)
+        frame_steps(scenario.physics.timestep_s)
+        require_awake(scenario, "the delta's pot job")
+        require_delta_gripper(scenario)
+        check_placement(scenario)
+    except (ScenarioError, ValueError) as exc:
+        _err(f"scenario refused: {exc}")
+        return EXIT_REFUSED
+    results = []
+    for seed in seeds:
+        result = run_delta_pots(scenario, seed)
+        results.append(result)
+        print(pots_line(result))
+    if args.seeds is None:
+        payload: dict[str, Any] = results[0].to_dict()
+    else:
+        pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
+        payload = {"trials": [r.to_dict() for r in results], "pooled": pooled.to_dict()}
+        cycles = [r.cycle_time_s for r in results if math.isfinite(r.cycle_time_s)]
+        payload["mean_cycle_time_s"] = sum(cycles) / len(cycles) if cycles else None
+        lo, hi = pooled.ci95
+        print(
+            f"pooled over {pooled.trials} runs: {100 * pooled.success_rate:.1f} % of seedlings "
+            f"into the tube ({pooled.successes}/{pooled.seedlings}), 95 % CI "
+            f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
+        )
+    summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
+    return _finish(args, results, summary, payload, json_path)

@@ -1,0 +1,124 @@
+"""The delta on the five-bar's pot line (transplanter.twin.delta_pots): pots picked through
+host, bus, DeltaController, pulse-train servos and MuJoCo by the fuzzy gripper hung under the
+platform, held by friction only, dropped into the tube; placement refused naming its keys."""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from transplanter import cli
+from transplanter.scenario.schema import ScenarioError, load_scenario
+from transplanter.scene.robots.delta import quiet_prefix_note
+from transplanter.studies.jobs import job_of
+from transplanter.twin.delta_pots import check_placement, run_delta_pots, scene_spec
+
+
+@pytest.fixture(scope="module")
+def two():
+    sc = load_scenario("delta_pots", {"scenario.seedlings": 2})
+    return sc, run_delta_pots(sc, 1)
+
+
+def test_the_pots_go_into_the_tube(two):
+    sc, r = two
+    assert r.fault is None and r.valid and r.refused == []
+    assert [p.pot for p in r.records] == ["pot_0_0", "pot_0_1"]
+    assert r.outcomes == {"success": 2}  # measured: seed 1, both pots in the tube
+    d = r.to_dict()
+    assert d["planner"] == "bspline5"  # the delta's splines, as delta_refill
+    assert d["cycle_time_s"] == pytest.approx(2.492, abs=0.01)  # measured (G1 lines: 3.089)
+    assert d["seedlings_per_hour"] == pytest.approx(3600 / d["cycle_time_s"], abs=0.1)
+    for p in r.records:
+        assert p.attempts == 1 and p.grip_deg == 22.5
+        # the fingers stopped on the 35 mm pot, short of the 22.5 deg they were sent to
+        assert 35 < p.gripper_reached_deg < 45
+        assert p.peak_squeeze_n > 5  # the pads pressed on it: it was held by them
+    motors = {m["name"]: m for m in d["motors"]["drives"]}
+    assert set(motors) == {"q1", "q2", "q3", "gripper"}
+    assert all(m["work_j"] > 0 for m in motors.values())
+    assert max(d["peak_following_error_deg"]) < 2.0  # under the drives' alarm
+
+
+def test_the_same_seed_gives_the_same_json(two, tmp_path, capsys):
+    _, r = two
+    out = tmp_path / "pots.json"
+    status = cli.main(["trial", "delta_pots", "--seedlings", "2", "--seed", "1",
+                       "--json", str(out)])  # fmt: skip
+    assert status == 0
+    assert "2/2 seedlings into the tube" in capsys.readouterr().out
+    got = json.loads(out.read_text())
+    want = json.loads(json.dumps(r.to_dict()))
+    for d in (got, want):
+        d.pop("wall_time_s")
+    assert got == want
+
+
+def test_the_pot_is_held_by_contact_only():
+    sc = load_scenario("delta_pots")
+    spec, _, _ = scene_spec(sc, 1)
+    with quiet_prefix_note():
+        model = spec.compile()
+    kinds = [mujoco.mjtEq(int(t)) for t in model.eq_type]
+    # the delta's six connects closing its parallelograms and the fingers' gear: no weld
+    assert kinds.count(mujoco.mjtEq.mjEQ_CONNECT) == 6
+    assert kinds.count(mujoco.mjtEq.mjEQ_JOINT) == 1
+    assert len(kinds) == 7
+    pots = {model.body(f"pot_0_{c}").id for c in range(5)}
+
+    def body_of(i: int, obj: int) -> int:
+        if model.eq_type[i] == mujoco.mjtEq.mjEQ_JOINT:
+            return int(model.jnt_bodyid[obj])
+        if model.eq_objtype[i] == mujoco.mjtObj.mjOBJ_SITE:
+            return int(model.site_bodyid[obj])
+        return obj  # a body
+
+    for i in range(model.neq):
+        tied = {body_of(i, int(model.eq_obj1id[i])), body_of(i, int(model.eq_obj2id[i]))}
+        assert not tied & pots, mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, i)
+    # the gripper hangs under the platform, its fingers pointing down
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    axis = data.xmat[model.body("gripper_mount").id].reshape(3, 3)[:, 0]
+    assert np.allclose(axis, [0, 0, -1], atol=1e-9)
+    assert model.body_parentid[model.body("gripper_mount").id] == model.body("platform").id
+
+
+def test_a_placement_the_delta_cannot_work_from_is_refused_naming_the_keys(capsys):
+    check_placement(load_scenario("delta_pots"))  # the packaged placement reaches
+    aside = load_scenario("delta_pots", {"delta_pots.base_x_mm": 400})
+    with pytest.raises(ScenarioError, match=r"cannot reach the grasp of pickup column 1.*q1.*"
+                       r"delta_pots\.base_x_mm, base_y_mm, base_z_mm"):  # fmt: skip
+        run_delta_pots(aside, 1)  # refused before anything is built
+    high = load_scenario("delta_pots", {"delta_pots.base_z_mm": 1400})
+    with pytest.raises(ScenarioError, match=r"cannot reach the grasp.*delta_pots\.base_x_mm"):
+        check_placement(high)
+    low = load_scenario("delta_pots", {"delta_pots.base_z_mm": 700})
+    with pytest.raises(ScenarioError, match=r"into the line at power-on.*delta_pots\.base_x_mm"):
+        check_placement(low)
+    status = cli.main(["trial", "delta_pots", "--seedlings", "1",
+                       "--set", "delta_pots.base_x_mm=400"])  # fmt: skip
+    assert status == 2
+    assert "scenario refused" in capsys.readouterr().err
+
+
+def test_studies_and_the_trial_dispatch_it():
+    sc = load_scenario("delta_pots")
+    assert job_of(sc).kind == "delta:conveyor_tube"
+    assert job_of(load_scenario("serial_arm_pots")).kind == "serial4:conveyor_tube"
+    assert job_of(load_scenario("paper")) is None
+
+
+def test_a_study_run_is_a_row_of_pots():
+    from transplanter.studies.backends import run_one
+    from transplanter.studies.grid import task
+
+    row = run_one(task("delta_pots", {}, {"delta_pots.grip_deg": 22.5}, 1, 1))
+    assert row["error"] is None, row["error"]
+    assert (row["successes"], row["seedlings"], row["cycles"]) == (1, 1, 0)
+    assert row["cycle_time_s"] is None  # one pick: no cycle between two
+    assert row["fail_dropped"] == row["fail_missed"] == row["fail_no_pot"] == 0
+    assert row["valid"] is True and row["peak_squeeze_n"] > 5
