@@ -74,6 +74,7 @@ def test_a_taught_value_finer_than_the_eeprom_is_refused_not_rounded():
         ("delta_refill", {"effector.kind": "parallel_jaw"}, "the plug-tray job runs"),
         ("serial_arm_pots", {"effector.kind": "parallel_jaw"}, 'runs robot.kind = "serial4"'),
         ("serial_arm", {"effector.kind": "plug_claws"}, 'runs robot.kind = "serial4"'),
+        ("delta_pots", {"effector.kind": "plug_claws"}, "the delta's pot job runs"),
     ],
 )
 def test_a_job_refuses_a_robot_or_effector_it_is_not_built_for(scenario, overrides, needle, capsys):
@@ -86,7 +87,7 @@ def test_a_job_refuses_a_robot_or_effector_it_is_not_built_for(scenario, overrid
     args = ["trial", scenario, "--set", f'{key}="{value}"', "--seed", "1"]
     if scenario == "delta_refill":
         args += ["--set", 'delta_refill.vision="truth"', "--set", "delta_refill.max_cells=1"]
-    elif scenario == "paper" or scenario == "serial_arm_pots":
+    elif scenario in ("paper", "serial_arm_pots", "delta_pots"):
         args += ["--seedlings", "1"]
     assert cli.main(args) == 2
     err = capsys.readouterr().err
