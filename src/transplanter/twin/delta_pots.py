@@ -65,7 +65,13 @@ from transplanter.scene.effectors import fuzzy_gripper
 from transplanter.scene.robots import delta as delta_robot
 from transplanter.twin.motors import MotorMeter
 from transplanter.twin.serial_arm import SENSE_CYCLE_S, _Call, _Host, _Ranger, _Squeeze, _Wait
-from transplanter.twin.serial_pots import DETECTED_CM, PotRecord, line_config
+from transplanter.twin.serial_pots import (
+    DETECTED_CM,
+    PotRecord,
+    SerialPotsResult,
+    line_config,
+    planter,
+)
 
 __all__ = [
     "DEFINITIONS",
@@ -242,70 +248,21 @@ def scene_spec(sc, seed: int):
 
 
 @dataclass
-class DeltaPotsResult:
-    scenario: str
-    seed: int
+class DeltaPotsResult(SerialPotsResult):
+    """The serial arm's pot-job result (the same records, counts and cycle) with the delta's
+    planner, its drives' refusals and their peak following error."""
+
     planner: str = "lines"
-    records: list[PotRecord] = field(default_factory=list)
-    sim_time_s: float = 0.0
-    wall_s: float = 0.0
-    fault: str | None = None
-    valid: bool = True
     refused: list[str] = field(default_factory=list)
-    recording_error: str | None = None
-    """Always None: the job has no recording (the trial command's outputs ask)."""
     peak_following_error_deg: list[float] = field(default_factory=list)
-    motors: dict | None = None
-    """The drives' peak torque and mechanical work (transplanter.twin.motors)."""
-
-    @property
-    def picked(self) -> list[PotRecord]:
-        return [r for r in self.records if r.start_s is not None]
-
-    @property
-    def successes(self) -> int:
-        return sum(r.outcome == "success" for r in self.records)
-
-    @property
-    def seedlings(self) -> int:
-        return len(self.records)
-
-    @property
-    def outcomes(self) -> dict[str, int]:
-        out: dict[str, int] = {}
-        for r in self.records:
-            out[r.outcome] = out.get(r.outcome, 0) + 1
-        return dict(sorted(out.items()))
-
-    @property
-    def cycle_time_s(self) -> float:
-        starts = [r.start_s for r in self.picked]
-        return float(np.diff(starts).mean()) if len(starts) > 1 else math.nan
 
     def to_dict(self) -> dict[str, Any]:
-        cycle = self.cycle_time_s
-        rate = self.successes / self.seedlings if self.seedlings else math.nan
-        return {
-            "scenario": self.scenario,
+        return super().to_dict() | {
             "trial": "delta_pots",
-            "seed": self.seed,
             "planner": self.planner,
-            "seedlings": self.seedlings,
-            "successes": self.successes,
-            "success_rate": rate,
-            "outcomes": self.outcomes,
-            "cycle_time_s": round(cycle, 4),
-            "seedlings_per_hour": round(3600.0 / cycle, 1) if math.isfinite(cycle) else None,
-            "peak_squeeze_n": round(max((r.peak_squeeze_n for r in self.records), default=0), 4),
-            "pots": [r.as_dict() for r in self.records],
-            "sim_time_s": round(self.sim_time_s, 4),
-            "motors": self.motors,
-            "fault": self.fault,
             "refused": self.refused,
             "peak_following_error_deg": self.peak_following_error_deg,
-            "valid": self.valid,
             "definitions": DEFINITIONS,
-            "wall_time_s": round(self.wall_s, 3),
         }
 
 
@@ -426,28 +383,7 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
     holding: list[int] = []
     finger_adr = [model.jnt_qposadr[model.joint(f).id] for f in fuzzy_gripper.FINGERS]
 
-    throat_r = line.funnel_throat_diameter_m / 2
-    throat_z = line.funnel_top_z_m - line.funnel_height_m
-    tx, ty = line.drop_tube_xy_m
-    planted: list[int] = []
-
-    def in_tube(rec: PotRecord) -> bool:
-        x, y, z = (float(v) for v in data.xpos[body_ids[rec.pot]])
-        return math.hypot(x - tx, y - ty) < throat_r and z < throat_z
-
-    def plant() -> None:
-        """The planting unit takes every pot below the funnel's throat away (as serial_pots)."""
-        for rec in records:
-            if rec.start_s is None or rec.outcome == "success" or not in_tube(rec):
-                continue
-            rec.outcome = "success"
-            adr = model.jnt_qposadr[model.body_jntadr[body_ids[rec.pot]]]
-            dof = model.jnt_dofadr[model.body_jntadr[body_ids[rec.pot]]]
-            k = len(planted)
-            data.qpos[adr : adr + 3] = (1.0 + 0.1 * (k % 10), -1.0 - 0.1 * (k // 10), -0.13)
-            data.qpos[adr + 3 : adr + 7] = (1.0, 0.0, 0.0, 0.0)
-            data.qvel[dof : dof + 6] = 0.0
-            planted.append(rec.index)
+    plant = planter(line, model, data, records, body_ids)
 
     def mark(i: int, key: str):
         def fn(t: float) -> None:
@@ -607,7 +543,7 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
             rec.outcome = "missed"
         else:
             rec.outcome = "dropped"
-    result = DeltaPotsResult(sc.meta.name, seed, sc.motion.planner, records)
+    result = DeltaPotsResult(sc.meta.name, seed, records, planner=sc.motion.planner)
     result.sim_time_s = k * dt
     result.fault = fault
     result.valid = t <= limit_s and not any(int(w.number) for w in data.warning)

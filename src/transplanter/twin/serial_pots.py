@@ -52,7 +52,14 @@ from transplanter.twin.serial_arm import (
     world_to_paper,
 )
 
-__all__ = ["PotRecord", "SerialPotsResult", "line_config", "pitch_release", "run_serial_pots"]
+__all__ = [
+    "PotRecord",
+    "SerialPotsResult",
+    "line_config",
+    "pitch_release",
+    "planter",
+    "run_serial_pots",
+]
 
 DETECTED_CM = 5.0
 """Sensor 1 reads a pot in its cell when nearer than this (the controller's Near core)."""
@@ -82,6 +89,35 @@ def line_config(sc):
     )
     line = scene_config(five, machine_config(five))
     return replace(line, live_rows=line.rows)  # every row's pots are bodies: no window
+
+
+def planter(line, model: mujoco.MjModel, data: mujoco.MjData, records: list, body_ids: dict):
+    """The planting unit of a pot job on the five-bar's line (`line`: its scene config): a
+    function that takes every picked pot below the funnel's throat away, marking its record a
+    success, and rests it far from the machine (as the five-bar's judge parks them)."""
+    throat_r = line.funnel_throat_diameter_m / 2
+    throat_z = line.funnel_top_z_m - line.funnel_height_m
+    tx, ty = line.drop_tube_xy_m
+    planted: list[int] = []
+
+    def in_tube(rec) -> bool:
+        x, y, z = (float(v) for v in data.xpos[body_ids[rec.pot]])
+        return math.hypot(x - tx, y - ty) < throat_r and z < throat_z
+
+    def plant() -> None:
+        for rec in records:
+            if rec.start_s is None or rec.outcome == "success" or not in_tube(rec):
+                continue
+            rec.outcome = "success"
+            adr = model.jnt_qposadr[model.body_jntadr[body_ids[rec.pot]]]
+            dof = model.jnt_dofadr[model.body_jntadr[body_ids[rec.pot]]]
+            k = len(planted)
+            data.qpos[adr : adr + 3] = (1.0 + 0.1 * (k % 10), -1.0 - 0.1 * (k // 10), -0.13)
+            data.qpos[adr + 3 : adr + 7] = (1.0, 0.0, 0.0, 0.0)
+            data.qvel[dof : dof + 6] = 0.0
+            planted.append(rec.index)
+
+    return plant
 
 
 def pitch_release(kin, grasp, over, lowest_y: float, max_tilt_rad: float) -> np.ndarray:
@@ -344,29 +380,7 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     lowest = z_top + job.release_gap_m + job.grasp_z_m  # the pot's bottom release_gap up
     park = _park_point(rig.kin)
 
-    throat_r = line.funnel_throat_diameter_m / 2
-    throat_z = line.funnel_top_z_m - line.funnel_height_m
-    tx, ty = line.drop_tube_xy_m
-    planted: list[int] = []
-
-    def in_tube(rec: PotRecord) -> bool:
-        x, y, z = (float(v) for v in data.xpos[body_ids[rec.pot]])
-        return math.hypot(x - tx, y - ty) < throat_r and z < throat_z
-
-    def plant() -> None:
-        """The planting unit takes every pot below the funnel's throat away (as the five-bar's
-        judge parks them): it rests far from the machine from now on."""
-        for rec in records:
-            if rec.start_s is None or rec.outcome == "success" or not in_tube(rec):
-                continue
-            rec.outcome = "success"
-            adr = model.jnt_qposadr[model.body_jntadr[body_ids[rec.pot]]]
-            dof = model.jnt_dofadr[model.body_jntadr[body_ids[rec.pot]]]
-            k = len(planted)
-            data.qpos[adr : adr + 3] = (1.0 + 0.1 * (k % 10), -1.0 - 0.1 * (k // 10), -0.13)
-            data.qpos[adr + 3 : adr + 7] = (1.0, 0.0, 0.0, 0.0)
-            data.qvel[dof : dof + 6] = 0.0
-            planted.append(rec.index)
+    plant = planter(line, model, data, records, body_ids)
 
     def mark(i: int, key: str):
         def fn(t: float) -> None:
