@@ -9,7 +9,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds
+from transplanter.cli.common import EXIT_REFUSED, _err, _seeds
 
 __all__ = ["NOT_FILMED", "handles", "pots_line", "run_trial"]
 
@@ -56,7 +56,6 @@ def run_trial(
     from transplanter.machine.servo_drives import frame_steps
     from transplanter.scenario.assemble import require_awake
     from transplanter.scenario.schema import ScenarioError, load_scenario
-    from transplanter.studies.stats import pooled_rate
     from transplanter.twin.delta_pots import (
         DEFINITIONS,
         check_placement,
@@ -87,23 +86,6 @@ def run_trial(
     except (ScenarioError, ValueError) as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
-    results = []
-    for seed in seeds:
-        result = run_delta_pots(scenario, seed)
-        results.append(result)
-        print(pots_line(result))
-    if args.seeds is None:
-        payload: dict[str, Any] = results[0].to_dict()
-    else:
-        pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
-        payload = {"trials": [r.to_dict() for r in results], "pooled": pooled.to_dict()}
-        cycles = [r.cycle_time_s for r in results if math.isfinite(r.cycle_time_s)]
-        payload["mean_cycle_time_s"] = sum(cycles) / len(cycles) if cycles else None
-        lo, hi = pooled.ci95
-        print(
-            f"pooled over {pooled.trials} runs: {100 * pooled.success_rate:.1f} % of seedlings "
-            f"into the tube ({pooled.successes}/{pooled.seedlings}), 95 % CI "
-            f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
-        )
-    summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
-    return _finish(args, results, summary, payload, json_path)
+    from transplanter.cli.serial_trial import run_pot_seeds
+
+    return run_pot_seeds(args, scenario, seeds, json_path, run_delta_pots, pots_line, DEFINITIONS)

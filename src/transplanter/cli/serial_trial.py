@@ -258,14 +258,24 @@ def pots_line(r) -> str:
 
 
 def _run_pots(args: argparse.Namespace, scenario, seeds, json_path: Path | None) -> int:
-    from transplanter.studies.stats import pooled_rate
     from transplanter.twin.serial_pots import DEFINITIONS, run_serial_pots
+
+    return run_pot_seeds(args, scenario, seeds, json_path, run_serial_pots, pots_line, DEFINITIONS)
+
+
+def run_pot_seeds(
+    args: argparse.Namespace, scenario, seeds, json_path: Path | None, run, line, definitions
+) -> int:
+    """A pot job's trials (the serial arm's or the delta's on the five-bar's line): `run`
+    per seed, a `line` each, the pooled rate and mean cycle over --seeds, the JSON and the
+    definitions."""
+    from transplanter.studies.stats import pooled_rate
 
     results = []
     for seed in seeds:
-        result = run_serial_pots(scenario, seed)
+        result = run(scenario, seed)
         results.append(result)
-        print(pots_line(result))
+        print(line(result))
     if args.seeds is None:
         payload: dict[str, Any] = results[0].to_dict()
     else:
@@ -279,5 +289,5 @@ def _run_pots(args: argparse.Namespace, scenario, seeds, json_path: Path | None)
             f"into the tube ({pooled.successes}/{pooled.seedlings}), 95 % CI "
             f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
         )
-    summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
+    summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in definitions.items())
     return _finish(args, results, summary, payload, json_path)

@@ -177,36 +177,17 @@ def _serial_pots(scenario, seed: int, row: dict[str, Any]) -> None:
     from transplanter.twin.serial_pots import run_serial_pots
 
     frame_steps(scenario.physics.timestep_s)
-    r = run_serial_pots(scenario, seed)
-    d = r.to_dict()
-    row.update(
-        successes=r.successes,
-        seedlings=r.seedlings,
-        success_rate=d["success_rate"],
-        cycle_time_s=_finite(r.cycle_time_s),
-        cycle_time_sd_s=None,
-        cycles=max(len(r.picked) - 1, 0),
-        valid=r.valid,
-        fault=r.fault,
-        sim_time_s=r.sim_time_s,
-        wall_time_s=r.wall_s,
-        warnings="",
-        plants_per_hour=d["seedlings_per_hour"],
-        peak_squeeze_n=d["peak_squeeze_n"],
-        **motor_columns(r.motors),
-        **{f"fail_{k.replace(' ', '_')}": r.outcomes.get(k, 0)
-           for k in ("dropped", "missed", "no pot")},
-    )  # fmt: skip
-    if not r.valid:
-        row["error"] = "trial not valid: MuJoCo warned or the job ran out of simulated time"
-    elif r.fault:
-        row["error"] = f"fault: {r.fault}"
+    _pot_row(run_serial_pots(scenario, seed), row)
 
 
 def _delta_pots(scenario, seed: int, row: dict[str, Any]) -> None:
     from transplanter.twin.delta_pots import run_delta_pots
 
-    r = run_delta_pots(scenario, seed)
+    _pot_row(run_delta_pots(scenario, seed), row)
+
+
+def _pot_row(r, row: dict[str, Any]) -> None:
+    """A pot job's result (the serial arm's or the delta's on the five-bar's line) as a row."""
     d = r.to_dict()
     row.update(
         successes=r.successes,
