@@ -236,3 +236,38 @@ def test_the_render_model_draws_every_pot_where_the_window_puts_it():
     assert np.allclose(where[32], data.xpos[scene.pot_bodies[6, 2]], atol=1e-12)
     grip = scene.model.site("grip_center").id
     assert np.allclose(drawn.site_xpos[grip], data.site_xpos[grip])
+
+
+def test_the_belt_ballast_drags_what_the_waiting_pots_would():
+    """The carriage of a windowed scene pushes a ballast with the waiting pots' mass and
+    their friction on the belt (the drive lags its profile by what it drags): 30 pots wait
+    on a 12-row belt with 6 live rows, 25 once row 6 has entered; an index pushes it a row
+    pitch, as the ribs push the pots."""
+    cfg = SceneConfig(rows=12, live_rows=6)
+    scene = build_scene(cfg, seed=4)
+    m, pots = scene.model, scene.pots
+    ballast, slide = m.body("ballast").id, m.joint("ballast")
+    dof = int(slide.dofadr[0])
+
+    def expected(first: int) -> tuple[float, float]:
+        mass = pots.mass[first:] + cfg.shoot_mass_kg
+        return mass.sum(), (mass * pots.friction[first:]).sum() / mass.sum()
+
+    mass, friction = expected(30)
+    assert 1.3 < mass < 1.7  # 30 pots of about 50 g
+    assert m.body_mass[ballast] == pytest.approx(mass, rel=1e-12)
+    assert m.dof_frictionloss[dof] == pytest.approx(friction * mass * 9.81, rel=1e-12)
+    assert m.dof_invweight0[dof] == pytest.approx(1 / mass, rel=1e-12)  # a lone slide
+    data, drive = scene.make_data(), ConveyorDrive(scene)
+    for pot in range(5):
+        scene.window.release(data, pot)
+    assert m.body_mass[ballast] == pytest.approx(expected(35)[0], rel=1e-12)
+    y0 = data.qpos[slide.qposadr[0]]
+    drive.start(data, data.time, 0.6)
+    while drive.armed(data):
+        drive.apply(data, data.time)
+        mujoco.mj_step(m, data)
+    assert data.qpos[slide.qposadr[0]] - y0 == pytest.approx(-cfg.row_pitch_m, abs=0.003)
+    # a belt with a body per pot has no ballast
+    full = build_scene(dataclasses.replace(cfg, live_rows=12), seed=4)
+    assert "ballast" not in [full.model.body(b).name for b in range(full.model.nbody)]

@@ -84,11 +84,25 @@ class LiveRows:
         self._rest_z = pots.height / 2
         self._tree = scene.model.body_treeid[self.slot_body]
         m = scene.model
-        # the machine's and the carriage's joints come before the pots' free joints
-        self.machine_nq = m.nq - 7 * n_slots
-        self.machine_nv = m.nv - 6 * n_slots
+        # the machine's and the carriage's joints come before the pots' free joints (the
+        # belt ballast's slide after them)
+        self.machine_nq = int(self.slot_qadr.min())
+        self.machine_nv = int(self.slot_dadr.min())
         self._slot_bvh = m.body_bvhadr[self.slot_body].copy()
         self._slot_nbvh = m.body_bvhnum[self.slot_body].copy()
+        # the belt ballast (conveyor_tube.add_ballast): the waiting pots' load on the drive
+        self._ballast = m.body("ballast").id
+        self._ballast_geom = m.geom("ballast").id
+        self._ballast_dof = int(m.jnt_dofadr[m.joint("ballast").id])
+        mass0 = float(m.body_mass[self._ballast])
+        # the constants the compiler derives from its mass, per kg (a lone slide: 1/mass)
+        self._ballast_per_kg = (
+            m.body_inertia[self._ballast] / mass0,
+            m.body_invweight0[self._ballast] * mass0,
+            m.dof_invweight0[self._ballast_dof] * mass0,
+        )
+        self._ballast_contype = int(m.geom_contype[self._ballast_geom])
+        self._set_ballast()
         # the pushes an entering row skipped, run in a model of the row (scene.row_pushes)
         self.side = RowPushes(scene)
         self.push_cap = PUSH_CAP
@@ -161,6 +175,28 @@ class LiveRows:
                     return
             self._enter(data, self.next_row, free[:cols])
             self.next_row += 1
+            self._set_ballast()
+
+    def _set_ballast(self) -> None:
+        """The belt ballast drags what the waiting pots would: their mass, and their
+        friction on the belt as its slide's dry friction (none waiting: it touches nothing)."""
+        m, b, dof = self.scene.model, self._ballast, self._ballast_dof
+        pots = self.scene.pots
+        waiting = np.flatnonzero(self.state == WAITING)
+        if waiting.size == 0:
+            m.geom_contype[self._ballast_geom] = 0
+            m.dof_frictionloss[dof] = 0.0
+            return
+        mass = pots.mass[waiting] + self.config.shoot_mass_kg
+        total = float(mass.sum())
+        friction = float((mass * pots.friction[waiting]).sum()) / total
+        inertia, body_w, dof_w = self._ballast_per_kg
+        m.body_mass[b] = m.body_subtreemass[b] = total
+        m.body_inertia[b] = inertia * total
+        m.body_invweight0[b] = body_w / total
+        m.dof_invweight0[dof] = dof_w / total
+        m.dof_M0[dof] = total
+        m.dof_frictionloss[dof] = friction * total * -m.opt.gravity[2]
 
     def _free_resting(self, data: mujoco.MjData) -> None:
         """Pots of rows that left the pickup an index ago or more and lie at rest (asleep,
