@@ -1,5 +1,5 @@
 """How many index pushes it takes for a pot's offset in its cell to stop changing: the cap
-of the pushes a windowed scene runs for an entering row (scene.row_pushes, SKIPPED_PUSH_CAP).
+of the pushes a windowed scene runs for an entering row (scene.row_pushes.PUSH_CAP).
 
 Runs the side model of scene.row_pushes (one row of the belt: its pots, ribs, table and the
 index motion, the ballast of the rest of the belt) on the rows --first.. of a belt of --rows

@@ -22,7 +22,10 @@ offsets across the belt to settle (config.SETTLE_PUSHES). On the full belt the s
 would have been pushed by every index since the trial began: the pushes it skipped (of the
 last row_pushes.PUSH_CAP before its pickup) are run in a model of that row alone
 (`scene.row_pushes`) as it enters, and its pots take the poses in their cells that those
-pushes leave them in. This is bookkeeping at index and release events, never per step.
+pushes leave them in. The waiting pots' load on the conveyor's drive is a ballast the
+carriage pushes (`conveyor_tube.add_ballast`: their mass and friction on the belt, set as
+rows enter), so the drive lags its profile as on the full belt. This is bookkeeping at index
+and release events, never per step.
 
 Which pot a slot holds lives here and in the model, not in the MjData (like the ribs of
 `ConveyorDrive`): one simulation at a time per scene.
