@@ -70,7 +70,9 @@ def test_pushed_pots_lie_against_their_rib_away_from_their_drawn_offsets(belt):
     moved = np.abs(after[:, 0] - drawn[:, 0])
     assert np.all(moved > 1e-5) and moved.max() > 5e-4 and moved.max() < 0.005
     assert np.allclose(after[:, 2], scene.pots.height[40:45] / 2, atol=2e-3)  # upright
-    assert np.allclose(np.abs(after[:, 3]), 1.0, atol=0.01)
+    # upright: the pot's axis within 5 deg of vertical (it may turn about its axis)
+    tilt = np.degrees(np.arccos(np.clip(1.0 - 2.0 * (after[:, 4] ** 2 + after[:, 5] ** 2), -1, 1)))
+    assert np.all(tilt < 5.0), tilt
     assert np.array_equal(side.push(8, [1, 2, 3], 0.6), poses)
 
 
