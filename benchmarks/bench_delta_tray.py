@@ -6,6 +6,9 @@ packaged scenario, one seed after another in this process (one core), with the s
 own settings and any `--set KEY=VALUE` overrides.
 
     python benchmarks/bench_delta_tray.py [--seeds 1] [--set delta_refill.pose_judgement=false]
+
+The scenario grades the trays from pictures (`delta_refill.vision = "pipeline"`): headless,
+run it with MUJOCO_GL=egl (or osmesa), or add --set delta_refill.vision=truth.
 """
 
 from __future__ import annotations

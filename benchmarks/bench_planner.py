@@ -10,9 +10,12 @@ on the default delta, against a particle swarm and against TOPP-RA.
    tray (Y0 = +160 mm), Z = -800 mm (docs/delta.md): all 128 x 128 with --all, else a seeded
    sample of --moves plus the four longest (corner to far corner) and the shortest; per move
    the planned total, the planning time and TOPP-RA's optimum along the same path; max, the
-   counts against the paper's 1.36 s line, and docs/img/planner_tray_moves.png.
+   counts against the paper's 1.36 s line, and docs/img/planner_tray_moves.png. The planning
+   time per move is printed as CPU time (the machine may be shared) and wall time;
+   ``--no-toppra`` times the planner alone. Every move of both trays, resumably:
+   scripts/planner_all_moves.py.
 
-    python benchmarks/bench_planner.py [--moves N] [--all] [--seed S] [--no-plots]
+    python benchmarks/bench_planner.py [--moves N] [--all] [--seed S] [--no-plots] [--no-toppra]
 
 Asserts nothing.
 """
@@ -101,7 +104,9 @@ def example(kin, limits, plots: bool) -> None:
         print(f"wrote {IMG / 'planner_convergence.png'}")
 
 
-def sweep(kin, limits, moves: int, all_moves: bool, seed: int, plots: bool) -> None:
+def sweep(
+    kin, limits, moves: int, all_moves: bool, seed: int, plots: bool, toppra: bool = True
+) -> None:
     supply, planting = tray_cells(-160.0), tray_cells(160.0)
     pairs = [(i, j) for i in range(128) for j in range(128)]
     if not all_moves:
@@ -112,16 +117,21 @@ def sweep(kin, limits, moves: int, all_moves: bool, seed: int, plots: bool) -> N
         extremes = [np.unravel_index(k, gaps.shape) for k in (*order[-4:], order[0])]
         pairs = list(dict.fromkeys([(int(i), int(j)) for i, j in extremes] + picked))
     print(f"== {len(pairs)} supply -> planting cell moves (of 16384)")
-    totals, topps, times = [], [], []
+    totals, topps, times, cpus = [], [], [], []
     logging.disable(logging.WARNING)
     started = time.perf_counter()
     for i, j in pairs:
+        cpu = time.process_time()
         plan = pb.plan_move(kin, supply[i], planting[j], limits)
+        cpus.append(time.process_time() - cpu)
         totals.append(plan.total_s)
         times.append(plan.planning_s)
-        topps.append(pb.toppra_total(kin, plan.nodes, plan.intervals_s, limits))
+        if toppra:
+            topps.append(pb.toppra_total(kin, plan.nodes, plan.intervals_s, limits))
+        else:
+            topps.append(np.nan)
     wall = time.perf_counter() - started
-    totals, topps, times = map(np.asarray, (totals, topps, times))
+    totals, topps, times, cpus = map(np.asarray, (totals, topps, times, cpus))
     ratio = totals / topps
     worst = int(np.argmax(totals))
     print(
@@ -130,13 +140,16 @@ def sweep(kin, limits, moves: int, all_moves: bool, seed: int, plots: bool) -> N
         f"{np.round(planting[pairs[worst][1]] / MM, 1).tolist()} mm)"
     )
     print(f"under the paper's {PAPER_LINE_S} s: {int((totals < PAPER_LINE_S).sum())}/{len(totals)}")
+    if toppra:
+        print(
+            f"spline / TOPP-RA: min {ratio.min():.4f}, median {np.median(ratio):.4f}, "
+            f"max {ratio.max():.4f}; TOPP-RA total max {topps.max():.4f} s"
+        )
     print(
-        f"spline / TOPP-RA: min {ratio.min():.4f}, median {np.median(ratio):.4f}, "
-        f"max {ratio.max():.4f}; TOPP-RA total max {topps.max():.4f} s"
-    )
-    print(
-        f"planning time per move: median {np.median(times):.3f} s, max {times.max():.3f} s; "
-        f"with TOPP-RA {wall / len(pairs):.3f} s per move, {wall:.0f} s in all"
+        f"planning time per move (plan_move): CPU median {np.median(cpus):.3f} s, mean "
+        f"{cpus.mean():.3f} s, max {cpus.max():.3f} s; wall median {np.median(times):.3f} s, "
+        f"max {times.max():.3f} s; {'with TOPP-RA ' if toppra else ''}"
+        f"{wall / len(pairs):.3f} s of wall per move, {wall:.0f} s in all"
     )
     edges = np.arange(0.5, 1.45, 0.05)
     counts, _ = np.histogram(totals, bins=edges)
@@ -150,7 +163,8 @@ def sweep(kin, limits, moves: int, all_moves: bool, seed: int, plots: bool) -> N
 
         fig, ax = plt.subplots(figsize=(7, 4))
         ax.hist(totals, bins=edges, label="quintic B-spline, scale + SLSQP")
-        ax.hist(topps, bins=edges, histtype="step", color="k", label="TOPP-RA on the same path")
+        if toppra:
+            ax.hist(topps, bins=edges, histtype="step", color="k", label="TOPP-RA on the same path")
         ax.axvline(PAPER_LINE_S, color="r", ls="--", label=f"paper's bound {PAPER_LINE_S} s")
         ax.set_xlabel("move time (s)")
         ax.set_ylabel("moves")
@@ -169,13 +183,16 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-plots", action="store_true")
     parser.add_argument("--skip-example", action="store_true")
+    parser.add_argument(
+        "--no-toppra", action="store_true", help="time the planner alone (no TOPP-RA ratios)"
+    )
     args = parser.parse_args()
     kin = DeltaKinematics()
     limits = pb.MoveLimits.of(kin)
     logging.disable(logging.WARNING)
     if not args.skip_example:
         example(kin, limits, not args.no_plots)
-    sweep(kin, limits, args.moves, args.all, args.seed, not args.no_plots)
+    sweep(kin, limits, args.moves, args.all, args.seed, not args.no_plots, not args.no_toppra)
 
 
 if __name__ == "__main__":

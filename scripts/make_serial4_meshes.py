@@ -10,13 +10,11 @@ Sizes in metres:
   bottom centre.
 - serial4_servo.stl: a standard servo body (MG996R class: 40.7 x 19.7 x 36.8 mm with its
   mounting tabs 54 mm across), centred, its output shaft along +z.
-- serial4_finger.stl: one gripper finger, 35 mm long along +x from its hinge, 4 mm thick,
-  16 mm tall, its inner face (the -y side) toothed.
+The gripper is an effector of its own: scripts/make_fuzzy_gripper_meshes.py.
 """
 
 from pathlib import Path
 
-import numpy as np
 import trimesh
 
 ASSETS = Path(__file__).resolve().parent.parent / "models" / "serial4" / "assets"
@@ -39,22 +37,11 @@ def servo() -> trimesh.Trimesh:
     return trimesh.util.concatenate([body, tabs, shaft])
 
 
-def finger() -> trimesh.Trimesh:
-    plate = trimesh.creation.box(extents=[0.035, 0.004, 0.016])
-    plate.apply_translation([0.0175, 0.002, 0])
-    teeth = [
-        trimesh.creation.box(extents=[0.0015, 0.0008, 0.016]).apply_translation([x, -0.0004, 0])
-        for x in np.linspace(0.012, 0.032, 6)
-    ]
-    return trimesh.util.concatenate([plate, *teeth])
-
-
 def meshes() -> dict[Path, trimesh.Trimesh]:
     """Every mesh by the path it is written to."""
     return {
         ASSETS / "serial4_base.stl": base(),
         ASSETS / "serial4_servo.stl": servo(),
-        ASSETS / "serial4_finger.stl": finger(),
     }
 
 

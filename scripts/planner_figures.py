@@ -112,7 +112,7 @@ def plot_executed(out: Path, seed: int) -> None:
     deg = math.degrees(1.0)
     for planner, style in (("lines", ":"), ("bspline5", "-")):
         over = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0,
-                "motion.planner": planner}  # fmt: skip
+                "motion.planner": planner, "delta_refill.vision": "truth"}  # fmt: skip
         trace = _Trace()
         result = run_delta_refill(load_scenario("delta_refill", over), seed, observers=(trace,))
         a = np.array(trace.rows)

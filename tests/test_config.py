@@ -39,9 +39,12 @@ def test_an_override_reaches_the_physics_and_the_firmware():
 
 def test_a_scene_the_builder_refuses_is_a_scenario_error():
     s = paper_scenario(**{"pots.placement_max_mm": 4.5})  # 35 + 9 + 2 mm > 45 mm cells
-    machine = machine_config(s)
+    # the machine reads the arms' masses from the compiled robot model, whose scene config
+    # the builder checks first: refused there already
     with pytest.raises(ScenarioError, match="pots do not fit their cells"):
-        scene_config(s, machine)
+        machine_config(s)
+    with pytest.raises(ScenarioError, match="pots do not fit their cells"):
+        scene_config(s, machine_config(paper_scenario()))
 
 
 def test_a_taught_value_finer_than_the_eeprom_is_refused_not_rounded():
@@ -60,3 +63,31 @@ def test_a_taught_value_finer_than_the_eeprom_is_refused_not_rounded():
     assert key_quantum("taught.s_low_mm_s") == 0.1
     assert key_quantum("taught.pickup[2].wrist_deg") == 0.01
     assert key_quantum("pots.friction") is None
+
+
+@pytest.mark.parametrize(
+    ("scenario", "overrides", "needle"),
+    [
+        ("paper", {"effector.kind": "fuzzy_gripper"}, "the five-bar's pot trial runs"),
+        ("paper", {"effector.kind": "plug_claws"}, "the five-bar's pot trial runs"),
+        ("delta_refill", {"robot.kind": "fivebar"}, "the plug-tray job runs"),
+        ("delta_refill", {"effector.kind": "parallel_jaw"}, "the plug-tray job runs"),
+        ("serial_arm_pots", {"effector.kind": "parallel_jaw"}, 'runs robot.kind = "serial4"'),
+        ("serial_arm", {"effector.kind": "plug_claws"}, 'runs robot.kind = "serial4"'),
+    ],
+)
+def test_a_job_refuses_a_robot_or_effector_it_is_not_built_for(scenario, overrides, needle, capsys):
+    """Each job runs the robot and effector its scene and host are built around; a scenario
+    naming another kind is refused (exit 2) naming the key, not run with the job's own kinds
+    (a delta tray with `robot.kind = "fivebar"` used to run the delta)."""
+    from transplanter import cli
+
+    key, value = next(iter(overrides.items()))
+    args = ["trial", scenario, "--set", f'{key}="{value}"', "--seed", "1"]
+    if scenario == "delta_refill":
+        args += ["--set", 'delta_refill.vision="truth"', "--set", "delta_refill.max_cells=1"]
+    elif scenario == "paper" or scenario == "serial_arm_pots":
+        args += ["--seedlings", "1"]
+    assert cli.main(args) == 2
+    err = capsys.readouterr().err
+    assert f'{key} = "{value}"' in err and needle in err

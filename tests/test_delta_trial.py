@@ -24,10 +24,13 @@ from transplanter.scene.delta_scene import (
 from transplanter.scene.effectors import plug_claws
 from transplanter.scene.plug_tray import draw_tray
 from transplanter.scene.robots import delta as delta_robot
+from transplanter.twin import delta_refill
 from transplanter.twin.delta_refill import run_delta_refill
 
 KIN = DeltaKinematics()
-SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0}
+# the physics from the drawn truth (the pipeline's grading: tests/test_delta_grading.py)
+SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0,
+         "delta_refill.vision": "truth"}  # fmt: skip
 SEED = 10  # first job cell inferior, first healthy supply seedling a left-right crosser
 
 
@@ -159,7 +162,8 @@ def test_the_json_has_the_paper_columns_with_definitions(tmp_path, capsys):
     out = tmp_path / "r.json"
     status = cli.main(["trial", "delta_refill", "--seed", str(SEED), "--json", str(out),
                        "--set", "delta_refill.max_cells=1",
-                       "--set", "delta_refill.image_delay_ms=0"])  # fmt: skip
+                       "--set", "delta_refill.image_delay_ms=0",
+                       "--set", "delta_refill.vision=truth"])  # fmt: skip
     assert status == 0
     d = json.loads(out.read_text())
     for name in ("time_per_operation_s", "plants_per_hour", "trays_per_hour",
@@ -187,3 +191,14 @@ def test_the_splines_take_less_time_than_lines_for_the_same_cell(pair):
     # seed 10's cell: 5.64 s with splines against 8.93 s with lines (no image delay)
     assert spline.tray_time_s < 0.7 * lines.tray_time_s
     assert max(spline.peak_joint_speed_deg_s) > max(lines.peak_joint_speed_deg_s)
+
+
+def test_the_scenario_timestep_is_the_physics_step():
+    sc = _scenario(**{"physics.timestep_ms": 0.5})
+    spec = build_delta_spec(
+        delta_refill._scene_config(sc, KIN),
+        draw_tray(SEED),
+        draw_tray(SEED + 1),
+        JobCells((), (), ()),
+    )
+    assert compile_scene(spec).opt.timestep == 0.0005

@@ -26,8 +26,10 @@ from transplanter.viewing.playback import read_summary
 from transplanter.viewing.video import RenderRefused
 
 SEED = 10  # the first job cell (3) is inferior: a cull and a refill
-SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0}
-SETS = ["--set", "delta_refill.max_cells=1", "--set", "delta_refill.image_delay_ms=0"]
+SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0,
+         "delta_refill.vision": "truth"}  # fmt: skip
+SETS = ["--set", "delta_refill.max_cells=1", "--set", "delta_refill.image_delay_ms=0",
+        "--set", "delta_refill.vision=truth"]  # fmt: skip
 RATE_HZ = 20.0
 
 

@@ -328,7 +328,7 @@ def test_error_code_is_an_int_and_names_the_reply():
     assert error.code is ErrorCode.UNSUPPORTED_COMMAND and error.code == 20
     assert isinstance(error.code, int) and isinstance(error, ValueError)
     assert error.reply == "error:20 unsupported command G2; supported: " + (
-        "G0 G1 G4 G28 G90 G91 M280 M400 M114 M119 M105 M710 M112"
+        "G0 G1 G4 G28 G90 G91 M280 M400 M114 M119 M105 M710 M720 M112"
     )
     assert str(error).startswith("error 20: ")
     assert GcodeError(33, "x").code is ErrorCode.INVALID_TARGET

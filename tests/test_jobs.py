@@ -7,7 +7,9 @@ from transplanter.studies import jobs
 from transplanter.studies.backends import RESULT_FIELDS, run_one
 from transplanter.studies.grid import task
 
-SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0}
+# the truth's grading map: no GL context needed
+SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0,
+         "delta_refill.vision": "truth"}  # fmt: skip
 NO_SPREAD = {"plug_bench.vigour_cv_pct": 0.0, "plug_bench.moisture_band_pct": 0.0}
 
 
@@ -17,6 +19,26 @@ def test_jobs_by_workcell_kind():
     assert jobs.job_of(load_scenario("paper")) is None  # the five-bar's trial
     assert jobs.job_of(load_scenario("delta_refill")).kind == "plug_trays"
     assert jobs.job_of(load_scenario("plug_bench")).kind == "plug_bench"
+    assert jobs.job_of(load_scenario("serial_arm")).kind == "pool_to_belt"
+    # the five-bar's workcell with the serial arm on it: the arm's pot job, not the five-bar's
+    assert jobs.job_of(load_scenario("serial_arm_pots")).kind == "serial4:conveyor_tube"
+
+
+def test_the_serial_arms_jobs_are_rows_of_their_picks():
+    row = run_one(task("serial_arm", {"pool_to_belt.count": 2}, {}, 1, 40))
+    assert row["error"] is None, row["error"]
+    assert (row["successes"], row["seedlings"], row["cycles"]) == (2, 2, 1)
+    assert 8.5 < row["cycle_time_s"] < 10.0
+    assert row["plants_per_hour"] == pytest.approx(3600 / row["cycle_time_s"], rel=1e-3)
+    assert 8.0 < row["peak_squeeze_n"] < 20.0 and row["fail_dropped"] == 0
+    step = run_one(
+        task("serial_arm", {"pool_to_belt.count": 2}, {"physics.timestep_ms": 0.3}, 1, 40)
+    )
+    assert step["error"].startswith("setting refused: ") and "20 ms PWM frame" in step["error"]
+    pots = run_one(task("serial_arm_pots", {}, {}, 2, 2))
+    assert pots["error"] is None, pots["error"]
+    assert pots["seedlings"] == 2 and pots["fail_no_pot"] == 0
+    assert pots["successes"] + pots["fail_dropped"] + pots["fail_missed"] == 2
 
 
 def test_a_delta_tray_is_a_row_of_serviced_cells_not_a_five_bar_refusal():

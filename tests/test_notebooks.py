@@ -14,6 +14,7 @@ PLOTS = {
         "via_point_heights_3/success_heatmap.png",
     ],
     "speed_vs_success.py": ["speed_vs_success_3/pareto.png"],
+    "compare_arms.py": ["compare_arms_3/compare.png"],
 }
 
 

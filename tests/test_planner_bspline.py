@@ -129,6 +129,52 @@ def test_toppra_is_no_slower_than_the_spline_along_its_own_path(plan):
     assert 1.0 < plan.total_s / topp < 1.3
 
 
+def test_toppra_batched_coefficients_equal_toppras_point_by_point(plan, monkeypatch):
+    """The delta's second-order constraints are evaluated over the whole grid in one call;
+    their coefficients are those of toppra's own loop over the grid points, and so is the
+    example's optimum."""
+    import toppra
+
+    spline = pb.quintic_spline(plan.nodes, plan.intervals_s)
+    end = float(np.sum(plan.intervals_s))
+
+    class Path(toppra.interpolator.AbstractGeometricPath):
+        def __call__(self, s, order=0):
+            return spline(np.asarray(s, dtype=np.float64), nu=order)
+
+        @property
+        def dof(self):
+            return 3
+
+        @property
+        def path_interval(self):
+            return np.array([0.0, end])
+
+    grid = np.linspace(0.0, end, 41)
+    tau = np.tile([-12.0, 12.0], (3, 1))
+    loop = toppra.constraint.SecondOrderConstraint.joint_torque_constraint(
+        KIN.inverse_dynamics, tau, np.zeros(3)
+    )
+    batched = pb._batched_second_order(toppra)(
+        KIN.inverse_dynamics, loop.constraint_F, loop.constraint_g, 3
+    )
+    for a, b in zip(
+        loop.compute_constraint_params(Path(), grid),
+        batched.compute_constraint_params(Path(), grid),
+        strict=True,
+    ):
+        if a is None:
+            assert b is None
+        else:
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12)
+    fast = pb.toppra_total(KIN, plan.nodes, plan.intervals_s, LIMITS)
+    monkeypatch.setattr(pb, "_batched_second_order", lambda t: t.constraint.SecondOrderConstraint)
+    assert fast == pytest.approx(
+        pb.toppra_total(KIN, plan.nodes, plan.intervals_s, LIMITS), abs=1e-12
+    )
+    assert fast == pytest.approx(0.7230, abs=2e-4)  # docs/planner.md
+
+
 def test_same_inputs_give_the_same_plan(plan):
     again = pb.plan_move(KIN, START, END, LIMITS)
     np.testing.assert_array_equal(again.intervals_s, plan.intervals_s)
@@ -206,3 +252,40 @@ def test_plan_move_with_exit_points_plans_nine_key_points(tmp_path, capsys):
     argv[argv.index("10")] = "200"
     assert cli.main(argv) == 1
     assert "--exit-mm" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("count", [6, 8])
+def test_the_batched_search_evaluations_are_the_reference_ones(count):
+    """The search's vectorised evaluations (Hermite pieces, DeltaKinematics.torque_split, a
+    batch of interval vectors at once) give what quintic_spline, exact_peaks, interval_usage
+    and evaluate_intervals give, one vector at a time."""
+    path = pb.PickPath(exit_m=0.01) if count == 8 else None
+    nodes = pb.joint_nodes(KIN, pb.key_points(START, END, path))
+    h = np.random.default_rng(count).uniform(0.05, 0.3, (5, count))
+    coef, half = pb._hermite_pieces(nodes, h)
+    usage, totals = pb._Evaluator(KIN, nodes, LIMITS)(h)
+    for k in range(len(h)):
+        ref, _, ref_half = pb._pieces(pb.quintic_spline(nodes, h[k]))
+        np.testing.assert_allclose(coef[k], ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+        np.testing.assert_allclose(half[k], ref_half, rtol=1e-15)
+        ref_usage = pb.interval_usage(KIN, nodes, h[k], LIMITS)
+        np.testing.assert_allclose(usage[k], ref_usage, rtol=1e-9)
+        assert totals[k] == pytest.approx(pb.evaluate_intervals(KIN, nodes, h[k], LIMITS), 1e-12)
+    rng = np.random.default_rng(5)
+    q, qd, qdd = (
+        rng.uniform(0.1, 0.8, (50, 3)),
+        rng.normal(0, 3, (50, 3)),
+        rng.normal(0, 30, (50, 3)),
+    )
+    dyn, grav, xdd = KIN.torque_split(q, qd, qdd)
+    np.testing.assert_allclose(dyn + grav, KIN.inverse_dynamics(q, qd, qdd), atol=1e-12)
+    np.testing.assert_allclose(grav, KIN.gravity_torques(q), atol=1e-12)
+    np.testing.assert_allclose(xdd, KIN.platform_motion(q, qd, qdd)[2], atol=1e-12)
+
+
+def test_the_fast_peaks_are_the_exact_peaks():
+    rng = np.random.default_rng(3)
+    for m in (4, 5):  # acceleration (cubic) and speed (quartic) pieces
+        p = rng.normal(size=(4000, m))
+        p[:50, -1] *= 1e-9  # a vanishing leading coefficient
+        np.testing.assert_allclose(pb._abs_peak_fast(p), pb._abs_peak(p), rtol=1e-13)

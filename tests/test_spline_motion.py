@@ -9,6 +9,7 @@ import pytest
 from transplanter.machine.delta_drives import DeltaController
 from transplanter.machine.kinematics.delta import DeltaKinematics
 from transplanter.machine.kinematics.fivebar import FiveBarKinematics
+from transplanter.machine.kinematics.serial4 import Serial4Kinematics
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.planner_bspline import PickPath, key_points, plan_move
 from transplanter.machine.rig import DirectLink, SimulatedEndstops
@@ -133,9 +134,16 @@ def test_a_transfer_that_no_timing_can_make_is_refused_naming_the_limit():
 
 def test_bspline5_is_refused_for_an_arm_without_joint_limits():
     with pytest.raises(ValueError, match="declares no max_joint_speed_rad_s"):
-        SGFConfig(kinematics=FiveBarKinematics(), motion=MotionConfig(planner="bspline5"))
+        SGFConfig(kinematics=Serial4Kinematics(), motion=MotionConfig(planner="bspline5"))
+    # the five-bar declares its limits (tests/test_fivebar_spline.py)
+    SGFConfig(kinematics=FiveBarKinematics(), motion=MotionConfig(planner="bspline5"))
+    machine_config(load_scenario("paper", {"motion.planner": "bspline5"}))
     with pytest.raises(ScenarioError, match="motion.planner = 'bspline5'"):
-        machine_config(load_scenario("paper", {"motion.planner": "bspline5"}))
+        machine_config(
+            load_scenario(
+                "paper", {"motion.planner": "bspline5", "drives.z_speed_limit_mm_s": 60.0}
+            )
+        )
     with pytest.raises(ValueError, match="planner"):
         MotionConfig(planner="spline")
     assert math.isclose(MotionConfig().ee_accel_limit_m_s2, 8.83)

@@ -147,6 +147,10 @@ def test_saturation_note_when_perfect_points_tie_on_the_lower_bound():
     assert saturation_note([rows[0], rows[5]], rows[0]) is None
     assert saturation_note([_scored(0, 39), _scored(1, 38)], _scored(0, 39)) is None
     assert saturation_note([], None) is None
+    # the delta's tray job counts serviced cells, and a user gives more through max_cells
+    cells = saturation_note(rows, rows[0], "serviced cells", "delta_refill.max_cells x seeds")
+    assert cells.startswith("note: 5 of 6 points succeeded on all 40 serviced cells")
+    assert "about 300 serviced cells per point (delta_refill.max_cells x seeds)" in cells
 
 
 def test_a_delta_jobs_study_is_identified_by_the_sections_it_reads():

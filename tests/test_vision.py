@@ -33,14 +33,15 @@ HELD_OUT = (1000, 1001)
 SIZE = "960x540"
 
 
-def _grade_cli(seed: int, out, *extra: str) -> subprocess.CompletedProcess:
+def _grade_cli(seed: int, out, *extra: str, size: str | None = SIZE) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     run = None
+    sized = ["--size", size] if size is not None else []
     for gl in ("egl", "osmesa"):
         env["MUJOCO_GL"] = gl
         run = subprocess.run(
             [sys.executable, "-m", "transplanter.cli", "grade", "--seed", str(seed),
-             "--out", str(out), "--size", SIZE, *extra],
+             "--out", str(out), *sized, *extra],
             capture_output=True, text=True, env=env, timeout=300,
         )  # fmt: skip
         if run.returncode == 0 or "OpenGL" not in run.stderr:
@@ -192,3 +193,99 @@ def test_grade_without_a_gl_context_says_so_and_writes_nothing(tmp_path):
     assert run.returncode == 2, run.stderr
     assert "no OpenGL context" in run.stderr and "MUJOCO_GL=egl" in run.stderr
     assert not out.exists()
+
+
+def test_the_vision_section_defaults_are_the_dataclasses():
+    from transplanter.scenario.assemble import vision_config
+    from transplanter.scenario.schema import load_scenario
+    from transplanter.scene.plug_tray import SeedlingDraw
+    from transplanter.scene.tray_camera import ImagingDraw
+    from transplanter.vision.pipeline import CameraMount, VisionThresholds
+
+    for name in ("delta_refill", "paper"):  # a file without [vision] takes the defaults
+        vc = vision_config(load_scenario(name))
+        assert vc.thresholds == VisionThresholds() and vc.imaging == ImagingDraw()
+        assert vc.mount == CameraMount() and vc.seedlings == SeedlingDraw()
+        assert (vc.width_px, vc.height_px) == (1600, 900)
+
+
+def test_the_vision_keys_carry_their_units():
+    from transplanter.scenario.assemble import vision_config
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.scene.plug_tray import SeedlingDraw
+
+    vc = vision_config(load_scenario("delta_refill", {
+        "vision.leaf_hue_band_deg": [60, 180], "vision.rectified_resolution_mm": 0.25,
+        "vision.min_secant_mm": 11.0, "vision.core_radius_mm": 10.0, "vision.tray_shift_mm": 5,
+        "vision.light_scale": [0.55, 0.55], "vision.seedling_draw": "near_thresholds",
+        "vision.tray_yaw_deg": 1.5, "vision.camera_height_mm": 2500,
+    }))  # fmt: skip
+    th = vc.thresholds
+    assert th.hue == (30, 90) and th.px_per_mm == pytest.approx(4.0)
+    assert th.rule.min_secant_mm == pytest.approx(11.0)
+    assert th.core_radius_mm == pytest.approx(10.0)
+    assert vc.imaging.shift_mm == pytest.approx(5.0)
+    assert vc.imaging.yaw_deg == pytest.approx(1.5) and vc.imaging.light_scale == (0.55, 0.55)
+    assert vc.mount.height_mm == pytest.approx(2500.0)
+    assert vc.seedlings == SeedlingDraw.near_thresholds()
+    with pytest.raises(ScenarioError, match="vision.seedling_draw"):
+        load_scenario("delta_refill", {"vision.seedling_draw": "hard"})
+    with pytest.raises(ScenarioError, match="wrong unit"):
+        load_scenario("delta_refill", {"vision.erode_m": 0.001})
+
+
+def test_grade_refuses_a_scenario_without_a_camera(tmp_path, capsys):
+    out = tmp_path / "g"
+    assert cli.main(["grade", "paper", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "workcell 'conveyor_tube' has no camera" in err and "plug_trays" in err
+    assert cli.main(["grade", "--scenario", "paper", "--out", str(out)]) == 2
+    assert "has no camera" in capsys.readouterr().err
+    assert cli.main(["grade", "paper", "--scenario", "delta_refill", "--out", str(out)]) == 2
+    assert "two scenarios given" in capsys.readouterr().err
+    assert cli.main(["grade", "--out", str(out), "--set", "vision.min_contrast=-1"]) == 2
+    assert "vision.min_contrast" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_grade_takes_the_draws_and_picture_from_a_scenario(tmp_path):
+    from transplanter.scene.plug_tray import SeedlingDraw, draw_tray
+
+    scenario = tmp_path / "hard.toml"
+    scenario.write_text(
+        '[scenario]\nbase = "delta_refill"\nname = "hard"\n\n'
+        '[vision]\nseedling_draw = "near_thresholds"\nimage_width_px = 800\n'
+        "image_height_px = 450\n"
+    )
+    out = tmp_path / "g"
+    run = _grade_cli(HELD_OUT[0], out, str(scenario), size=None)
+    assert run.returncode == 0, run.stderr
+    result = json.loads((out / "grading.json").read_text())
+    assert result["scenario"] == "hard" and result["draw"] == "near_thresholds"
+    assert result["size"] == [800, 450]
+    assert cv2.imread(str(out / "tray.png")).shape == (450, 800, 3)
+    truth = draw_tray(HELD_OUT[0], SeedlingDraw.near_thresholds()).classes()
+    assert [c["truth"] for c in result["cells"]] == truth
+
+
+def test_a_blank_picture_by_the_scenario_yields_a_named_error_and_no_grading(tmp_path):
+    out = tmp_path / "g"
+    run = _grade_cli(HELD_OUT[0], out, "--set", "vision.min_contrast=200")
+    assert run.returncode == 2, run.stderr
+    assert "cannot be graded (ImageUnusable): blank picture" in run.stderr
+    assert not (out / "grading.json").exists()
+
+
+def test_the_leaves_reach_is_measured_within_a_millimetre(graded):
+    from transplanter.scene.plug_tray import draw_tray
+    from transplanter.twin.delta_grading import leaf_extents_mm
+
+    folder, _ = graded[HELD_OUT[0]]
+    tray = draw_tray(HELD_OUT[0])
+    errors = []
+    for c, t in zip(json.loads((folder / "grading.json").read_text())["cells"], tray.cells,
+                    strict=True):  # fmt: skip
+        if t.truth == "healthy":
+            ex, ey = leaf_extents_mm(t, tray.geometry)
+            errors += [c["reach_lr_mm"] - ex, c["reach_ud_mm"] - ey]
+    assert len(errors) > 80 and float(np.mean(np.abs(errors))) < 1.0

@@ -31,10 +31,16 @@ def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
 def export(scenario, target: Path) -> Path:
     """`transplanter export` of the delta's job: the scene its trial builds for the
     scenario's seed (twin.delta_refill.job_spec), meshes in assets/ beside it."""
+    from transplanter.scenario.schema import ScenarioError
     from transplanter.scene.delta_scene import export_spec
+    from transplanter.twin.delta_grading import GradingFailed, GradingUnavailable
     from transplanter.twin.delta_refill import job_spec
 
-    return export_spec(job_spec(scenario), target)
+    try:
+        spec = job_spec(scenario)  # the job's cells come from the host's grading map
+    except (GradingUnavailable, GradingFailed) as exc:
+        raise ScenarioError(str(exc)) from None
+    return export_spec(spec, target)
 
 
 def summary_line(r) -> str:
@@ -47,6 +53,15 @@ def summary_line(r) -> str:
         f"({100 * r.tray_leaf_damage_rate:.2f} % of the tray), dropped {r.dropped}, "
         f"substrate retention {ret}; failures: {fails}; wall {r.wall_time_s:.1f} s"
     )
+    g = r.grading
+    if g.get("source") == "pipeline":
+        p, s = g["planting"], g["supply"]
+        line += (
+            f"\n  graded by the pipeline: planting {p['correct']}/{p['cells']}, supply "
+            f"{s['correct']}/{s['cells']} cells as their truth; recognition "
+            f"{1000 * p['recognition_wall_s']:.0f} + {1000 * s['recognition_wall_s']:.0f} ms, "
+            f"rendering {p['render_wall_s'] + s['render_wall_s']:.1f} s (wall)"
+        )
     return line if r.fault is None else f"{line}\n  fault: {r.fault}"
 
 
@@ -78,6 +93,7 @@ def run_trial(
 ) -> int:
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.studies.stats import pooled_rate
+    from transplanter.twin.delta_grading import GradingFailed, GradingUnavailable
     from transplanter.twin.delta_refill import run_delta_refill
 
     for option, value in (("--clips-of-failures", args.clips_of_failures),
@@ -107,14 +123,20 @@ def run_trial(
         from transplanter.twin.plug_bench_trial import run_bench_trial
     results, outputs = [], []
     for seed in seeds:
-        if bench:
-            result = run_bench_trial(scenario, seed)
-        elif record_path is None:
-            result = run_delta_refill(scenario, seed)
-        else:
-            from transplanter.viewing.delta import DeltaRecording, run_observed
+        try:
+            if bench:
+                result = run_bench_trial(scenario, seed)
+            elif record_path is None:
+                result = run_delta_refill(scenario, seed)
+            else:
+                from transplanter.viewing.delta import DeltaRecording, run_observed
 
-            result = run_observed(scenario, seed, [DeltaRecording(record_path, args.record_rate)])
+                recording = DeltaRecording(record_path, args.record_rate)
+                result = run_observed(scenario, seed, [recording])
+        except (GradingUnavailable, GradingFailed, ScenarioError) as exc:
+            _err(f"trial refused: {exc}")
+            return EXIT_REFUSED
+        if record_path is not None:
             if result.recording_error is None:
                 shown = _show(record_path)
                 outputs.append(
@@ -135,6 +157,9 @@ def run_trial(
         for name in names:
             values = [getattr(r, name) for r in results if math.isfinite(getattr(r, name))]
             payload[f"mean_{name}"] = sum(values) / len(values) if values else None
+        if not bench:
+            payload["pooled_leaf_damage"] = _pooled_damage(results)
+            payload["pooled_misgrades"] = _pooled_misgrades(results)
         lo, hi = pooled.ci95
         what = "runs: {:.1f} % of seedlings arrived" if bench else (
             "trays: {:.1f} % of serviced cells done"
@@ -144,8 +169,48 @@ def run_trial(
             f"({pooled.successes}/{pooled.seedlings}), 95 % CI "
             f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
         )
+        if not bench:
+            d = payload["pooled_leaf_damage"]
+            print(
+                f"leaf damage pooled over {len(results)} trays ({d['vision']} grading, pose "
+                f"judgement {'on' if d['pose_judgement'] else 'off'}): "
+                f"{d['damaged']}/{d['picked']} refills ({100 * d['rate']:.2f} %, 95 % Wilson "
+                f"{100 * d['ci95'][0]:.1f}-{100 * d['ci95'][1]:.1f} %); misgrades: "
+                + (", ".join(f"{k} {v}" for k, v in payload["pooled_misgrades"].items()) or "none")
+            )
     summary = "definitions:\n" + _definitions(bench)
     return _finish(args, results, summary, payload, json_path, outputs=outputs)
+
+
+def _pooled_damage(results) -> dict[str, Any]:
+    """Refill seedlings with a torn leaf over all trays, with the Wilson interval."""
+    from transplanter.vision.metrics import wilson_interval
+
+    picked = damaged = 0
+    for r in results:
+        for c in r.cells:
+            if c.supply_index is not None and c.refilled != "nothing_picked":
+                picked += 1
+                damaged += bool(c.leaf_damage)
+    lo, hi = wilson_interval(damaged, picked) if picked else (0.0, 1.0)
+    return {
+        "vision": results[0].vision,
+        "pose_judgement": results[0].pose_judgement,
+        "damaged": damaged,
+        "picked": picked,
+        "rate": damaged / picked if picked else 0.0,
+        "ci95": [lo, hi],
+    }
+
+
+def _pooled_misgrades(results) -> dict[str, int]:
+    """The misgrade failures (failures `misgrade_<kind>`) summed over the trays."""
+    out: dict[str, int] = {}
+    for r in results:
+        for k, v in r.failures.items():
+            if k.startswith("misgrade_"):
+                out[k] = out.get(k, 0) + v
+    return dict(sorted(out.items()))
 
 
 def render(
@@ -168,9 +233,17 @@ def render(
     except (ScenarioError, video.RenderRefused) as exc:
         _err(f"render refused: {exc}")
         return EXIT_REFUSED
+    from transplanter.twin.delta_grading import GradingFailed, GradingUnavailable
+
     try:
         result = delta.run_observed(scenario, None, [observer])
-    except (video.GLUnavailable, video.RenderRefused) as exc:
+    except (
+        video.GLUnavailable,
+        video.RenderRefused,
+        GradingUnavailable,
+        GradingFailed,
+        ScenarioError,
+    ) as exc:
         _err(f"render refused: {exc}")
         return EXIT_REFUSED
     print(summary_line(result))

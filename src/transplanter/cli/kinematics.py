@@ -39,6 +39,12 @@ def cmd_ik(args: argparse.Namespace) -> int:
     if machine is None:
         return 2
     kinematics = machine.kinematics
+    if args.z is None and kinematics.kind != "fivebar":
+        _err(
+            f"ik: give x, y and z in mm for the {kinematics.kind} arm (only the five-bar's z "
+            "defaults to the taught Z_up)"
+        )
+        return 2
     z_mm = args.z if args.z is not None else machine.eeprom.z_up_m / M_PER_MM
     point = np.array([[args.x, args.y, z_mm]]) * M_PER_MM
     report = kinematics.check(point)

@@ -74,6 +74,14 @@ def cmd_plan_move(args: argparse.Namespace) -> int:
     if machine is None:
         return 2
     kin = machine.kinematics
+    if getattr(kin, "transfer_path", "pick") == "via":
+        _err(
+            f"plan-move plans the delta's pick path (lift, arc, top, arc, descent); robot kind "
+            f"{kin.kind!r} moves through its taught points instead: run a trial with --set "
+            "motion.planner='\"bspline5\"' (docs/planner.md, The five-bar), or try --set "
+            "robot.kind=delta"
+        )
+        return 1
     if not hasattr(kin, "max_joint_speed_rad_s"):
         _err(
             f"plan-move needs an arm with joint speed and acceleration limits; robot kind "

@@ -60,6 +60,7 @@ _add = functools.partial(add_options, table=STUDY_OPTIONS)
 
 def register(sub) -> None:
     _sweep_parser(sub)
+    _compare_parser(sub)
     _tune_parser(sub)
     _calibrate_parser(sub)
 
@@ -250,6 +251,100 @@ def _search_spec(args: argparse.Namespace, seeds: list[int], ranges: list[str], 
     )
     spec.check()
     return spec
+
+
+def _share(text: str) -> float:
+    """--success-floor: a share 0-1 (0.9) or a percentage (90%)."""
+    pct = text.endswith("%")
+    value = ascii_float(text[:-1] if pct else text)
+    return value / 100.0 if pct else value
+
+
+def _compare_parser(sub) -> None:
+    p = sub.add_parser(
+        "compare",
+        help="machines on their jobs side by side: success, cycle, plants/h, damage, drives",
+        description="Each scenario (a robot, its effector and a job) runs over the same seeds "
+        "as `transplanter trial` judges it (through the sweep machinery: parallel, resumable, "
+        "Ray when asked); its runs are pooled into one row: pooled success with its 95 %% "
+        "interval, the cycle or time per operation, plants per hour, damage, failures by "
+        "kind, the robot's peak motor torque, the drives' energy per seedling and mean "
+        "power, and what the drives cost ([costs] drives_usd). Rows are ranked by plants per "
+        "hour among those at or above --success-floor. In --out: compare.json (the rows), "
+        "compare.csv, compare.txt, compare.png and runs/<scenario>/ (each scenario's sweep); "
+        "rerunning the same command resumes.",
+        epilog="exit status: 0 done, 2 refused before any run, 5 a result file could not be "
+        "written, 130 interrupted (finished runs are kept; rerun to finish)",
+    )
+    p.add_argument(
+        "scenarios",
+        nargs="+",
+        metavar="SCENARIO",
+        help="scenario files or packaged names (paper serial_arm_pots delta_refill)",
+    )
+    _add(p, "--seeds", default="1-5", help="seeds every scenario runs on ('1-5', '1,3'); 1-5")
+    _add(p, "--seedlings", help="seedlings per trial (each scenario's own; the delta's tray "
+         "job services its tray's cells whatever this says)")  # fmt: skip
+    p.add_argument(
+        "--success-floor",
+        type=_share,
+        default=0.9,
+        metavar="SHARE",
+        help="rows whose pooled success is below this (0.9 or 90%%) rank after the others; 0.9",
+    )
+    _add(p, "--workers", help="parallel trials: a number or auto (every CPU); default 1")
+    _add(p, "--out", required=True, help="directory for the results")
+    p.add_argument("--backend", choices=("process", "ray"), default="process",
+                   help="process (default) or ray (pip install 'transplanter[ray]')")  # fmt: skip
+    _add(p, "--address", "--quiet", "--set")
+    p.set_defaults(func=cmd_compare)
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from transplanter.scenario.schema import ScenarioError
+    from transplanter.studies.compare import CompareSpec, run_compare
+    from transplanter.studies.sweep import SweepRefused, check_backend
+
+    seeds = _seeds(args)
+    if seeds is None:
+        return EXIT_REFUSED
+    try:
+        overrides = _overrides(args)
+        spec = CompareSpec(
+            tuple(args.scenarios), tuple(seeds), args.seedlings, overrides, args.success_floor
+        )
+        check_backend(args.backend, args.workers, args.address)
+    except (ScenarioError, SweepRefused) as exc:
+        _err(f"compare refused: {exc}")
+        return EXIT_REFUSED
+    quiet = args.quiet
+
+    def started(label: str) -> None:
+        if not quiet:
+            print(f"{label}: {len(seeds)} trial(s)", file=sys.stderr, flush=True)
+
+    try:
+        report = run_compare(
+            spec, args.out, backend=args.backend, workers=args.workers, address=args.address,
+            progress=_progress(args), on_scenario=started,
+        )  # fmt: skip
+    except (ScenarioError, SweepRefused) as exc:
+        _err(f"compare refused: {exc}")
+        return EXIT_REFUSED
+    except OSError as exc:
+        _err(f"--out: the results could not be written to {_show(args.out)}: {exc}")
+        return EXIT_OUTPUT_FAILED
+    print(report.table, end="")
+    if report.skipped:
+        print(f"{report.skipped} runs were already in {_show(args.out)} (skipped)")
+    if report.plot_error:
+        print(f"the plot could not be drawn: {report.plot_error}", file=sys.stderr)
+    print(f"results in {_show(args.out)}: compare.json, compare.csv, compare.txt"
+          + (", compare.png" if report.plot else ""))  # fmt: skip
+    if report.interrupted:
+        print("interrupted: rerun the same command to finish", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return EXIT_OK
 
 
 def _tune_parser(sub) -> None:

@@ -121,6 +121,10 @@ def cmd_trial(args: argparse.Namespace) -> int:
 
     if delta_trial.handles(args, overrides):
         return delta_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
+    from transplanter.cli import serial_trial  # the serial arm's jobs: their own trial
+
+    if serial_trial.handles(args, overrides):
+        return serial_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
@@ -369,7 +373,7 @@ def _render_parser(sub) -> None:
         "--camera",
         default="overview",
         help="named camera: overview, funnel, gripper_closeup; for the delta's job overview, "
-        "trays, claws_closeup (overview)",
+        "trays, claws_closeup; for the serial arm's overview, gripper_closeup (overview)",
     )
     p.add_argument("--fps", type=ascii_float, default=30.0, help="frames per second (30)")
     p.add_argument("--width", type=ascii_int, default=640, help="frame width in px (640)")
@@ -407,6 +411,10 @@ def cmd_render(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     if delta_trial.handles(args, overrides):
         return delta_trial.render(args, overrides, target, json_target)
+    from transplanter.cli import serial_trial  # the serial arm's jobs: their own trial
+
+    if serial_trial.handles(args, overrides):
+        return serial_trial.render(args, overrides, target, json_target)
     if args.cells_of is not None:
         _err("render refused: --cells-of is for the delta's plug-tray job; give --seedlings-of")
         return EXIT_REFUSED

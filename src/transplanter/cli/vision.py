@@ -2,19 +2,30 @@
 camera and graded by seed 002's recognition pipeline; the picture, an overlay of the grid and
 the classes, and a JSON of every cell's class beside its truth.
 
-No scenario yet: the tray, its seedlings and the imaging station are drawn from `--seed` with
-the defaults of `SeedlingDraw` and `ImagingDraw`; `--size` and `--lighting` choose the picture,
-`--draw` the seedlings' draw, the thresholds are `VisionThresholds()`'s (docs/vision.md)."""
+The scenario (default: the packaged delta_refill) gives the seedlings' draw, the imaging
+station's draw, the picture's size and the pipeline's thresholds (its [vision] section, with
+--set); its workcell must have the tray camera (`[workcell] kind = "plug_trays"`). `--size`,
+`--lighting` and `--draw` override its picture size, light and seedling draw
+(docs/vision.md)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from transplanter.cli.common import EXIT_OUTPUT_FAILED, EXIT_REFUSED, _err, ascii_int
+from transplanter.cli.common import (
+    EXIT_OUTPUT_FAILED,
+    EXIT_REFUSED,
+    OPTIONS,
+    _err,
+    _overrides,
+    ascii_int,
+)
 
 PICTURE, OVERLAY, RESULTS = "tray.png", "overlay.png", "grading.json"
 MAX_SIDE_PX = 4096
+DEFAULT_SCENARIO = "delta_refill"  # the packaged scenario whose workcell has the tray camera
+LIGHT_SCALES = {"darker": 0.55, "brighter": 1.45}  # ImagingDraw.darker() / brighter()
 
 
 def register(sub) -> None:
@@ -23,26 +34,36 @@ def register(sub) -> None:
         help="photograph a drawn plug tray and grade every cell from the picture (seed 002's "
         "vision); writes the picture, an overlay and a JSON of class and truth per cell",
     )
+    p.add_argument(
+        "scenario",
+        nargs="?",
+        default=None,
+        help=f"scenario file or packaged name (default: {DEFAULT_SCENARIO}); its [vision] "
+        "section gives the draws and thresholds",
+    )
+    p.add_argument("--scenario", dest="scenario_option", default=None, help="the same")
+    p.add_argument("--set", **OPTIONS["--set"])
     p.add_argument("--seed", type=ascii_int, default=0, help="the tray's seed (default: 0)")
     p.add_argument("--out", type=Path, required=True, help="folder for the three files")
     p.add_argument(
         "--size",
-        default="1600x900",
-        help="picture size WIDTHxHEIGHT in pixels (default: 1600x900)",
+        default=None,
+        help="picture size WIDTHxHEIGHT in pixels (default: the scenario's, 1600x900)",
     )
     p.add_argument(
         "--lighting",
         choices=("default", "darker", "brighter"),
-        default="default",
-        help="the station's lighting: drawn around the nominal (default) or fixed at 0.55x "
-        "(darker) or 1.45x (brighter)",
+        default=None,
+        help="the station's lighting: the scenario's vision.light_scale (default: drawn "
+        "around the nominal) or fixed at 0.55x (darker) or 1.45x (brighter)",
     )
     p.add_argument(
         "--draw",
         choices=("default", "near_thresholds"),
-        default="default",
-        help="the seedlings: SeedlingDraw() (each kind clear of the thresholds) or "
-        "SeedlingDraw.near_thresholds() (areas, centroids and secants across them)",
+        default=None,
+        help="the seedlings (vision.seedling_draw): SeedlingDraw() (each kind clear of the "
+        "thresholds) or SeedlingDraw.near_thresholds() (areas, centroids and secants across "
+        "them)",
     )
     p.set_defaults(func=cmd_grade)
 
@@ -57,38 +78,90 @@ def _size(text: str) -> tuple[int, int] | None:
     return width, height
 
 
+def _scenario(args: argparse.Namespace):
+    """The scenario with --set and the picture options, or ScenarioError (also for a
+    workcell without the tray camera)."""
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.scene import kinds
+
+    if args.scenario and args.scenario_option and args.scenario != args.scenario_option:
+        raise ScenarioError(
+            f"two scenarios given ({args.scenario!r} and --scenario {args.scenario_option!r}): "
+            "give one"
+        )
+    name = args.scenario or args.scenario_option or DEFAULT_SCENARIO
+    overrides = _overrides(args)
+    if args.size is not None:
+        size = _size(args.size)
+        if size is None:
+            raise ScenarioError(
+                f"--size {args.size!r}: give WIDTHxHEIGHT, each 64 to {MAX_SIDE_PX} px, "
+                "e.g. 1600x900"
+            )
+        overrides["vision.image_width_px"], overrides["vision.image_height_px"] = size
+    if args.lighting in LIGHT_SCALES:
+        overrides["vision.light_scale"] = [LIGHT_SCALES[args.lighting]] * 2
+    elif args.lighting == "default":
+        overrides["vision.light_scale"] = [0.85, 1.15]
+    if args.draw is not None:
+        overrides["vision.seedling_draw"] = args.draw
+    scenario = load_scenario(name, overrides)
+    kind = scenario.workcell.kind
+    camera = getattr(kinds.workcell(kind), "CAMERA", None)
+    if camera is None:
+        raise ScenarioError(
+            f"scenario {scenario.name!r}: its workcell {kind!r} has no camera over a plug tray; "
+            "grade needs [workcell] kind = 'plug_trays' (the imaging station's tray_camera), "
+            f"e.g. the packaged {DEFAULT_SCENARIO}"
+        )
+    return scenario
+
+
 def cmd_grade(args: argparse.Namespace) -> int:
     from transplanter import fileio
-    from transplanter.scene.plug_tray import SeedlingDraw
+    from transplanter.scenario.assemble import vision_config
+    from transplanter.scenario.schema import ScenarioError
     from transplanter.scene.tray_camera import RenderFailed
     from transplanter.studies.vision import grade_seed
     from transplanter.vision.metrics import format_matrix
     from transplanter.vision.overlay import draw_overlay, png_bytes
     from transplanter.vision.pipeline import ImageUnusable
 
-    size = _size(args.size)
-    if size is None:
-        _err(f"--size {args.size!r}: give WIDTHxHEIGHT, each 64 to {MAX_SIDE_PX} px, e.g. 1600x900")
+    try:
+        scenario = _scenario(args)
+    except ScenarioError as exc:
+        _err(f"grade refused: {exc}")
         return EXIT_REFUSED
+    vc = vision_config(scenario)
+    size = (vc.width_px, vc.height_px)
     out: Path = args.out
     if out.exists() and not out.is_dir():
         _err(f"--out {out}: exists and is not a folder")
         return EXIT_REFUSED
     try:
-        seedlings = SeedlingDraw.near_thresholds() if args.draw == "near_thresholds" else None
-        graded = grade_seed(args.seed, size[0], size[1], args.lighting, seedlings)
+        graded = grade_seed(
+            args.seed,
+            size[0],
+            size[1],
+            seedlings=vc.seedlings,
+            thresholds=vc.thresholds,
+            imaging=vc.imaging,
+            mount=vc.mount,
+        )
     except RenderFailed as exc:
         _err(str(exc))
         return EXIT_REFUSED
     except ImageUnusable as exc:
-        _err(f"the picture cannot be graded: {exc}")
+        _err(f"the picture cannot be graded ({type(exc).__name__}): {exc}; no grading written")
         return EXIT_REFUSED
     s = graded.score
     payload = {
         "seed": args.seed,
+        "scenario": scenario.name,
         "size": list(size),
-        "lighting": args.lighting,
-        "draw": args.draw,
+        "lighting": args.lighting or "scenario",
+        "light_scale": list(vc.imaging.light_scale),
+        "draw": scenario.vision.seedling_draw,
         "appearance": graded.appearance.as_dict(),
         "tilt_deg": round(graded.grading.tilt_deg, 4),
         "grade_seconds": round(graded.grading.seconds, 4),

@@ -1,8 +1,10 @@
 """G-code parsing and formatting for the twin's dialect (docs/architecture.md).
 
 One line holds one command: ``G0``/``G1``, ``G4``, ``G28``, ``G90``, ``G91``, ``M280``,
-``M400``, ``M114``, ``M119``, ``M105``, ``M710`` or ``M112`` (emergency stop: the SGF acts on
-it when it arrives, :func:`is_emergency_stop`), with value words from X Y Z F S P.
+``M400``, ``M114``, ``M119``, ``M105``, ``M710``, ``M720`` (a via point of the next ``G0``
+spline transfer, ``motion.planner = "bspline5"`` on the five-bar) or ``M112`` (emergency
+stop: the SGF acts on it when it arrives, :func:`is_emergency_stop`), with value words from
+X Y Z F S P.
 Comments (``; ...`` to the end of the line, ``( ... )`` inline) are dropped. Marlin framing
 ``N<n> <command> *<checksum>`` is optional; the checksum is the XOR of every byte before
 ``*`` as sent, ``( ... )`` comments included (after a ``;`` comment has been cut off). A
@@ -71,6 +73,7 @@ _ALLOWED_WORDS: dict[str, str] = {
     "M119": "",
     "M105": "",
     "M710": "",
+    "M720": "XYZ",
     "M112": "",
 }
 _REQUIRED_WORDS: dict[str, str] = {"G4": "P", "M280": "PS"}
@@ -400,6 +403,8 @@ def _check_words(command: str, words: dict[str, float]) -> None:
     for letter in _REQUIRED_WORDS.get(command, ""):
         if letter not in words:
             raise GcodeError(ErrorCode.VALUE_WORD_MISSING, f"{command} needs a {letter} word")
+    if command == "M720" and not any(letter in words for letter in AXIS_LETTERS):
+        raise GcodeError(ErrorCode.NO_AXIS_WORDS, "M720 needs at least one of X, Y, Z")
     if command in ("G0", "G1"):
         if not any(letter in words for letter in AXIS_LETTERS):
             raise GcodeError(ErrorCode.NO_AXIS_WORDS, f"{command} needs at least one of X, Y, Z")

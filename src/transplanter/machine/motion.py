@@ -55,8 +55,9 @@ class MotionConfig:
     """Start and stop speed of every move."""
     planner: str = "lines"
     """``lines``: G0 and G1 are straight lines. ``bspline5``: a G0 is a pick-and-place transfer
-    along the time-optimal quintic B-spline through the pick path's key points
-    (``machine.spline_motion``); G1 stays a straight line."""
+    along the time-optimal quintic B-spline through the pick path's key points (the delta)
+    or the ``M720`` via points before it (the five-bar) (``machine.spline_motion``); G1 stays
+    a straight line."""
     ee_accel_limit_m_s2: float = 8.83
     """The end effector's acceleration limit of a ``bspline5`` move (an estimate:
     ``planner_bspline.EE_ACCEL_LIMIT_M_S2``)."""
@@ -67,6 +68,10 @@ class MotionConfig:
     pick_exit_m: float = 0.0
     """0: a ``bspline5`` transfer through the paper's seven key points; above 0, with a key
     point this high straight above each end (``planner_bspline.PickPath.exit_m``)."""
+    carry_accel_limit_m_s2: float | None = None
+    """The end effector's acceleration limit of a ``bspline5`` transfer on an arm with via
+    transfers (the five-bar: its jaws carry the seedling; ``[gripper]
+    carry_accel_limit_mm_s2``); None: ``ee_accel_limit_m_s2``."""
 
     def __post_init__(self) -> None:
         for name in (
@@ -86,6 +91,14 @@ class MotionConfig:
             and self.min_speed_m_s >= 0
         ):
             raise ValueError(f"MotionConfig.min_speed_m_s must be >= 0, got {self.min_speed_m_s!r}")
+        carry = self.carry_accel_limit_m_s2
+        if carry is not None and not (
+            isinstance(carry, int | float) and math.isfinite(carry) and carry > 0
+        ):
+            raise ValueError(
+                f"MotionConfig.carry_accel_limit_m_s2 must be a positive number or None, "
+                f"got {carry!r}"
+            )
         if not (math.isfinite(self.pick_exit_m) and 0.0 <= self.pick_exit_m < self.pick_lift_m):
             raise ValueError(
                 f"MotionConfig.pick_exit_m must be in [0, pick_lift_m = {self.pick_lift_m:g}) m, "

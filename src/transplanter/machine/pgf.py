@@ -22,9 +22,15 @@ Per seedling i (pickup c = i mod M_pp) the lines and their phases are::
     G4 P<release_dwell>                                release_wait
     M710                                               index (after the row's last pickup)
 
-framed by ``G28`` (home), ``G90`` (absolute), the wrist to M_dep and a move to the drop point
-(the cycle's initial position, paper section 1.2) at the start, and ``M400`` (finish) at the
-end.
+With ``PGFConfig.spline_transfer`` (``motion.planner = "bspline5"`` on the five-bar) the
+retract line is ``M720 X<approach> Y<approach> Z<z_up>`` (a via point) and the to_drop line
+``G0 X<drop> Y<drop> Z<z_up>``: the SGF moves from the lifted grip point through the retract
+point to the drop point on one quintic B-spline, the wrist turning where it passes the
+retract point; every other line is the same.
+
+The program is framed by ``G28`` (home), ``G90`` (absolute), the wrist to M_dep and a move
+to the drop point (the cycle's initial position, paper section 1.2) at the start, and
+``M400`` (finish) at the end.
 
 Stall recovery (``PGFConfig.stall_recovery``, off on the paper's machine): an ``error:67``
 (a motor stalled, the SGF stopped) does not stop the PGF. It waits for the arm to settle
@@ -90,6 +96,13 @@ class PGFConfig:
     """The PGF stops with a bus timeout when nothing comes back from the SGF for this long
     while a line is outstanding; longer than the longest line (a worst-case homing, the
     longest move, dwell or conveyor index: checked by ``preflight.check_machine``)."""
+    spline_transfer: bool = False
+    """``motion.planner = "bspline5"`` on an arm with via transfers (the five-bar): the
+    retract point goes out as a via point (``M720 X Y Z``, phase ``retract``) and the move to
+    the drop point as ``G0`` without a speed word (``to_drop``), so the SGF runs them as one
+    quintic B-spline from the lifted grip point through the retract point to the drop point,
+    the wrist's ``drop_elbow`` acting where it passes the retract point. False: every move a
+    ``G1`` line, the paper's program."""
 
     def __post_init__(self):
         for name in ("gripper_servo", "wrist_servo"):
@@ -227,6 +240,12 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
         pickup = eeprom.pickups[pickup_index]
         ax, ay = (_mm(v) for v in pickup.approach_xy_m)
         gx, gy = (_mm(v) for v in pickup.grip_xy_m)
+        if config.spline_transfer:  # one spline through the retract point (docstring)
+            retract = (LinePhase.RETRACT, "M720", {"X": ax, "Y": ay, "Z": z_up})
+            to_drop = (LinePhase.TO_DROP, "G0", {"X": drop_x, "Y": drop_y, "Z": z_up})
+        else:
+            retract = (LinePhase.RETRACT, "G1", {"X": ax, "Y": ay, "Z": z_up, "S": s_high})
+            to_drop = (LinePhase.TO_DROP, "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high})
         every = config.rehome_every_cycles
         rehome = every and seedling and seedling % every == 0
         cycle = [
@@ -242,9 +261,9 @@ def build_program(eeprom: EepromImage, config: PGFConfig) -> tuple[ProgramLine, 
             (LinePhase.CLOSE, "M280", {"P": gripper, "S": close_deg}),
             (LinePhase.CLOSE_WAIT, "G4", {"P": _ms(config.close_dwell_s)}),
             (LinePhase.LIFT, "G1", {"X": gx, "Y": gy, "Z": z_up, "S": s_low}),
-            (LinePhase.RETRACT, "G1", {"X": ax, "Y": ay, "Z": z_up, "S": s_high}),
+            retract,
             (LinePhase.DROP_ELBOW, "M280", {"P": wrist, "S": eeprom.drop_wrist_deg}),
-            (LinePhase.TO_DROP, "G1", {"X": drop_x, "Y": drop_y, "Z": z_up, "S": s_high}),
+            to_drop,
             (LinePhase.RELEASE, "M280", {"P": gripper, "S": open_deg}),
             (LinePhase.RELEASE_WAIT, "G4", {"P": _ms(config.release_dwell_s)}),
         ]

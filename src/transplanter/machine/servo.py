@@ -62,6 +62,9 @@ class ServoClass:
     """Pulse width at horn angle ``travel_rad``."""
     travel_rad: float = math.pi
     """The horn's travel between the two pulse widths (180 deg)."""
+    armature_kgm2: float = 0.0
+    """The gear train's reflected rotor inertia at the output (an estimate; the MuJoCo
+    joint's ``armature``)."""
     saturation_rad: float = math.radians(3.0)
     """Position error at which the servo's proportional loop reaches stall torque (an
     estimate; sets the MuJoCo actuator's stiffness, :meth:`position_gain`)."""
@@ -133,6 +136,7 @@ SG90 = ServoClass(
     deadband_s=10e-6,  # datasheet: dead band width 10 us
     backlash_rad=math.radians(1.0),  # estimate (plastic gears)
     mass_kg=0.009,  # datasheet: 9 g
+    armature_kgm2=0.0002,  # estimate: 0.2 g m^2 reflected rotor inertia
 )
 """TowerPro SG90 micro servo (plastic gears): the base and gripper class."""
 
@@ -143,6 +147,7 @@ MG996R = ServoClass(
     deadband_s=5e-6,  # datasheet: dead band width 5 us
     backlash_rad=math.radians(0.5),  # estimate (metal gears)
     mass_kg=0.055,  # datasheet: 55 g
+    armature_kgm2=0.001,  # estimate: 1 g m^2 reflected rotor inertia
 )
 """TowerPro MG996R standard servo (metal gears): the shoulder and elbow class."""
 

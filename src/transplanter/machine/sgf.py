@@ -10,7 +10,13 @@ its reply when it is done, so replies come back in line order:
   "bspline5"``: a ``G0`` with horizontal travel is then a pick-and-place transfer along the
   time-optimal quintic B-spline (``machine.spline_motion``: lift, arc, top, arc, descent,
   timed by the arm's joint limits; its speed word is ignored), refused with ``error:33``
-  naming the limit when no timing meets it.
+  naming the limit when no timing meets it. On an arm with via transfers (the five-bar's
+  ``transfer_path = "via"``) the spline instead passes the via points of the ``M720 X Y Z``
+  lines received since the last move (``machine.planner_via``; none: straight from where
+  the arm is to the target in joint space), timed by the arm's per-joint limits; an ``M280``
+  between an ``M720`` and its ``G0`` acts when the spline passes that via point; a ``G1``,
+  ``G4``, ``M710`` or ``M400`` before the ``G0`` is refused (``error:21``) and the via points
+  dropped.
 - ``G4 P<ms>``: ``ok`` after the dwell. A dwell over ``gcode.MAX_DWELL_MS`` or a move
   planned to take over ``MAX_MOVE_S`` (an hour each) is refused with ``error:63``.
   ``M280``: servo command recorded, ``ok`` at once.
@@ -82,8 +88,12 @@ MINIMUM_FEED_RATE (1 mm/min) to it and Marlin one below its minimum feedrate, so
 plans an endless move; at 1 mm/min the paper machine's longest move (about 300 mm) would still
 take five hours, so the twin bounds the move's duration rather than its feed."""
 
-_MOTION_COMMANDS = frozenset({"G0", "G1", "M280", "M710"})
+_MOTION_COMMANDS = frozenset({"G0", "G1", "M280", "M710", "M720"})
 """What an emergency stop refuses until a G28: moves, the servos and the conveyor."""
+
+_AFTER_VIAS_REFUSED = frozenset({"G1", "G4", "M710", "M400"})
+"""What may not run while M720 via points wait for their G0 transfer (they would run at the
+wrong place): refused, the via points dropped."""
 
 
 @dataclass(frozen=True)
@@ -232,6 +242,11 @@ class SGF:
         self._segment_starts: list[float] = []
         self._segments: list = []
         self._pending_stall: str | None = None  # a stall reply for the next line
+        # bspline5 via transfers (M720): the via points (m) waiting for their G0, and the
+        # servo commands (via index, servo, deg) that act when the spline passes that via
+        self._vias: list[np.ndarray] = []
+        self._via_servos: list[tuple[int, int, float]] = []
+        self._via_nodes: list[int] = []
         self.killed_at: float | None = None
         """When an M112 stopped the machine; None once a G28 has homed it again."""
         self.stalls: list[tuple[float, int]] = []
@@ -429,6 +444,7 @@ class SGF:
         if not (self.homed or self.homing):
             return  # already stopped, or never homed: nothing runs that a stall could stop
         self.stalls.append((now, motor))
+        self._clear_vias()
         held = self.pulses_at(now)[0]
         self._add_segment(now, lambda t: np.broadcast_to(held, (np.size(t), held.size)).copy())
         self._raw = held.copy()
@@ -501,6 +517,7 @@ class SGF:
         self.homed = False
         self.killed_at = now
         self._pending_stall = None
+        self._clear_vias()
         self._machine_events.append((now, "emergency_stop"))
         flushed = len(self._queue) + len(self._rx)
         replies = [
@@ -561,6 +578,17 @@ class SGF:
                 job.replies = [message]
                 return
         try:
+            if self._vias and command in _AFTER_VIAS_REFUSED:
+                count = len(self._vias)
+                self._clear_vias()
+                raise GcodeError(
+                    ErrorCode.MODAL_GROUP_VIOLATION,
+                    f"{command} after {count} M720 via point{'s' if count > 1 else ''}: via "
+                    "points are passed by the next G0 transfer; send that G0 first (the via "
+                    "points are dropped)",
+                )
+            if command == "G28":
+                self._clear_vias()
             if command in ("G0", "G1"):
                 self._start_move(job, command, words)
             elif command == "G4":
@@ -576,7 +604,13 @@ class SGF:
             elif command == "G91":
                 self._absolute = False
             elif command == "M280":
-                self._servo_commands.append((t0, int(words["P"]), float(words["S"])))
+                if self._vias:  # acts where the transfer passes the last via point
+                    via = len(self._vias) - 1
+                    self._via_servos.append((via, int(words["P"]), float(words["S"])))
+                else:
+                    self._servo_commands.append((t0, int(words["P"]), float(words["S"])))
+            elif command == "M720":
+                self._add_via(words)
             elif command == "M710":
                 self._machine_events.append((t0, "conveyor_index"))
                 job.t_done = t0 + self.config.conveyor_index_s
@@ -588,6 +622,7 @@ class SGF:
         except GcodeError as error:
             job.t_done = t0
             job.replies = [error.reply]
+            self._clear_vias()  # a refused line drops the via points waiting for a G0
             return
         job.replies.append("ok")
 
@@ -614,9 +649,10 @@ class SGF:
                 raise GcodeError(ErrorCode.LIMIT_SWITCH_CLOSED, self._hard_limit(axis, switch))
         config = self.config
         try:
-            if command == "G0" and self.spline_transfer(self._position, target):
-                move = self._plan_transfer(target)
-            else:
+            move = None
+            if command == "G0" and (self._vias or self.spline_transfer(self._position, target)):
+                move = self._plan_transfer(target)  # None: every via point is where it is
+            if move is None:
                 move = plan_line(
                     self._logical, self._position, target, speed_m_s, kinematics, config.motion
                 )
@@ -643,6 +679,14 @@ class SGF:
         job.move = move
         job.target_xyz = target
         job.t_done = job.t_start + move.duration_s
+        if self._via_servos:  # each at the time the spline passes its via point
+            node_times = [0.0]
+            if move.spline_plan is not None:
+                node_times += [float(t) for t in np.cumsum(move.spline_plan.intervals_s)]
+            for via, servo, deg in self._via_servos:
+                node = self._via_nodes[via + 1] if move.spline_plan is not None else 0
+                self._servo_commands.append((job.t_start + node_times[node], servo, deg))
+        self._clear_vias()
         t0, t_done = job.t_start, job.t_done
         raw0 = self._raw.copy()
         start_steps = move.start_steps.copy()
@@ -654,6 +698,37 @@ class SGF:
 
         self._add_segment(t0, evaluate)
 
+    def _clear_vias(self) -> None:
+        self._vias = []
+        self._via_servos = []
+
+    def _add_via(self, words: dict[str, float]) -> None:
+        """``M720 X Y Z``: a via point of the next ``G0`` transfer (``motion.planner =
+        "bspline5"`` on an arm with via transfers, homed); coordinates as a move's target
+        (absolute or relative to the last via point, the words left out kept)."""
+        from transplanter.machine.spline_motion import via_transfers
+
+        kinematics = self.config.kinematics
+        if self.config.motion.planner != "bspline5" or not via_transfers(kinematics):
+            raise GcodeError(
+                ErrorCode.UNSUPPORTED_COMMAND,
+                "M720 (a via point of a spline transfer) needs motion.planner = 'bspline5' on "
+                f"an arm with via transfers (the five-bar); this is {kinematics.kind!r} with "
+                f"planner {self.config.motion.planner!r}",
+            )
+        if not self.homed:
+            raise GcodeError(ErrorCode.SYSTEM_LOCKED, "position unknown: home first with G28")
+        base = self._vias[-1] if self._vias else self._position
+        via = base.copy()
+        for axis, letter in enumerate(kinematics.coordinates):
+            if letter in words:
+                value = words[letter] * M_PER_MM
+                via[axis] = value if self._absolute else via[axis] + value
+        refusal = kinematics.limit_target(via)
+        if refusal is not None:
+            raise GcodeError(ErrorCode.INVALID_TARGET, f"M720 via point: {refusal.text()}")
+        self._vias.append(via)
+
     def spline_transfer(self, start, target) -> bool:
         """Whether a G0 from ``start`` to ``target`` (m) is a spline transfer: under
         ``motion.planner = "bspline5"``, unless it has no horizontal travel (a pick path turns
@@ -662,15 +737,37 @@ class SGF:
             return False
         return bool(np.hypot(*(np.asarray(target)[:2] - np.asarray(start)[:2])) >= 1e-6)
 
-    def _plan_transfer(self, target: np.ndarray) -> PlannedMove:
+    def _transfer_points(self, target: np.ndarray) -> np.ndarray:
+        """The distinct points of a via transfer: where the arm is, the via points, the
+        target, each within 1 um of the one before merged into the later one (the start
+        kept exact); ``_via_nodes[i]`` is the node point i became (0 the start)."""
+        kept, nodes = [self._position], [0]
+        for p in [*self._vias, target]:
+            if np.linalg.norm(p - kept[-1]) >= 1e-6:
+                kept.append(p)
+            elif len(kept) > 1:
+                kept[-1] = p
+            nodes.append(len(kept) - 1)
+        self._via_nodes = nodes
+        return np.vstack(kept)
+
+    def _plan_transfer(self, target: np.ndarray) -> PlannedMove | None:
         # imported here: scipy's optimiser is only loaded by a machine that runs splines
         from transplanter.machine.planner_bspline import MoveRefused
-        from transplanter.machine.spline_motion import plan_spline_move
+        from transplanter.machine.spline_motion import (
+            plan_spline_move,
+            plan_via_transfer,
+            via_transfers,
+        )
 
+        kinematics, motion = self.config.kinematics, self.config.motion
         try:
-            return plan_spline_move(
-                self._logical, self._position, target, self.config.kinematics, self.config.motion
-            )
+            if via_transfers(kinematics):
+                points = self._transfer_points(target)
+                if len(points) < 2:
+                    return None
+                return plan_via_transfer(self._logical, points, kinematics, motion)
+            return plan_spline_move(self._logical, self._position, target, kinematics, motion)
         except MoveRefused as error:
             shown = ", ".join(show(v / M_PER_MM) for v in target)
             raise GcodeError(

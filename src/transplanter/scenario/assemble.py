@@ -38,12 +38,14 @@ __all__ = [
     "JudgeConfig",
     "ServoConfig",
     "TwinConfig",
+    "VisionConfig",
     "assemble",
     "claws_config",
     "fault_config",
     "machine_config",
     "plugs_config",
     "scene_config",
+    "vision_config",
     "with_eeprom",
 ]
 
@@ -95,6 +97,15 @@ class TwinConfig:
 def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
     """The twin's configs for a scenario; with preflight, every taught point and move is
     checked first (ScenarioError naming the key)."""
+    require_kinds(
+        scenario,
+        "the five-bar's pot trial",
+        None,
+        "parallel_jaw",
+        "its jaws are drawn in the five-bar's own model, models/fivebar; the fuzzy gripper "
+        "runs on the serial arm (serial_arm, serial_arm_pots), the plug claws on the delta "
+        "(delta_refill)",
+    )
     machine = machine_config(scenario)
     if preflight:
         from transplanter.scenario.preflight import check_program
@@ -165,6 +176,17 @@ def claws_config(s: Scenario):
     return _file_unit_config(s, "plug_claws", PlugClawsConfig)
 
 
+def fuzzy_gripper_config(s: Scenario):
+    """[fuzzy_gripper] as the scene's `FuzzyGripperConfig` (the serial arm's scene), its
+    servo class `[serial4] gripper_servo`."""
+    from dataclasses import replace
+
+    from transplanter.scene.effectors.fuzzy_gripper import FuzzyGripperConfig
+
+    config = _file_unit_config(s, "fuzzy_gripper", FuzzyGripperConfig)
+    return replace(config, servo=s.serial4.gripper_servo)
+
+
 def fault_config(s: Scenario, machine: Machine) -> FaultConfig:
     """The faults a scenario injects ([faults]); a lost reply beyond the PGF's program (it
     would never happen) is a ScenarioError."""
@@ -215,9 +237,32 @@ def robot_kinematics(s: Scenario) -> Kinematics:
     return cls.from_scenario(s)
 
 
+def _via_transfers(kinematics: Kinematics) -> bool:
+    # imported here: scipy's optimiser is only loaded by a machine that runs splines
+    from transplanter.machine.spline_motion import via_transfers
+
+    return via_transfers(kinematics)
+
+
 def _machine(s: Scenario) -> Machine:
-    mot, grip = s.motion, s.gripper
     kinematics = robot_kinematics(s)
+    arm_masses = getattr(scene_kinds.robot(s.robot.kind), "arm_masses", None)
+    if arm_masses is None:
+        return _machine_of(s, kinematics)
+    # The arm's lumped dynamics take the MuJoCo model's masses and inertias (the robot
+    # alone, compiled from this scenario's scene config, whose power-on pose comes from a
+    # machine without the torque limit) and, at C, the heaviest pot the scenario draws with
+    # its shoot.
+    from transplanter.scene.build import robot_model
+
+    bare = _machine_of(s, dataclasses.replace(kinematics, arm_torque_limit_nm=None))
+    carried = s.pots.mass_max_kg + s.pots.shoot_mass_kg
+    masses = arm_masses(robot_model(scene_config(s, bare)), carried)
+    return _machine_of(s, dataclasses.replace(kinematics, masses=masses))
+
+
+def _machine_of(s: Scenario, kinematics: Kinematics) -> Machine:
+    mot, grip = s.motion, s.gripper
     motion = MotionConfig(
         resolution_m=mot.resolution_m,
         accel_m_s2=mot.accel_m_s2,
@@ -225,6 +270,7 @@ def _machine(s: Scenario) -> Machine:
         compute_time_per_point_s=mot.compute_time_per_point_s,
         planner=mot.planner,
         ee_accel_limit_m_s2=mot.ee_accel_limit_m_s2,
+        carry_accel_limit_m_s2=grip.carry_accel_limit_m_s2,
     )
     sgf = SGFConfig(
         kinematics=kinematics,
@@ -248,6 +294,7 @@ def _machine(s: Scenario) -> Machine:
         stall_retries=s.recovery.stall_retries,
         stall_settle_s=s.recovery.stall_settle_s,
         reply_timeout_s=s.bus.reply_timeout_s,
+        spline_transfer=motion.planner == "bspline5" and _via_transfers(kinematics),
     )
     taught = s.taught
     taught_image = EepromImage(
@@ -462,3 +509,111 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
         )
     except ValueError as exc:
         raise ScenarioError(f"the scenario does not make a buildable scene: {exc}") from None
+
+
+@dataclass(frozen=True)
+class VisionConfig:
+    """Seed 002's vision from a scenario's [vision]: the trays' seedling draw
+    (scene.plug_tray.SeedlingDraw), the imaging station's draw (scene.tray_camera.ImagingDraw),
+    the picture's size, the camera's mounting and the pipeline's thresholds as the pipeline
+    takes them (vision.pipeline.CameraMount, VisionThresholds)."""
+
+    seedlings: Any
+    imaging: Any
+    width_px: int
+    height_px: int
+    mount: Any
+    thresholds: Any
+
+
+def vision_config(scenario: Scenario) -> VisionConfig:
+    """[vision] as the draw, the camera and the pipeline take it (angles back in degrees,
+    lengths in mm, the leaf hue band in OpenCV's 0-180)."""
+    from transplanter.scene.plug_tray import SeedlingDraw
+    from transplanter.scene.tray_camera import ImagingDraw
+    from transplanter.vision.grading import GradingRule
+    from transplanter.vision.pipeline import CameraMount, VisionThresholds
+
+    v = scenario.vision
+    mm, deg = 1.0 / M_PER_MM, math.degrees
+
+    def span(pair, scale=1.0) -> tuple[float, float]:
+        return (pair[0] * scale, pair[1] * scale)
+
+    seedlings = SeedlingDraw.near_thresholds() if v.seedling_draw == "near_thresholds" else None
+    imaging = ImagingDraw(
+        light_scale=span(v.light_scale),
+        leaf_hue_deg=tuple(deg(a) for a in v.leaf_hue_rad),
+        leaf_saturation=span(v.leaf_saturation),
+        leaf_value=span(v.leaf_value),
+        leaf_jitter=v.leaf_jitter,
+        substrate_hue_deg=tuple(deg(a) for a in v.substrate_hue_rad),
+        substrate_saturation=span(v.substrate_saturation),
+        substrate_value=span(v.substrate_value),
+        yaw_deg=deg(v.tray_yaw_rad),
+        tip_deg=deg(v.tray_tip_rad),
+        shift_mm=v.tray_shift_m * mm,
+    )
+    thresholds = VisionThresholds(
+        white_percentile=v.white_percentile,
+        min_white_level=v.min_white_level,
+        min_contrast=v.min_contrast,
+        tray_band=span(v.tray_band),
+        close_fraction=v.close_fraction,
+        erode_mm=v.erode_m * mm,
+        open_mm=v.open_m * mm,
+        tray_aspect_tolerance=v.tray_aspect_tolerance,
+        px_per_mm=1.0 / (v.rectified_resolution_m * mm),
+        profile_level=v.profile_level,
+        hue=tuple(round(deg(a) / 2) for a in v.leaf_hue_band_rad),
+        min_saturation=v.leaf_min_saturation,
+        min_value=v.leaf_min_value,
+        min_component_mm2=v.min_component_mm2,
+        core_radius_mm=v.core_radius_m * mm,
+        rule=GradingRule(
+            min_leaf_area_mm2=v.min_leaf_area_mm2,
+            max_centroid_offset_mm=v.max_centroid_offset_m * mm,
+            min_secant_mm=v.min_secant_m * mm,
+            empty_area_mm2=v.empty_area_mm2,
+        ),
+    )
+    mount = CameraMount(height_mm=v.camera_height_m * mm, leaf_height_mm=v.leaf_height_m * mm)
+    return VisionConfig(
+        seedlings=seedlings or SeedlingDraw(),
+        imaging=imaging,
+        width_px=v.image_width_px,
+        height_px=v.image_height_px,
+        mount=mount,
+        thresholds=thresholds,
+    )
+
+
+def require_kinds(scenario, job: str, robot: str | None, effector: str, why: str) -> None:
+    """A job built for one robot and one effector refuses a scenario whose `[robot] kind` or
+    `[effector] kind` names another, rather than run its own and ignore the value (`why`:
+    what the job's scene and host are built around, and where the other kinds run);
+    ScenarioError naming the key. `robot` None: any robot (the job dispatches by it)."""
+    wrong = []
+    if robot is not None and scenario.robot.kind != robot:
+        wrong.append(f'robot.kind = "{scenario.robot.kind}"')
+    if scenario.effector.kind != effector:
+        wrong.append(f'effector.kind = "{scenario.effector.kind}"')
+    if wrong:
+        wanted = ([f'robot.kind = "{robot}"'] if robot is not None else []) + [
+            f'effector.kind = "{effector}"'
+        ]
+        raise ScenarioError(
+            f"{' and '.join(wrong)}: {job} runs {' with '.join(wanted)} only ({why}); "
+            f"set {' and '.join(wanted)}, or choose the scenario of the job that has yours"
+        )
+
+
+def require_awake(scenario, job: str) -> None:
+    """A job whose scene keeps every body awake (the delta's tray and bench, the serial arm's
+    jobs) refuses `physics.sleep = true` rather than ignore it: sleeping is the five-bar's
+    pot-line setting (docs/edge_trials.md); ScenarioError naming the key."""
+    if scenario.physics.sleep:
+        raise ScenarioError(
+            f"physics.sleep = true: {job} keeps every body of its scene awake (sleeping is the "
+            "five-bar's pot-line setting); set physics.sleep = false"
+        )

@@ -128,6 +128,42 @@ def check_machine(machine: Machine) -> None:
                 "Move the approach or grip point.",
                 (f"taught.pickup[{i}]", i),
             )
+    if machine.pgf.spline_transfer:
+        _check_transfers(machine)
+
+
+def _check_transfers(machine: Machine) -> None:
+    """TaughtRefused naming the pickup whose ``bspline5`` transfer (lifted grip point,
+    retract point, drop point: ``PGFConfig.spline_transfer``) the SGF would refuse: a limit
+    no timing meets, the spline leaving an axis's window or a sampled point the arm's check
+    refuses between the taught points (the plans are kept for the trial)."""
+    from transplanter.machine.planner_bspline import MoveRefused
+    from transplanter.machine.spline_motion import plan_via_transfer
+
+    taught, kinematics = machine.eeprom, machine.kinematics
+    z_up = taught.z_up_m
+    drop = (*taught.drop_xy_m, z_up)
+    for i, p in enumerate(taught.pickups):
+        points = np.array([(*p.grip_xy_m, z_up), (*p.approach_xy_m, z_up), drop])
+        keep = np.append(True, np.linalg.norm(np.diff(points, axis=0), axis=1) >= 1e-6)
+        points = points[keep]
+        if len(points) < 2:
+            continue
+        steps = kinematics.steps_of_point(points[0])
+        refusals: tuple = ()
+        try:
+            plan_via_transfer(steps, points, kinematics, machine.motion)
+            continue
+        except MoveRefused as exc:
+            why = f"({exc.limit}) {exc}"
+        except UnreachableError as exc:
+            why, refusals = str(exc), exc.refusals
+        raise TaughtRefused(
+            f"taught.pickup[{i}]: the bspline5 transfer {_mm(points[0])} via "
+            f"{_mm(points[1])} to {_mm(drop)} mm is refused: {why}. Move the approach or "
+            "grip point, or use motion.planner = 'lines'.",
+            f"taught.pickup[{i}]", i, None, refusals,
+        )  # fmt: skip
 
 
 def check_taught_speeds(machine: Machine) -> None:

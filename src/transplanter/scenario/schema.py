@@ -30,6 +30,7 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "check_value",
+    "file_keys",
     "key_spec",
     "load_scenario",
     "parse_value",
@@ -250,6 +251,12 @@ class DeltaRefillSection:
     settle_after_s: float = key("float", 0, 10000, doc="simulated after the last line")
     max_cells: int = key("int", lo=0, hi=128, doc="cells serviced per tray (0: all)")
     supply_seed_offset: int = key("int", lo=1, hi=10**9, doc="supply tray's seed - seed")
+    vision: str = key(
+        "str",
+        choices=("pipeline", "truth"),
+        doc="the grading map: the OpenCV pipeline on the camera's pictures (needs an "
+        "offscreen GL context: MUJOCO_GL=egl or osmesa) or the drawn truth",
+    )
 
 
 @dataclass(frozen=True)
@@ -359,6 +366,64 @@ class Serial4Section:
 
 
 @dataclass(frozen=True)
+class FuzzyGripperSection:
+    """[fuzzy_gripper]: the serial arm's two-finger gripper sized for tomatoes
+    (`transplanter.scene.effectors.fuzzy_gripper.FuzzyGripperConfig`, whose fields are the file
+    keys; its servo class is `[serial4] gripper_servo`), read by the serial arm's scene.
+    Optional: the defaults are FuzzyGripperConfig's estimates (docs/serial_arm.md)."""
+
+    pivot_x_m: float = key("float", -100, 100, doc="finger pivots ahead of the mount (<0 behind)")
+    pivot_offset_m: float = key("float", 1, 100, doc="each pivot from the centre line")
+    finger_length_m: float = key("float", 10, 300, doc="pivot to the pad face's centre")
+    pad_inset_m: float = key("float", 0, 50, doc="pad face inward of the finger's pivot line")
+    pad_length_m: float = key("float", 2, 100, doc="pad along the finger")
+    pad_height_m: float = key("float", 2, 100, doc="pad across the finger plane")
+    pad_thickness_m: float = key("float", 0.5, 20, doc="rubber pad thickness")
+    pad_friction: float = key("float", 0.05, 3, doc="pads' sliding friction (theirs governs)")
+    grip_angle_rad: float = key("float", 0, 60, doc="servo angle: pads parallel, grip_center")
+    open_angle_rad: float = key("float", 0, 60, doc="servo angle at power-on (standby)")
+    sensor_height_m: float = key("float", 0, 100, doc="HC-SR04 axis above the finger plane")
+    finger_mass_kg: float = key("float", 0.1, 500, doc="one finger with its pad")
+    palm_mass_kg: float = key("float", 0.1, 500, doc="bracket and palm (no servo, no sensor)")
+    sensor_mass_kg: float = key("float", 0.1, 500, doc="HC-SR04 module")
+
+
+@dataclass(frozen=True)
+class PoolToBeltSection:
+    """[pool_to_belt]: the serial arm's pick-and-place workcell (`[workcell] kind =
+    "pool_to_belt"`): the tomatoes queued in the sloping lane, sensor 1 across the pick
+    station, the belt conveyor (`transplanter.scene.workcells.pool_to_belt.PoolToBeltConfig`,
+    whose fields these are). Optional: the defaults are estimates (docs/serial_arm.md)."""
+
+    count: int = key("int", lo=1, hi=20, doc="tomatoes queued in the pool")
+    diameter_min_m: float = key("float", 20, 120, doc="smallest tomato diameter drawn")
+    diameter_max_m: float = key("float", 20, 120, doc="largest tomato diameter drawn")
+    mass_min_kg: float = key("float", 5, 1000, doc="lightest tomato (density x volume, clipped)")
+    mass_max_kg: float = key("float", 5, 1000, doc="heaviest tomato")
+    density_kg_m3: float = key("float", 500, 1500, doc="tomato density")
+    friction_low: float = key("float", 0, 3, doc="skin-pad friction, lowest drawn")
+    friction_high: float = key("float", 0, 3, doc="skin-pad friction, highest drawn")
+    contact_timeconst_s: float = key("float", 2, 100, doc="a tomato's contact time constant")
+    rolling_resistance_m: float = key("float", 0, 10, doc="lane's and belt's rolling friction")
+    station_x_m: float = key("float", -160, 160, doc="pick station (a middle tomato's centre)")
+    station_y_m: float = key("float", -160, 160)
+    lane_floor_z_m: float = key("float", 0, 200, doc="trough bottom at the stop above the floor")
+    lane_slope_rad: float = key("float", 0.5, 20, doc="lane's slope down to the stop")
+    trough_angle_rad: float = key("float", 3, 45, doc="trough faces' sideways rise")
+    lane_half_width_m: float = key("float", 10, 100, doc="trough rim from the centre line")
+    stop_height_m: float = key("float", 1, 100, doc="stop tab above the trough bottom")
+    sensor_offset_m: float = key("float", 10, 300, doc="sensor 1's face from the lane's line")
+    place_angle_rad: float = key("float", -90, 90, doc="base angle theta1 of the place spot")
+    place_radius_m: float = key("float", 20, 160, doc="place spot from the base axis")
+    belt_top_z_m: float = key("float", 0, 200, doc="belt's top face above the floor")
+    belt_width_m: float = key("float", 20, 300, doc="between the belt's side walls")
+    belt_sidewall_height_m: float = key("float", 0, 100, doc="side walls above the belt")
+    belt_speed_m_s: float = key("float", 1, 500, doc="belt speed")
+    cycle_s: float = key("float", 0.5, 120, doc="pick-and-place time the belt's length is for")
+    release_gap_m: float = key("float", 0, 100, doc="tomato's bottom above the belt at release")
+
+
+@dataclass(frozen=True)
 class LimitsSection:
     """[limits]: joint windows and conditioning limits the firmware enforces."""
 
@@ -396,6 +461,23 @@ class DrivesSection:
         "float", 0.0, 10, doc="damping of the rotor against its field, unloaded rotor"
     )
     screw_efficiency: float = key("float", 0.01, 1.0, doc="lead screw efficiency")
+    arm_speed_limit_rad_s: float = key(
+        "float", 1, 1e5, doc="bspline5: each arm joint's speed limit (at most its step rate)"
+    )
+    arm_accel_limit_rad_s2: float = key(
+        "float", 1, 1e7, doc="bspline5: each arm joint's acceleration limit"
+    )
+    arm_torque_limit_nm: float = key(
+        "float",
+        0.001,
+        100,
+        doc="bspline5: each arm motor's torque limit at its shaft, of the lumped dynamics "
+        "(at most the pull-out torque at the arms' speed limit)",
+    )
+    z_speed_limit_m_s: float = key(
+        "float", 0.1, 1e5, doc="bspline5: Z's speed limit (at most its step rate)"
+    )
+    z_accel_limit_m_s2: float = key("float", 1, 1e7, doc="bspline5: Z's acceleration limit")
     switch1_theta1_rad: float = key("float", -180, 360, doc="limit switch 1 trip angle")
     switch2_theta2_rad: float = key("float", -180, 360, doc="limit switch 2 trip angle")
     switch3_z_m: float = key("float", 0, 1000, doc="limit switch 3 (Z up) trip height")
@@ -425,7 +507,8 @@ class MotionSection:
         "str",
         choices=("lines", "bspline5"),
         doc="lines: G0 and G1 straight; bspline5: a G0 is a time-optimal quintic B-spline "
-        "transfer (lift, arc, top, arc, descent) under the arm's joint limits",
+        "transfer (the delta: lift, arc, top, arc, descent; the five-bar: lifted grip point, "
+        "retract point, drop point) under the arm's joint limits",
     )
     ee_accel_limit_m_s2: float = key(
         "float", 100, 1e6, doc="end-effector acceleration limit of a bspline5 transfer"
@@ -463,6 +546,13 @@ class GripperSection:
     open_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
     close_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
     release_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
+    carry_accel_limit_m_s2: float = key(
+        "float",
+        100,
+        1e6,
+        doc="bspline5: the jaws' acceleration limit on the five-bar's spline transfer, which "
+        "carries the seedling (its shoot bends more above it)",
+    )
 
 
 @dataclass(frozen=True)
@@ -662,6 +752,94 @@ class TaughtSection:
     )
 
 
+@dataclass(frozen=True)
+class VisionSection:
+    """[vision]: the trays' seedlings, the imaging station's draw and the recognition
+    pipeline's thresholds (seed 002's vision, docs/vision.md; read by `transplanter grade` and
+    the delta's trial with `delta_refill.vision = "pipeline"`). Optional: the defaults are
+    `SeedlingDraw`, `ImagingDraw`, `CameraMount` and `VisionThresholds` (estimates chosen on
+    seeds 0-4; the paper gives none). Ranges are [low, high] pairs drawn uniformly."""
+
+    seedling_draw: str = key(
+        "str", choices=("default", "near_thresholds"), doc="SeedlingDraw() or its hard draw"
+    )
+    image_width_px: int = key("int", lo=64, hi=4096, doc="the camera's picture width")
+    image_height_px: int = key("int", lo=64, hi=4096, doc="the camera's picture height")
+    light_scale: tuple[float, float] = key("xy", 0.01, 10, doc="the lights' brightness factor")
+    leaf_hue_rad: tuple[float, float] = key("xy", 0, 360, doc="leaves' hue range")
+    leaf_saturation: tuple[float, float] = key("xy", 0, 1, doc="leaves' saturation range")
+    leaf_value: tuple[float, float] = key("xy", 0, 1, doc="leaves' value range")
+    leaf_jitter: float = key("float", 0, 1, doc="per-seedling spread of the leaves' colour")
+    substrate_hue_rad: tuple[float, float] = key("xy", 0, 360, doc="substrate's hue range")
+    substrate_saturation: tuple[float, float] = key("xy", 0, 1, doc="substrate saturation")
+    substrate_value: tuple[float, float] = key("xy", 0, 1, doc="substrate's value range")
+    tray_yaw_rad: float = key("float", 0, 45, doc="the tray turned up to +- this")
+    tray_tip_rad: float = key("float", 0, 10, doc="the tray tipped up to +- this")
+    tray_shift_m: float = key("float", 0, 100, doc="the tray shifted up to +- this")
+    camera_height_m: float = key("float", 100, 100000, doc="camera above the tray (assumed)")
+    leaf_height_m: float = key("float", 0, 100, doc="leaves above the tray (assumed)")
+    white_percentile: float = key("float", 50, 100, doc="the grey picture's white point")
+    min_white_level: float = key("float", 0, 255, doc="a darker white point: too dark")
+    min_contrast: float = key("float", 0, 255, doc="a smaller grey std: blank picture")
+    tray_band: tuple[float, float] = key("xy", 0, 2, doc="T1, T2 of the white point")
+    close_fraction: float = key("float", 0, 0.5, doc="frame closing, of the long side")
+    erode_m: float = key("float", 0, 20, doc="the walls' erosion (and dilation back)")
+    open_m: float = key("float", 0, 20, doc="the walls' opening (perlite grains go)")
+    tray_aspect_tolerance: float = key("float", 0, 1, doc="frame's aspect against the tray's")
+    rectified_resolution_m: float = key("float", 0.05, 5, doc="rectified picture's pixel")
+    profile_level: float = key("float", 0, 1, doc="a projection profile under it: an opening")
+    leaf_hue_band_rad: tuple[float, float] = key("xy", 0, 360, doc="leaf pixels' hue")
+    leaf_min_saturation: int = key("int", lo=0, hi=255, doc="leaf pixels' least saturation")
+    leaf_min_value: int = key("int", lo=0, hi=255, doc="leaf pixels' least value")
+    min_component_mm2: float = key("float", 0, 1000, doc="smaller leaf components removed")
+    core_radius_m: float = key("float", 0, 17, doc="a cell's leaves touch this disc")
+    min_leaf_area_mm2: float = key("float", 0, 1000, doc="paper: less is inferior")
+    max_centroid_offset_m: float = key("float", 0, 17, doc="paper: further is inferior")
+    min_secant_m: float = key("float", 0, 34, doc="paper: a longer secant crosses")
+    empty_area_mm2: float = key("float", 0, 1000, doc="less leaf area: an empty cell")
+
+
+@dataclass(frozen=True)
+class SerialArmSection:
+    """[serial_arm]: the serial arm's jobs (seed 004; read only by transplanter.twin.serial_arm):
+    the paper's ten targets, its 18 gripper trials and the pick-and-place of the pool_to_belt
+    workcell. Optional: the defaults are estimates (docs/serial_arm.md)."""
+
+    target_speed_m_s: float = key("float", 1, 1000, doc="G1 speed to each of the ten targets")
+    target_settle_s: float = key("float", 0, 10000, doc="dwell at a target before measuring")
+    travel_speed_m_s: float = key("float", 1, 1000, doc="G1 speed between stations")
+    approach_speed_m_s: float = key("float", 1, 1000, doc="G1 speed down to a grasp or release")
+    path_accel_m_s2: float = key("float", 1, 1e5, doc="the controller's path acceleration")
+    segment_m: float = key("float", 0.01, 10, doc="interpolation grid of the controller")
+    point_time_s: float = key("float", 1, 1e5, doc="IK time per interpolated point")
+    hover_m: float = key("float", 5, 200, doc="height above a grasp or release to come down from")
+    grip_settle_s: float = key("float", 0, 10000, doc="dwell after the gripper's command")
+    release_settle_s: float = key("float", 0, 10000, doc="dwell after the release")
+    sensor_resolution_m: float = key("float", 0, 50, doc="reading's step (0: none; 10: whole cm)")
+    bruise_force_n: float = key("float", 0.1, 1000, doc="squeeze above it bruises a tomato")
+    bench_radius_m: float = key("float", 20, 160, doc="gripper trials: grip centre's radius")
+    bench_height_m: float = key("float", -50, 160, doc="gripper trials: its height (paper y)")
+
+
+@dataclass(frozen=True)
+class SerialPotsSection:
+    """[serial_pots]: the serial arm on the five-bar's pot line (`[robot] kind = "serial4"` in
+    the `conveyor_tube` workcell; read only by transplanter.twin.serial_pots): where its base
+    stands and how it picks a pot and drops it into the tube. Optional: estimates
+    (docs/serial_arm.md)."""
+
+    base_x_m: float = key("float", -1000, 1000, doc="the base plate's centre, workcell frame")
+    base_y_m: float = key("float", -1000, 1000)
+    base_z_m: float = key("float", -1000, 1000, doc="the base plate's height (a pedestal)")
+    base_yaw_rad: float = key("float", -180, 180, doc="the arm's forward from world +x")
+    grasp_z_m: float = key("float", 1, 200, doc="grip centre above the belt (a pot's bottom)")
+    release_gap_m: float = key("float", 0, 200, doc="pot's bottom above the funnel at release")
+    sensor_gap_m: float = key("float", 20, 400, doc="each cell's sensor 1 to the pot's wall")
+    sensor_z_m: float = key("float", 0, 200, doc="the sensors' axis above the belt")
+    attempts: int = key("int", lo=1, hi=10, doc="grasps of a pot sensor 1 still hears after")
+    release_tilt_rad: float = key("float", 0, 90, doc="most the pot leans at release (no wrist)")
+
+
 # The file key of every field whose file unit differs from its SI unit.
 _FILE_KEY_OVERRIDES = {
     "mass_kg": "mass_g", "mass_sd_kg": "mass_sd_g", "mass_min_kg": "mass_min_g",
@@ -673,6 +851,8 @@ _FILE_KEY_OVERRIDES = {
     "shoot_mass_kg": "shoot_mass_g",
     "image_delay_s": "image_delay_ms", "point_time_s": "point_time_us",
     "tray_change_s": "tray_change_ms", "settle_after_s": "settle_after_ms",
+    "target_settle_s": "target_settle_ms", "grip_settle_s": "grip_settle_ms",
+    "release_settle_s": "release_settle_ms",
 }  # fmt: skip
 # The same, for a field of one section only (section, field): file key.
 _SECTION_FILE_KEYS = {
@@ -685,11 +865,31 @@ _SECTION_FILE_KEYS = {
     ("plug_claws", "rotary_kp_nm_rad"): "rotary_kp_nm_rad",
     ("plug_bench", "extraction_accel_m_s2"): "extraction_accel_m_s2",  # m/s^2, as the paper's
     ("plug_bench", "move_accel_m_s2"): "move_accel_m_s2",
+    ("fuzzy_gripper", "finger_mass_kg"): "finger_mass_g",
+    ("fuzzy_gripper", "palm_mass_kg"): "palm_mass_g",
+    ("fuzzy_gripper", "sensor_mass_kg"): "sensor_mass_g",
+    ("pool_to_belt", "contact_timeconst_s"): "contact_timeconst_ms",
 }
 _FILE_SUFFIX = {
     "_rad_s2": "_deg_s2", "_rad_s": "_deg_s", "_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm",
     "_rad": "_deg",
 }  # fmt: skip
+
+
+@dataclass(frozen=True)
+class CostsSection:
+    """[costs]: what the machine's drives cost; not physics: `transplanter compare` reports
+    it beside what the machine does. The packaged scenarios' values are estimates
+    (docs/compare.md gives each part and its source); put your own quote here."""
+
+    drives_usd: float = key(
+        "float",
+        0,
+        1e7,
+        doc="the drives: motors with their drivers or amplifiers and gearboxes, servos, "
+        "cylinders and valves (US$; 0: not given)",
+    )
+
 
 SECTIONS: dict[str, type] = {
     "scenario": MetaSection,
@@ -703,6 +903,8 @@ SECTIONS: dict[str, type] = {
     "plug_claws": PlugClawsSection,
     "plug_bench": PlugBenchSection,
     "serial4": Serial4Section,
+    "fuzzy_gripper": FuzzyGripperSection,
+    "pool_to_belt": PoolToBeltSection,
     "limits": LimitsSection,
     "drives": DrivesSection,
     "motion": MotionSection,
@@ -716,6 +918,10 @@ SECTIONS: dict[str, type] = {
     "recovery": RecoverySection,
     "faults": FaultsSection,
     "taught": TaughtSection,
+    "vision": VisionSection,
+    "serial_arm": SerialArmSection,
+    "serial_pots": SerialPotsSection,
+    "costs": CostsSection,
 }
 
 
@@ -772,6 +978,14 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "homing_locate_rate_hz": 500.0,
     },
     "motion": {"planner": "lines", "ee_accel_limit_mm_s2": 8830.0},
+    "gripper": {"carry_accel_limit_mm_s2": 4500.0},  # docs/planner.md, The five-bar
+    "drives": {  # the five-bar's bspline5 limits (machine.kinematics.fivebar, docs/planner.md)
+        "arm_speed_limit_deg_s": 712.5,
+        "arm_accel_limit_deg_s2": 25000.0,
+        "arm_torque_limit_nm": 0.225,
+        "z_speed_limit_mm_s": 47.5,
+        "z_accel_limit_mm_s2": 25000.0,
+    },
     "delta_refill": {
         "image_delay_ms": 2000.0,
         "pose_judgement": True,
@@ -793,6 +1007,7 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "settle_after_ms": 300.0,
         "max_cells": 0,
         "supply_seed_offset": 1000003,
+        "vision": "pipeline",
     },
     "plugs": {
         "moisture_pct": 65.0,
@@ -875,6 +1090,116 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "elbow_servo": "mg996r",
         "gripper_servo": "sg90",
     },
+    "fuzzy_gripper": {
+        "pivot_x_mm": -10.0,
+        "pivot_offset_mm": 15.0,
+        "finger_length_mm": 80.0,
+        "pad_inset_mm": 8.0,
+        "pad_length_mm": 24.0,
+        "pad_height_mm": 20.0,
+        "pad_thickness_mm": 3.0,
+        "pad_friction": 0.9,
+        "grip_angle_deg": 22.5,
+        "open_angle_deg": 48.0,
+        "sensor_height_mm": 20.0,
+        "finger_mass_g": 6.0,
+        "palm_mass_g": 10.0,
+        "sensor_mass_g": 8.5,
+    },
+    "pool_to_belt": {
+        "count": 6,
+        "diameter_min_mm": 50.0,
+        "diameter_max_mm": 70.0,
+        "mass_min_g": 70.0,
+        "mass_max_g": 150.0,
+        "density_kg_m3": 1000.0,
+        "friction_low": 0.4,
+        "friction_high": 0.8,
+        "contact_timeconst_ms": 8.0,
+        "rolling_resistance_mm": 1.0,
+        "station_x_mm": 115.0,
+        "station_y_mm": 0.0,
+        "lane_floor_z_mm": 20.0,
+        "lane_slope_deg": 5.0,
+        "trough_angle_deg": 12.0,
+        "lane_half_width_mm": 40.0,
+        "stop_height_mm": 30.0,
+        "sensor_offset_mm": 55.0,
+        "place_angle_deg": 90.0,
+        "place_radius_mm": 115.0,
+        "belt_top_z_mm": 25.0,
+        "belt_width_mm": 80.0,
+        "belt_sidewall_height_mm": 20.0,
+        "belt_speed_mm_s": 25.0,
+        "cycle_s": 12.0,
+        "release_gap_mm": 10.0,
+    },
+    "vision": {
+        "seedling_draw": "default",
+        "image_width_px": 1600,
+        "image_height_px": 900,
+        "light_scale": [0.85, 1.15],
+        "leaf_hue_deg": [80.0, 130.0],
+        "leaf_saturation": [0.5, 0.8],
+        "leaf_value": [0.45, 0.75],
+        "leaf_jitter": 0.06,
+        "substrate_hue_deg": [18.0, 34.0],
+        "substrate_saturation": [0.4, 0.6],
+        "substrate_value": [0.28, 0.45],
+        "tray_yaw_deg": 2.0,
+        "tray_tip_deg": 0.5,
+        "tray_shift_mm": 8.0,
+        "camera_height_mm": 3000.0,
+        "leaf_height_mm": 14.0,
+        "white_percentile": 99.5,
+        "min_white_level": 25.0,
+        "min_contrast": 8.0,
+        "tray_band": [0.65, 1.01],
+        "close_fraction": 1 / 150,
+        "erode_mm": 1.0,
+        "open_mm": 2.0,
+        "tray_aspect_tolerance": 0.12,
+        "rectified_resolution_mm": 0.5,
+        "profile_level": 0.5,
+        "leaf_hue_band_deg": [56.0, 190.0],
+        "leaf_min_saturation": 45,
+        "leaf_min_value": 35,
+        "min_component_mm2": 6.0,
+        "core_radius_mm": 12.0,
+        "min_leaf_area_mm2": 100.0,
+        "max_centroid_offset_mm": 10.0,
+        "min_secant_mm": 12.0,
+        "empty_area_mm2": 10.0,
+    },
+    "serial_arm": {
+        "target_speed_mm_s": 50.0,
+        "target_settle_ms": 1500.0,
+        "travel_speed_mm_s": 120.0,
+        "approach_speed_mm_s": 40.0,
+        "path_accel_mm_s2": 600.0,
+        "segment_mm": 0.5,
+        "point_time_us": 4027.0,
+        "hover_mm": 40.0,
+        "grip_settle_ms": 400.0,
+        "release_settle_ms": 400.0,
+        "sensor_resolution_mm": 0.0,
+        "bruise_force_n": 20.0,
+        "bench_radius_mm": 80.0,
+        "bench_height_mm": 80.0,
+    },
+    "costs": {"drives_usd": 0.0},
+    "serial_pots": {
+        "base_x_mm": 0.0,
+        "base_y_mm": 60.0,
+        "base_z_mm": 0.0,
+        "base_yaw_deg": 90.0,
+        "grasp_z_mm": 40.0,
+        "release_gap_mm": 10.0,
+        "sensor_gap_mm": 25.0,
+        "sensor_z_mm": 12.0,
+        "attempts": 2,
+        "release_tilt_deg": 0.0,
+    },
 }
 """Sections a file may leave out, with their values then: the paper's machine and job, and
 the delta's and serial arm's estimated defaults (a file's or --set's keys of such a section
@@ -899,6 +1224,8 @@ class Scenario:
     plug_claws: PlugClawsSection
     plug_bench: PlugBenchSection
     serial4: Serial4Section
+    fuzzy_gripper: FuzzyGripperSection
+    pool_to_belt: PoolToBeltSection
     limits: LimitsSection
     drives: DrivesSection
     motion: MotionSection
@@ -912,6 +1239,10 @@ class Scenario:
     recovery: RecoverySection
     faults: FaultsSection
     taught: TaughtSection
+    vision: VisionSection
+    serial_arm: SerialArmSection
+    serial_pots: SerialPotsSection
+    costs: CostsSection
     overrides: tuple[tuple[str, Any], ...] = ()
     """The 'section.key' = value overrides applied on top of the file, as given."""
 
@@ -1049,6 +1380,21 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
     return _merge(_read_raw(_base_path(path, base), (*seen, path)), raw)
 
 
+def file_keys(scenario: Scenario, section: str) -> list[str]:
+    """The keys of `section` that the scenario's own file writes (not its `base` files: a
+    packaged job's base carries sections that job documents as unread), sorted; [] for a
+    scenario without a file. What a job that does not read a section refuses."""
+    if scenario.path is None:
+        return []
+    path = Path(scenario.path)
+    try:
+        raw = tomllib.loads(fileio.read_text_input(path, MAX_SCENARIO_BYTES, "scenario"))
+    except (fileio.FileRefused, tomllib.TOMLDecodeError) as exc:
+        raise ScenarioError(f"{path}: {exc}") from None
+    table = raw.get(section, {})
+    return sorted(table) if isinstance(table, dict) else []
+
+
 def _base_path(path: Path, base: Any) -> Path:
     """The file a `base = ...` names: a file in the scenario's own directory (or below it),
     an absolute path (as `transplanter tune` writes for a scenario kept elsewhere), else a
@@ -1178,6 +1524,31 @@ def _pickups(section: str, key: str, raw: Any) -> tuple[TaughtPickup, ...]:
     return tuple(out)
 
 
+def pullout_torque_nm(drv: Mapping[str, Any], speed_rad_s: float) -> float:
+    """The arm motor's pull-out torque (N m at its shaft) at an arm speed: the holding torque
+    up to the corner speed, falling as corner / speed above it (docs/drives.md)."""
+    rev_s = speed_rad_s * drv["arm_belt_ratio"] / (2.0 * math.pi)
+    return drv["holding_torque_nm"] * min(1.0, drv["pullout_corner_rev_s"] / max(rev_s, 1e-12))
+
+
+def _check_arm_torque_limit(drv: Mapping[str, Any]) -> None:
+    """The planner's arm torque limit is a torque the stepper gives: at most its pull-out
+    torque at the arms' speed limit (above it the rotor slips before the limit binds)."""
+    limit = drv["arm_torque_limit_nm"]
+    pullout = pullout_torque_nm(drv, drv["arm_speed_limit_rad_s"])
+    if limit > pullout:
+        raise ScenarioError(
+            f"drives.arm_torque_limit_nm = {limit:g} N m is above what the arm motor can give: "
+            f"its pull-out torque at the arms' speed limit (drives.arm_speed_limit_deg_s = "
+            f"{math.degrees(drv['arm_speed_limit_rad_s']):g}) is {pullout:.4g} N m "
+            f"(drives.holding_torque_nm = {drv['holding_torque_nm']:g}, falling above "
+            f"drives.pullout_corner_rev_s = {drv['pullout_corner_rev_s']:g} rev/s at the "
+            "motor); a planned torque above it would make the rotor slip. Set "
+            f"drives.arm_torque_limit_nm to at most {pullout:.4g} (the default is half the "
+            "pull-out torque: a load angle of a third of a full step, docs/planner.md)."
+        )
+
+
 def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     lim, taught = v["limits"], v["taught"]
     for lo, hi in (
@@ -1218,6 +1589,7 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
             raise ScenarioError(
                 f"drives.{key} (a limit switch) must lie inside {window}.{lo}..{hi}."
             )
+    _check_arm_torque_limit(drv)
     if not z_min < drv["switch3_z_m"] <= z_max:
         raise ScenarioError(
             "drives.switch3_z_mm (limit switch 3) must lie in (limits.z_min_mm, limits.z_max_mm]."
@@ -1259,17 +1631,53 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
             )
     if conv["index_time_s"] < 0.2:
         raise ScenarioError("conveyor.index_time_s must be at least 0.2 s (push and settle).")
+    fg = v["fuzzy_gripper"]
+    if fg["grip_angle_rad"] >= fg["open_angle_rad"]:
+        raise ScenarioError(
+            "fuzzy_gripper.grip_angle_deg must be below fuzzy_gripper.open_angle_deg (the "
+            "standby opens wider than the grip)."
+        )
     grip = v["gripper"]
     if grip["close_rad"] >= grip["open_rad"]:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
     _check_faults(v["faults"])
     _check_plugs(v["plugs"], v["plug_claws"])
+    _check_pool_to_belt(v["pool_to_belt"])
     band, moisture = v["plug_bench"]["moisture_band_pct"] / 2, v["plugs"]["moisture_pct"]
     if v["workcell"]["kind"] == "plug_bench" and not 0 < moisture - band <= moisture + band < 100:
         raise ScenarioError(
             f"plugs.moisture_pct +- plug_bench.moisture_band_pct / 2 = "
             f"{v['plugs']['moisture_pct']:g} +- {band:g} % leaves (0, 100) %: a plug's "
             "moisture is drawn in that band; narrow it."
+        )
+
+
+def _check_pool_to_belt(p: dict[str, Any]) -> None:
+    for lo, hi in (
+        ("diameter_min_mm", "diameter_max_mm"),
+        ("mass_min_g", "mass_max_g"),
+        ("friction_low", "friction_high"),
+    ):
+        if p[si_key(lo)] > p[si_key(hi)]:
+            raise ScenarioError(f"pool_to_belt.{lo} must not be above pool_to_belt.{hi}.")
+    d_max = p["diameter_max_m"]
+    if p["sensor_offset_m"] <= d_max / 2:
+        raise ScenarioError(
+            f"pool_to_belt.sensor_offset_mm = {p['sensor_offset_m'] * 1e3:g} mm: sensor 1 would "
+            f"stand inside the largest tomato (radius {d_max / 2 * 1e3:g} mm); move it out."
+        )
+    if p["belt_width_m"] <= d_max:
+        raise ScenarioError(
+            f"pool_to_belt.belt_width_mm = {p['belt_width_m'] * 1e3:g} mm: the largest tomato "
+            f"({d_max * 1e3:g} mm, pool_to_belt.diameter_max_mm) does not fit between the "
+            "belt's side walls; widen the belt."
+        )
+    reach = d_max / 2 * math.sin(p["trough_angle_rad"])
+    if p["lane_half_width_m"] <= reach:
+        raise ScenarioError(
+            f"pool_to_belt.lane_half_width_mm = {p['lane_half_width_m'] * 1e3:g} mm: the "
+            f"largest tomato rests on the trough's faces {reach * 1e3:.1f} mm from the centre "
+            "line, beyond their rims; widen the trough."
         )
 
 

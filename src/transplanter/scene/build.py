@@ -92,9 +92,11 @@ def merge_models(files: Sequence[str | Path], name: str = SCENE_MODEL) -> mujoco
         compiler = doc.find("compiler")
         attrs = compiler.attrib if compiler is not None else {}
         these = {d: attrs.get(d, attrs.get("assetdir", "")) for d in ("meshdir", "texturedir")}
-        if dirs is not None and these != dirs:
+        used = {_ASSET_DIRS[e.tag] for e in doc.iter() if e.tag in _ASSET_DIRS and e.get("file")}
+        if dirs is not None and any(these[d] != dirs[d] for d in used if d in dirs):
             raise ValueError(f"{file}: asset folders {these} differ from the other files' {dirs}")
-        dirs = these
+        for d in used:  # a folder the file does not use need not agree (the arm has no textures)
+            (dirs := dirs if dirs is not None else {}).setdefault(d, these[d])
         for element in doc.iter():
             if element.tag not in _ASSET_DIRS or element.get("file") is None:
                 continue
@@ -102,6 +104,9 @@ def merge_models(files: Sequence[str | Path], name: str = SCENE_MODEL) -> mujoco
             data = (file.parent / key).read_bytes()
             if assets.setdefault(key, data) != data:
                 raise ValueError(f"{file}: {key} is another file than the one of that name before")
+        if compiler is not None and dirs is not None:  # the folders of the files that use them
+            for d, value in dirs.items():
+                compiler.set(d, value)
         root.extend(list(doc))
     return mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"), assets=assets)
 
@@ -172,6 +177,24 @@ def scene_spec(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjS
     kinds.workcell(cfg.workcell_kind).apply(spec, cfg)
     robot.apply_inertials(spec, cfg)
     return spec
+
+
+def robot_spec(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjSpec:
+    """The robot of the config's kind alone: its MJCF with the robot's and the effector's
+    config applied and its inertials derived, as :func:`scene_spec` does, without the
+    workcell; its masses and inertias are the scene's."""
+    robot = kinds.robot(cfg.robot_kind)
+    spec = mujoco.MjSpec.from_file(str(robot_xml(cfg.robot_kind, models)))
+    apply_options(spec, cfg)
+    robot.apply(spec, cfg)
+    kinds.effector(cfg.effector_kind).apply(spec, cfg)
+    robot.apply_inertials(spec, cfg)
+    return spec
+
+
+def robot_model(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjModel:
+    """:func:`robot_spec` compiled."""
+    return robot_spec(cfg, models).compile()
 
 
 def compile_with_home(spec: mujoco.MjSpec, cfg: SceneConfig) -> mujoco.MjModel:

@@ -3,8 +3,9 @@
 (`[workcell] kind`). Adding a kind adds its module and one line here.
 
 A robot module has ``MODEL`` (its folder, models/<MODEL>/<MODEL>.xml), ``INERTIAL_BODIES``,
+``ACTUATORS`` (its drives' actuator names: transplanter.twin.motors meters them),
 ``apply(spec, cfg)``, ``apply_inertials(spec, cfg)``, ``home_joints(cfg)`` and ``home_ctrl(cfg)``
-(its actuators' power-on commands, first in the model). An effector module has
+(its actuators' power-on commands, first in the model). An effector module has ``ACTUATORS``,
 ``apply(spec, cfg)``, ``add_canopy_contact(spec, cfg)``, ``home_joints(cfg)`` and
 ``home_ctrl(cfg)`` (its actuators follow the robot's). A workcell module has ``MODEL`` (its
 folder, models/workcells/<MODEL>/<MODEL>.xml), ``apply(spec, cfg)``,
@@ -33,14 +34,17 @@ __all__ = [
 ROBOTS = {
     "fivebar": "transplanter.scene.robots.fivebar",
     "delta": "transplanter.scene.robots.delta",
+    "serial4": "transplanter.scene.robots.serial4",
 }
 EFFECTORS = {
     "parallel_jaw": "transplanter.scene.effectors.parallel_jaw",
     "plug_claws": "transplanter.scene.effectors.plug_claws",
+    "fuzzy_gripper": "transplanter.scene.effectors.fuzzy_gripper",
 }
 WORKCELLS = {
     "conveyor_tube": "transplanter.scene.workcells.conveyor_tube",
     "plug_trays": "transplanter.scene.workcells.plug_trays",
+    "pool_to_belt": "transplanter.scene.workcells.pool_to_belt",
 }
 
 

@@ -223,10 +223,11 @@ def render_tray(
     width: int = 1600,
     height: int = 900,
     models: str | Path | None = None,
+    leaf_jitter: float = ImagingDraw.leaf_jitter,
 ) -> np.ndarray:
     """The camera's picture of the drawn tray: (height, width, 3) uint8 RGB. Headless, set
     MUJOCO_GL=egl (or osmesa) before MuJoCo is first imported."""
-    spec = build_spec(tray, appearance, models)
+    spec = build_spec(tray, appearance, models, leaf_jitter)
     vis = spec.visual.global_
     vis.offwidth, vis.offheight = max(vis.offwidth, width), max(vis.offheight, height)
     model = spec.compile()

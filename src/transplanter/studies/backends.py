@@ -13,6 +13,7 @@ from typing import Any
 
 from transplanter.scenario.schema import ScenarioError, load_scenario
 from transplanter.studies.grid import SweepRefused
+from transplanter.twin.motors import motor_columns
 from transplanter.twin.results import FAILURE_KINDS
 
 BACKENDS = ("process", "ray", "inline")
@@ -26,9 +27,12 @@ RESULT_FIELDS = (
     "cycle_time_s",
     "cycle_time_sd_s",
     "cycles",
+    "plants_per_hour",
     *(f"fail_{k}" for k in FAILURE_KINDS),
     "lost_step_events",
     "max_stem_bend_deg",
+    "motor_energy_j",
+    "peak_motor_torque_nm",
     "valid",
     "fault",
     "fault_kind",
@@ -91,6 +95,7 @@ def run_one(task: Mapping[str, Any]) -> dict[str, Any]:
         cycle_time_s=d["cycle_time_s"],
         cycle_time_sd_s=d["cycle_time_sd_s"],
         cycles=int(result.cycle_times.size),
+        plants_per_hour=d["plants_per_hour"],
         lost_step_events=len(d["lost_step_events"]),
         max_stem_bend_deg=d["max_stem_bend_deg"],
         valid=d["valid"],
@@ -100,6 +105,7 @@ def run_one(task: Mapping[str, Any]) -> dict[str, Any]:
         wall_time_s=d["wall_time_s"],
         # what the trial summary warns of (speeds the drives could not reach, ...), one cell
         warnings=WARNING_SEPARATOR.join(d["warnings"]),
+        **motor_columns(d["motors"]),
     )
     for kind, count in d["failures"].items():
         row[f"fail_{kind}"] = count

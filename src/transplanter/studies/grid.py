@@ -193,7 +193,9 @@ class SweepSpec:
 
     def __post_init__(self) -> None:
         keys = [a.key for a in self.axes]
-        if not keys:
+        if self.design == "one" and keys:
+            raise SweepRefused("--design one runs the scenario as given: drop --vary")
+        if not keys and self.design != "one":
             raise SweepRefused("a sweep needs at least one --vary KEY=...")
         if self.design not in DESIGNS:
             raise SweepRefused(f"--design {self.design!r}: choose one of {', '.join(DESIGNS)}")
@@ -260,11 +262,13 @@ class SweepSpec:
         scenario = self.check()
         # each run sets its own seed; the seedlings are a field of their own
         meta = dataclasses.replace(scenario.meta, seed=0, seedlings=0)
-        from transplanter.studies.jobs import PLUG_SECTIONS, job_of
+        from transplanter.studies.jobs import PLUG_SECTIONS, SERIAL_ONLY_SECTIONS, job_of
 
-        # the plug sections are read only by the delta's jobs: a five-bar sweep's digest is
-        # the one it had before they existed (its results resume)
-        skip = ("path", "meta", "overrides") + (PLUG_SECTIONS if job_of(scenario) is None else ())
+        # the plug and serial-arm sections are read only by the other machines' jobs: a
+        # five-bar sweep's digest is the one it had before they existed (its results resume)
+        others = (*PLUG_SECTIONS, *SERIAL_ONLY_SECTIONS) if job_of(scenario) is None else ()
+        # what the drives cost is not physics: no run's result depends on it
+        skip = ("path", "meta", "overrides", "costs", *others)
         sections = [meta] + [
             getattr(scenario, f.name) for f in dataclasses.fields(scenario) if f.name not in skip
         ]
@@ -291,7 +295,9 @@ MANIFEST_IDENTITY = (
     "seedlings",
     "design",  # absent for the full grid (a manifest written before designs existed)
 )
-DESIGNS = ("full", "L9")
+DESIGNS = ("full", "L9", "one")
+"""full: every combination of the varied keys' values; L9: the orthogonal array's nine runs;
+one: the scenario as given over the seeds, no varied key (`transplanter compare`)."""
 
 
 def task(

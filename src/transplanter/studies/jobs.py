@@ -1,8 +1,10 @@
-"""The jobs a study runs besides the five-bar's trial, by the scenario's workcell kind (as
-`transplanter trial` dispatches): the delta's cull-and-refill tray (`plug_trays`,
-transplanter.twin.delta_refill) and the claws' bench (`plug_bench`,
-transplanter.twin.plug_bench_trial). `sweep_backends.run_one` asks `job_of(scenario)`; None is
-the five-bar's trial, run as before.
+"""The jobs a study runs besides the five-bar's trial, by the scenario's workcell kind (and
+robot, where one workcell serves several: as `transplanter trial` dispatches): the delta's
+cull-and-refill tray (`plug_trays`, transplanter.twin.delta_refill), the claws' bench
+(`plug_bench`, transplanter.twin.plug_bench_trial), the serial arm's tomatoes to the belt
+(`pool_to_belt`, transplanter.twin.serial_arm's pick and place) and the serial arm on the
+five-bar's pot line (`serial4` in `conveyor_tube`, transplanter.twin.serial_pots).
+`sweep_backends.run_one` asks `job_of(scenario)`; None is the five-bar's trial, run as before.
 
 A job's row has the sweep's columns (`RESULT_FIELDS`) with the studies' meaning, so that the
 pooling, the interval, resume and tuning work unchanged:
@@ -12,6 +14,8 @@ pooling, the interval, resume and tuning work unchanged:
   seated in the target cell / seedlings picked;
 - `cycle_time_s` over `cycles`: the delta's time per operation over its operations; the
   bench's mean pick over its picks;
+- the serial arm: tomatoes on the belt / tomatoes picked; pots into the tube / seedlings; its
+  mean time from one pick's start to the next's;
 
 plus the job's own columns (`Job.fields`), of which `Job.means` are averaged over a
 setting's runs in settings.csv.
@@ -25,10 +29,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from transplanter.twin.motors import motor_columns
+
 __all__ = ["JOBS", "Job", "job_of", "run_job"]
 
-PLUG_SECTIONS = ("plugs", "plug_claws", "plug_bench")
-"""The scenario sections only these jobs read."""
+PLUG_SECTIONS = ("plugs", "plug_claws", "plug_bench", "vision")
+"""The scenario sections only the delta's jobs read."""
+SERIAL_ONLY_SECTIONS = ("fuzzy_gripper", "pool_to_belt", "serial_arm", "serial_pots")
+"""The scenario sections only the serial arm's jobs read (added after the five-bar's sweeps
+had their digests: left out of them, as the plug sections are)."""
 
 DELTA_FAILURES = (
     "cull_dropped",
@@ -53,6 +62,15 @@ class Job:
     means: tuple[str, ...]
     sections: tuple[str, ...]
     run: Callable[[Any, int, dict[str, Any]], None]
+    unit: str = "seedlings"
+    """What a row's `seedlings` counts."""
+    more: str = "--seedlings x seeds"
+    """How a user gives a point more of them."""
+    damage: tuple[str, ...] | None = None
+    """The failure columns that count a damaged seedling (`transplanter compare`'s damage
+    rate); None: the job does not judge damage."""
+    label: str = "cycle"
+    """What its `cycle_time_s` is."""
 
 
 def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
@@ -82,6 +100,7 @@ def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
         plants_per_hour=_finite(r.plants_per_hour),
         trays_per_hour=_finite(r.trays_per_hour),
         dropped=r.dropped,
+        **motor_columns(r.motors),
     )
     for kind in DELTA_FAILURES:
         row[f"fail_{kind}"] = r.failures.get(kind, 0)
@@ -114,6 +133,75 @@ def _bench(scenario, seed: int, row: dict[str, Any]) -> None:
     )
 
 
+SERIAL_SECTIONS = ("serial4", "fuzzy_gripper", "serial_arm", "bus", "physics")
+"""The sections every serial-arm job reads."""
+
+
+def _serial_pick(scenario, seed: int, row: dict[str, Any]) -> None:
+    from transplanter.machine.servo_drives import frame_steps
+    from transplanter.twin.serial_arm import run_pick_place
+
+    frame_steps(scenario.physics.timestep_s)  # ValueError: a refused setting
+    t0 = time.perf_counter()
+    records, totals, error, valid = run_pick_place(scenario, seed)
+    picked = totals["picked"]
+    cycle = totals["cycle_time_s"]
+    row.update(
+        successes=totals["successes"] if picked else None,
+        seedlings=picked or None,
+        success_rate=totals["success_rate"] if picked else None,
+        cycle_time_s=_finite(cycle),
+        cycle_time_sd_s=None,
+        cycles=max(picked - 1, 0),
+        valid=valid,
+        fault=error,
+        sim_time_s=max((r.end_s or 0.0 for r in records), default=0.0),
+        wall_time_s=time.perf_counter() - t0,
+        warnings="",
+        plants_per_hour=_finite(totals["tomatoes_per_hour"]),
+        peak_squeeze_n=totals["peak_squeeze_n"],
+        **motor_columns(totals.get("motors")),
+        **{f"fail_{k}": totals["outcomes"].get(k, 0) for k in ("bruised", "dropped", "missed")},
+    )
+    if not picked:
+        row["error"] = "no tomato picked"
+    elif not valid:
+        row["error"] = "trial not valid: MuJoCo warned"
+    elif error:
+        row["error"] = f"fault: {error}"
+
+
+def _serial_pots(scenario, seed: int, row: dict[str, Any]) -> None:
+    from transplanter.machine.servo_drives import frame_steps
+    from transplanter.twin.serial_pots import run_serial_pots
+
+    frame_steps(scenario.physics.timestep_s)
+    r = run_serial_pots(scenario, seed)
+    d = r.to_dict()
+    row.update(
+        successes=r.successes,
+        seedlings=r.seedlings,
+        success_rate=d["success_rate"],
+        cycle_time_s=_finite(r.cycle_time_s),
+        cycle_time_sd_s=None,
+        cycles=max(len(r.picked) - 1, 0),
+        valid=r.valid,
+        fault=r.fault,
+        sim_time_s=r.sim_time_s,
+        wall_time_s=r.wall_s,
+        warnings="",
+        plants_per_hour=d["seedlings_per_hour"],
+        peak_squeeze_n=d["peak_squeeze_n"],
+        **motor_columns(r.motors),
+        **{f"fail_{k.replace(' ', '_')}": r.outcomes.get(k, 0)
+           for k in ("dropped", "missed", "no pot")},
+    )  # fmt: skip
+    if not r.valid:
+        row["error"] = "trial not valid: MuJoCo warned or the job ran out of simulated time"
+    elif r.fault:
+        row["error"] = f"fault: {r.fault}"
+
+
 def _sd(values) -> float:
     m = sum(values) / len(values)
     return math.sqrt(sum((v - m) ** 2 for v in values) / (len(values) - 1))
@@ -130,7 +218,6 @@ JOBS: dict[str, Job] = {
             "substrate_retention",
             "leaf_damage_rate",
             "tray_leaf_damage_rate",
-            "plants_per_hour",
             "trays_per_hour",
             "dropped",
             *(f"fail_{k}" for k in DELTA_FAILURES),
@@ -142,8 +229,12 @@ JOBS: dict[str, Job] = {
             "plants_per_hour",
             "trays_per_hour",
         ),
-        sections=("delta", "delta_refill", "plugs", "plug_claws", "bus"),
+        sections=("delta", "delta_refill", "plugs", "plug_claws", "bus", "vision"),
         run=_delta,
+        unit="serviced cells",
+        more="delta_refill.max_cells (0: every cell of a tray) x seeds",
+        damage=("fail_leaf_damage",),
+        label="time per operation",
     ),
     "plug_bench": Job(
         "plug_bench",
@@ -157,13 +248,42 @@ JOBS: dict[str, Job] = {
         sections=("plugs", "plug_claws", "plug_bench"),
         run=_bench,
     ),
+    "pool_to_belt": Job(
+        "pool_to_belt",
+        fields=(
+            "peak_squeeze_n",
+            "fail_bruised",
+            "fail_dropped",
+            "fail_missed",
+        ),  # fmt: skip
+        means=("plants_per_hour", "peak_squeeze_n"),
+        sections=(*SERIAL_SECTIONS, "pool_to_belt"),
+        run=_serial_pick,
+        unit="tomatoes",
+        more="pool_to_belt.count x seeds",
+        damage=("fail_bruised",),
+    ),
+    "serial4:conveyor_tube": Job(
+        "serial4:conveyor_tube",
+        fields=(
+            "peak_squeeze_n",
+            "fail_dropped",
+            "fail_missed",
+            "fail_no_pot",
+        ),  # fmt: skip
+        means=("plants_per_hour", "peak_squeeze_n"),
+        sections=(*SERIAL_SECTIONS, "serial_pots", "conveyor", "pots", "drop_tube"),
+        run=_serial_pots,
+    ),
 }
-"""The jobs by workcell kind; any other kind is the five-bar's trial."""
+"""The jobs by workcell kind, or by "robot:workcell" where the workcell's own job is another
+robot's; any other is the five-bar's trial."""
 
 
 def job_of(scenario) -> Job | None:
     """The scenario's job, or None for the five-bar's trial."""
-    return JOBS.get(scenario.workcell.kind)
+    both = f"{scenario.robot.kind}:{scenario.workcell.kind}"
+    return JOBS.get(both, JOBS.get(scenario.workcell.kind))
 
 
 def run_job(job: Job, scenario, seed: int, row: dict[str, Any], t0: float) -> dict[str, Any]:

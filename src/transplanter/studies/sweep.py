@@ -409,8 +409,10 @@ def _run_locked(spec, out, manifest, backend, workers, address, progress, plots,
             bar.set_postfix_str(best_setting(rows, spec.keys))
         try:
             for row in runner.run(tasks):
-                log.append(row)
-                rows.append(row)
+                with interrupts.held():  # a row in runs.jsonl is a row of the tables
+                    log.append(row)
+                    rows.append(row)
+                interrupts.raise_pending()
                 if on_row is not None:
                     on_row(row)
                 if bar is not None:

@@ -454,7 +454,10 @@ def _write_outputs(spec, study, out, url, study_name, finished, ran, interrupted
         except ScenarioError as exc:  # pragma: no cover - a bug here, never the user's input
             raise AssertionError(f"tuned.toml does not load: {exc}") from None
         files.append(path)
-    note = saturation_note(complete, chosen)
+    from transplanter.studies.jobs import job_of
+
+    job = job_of(spec.check())
+    note = saturation_note(complete, chosen, *((job.unit, job.more) if job else ()))
     return TuneReport(
         out, url, study_name, finished, ran, front, chosen, files, interrupted, note=note
     )
@@ -471,24 +474,31 @@ def rule_of_three_seedlings(failure_rate: float) -> int:
     return math.ceil(3 / failure_rate)
 
 
-def saturation_note(complete: Sequence[Mapping[str, Any]], chosen: Mapping[str, Any] | None):
+def saturation_note(
+    complete: Sequence[Mapping[str, Any]],
+    chosen: Mapping[str, Any] | None,
+    unit: str = "seedlings",
+    more: str = "--seedlings x seeds",
+):
     """One line when the success objective cannot rank the points: the chosen point and at
-    least one other succeeded on every seedling, so they tie on the lower bound and only the
-    cycle time told them apart. None otherwise."""
+    least one other succeeded on every seedling (`unit`: what the job counts; `more`: how a
+    user gives a point more of them), so they tie on the lower bound and only the cycle time
+    told them apart. None otherwise."""
     if chosen is None or chosen["successes"] != chosen["seedlings"]:
         return None
     full = [r for r in complete if r["successes"] is not None and r["successes"] == r["seedlings"]]
     if len(full) < 2:
         return None
     n = chosen["seedlings"]
+    each = "picks" if unit == "seedlings" else unit
     bound = 100 * (1 - 0.05 ** (1 / n))
     need = rule_of_three_seedlings(FAILURE_TO_SEPARATE)
     return (
-        f"note: {len(full)} of {len(complete)} points succeeded on all {n} seedlings, too few "
-        f"to rank their success (0 failures in {n} picks rules out only failure rates above "
+        f"note: {len(full)} of {len(complete)} points succeeded on all {n} {unit}, too few "
+        f"to rank their success (0 failures in {n} {each} rules out only failure rates above "
         f"{bound:.1f} %: the rule of three, about 3/n), so the front keeps the fastest of "
-        f"them; to tell a setting failing {100 * FAILURE_TO_SEPARATE:g} % of picks from a "
-        f"perfect one, give about {need} seedlings per point (--seedlings x seeds)"
+        f"them; to tell a setting failing {100 * FAILURE_TO_SEPARATE:g} % of {each} from a "
+        f"perfect one, give about {need} {unit} per point ({more})"
     )
 
 

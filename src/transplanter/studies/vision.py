@@ -14,7 +14,7 @@ import numpy as np
 from transplanter.scene.plug_tray import SeedlingDraw, TrayDraw, draw_tray
 from transplanter.scene.tray_camera import Appearance, ImagingDraw, draw_appearance, render_tray
 from transplanter.vision.metrics import Score, score
-from transplanter.vision.pipeline import TrayGrading, VisionThresholds, grade_tray
+from transplanter.vision.pipeline import CameraMount, TrayGrading, VisionThresholds, grade_tray
 
 LIGHTINGS = {
     "default": ImagingDraw,
@@ -62,16 +62,20 @@ def grade_seed(
     seedlings: SeedlingDraw | None = None,
     thresholds: VisionThresholds | None = None,
     keep_stages: bool = False,
+    imaging: ImagingDraw | None = None,
+    mount: CameraMount | None = None,
 ) -> GradedTray:
-    """Draw, photograph, grade and score one tray."""
+    """Draw, photograph, grade and score one tray. `imaging` (a scenario's [vision] draw)
+    replaces the named `lighting`'s."""
     if lighting not in LIGHTINGS:
         raise ValueError(f"unknown lighting {lighting!r}; known: {', '.join(LIGHTINGS)}")
+    imaging = imaging or LIGHTINGS[lighting]()
     tray = draw_tray(seed, seedlings)
-    appearance = draw_appearance(seed, LIGHTINGS[lighting]())
+    appearance = draw_appearance(seed, imaging)
     t0 = time.perf_counter()
-    picture = render_tray(tray, appearance, width, height)
+    picture = render_tray(tray, appearance, width, height, leaf_jitter=imaging.leaf_jitter)
     render_s = time.perf_counter() - t0
-    grading = grade_tray(picture, thresholds=thresholds, keep_stages=keep_stages)
+    grading = grade_tray(picture, mount=mount, thresholds=thresholds, keep_stages=keep_stages)
     result = score(
         tray.classes(),
         grading.classes(),

@@ -4,8 +4,9 @@ Transplanting Parallel Robot*), headless: `transplanter trial delta_refill`.
 
 The chain, as on the machine:
 
-- **Host** (the paper's PC + PLC): the tray is imaged and graded (the cells' ground-truth
-  classes of `plug_tray.draw_tray`; the PC's time is `image_delay_ms`), then for every
+- **Host** (the paper's PC + PLC): the trays are imaged and graded (`twin.delta_grading`:
+  the recognition pipeline on the imaging station's pictures, or the drawn truth with
+  `delta_refill.vision = "truth"`; the PC's time is `image_delay_ms`), then for every
   inferior cell a removal to the bin and a supplementation from the supply tray, for every
   empty cell a supplementation; G-code lines one at a time over the bus (the host waits for
   each `ok`). The claws are driven through the controller's two servo outputs, as the PLC's
@@ -35,10 +36,12 @@ import numpy as np
 
 from transplanter.machine.bus import ComBus
 from transplanter.machine.delta_drives import DeltaController, PulseServos
+from transplanter.machine.gcode import format_number
 from transplanter.machine.kinematics.delta import DeltaKinematics
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.sgf import SGFConfig
+from transplanter.scenario.assemble import require_awake, require_kinds
 from transplanter.scene.delta_scene import (
     DeltaSceneConfig,
     JobCells,
@@ -50,8 +53,16 @@ from transplanter.scene.effectors import plug_claws
 from transplanter.scene.effectors.plug_claws import ClawCycle
 from transplanter.scene.plug_physics import LeafWatch, PlugPhysics
 from transplanter.scene.plug_substrate import Substrate
-from transplanter.scene.plug_tray import CellTruth, TrayDraw, TrayGeometry, draw_tray
+from transplanter.scene.plug_tray import TrayDraw, draw_tray
 from transplanter.scene.robots import delta as delta_robot
+from transplanter.twin.delta_grading import (
+    CellGrading,
+    GradingMap,
+    from_truth,
+    grading_map,
+    truth_grades,
+)
+from transplanter.twin.motors import MotorMeter
 from transplanter.vision.grading import EMPTY, HEALTHY, HEALTHY_LR, HEALTHY_UD, INFERIOR
 
 __all__ = ["DeltaRefillJudge", "DeltaRefillResult", "run_delta_refill"]
@@ -77,7 +88,8 @@ HEALTHY_CLASSES = (HEALTHY, HEALTHY_LR, HEALTHY_UD)
 
 @dataclass
 class CellRecord:
-    """One serviced planting cell."""
+    """One serviced planting cell: its class in the host's map (`grade`, what the host acted
+    on) beside the drawn `truth`, and the same for the supply seedling that refilled it."""
 
     index: int
     truth: str
@@ -92,12 +104,24 @@ class CellRecord:
     refill_peak_load_n: float | None = None
     start_s: float = math.nan
     end_s: float = math.nan
+    grade: str = ""
+    supply_grade: str | None = None
+    supply_truth: str | None = None
+    rotary_truth_deg: float | None = None
+    """The setting the supply seedling's truth would have given."""
+    misgrades: list[str] = field(default_factory=list)
+    """What misgrading cost this cell (MISGRADES' kinds)."""
 
     def as_dict(self) -> dict:
         return {
             "index": self.index,
+            "grade": self.grade,
             "truth": self.truth,
+            "supply_grade": self.supply_grade,
+            "supply_truth": self.supply_truth,
             "rotary_deg": self.rotary_deg,
+            "rotary_truth_deg": self.rotary_truth_deg,
+            "misgrades": self.misgrades,
             "culled": self.culled,
             "supply_index": self.supply_index,
             "refilled": self.refilled,
@@ -141,6 +165,14 @@ class DeltaRefillResult:
     """The arms' largest measured speed in the physics (per arm)."""
     peak_joint_torque_nm: list[float] = field(default_factory=list)
     """The arms' largest torque at the joint from the servos in the physics (per arm)."""
+    vision: str = "truth"
+    """Where the host's grading map came from (`delta_refill.vision`)."""
+    grading: dict = field(default_factory=dict)
+    """The map against the truth per tray (GradingMap.summary): confusion, wall times."""
+    misgraded: list[dict] = field(default_factory=list)
+    """Every misgraded cell the job acted on or passed over, with what it cost."""
+    motors: dict | None = None
+    """The drives' peak torque and mechanical work (transplanter.twin.motors)."""
 
     @property
     def successes(self) -> int:
@@ -173,6 +205,10 @@ class DeltaRefillResult:
             "planner": self.planner,
             "peak_joint_speed_deg_s": self.peak_joint_speed_deg_s,
             "peak_joint_torque_nm": self.peak_joint_torque_nm,
+            "vision": self.vision,
+            "grading": self.grading,
+            "misgraded": self.misgraded,
+            "motors": self.motors,
             "sim_time_s": self.sim_time_s,
             "valid": self.valid,
             "wall_time_s": self.wall_time_s,
@@ -181,7 +217,12 @@ class DeltaRefillResult:
 
 
 def _cell_ok(c: CellRecord) -> bool:
-    return c.culled in (None, "binned") and c.refilled == "seated" and not c.leaf_damage
+    return (
+        c.culled in (None, "binned")
+        and c.refilled == "seated"
+        and not c.leaf_damage
+        and not c.misgrades
+    )
 
 
 class DeltaRefillJudge:
@@ -210,56 +251,61 @@ class DeltaRefillJudge:
 @dataclass(frozen=True)
 class _Op:
     cell: int
-    truth: str
+    truth: str  # the cell's class in the host's map: what the host acts on
     supply: int | None
     rotary_deg: float
 
 
-def leaf_extents_mm(cell: CellTruth, geometry: TrayGeometry) -> tuple[float, float]:
-    """How far the seedling's blades reach from its cell's centre along x (left-right) and y
-    (up-down), mm: each blade's bounding half-widths about its centre."""
-    cx, cy = geometry.centre(cell.row, cell.col)
-    ex = ey = 0.0
-    for lf in cell.seedling.leaves if cell.seedling is not None else ():
-        c, s = abs(math.cos(lf.angle_rad)), abs(math.sin(lf.angle_rad))
-        hx = math.hypot(lf.radial_mm * c, lf.tangential_mm * s)
-        hy = math.hypot(lf.radial_mm * s, lf.tangential_mm * c)
-        ex = max(ex, abs(lf.cx - cx) + hx)
-        ey = max(ey, abs(lf.cy - cy) + hy)
-    return ex, ey
+MISGRADES = {
+    "healthy_culled": "a healthy planting seedling graded inferior: pulled out to the bin",
+    "empty_culled": "an empty planting cell graded inferior: the claws pulled at a hole",
+    "refill_on_plug": "a planting seedling graded empty: a refill let go on top of its plug",
+    "inferior_left": "an inferior planting seedling graded healthy: left in the tray",
+    "empty_missed": "an empty planting cell graded healthy: not refilled",
+    "inferior_planted": "an inferior supply seedling graded healthy: planted as a refill",
+    "empty_picked": "an empty supply cell graded healthy: the claws came up without a plug",
+    "orientation_damage": "a refill's leaf torn at the setting its grade gave where its truth "
+    "gave the other",
+}
+"""The kinds of misgrading cost the trial counts (failures `misgrade_<kind>`)."""
 
 
-def rotary_for(cell: CellTruth | None, geometry: TrayGeometry, judge: bool, fixed: float) -> float:
-    """The claws' setting for a seedling: the stripper's blocks come down beside the claws'
-    entry points (along x at 0 deg), so the claws go in across the seedling's narrower side:
-    left-right crossers 90 deg, up-down crossers 0 deg (docs/plug_claws.md), a seedling inside
-    its cell by the reach of its blades (90 deg when they reach farther left-right). Without
-    pose judgement: `fixed`."""
+def rotary_for(cell: CellGrading | None, judge: bool, fixed: float) -> float:
+    """The claws' setting for a seedling, from its class and leaf reach in the host's map: the
+    stripper's blocks come down beside the claws' entry points (along x at 0 deg), so the claws
+    go in across the seedling's narrower side: left-right crossers 90 deg, up-down crossers
+    0 deg (docs/plug_claws.md), a seedling inside its cell by the reach of its leaves (90 deg
+    when they reach farther left-right). Without pose judgement: `fixed`."""
     if not judge or cell is None:
         return fixed
-    if cell.truth == HEALTHY_LR:
+    if cell.grade == HEALTHY_LR:
         return 90.0
-    if cell.truth == HEALTHY_UD:
+    if cell.grade == HEALTHY_UD:
         return 0.0
-    ex, ey = leaf_extents_mm(cell, geometry)
-    return 90.0 if ex > ey else 0.0
+    return 90.0 if cell.reach_lr_mm > cell.reach_ud_mm else 0.0
 
 
-def plan_job(sc, planting: TrayDraw, supply: TrayDraw) -> list[_Op]:
-    """The host's work list from the graded tray: inferior cells culled and refilled, empty
-    cells refilled, in index order, each refill from the next healthy supply cell."""
+def plan_job(
+    sc, planting: TrayDraw, supply: TrayDraw, grades: GradingMap | None = None
+) -> list[_Op]:
+    """The host's work list from the grading map (default: the drawn truth): inferior cells
+    culled and refilled, empty cells refilled, in index order, each refill from the next
+    supply cell graded healthy."""
     job = sc.delta_refill
     fixed = math.degrees(job.fixed_rotary_rad)
-    healthy = [c for c in supply.cells if c.truth in HEALTHY_CLASSES]
+    grades = grades or from_truth(planting, supply)
+    supply_cells = grades.supply.cells
+    healthy = [i for i, c in enumerate(supply_cells) if c.grade in HEALTHY_CLASSES]
     ops: list[_Op] = []
-    todo = [c for c in planting.cells if c.truth in (INFERIOR, EMPTY)]
+    todo = [i for i, c in enumerate(grades.planting.cells) if c.grade in (INFERIOR, EMPTY)]
     if job.max_cells:
         todo = todo[: job.max_cells]
     for k, cell in enumerate(todo):
         src = healthy[k] if k < len(healthy) else None
         # the setting is the refill seedling's; the culled plug is lifted at the same setting
-        rotary = rotary_for(src, supply.geometry, job.pose_judgement, fixed)
-        ops.append(_Op(cell.index, cell.truth, src.index if src is not None else None, rotary))
+        graded = supply_cells[src] if src is not None else None
+        rotary = rotary_for(graded, job.pose_judgement, fixed)
+        ops.append(_Op(cell, grades.planting.cells[cell].grade, src, rotary))
     return ops
 
 
@@ -278,6 +324,7 @@ def _scene_config(sc, kin: DeltaKinematics) -> DeltaSceneConfig:
         bin_xy_m=(job.bin_x_m, job.bin_y_m),
         claws=claws_config(sc),
         plugs=plugs_config(sc),
+        timestep_s=sc.physics.timestep_s,
     )
 
 
@@ -342,17 +389,19 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
     def mm(v: float) -> str:
         return f"{v * 1e3:.3f}"
 
+    num = format_number  # a word's value as set, never rounded to another number
+
     def go(x: float, y: float, z: float) -> None:
         if spline and not first[0]:
             items.append(f"G0 X{mm(x)} Y{mm(y)} Z{mm(z)}")
         else:
-            items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{v_travel:g}",
-                          f"G1 Z{mm(z)} S{v_app:g}"])  # fmt: skip
+            items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{num(v_travel)}",
+                          f"G1 Z{mm(z)} S{num(v_app)}"])  # fmt: skip
         first[0] = False
 
     def leave() -> None:
         if not spline:
-            items.append(f"G1 Z{mm(up)} S{v_travel:g}")
+            items.append(f"G1 Z{mm(up)} S{num(v_travel)}")
 
     swing_wait: list[float] = []
 
@@ -360,13 +409,13 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
         go(x, y, work)
         if swing_wait:
             items.append(("wait_since", "rotary", swing_wait.pop()))
-        items.extend(["M280 P0 S1", f"G4 P{stroke_ms:g}"])
+        items.extend(["M280 P0 S1", f"G4 P{num(stroke_ms)}"])
         leave()
         grips.append(plug)
 
     def place(x: float, y: float, above: float) -> None:
         go(x, y, work + above)
-        items.extend(["M280 P0 S0", f"G4 P{stroke_ms:g}"])
+        items.extend(["M280 P0 S0", f"G4 P{num(stroke_ms)}"])
         leave()
 
     for op in ops:
@@ -374,9 +423,9 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
         x, y = cfg.cell_xy("planting", op.cell)
         if op.rotary_deg != rotary:
             swing = abs(op.rotary_deg - rotary) / 90.0 * claws.rotary_stroke_ms
-            items.append(f"M280 P1 S{op.rotary_deg:g}")
+            items.append(f"M280 P1 S{num(op.rotary_deg)}")
             if not spline or first[0]:
-                items.append(f"G4 P{swing + claws.settle_ms:g}")
+                items.append(f"G4 P{num(swing + claws.settle_ms)}")
             else:
                 items.append(("mark", "rotary"))
                 swing_wait[:] = [(swing + claws.settle_ms) * 1e-3]
@@ -391,28 +440,31 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             place(x, y, job.release_above_m)
         items.append(("mark", f"cell{op.cell}_end"))
     if spline and not first[0]:
-        items.append(f"G1 Z{mm(up)} S{v_travel:g}")
+        items.append(f"G1 Z{mm(up)} S{num(v_travel)}")
     items += [("mark", "end"), "G28"]
     return items, grips
 
 
-def run_delta_refill(sc, seed: int | None = None, observers=()) -> DeltaRefillResult:
-    """One tray of the scenario `sc` (its [delta], [delta_refill] and [bus]), seed `seed`
-    (default the scenario's). Deterministic: the same inputs give the same result, with or
-    without `observers` (DeltaObserver: they only read the state, at their frame times)."""
+def run_delta_refill(
+    sc, seed: int | None = None, observers=(), grades: GradingMap | None = None
+) -> DeltaRefillResult:
+    """One tray of the scenario `sc` (its [delta], [delta_refill], [vision] and [bus]), seed
+    `seed` (default the scenario's). Deterministic: the same inputs give the same result, with
+    or without `observers` (DeltaObserver: they only read the state, at their frame times).
+    `grades`: the host's grading map instead of the one `delta_refill.vision` gives
+    (GradingUnavailable without a GL context for the pipeline's pictures, GradingFailed for a
+    picture it cannot grade)."""
+    require_awake(sc, "the delta's tray job")
+    require_delta(sc)
     wall0 = time.perf_counter()
     seed = sc.seed if seed is None else seed
     job = sc.delta_refill
     kin = DeltaKinematics.from_scenario(sc)
     cfg = _scene_config(sc, kin)
-    planting = draw_tray(seed)
-    supply = draw_tray(seed + job.supply_seed_offset)
-    ops = plan_job(sc, planting, supply)
-    cells = JobCells(
-        culled=tuple(o.cell for o in ops if o.truth == INFERIOR),
-        filled=tuple(o.cell for o in ops if o.truth == EMPTY),
-        supply=tuple(o.supply for o in ops if o.supply is not None),
-    )
+    planting, supply = _trays(sc, seed)
+    grades = grades or grading_map(sc, seed, planting, supply)
+    ops = plan_job(sc, planting, supply, grades)
+    cells = _job_cells(ops, planting)
     spec = build_delta_spec(cfg, planting, supply, cells)
     model = compile_scene(spec)
     data = mujoco.MjData(model)
@@ -420,10 +472,11 @@ def run_delta_refill(sc, seed: int | None = None, observers=()) -> DeltaRefillRe
     data.ctrl[:3] = delta_robot.home_ctrl(cfg)
     data.ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
     mujoco.mj_forward(model, data)
+    meter = MotorMeter(model, delta_robot.ACTUATORS, plug_claws.ACTUATORS)
     sub = Substrate(cfg.plugs)
-    names = [plug_name("planting", i) for i in cells.culled] + [
-        plug_name("supply", i) for i in cells.supply
-    ]
+    names = [plug_name("planting", i) for i in cells.culled if planting.cells[i].seedling] + [
+        plug_name("supply", i) for i in cells.supply if supply.cells[i].seedling
+    ]  # a misgraded empty cell has no plug to free
     physics = {n: PlugPhysics(model, data, n, sub) for n in names}
     watched = tuple(
         plug_name(t, c.index)
@@ -506,6 +559,7 @@ def run_delta_refill(sc, seed: int | None = None, observers=()) -> DeltaRefillRe
         for p in physics.values():
             p.before_step(data)
         mujoco.mj_step(model, data)
+        meter.record(data)
         np.maximum(peaks[0], np.abs(data.qvel[arm_dofs]), out=peaks[0])
         np.maximum(peaks[1], np.abs(data.qfrc_actuator[arm_dofs]), out=peaks[1])
         for name, p in physics.items():
@@ -527,8 +581,10 @@ def run_delta_refill(sc, seed: int | None = None, observers=()) -> DeltaRefillRe
         fault = host.error
     result = _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller,
                     drives, fault, k * dt, time.perf_counter() - wall0, valid)  # fmt: skip
+    _grading_costs(sc, result, planting, supply, grades)
     result.peak_joint_speed_deg_s = [round(math.degrees(v), 4) for v in peaks[0]]
     result.peak_joint_torque_nm = [round(float(v), 4) for v in peaks[1]]
+    result.motors = meter.report().to_dict()
     return result
 
 
@@ -596,16 +652,21 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
         )
     own: set[str] = set()
     for op in ops:
-        rec = CellRecord(op.cell, op.truth, op.rotary_deg, supply_index=op.supply)
+        truth = planting.cells[op.cell].truth
+        rec = CellRecord(op.cell, truth, op.rotary_deg, supply_index=op.supply, grade=op.truth)
         rec.start_s = host.marks.get(f"cell{op.cell}_start", math.nan)
         rec.end_s = host.marks.get(f"cell{op.cell}_end", math.nan)
         xy = cfg.cell_xy("planting", op.cell)
-        if op.truth == INFERIOR:
+        if op.truth == INFERIOR and plug_name("planting", op.cell) not in physics:
+            rec.culled = "nothing"  # no plug: the cell was empty
+        elif op.truth == INFERIOR:
             name = plug_name("planting", op.cell)
             rec.culled = judge.culled(data, physics[name], xy)
             rec.cull_dropped_at_s = physics[name].dropped_at_s
             own.add(name)
-        if op.supply is not None:
+        if op.supply is not None and plug_name("supply", op.supply) not in physics:
+            rec.refilled = "nothing_picked"  # no plug: the supply cell was empty
+        elif op.supply is not None:
             name = plug_name("supply", op.supply)
             own.add(name)
             p = physics[name]
@@ -644,7 +705,7 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
     handled = sum(1 for r in records if r.culled == "binned") + sum(
         1 for r in records if r.refilled == "seated"
     )
-    picked = [r for r in records if r.supply_index is not None]
+    picked = [r for r in records if r.supply_index is not None and r.refilled != "nothing_picked"]
     damaged = sum(1 for r in picked if r.leaf_damage)
     kept = [r.retention for r in records if r.retention is not None]
     culled = {plug_name("planting", r.index) for r in records if r.culled == "binned"}
@@ -678,21 +739,32 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
     )
 
 
+def require_delta(sc) -> None:
+    """ScenarioError unless the scenario runs the delta with the plug claws: the tray job's
+    scene hangs the delta over the two 566 x 286 mm trays and the bin, and its host plans the
+    delta's transfers (docs/compare.md: neither the five-bar's nor the serial arm's
+    workspace covers the trays)."""
+    require_kinds(
+        sc,
+        "the plug-tray job",
+        "delta",
+        "plug_claws",
+        "its scene hangs the delta and its claws over two 566 x 286 mm trays and a bin; the "
+        "five-bar's and the serial arm's workspaces do not cover them (docs/compare.md)",
+    )
+
+
 def job_spec(sc, seed: int | None = None) -> mujoco.MjSpec:
     """The scene `run_delta_refill(sc, seed)` builds, as an MjSpec (`transplanter export`):
     the same scene config, trays and job cells, with the `home` keyframe set to its power-on
     state (arms, platform and claws)."""
+    require_delta(sc)
     seed = sc.seed if seed is None else seed
     kin = DeltaKinematics.from_scenario(sc)
     cfg = _scene_config(sc, kin)
-    planting = draw_tray(seed)
-    supply = draw_tray(seed + sc.delta_refill.supply_seed_offset)
-    ops = plan_job(sc, planting, supply)
-    cells = JobCells(
-        culled=tuple(o.cell for o in ops if o.truth == INFERIOR),
-        filled=tuple(o.cell for o in ops if o.truth == EMPTY),
-        supply=tuple(o.supply for o in ops if o.supply is not None),
-    )
+    planting, supply = _trays(sc, seed)
+    ops = plan_job(sc, planting, supply, grading_map(sc, seed, planting, supply))
+    cells = _job_cells(ops, planting)
     spec = build_delta_spec(cfg, planting, supply, cells)
     model = compile_scene(spec)
     key = spec.add_key(name="home")
@@ -702,3 +774,82 @@ def job_spec(sc, seed: int | None = None) -> mujoco.MjSpec:
     ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
     key.ctrl = ctrl.tolist()
     return spec
+
+
+def _trays(sc, seed: int) -> tuple[TrayDraw, TrayDraw]:
+    """The planting tray of `seed` and the supply tray of seed + supply_seed_offset, drawn
+    with [vision]'s seedling draw."""
+    from transplanter.scenario.assemble import vision_config
+
+    draw = vision_config(sc).seedlings
+    return draw_tray(seed, draw), draw_tray(seed + sc.delta_refill.supply_seed_offset, draw)
+
+
+def _job_cells(ops: list[_Op], planting: TrayDraw) -> JobCells:
+    """The cells the job touches. A cell graded empty that holds a plug (a misgrade) has its
+    plug built free in its walls, as a culled one's: the refill let go over it meets it."""
+    on_plug = [o.cell for o in ops if o.truth == EMPTY and planting.cells[o.cell].seedling]
+    return JobCells(
+        culled=tuple(o.cell for o in ops if o.truth == INFERIOR) + tuple(on_plug),
+        filled=tuple(o.cell for o in ops if o.truth == EMPTY),
+        supply=tuple(o.supply for o in ops if o.supply is not None),
+    )
+
+
+def _grading_costs(
+    sc, result: DeltaRefillResult, planting: TrayDraw, supply: TrayDraw, grades: GradingMap
+) -> None:
+    """Each serviced cell's grade beside its truth and what a misgrade cost it (MISGRADES),
+    the misgraded cells the job passed over (up to its last cell in index order: the whole
+    tray when it serviced every cell it found), and the map's confusion and wall times."""
+    job = sc.delta_refill
+    fixed = math.degrees(job.fixed_rotary_rad)
+    truth_supply = truth_grades(supply)
+    misgraded: list[dict] = []
+
+    def cost(kind: str, tray: str, index: int, grade: str, truth: str) -> None:
+        misgraded.append({"kind": kind, "tray": tray, "index": index, "grade": grade,
+                          "truth": truth})  # fmt: skip
+        result.failures[f"misgrade_{kind}"] = result.failures.get(f"misgrade_{kind}", 0) + 1
+
+    for rec in result.cells:
+        kinds = []
+        if rec.grade == INFERIOR and rec.truth in HEALTHY_CLASSES:
+            kinds.append("healthy_culled")
+        if rec.grade == INFERIOR and rec.truth == EMPTY:
+            kinds.append("empty_culled")
+        if rec.grade == EMPTY and rec.truth != EMPTY:
+            kinds.append("refill_on_plug")
+        for kind in kinds:
+            cost(kind, "planting", rec.index, rec.grade, rec.truth)
+        if rec.supply_index is not None:
+            i = rec.supply_index
+            rec.supply_grade, rec.supply_truth = grades.supply.cells[i].grade, supply.cells[i].truth
+            rec.rotary_truth_deg = rotary_for(truth_supply.cells[i], job.pose_judgement, fixed)
+            extra = []
+            if rec.supply_truth == INFERIOR:
+                extra.append("inferior_planted")
+            elif rec.supply_truth == EMPTY:
+                extra.append("empty_picked")
+            if rec.leaf_damage and rec.rotary_deg != rec.rotary_truth_deg:
+                extra.append("orientation_damage")
+            for kind in extra:
+                cost(kind, "supply", i, rec.supply_grade, rec.supply_truth)
+            kinds += extra
+        rec.misgrades = kinds
+    serviced = {r.index for r in result.cells}
+    todo = [i for i, c in enumerate(grades.planting.cells) if c.grade in (INFERIOR, EMPTY)]
+    covered = len(planting.cells)
+    if job.max_cells and len(todo) > job.max_cells:
+        covered = max(serviced) + 1 if serviced else 0
+    for cell, graded in zip(planting.cells[:covered], grades.planting.cells, strict=False):
+        if cell.index in serviced or graded.grade in (INFERIOR, EMPTY):
+            continue
+        if cell.truth == INFERIOR:
+            cost("inferior_left", "planting", cell.index, graded.grade, cell.truth)
+        elif cell.truth == EMPTY:
+            cost("empty_missed", "planting", cell.index, graded.grade, cell.truth)
+    result.failures = dict(sorted(result.failures.items()))
+    result.vision = grades.source
+    result.grading = grades.summary(planting, supply)
+    result.misgraded = misgraded

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from transplanter.scenario.assemble import require_awake
 from transplanter.scene.plug_tray import draw_tray
 
 __all__ = ["BenchRunResult", "run_bench_trial"]
@@ -107,8 +108,10 @@ def _seedlings(seed: int, n: int):
 def run_bench_trial(sc, seed: int | None = None) -> BenchRunResult:
     """One run of the scenario `sc` ([plugs], [plug_claws], [plug_bench], its seedlings) with
     seed `seed` (default the scenario's)."""
+    require_awake(sc, "the claws' bench")
     from transplanter.scenario.assemble import claws_config, plugs_config
     from transplanter.scene.plug_bench import BenchConfig, centred_seedling, run_pick
+    from transplanter.twin.delta_grading import truth_cell
     from transplanter.twin.delta_refill import rotary_for
 
     wall0 = time.perf_counter()
@@ -132,7 +135,7 @@ def run_bench_trial(sc, seed: int | None = None) -> BenchRunResult:
     for i, (cell, geometry) in enumerate(_seedlings(seed, n)):
         grown = max(plugs.age_d - plugs.root_onset_d, 0.0) * float(vigour[i])
         plug = replace(plugs, moisture_pct=float(moisture[i]), age_d=plugs.root_onset_d + grown)
-        rotary = rotary_for(cell, geometry, job.pose_judgement, fixed)
+        rotary = rotary_for(truth_cell(cell, geometry), job.pose_judgement, fixed)
         r = run_pick(
             plug, claws, replace(bench, rotary_deg=rotary), centred_seedling(cell, geometry)
         )

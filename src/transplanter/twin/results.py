@@ -140,6 +140,7 @@ class TrialResult:
     # cruised slower than their F: a motor's top step rate, the IK's compute time)
     warnings: list[str] = field(default_factory=list)
     belt_realignments: list[dict[str, float]] = field(default_factory=list)  # at each index
+    motors: dict[str, Any] | None = None  # the drives' peak torque and work (twin.motors)
 
     @property
     def failures_clustered(self) -> bool:
@@ -226,11 +227,15 @@ class TrialResult:
             "failures": self.failures(),
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,
             "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,
+            # a seedling placed every cycle (the serial arm's and the delta's trials say how
+            # they count theirs): what `transplanter compare` ranks machines by
+            "plants_per_hour": 3600.0 / float(cycles.mean()) if cycles.size else None,
             "seedlings_per_min": (
                 60.0 * self.attempted / self.sim_time_s if self.sim_time_s else 0.0
             ),
             "sim_time_s": self.sim_time_s,
             "wall_time_s": self.wall_time_s,
             "real_time_factor": self.sim_time_s / self.wall_time_s if self.wall_time_s else None,
+            "motors": self.motors,
             "per_seedling": per_seedling,
         }

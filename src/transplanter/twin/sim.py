@@ -6,7 +6,8 @@ stands where its SGF step pulses have put it at the step's start (`SGF.pulses_at
 smoothed trajectory, and the motor's torque over the step is its torque law at the load angle
 then (`transplanter.scene.stepper`). Per-move work is done once per firmware event: the fields,
 pull-out torques and field speeds of every physics step until the next event are computed in
-one vectorised call, so the per-step path is one row copy, three motor torques and `mj_step`
+one vectorised call, so the per-step path is one row copy, three motor torques, `mj_step` and
+the drives' meter
 (plus the conveyor's drive while it indexes, a slip check every few steps and the caller's
 monitor).
 """
@@ -32,6 +33,7 @@ from transplanter.machine.rig import FirmwareLink
 from transplanter.machine.sgf import SGF
 from transplanter.scenario.assemble import TwinConfig
 from transplanter.scene import ConveyorDrive, Scene, build_scene
+from transplanter.twin.motors import MotorMeter, drive_actuators
 
 __all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepEvent"]
 
@@ -145,6 +147,9 @@ class Twin:
         self.model = self.scene.model
         self.data = self.scene.make_data()
         self.dt = float(self.model.opt.timestep)
+        self.motors = MotorMeter(
+            self.model, *drive_actuators(cfg.scene.robot_kind, cfg.scene.effector_kind)
+        )
         self.sgf = SGF(self.machine.sgf)
         self.bus = ComBus(baud_bps=self.machine.baud_bps)
         self.faults = cfg.faults  # scenario [faults]: switches, a jam, a lost reply
@@ -349,13 +354,14 @@ class Twin:
             # (step_until's exchange reads them; see FirmwareLink.next_event_time).
             switches = self._switches() if self.sgf.homing else None
             rows, amplitude, feed = block.ctrl, block.amplitude, block.feed
-            drive, qpos = self.drives.apply, d.qpos
+            drive, qpos, meter = self.drives.apply, d.qpos, self.motors.record
             for i in range(rows.shape[0]):
                 ctrl[:] = rows[i]
                 drive(ctrl, qpos, block.field[i], amplitude[i], feed[i])
                 if block.conveyor:
                     self.conveyor.apply(d, self.time)
                 mujoco.mj_step(m, d)
+                meter(d)
                 self.k += 1
                 self._field_now = block.field[i + 1]  # the field now, beside the rotor now
                 stalled = self.k % SLIP_CHECK_STEPS == 0 and self._slip(block, i)

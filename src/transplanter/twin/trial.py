@@ -199,6 +199,7 @@ def _finish_trial(
         ],
         overrides=dict(config.overrides),
         warnings=twin.sgf.speed_warnings(),
+        motors=twin.motors.report().to_dict(),
     )
 
 

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from transplanter.scene.delta_scene import plug_name
+from transplanter.viewing.video import Mp4Output
 from transplanter.vision.grading import INFERIOR
 
 __all__ = [
@@ -269,7 +270,7 @@ def parse_cells(text: str) -> set[int]:
     return out
 
 
-class DeltaVideo:
+class DeltaVideo(Mp4Output):
     """Writes a delta trial (or only the work of `cells`) to an MP4 (`render delta_refill`)."""
 
     def __init__(
@@ -375,25 +376,8 @@ class DeltaVideo:
         self.render_s += time.perf_counter() - t0
 
     def finish(self, view: Any, result: Any) -> None:
-        if self.grabber is not None:
-            self.grabber.close()
-        if self.error is not None or self.writer is None:
-            return
-        if self.writer.frames == 0:
-            self.writer.discard()
-            chosen = ", ".join(str(c) for c in sorted(self.cells or ()))
-            self.error = f"no frame was filmed: cells {chosen} were never worked on"
-            return
-        try:
-            self.path = self.writer.commit()
-        except Exception as exc:
-            self.error = f"the video could not be written to {self.target}: {exc}"
-
-    def abort(self) -> None:
-        if self.writer is not None:
-            self.writer.discard()
-        if self.grabber is not None:
-            self.grabber.close()
+        chosen = ", ".join(str(c) for c in sorted(self.cells or ()))
+        self._close(False, f"cells {chosen} were never worked on")
 
 
 def run_observed(sc, seed: int | None, observers: list) -> Any:

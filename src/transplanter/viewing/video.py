@@ -192,6 +192,7 @@ class FrameGrabber:
                 f"{exc}. Headless, use MUJOCO_GL=egl (needs libEGL: a GPU driver or Mesa's "
                 "libegl1) or MUJOCO_GL=osmesa (libosmesa6); on a desktop, run with a display."
             ) from None
+        self.option = mujoco.MjvOption()  # MuJoCo's defaults; an observer may show more groups
         flags = self.renderer.scene.flags
         # Shadows and reflections cost about 4x with software GL (Mesa llvmpipe).
         flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
@@ -199,7 +200,7 @@ class FrameGrabber:
 
     def grab(self, data: Any) -> np.ndarray:
         """The camera's view of the current state, (height, width, 3) uint8 (a new array)."""
-        self.renderer.update_scene(data, camera=self.camera)
+        self.renderer.update_scene(data, camera=self.camera, scene_option=self.option)
         return self.renderer.render()
 
     def close(self) -> None:
@@ -301,7 +302,43 @@ class _FrameClock:
         return True
 
 
-class VideoObserver:
+class Mp4Output:
+    """The end of a video observer's life, shared by the trials' videos: `grabber`,
+    `writer`, `target`, `error` and `path` are the observer's."""
+
+    grabber: Any
+    writer: Any
+    target: Path
+    error: str | None
+    path: Path | None
+
+    def _close(self, interrupted: bool, nothing_filmed: str) -> None:
+        """Commit the video, or discard it (interrupted, or no frame: `error` then says
+        `nothing_filmed`); a write that fails is the `error`."""
+        if self.grabber is not None:
+            self.grabber.close()
+        if self.error is not None or self.writer is None:
+            return
+        if interrupted:
+            self.writer.discard()
+            return
+        if self.writer.frames == 0:
+            self.writer.discard()
+            self.error = f"no frame was filmed: {nothing_filmed}"
+            return
+        try:
+            self.path = self.writer.commit()
+        except Exception as exc:
+            self.error = f"the video could not be written to {self.target}: {exc}"
+
+    def abort(self) -> None:
+        if self.writer is not None:
+            self.writer.discard()
+        if self.grabber is not None:
+            self.grabber.close()
+
+
+class VideoObserver(Mp4Output):
     """Writes the trial (or only the cycles of `seedlings`) to an MP4 (`transplanter render`).
 
     Frames carry the simulated time, the seedling in progress and the last verdict."""
@@ -381,28 +418,8 @@ class VideoObserver:
         self.render_s += time.perf_counter() - t0
 
     def finish(self, twin: Any, interrupted: bool) -> None:
-        if self.grabber is not None:
-            self.grabber.close()
-        if self.error is not None or self.writer is None:
-            return
-        if interrupted:
-            self.writer.discard()
-            return
-        if self.writer.frames == 0:
-            self.writer.discard()
-            chosen = ", ".join(str(s) for s in sorted(self.seedlings or ()))
-            self.error = f"no frame was filmed: seedlings {chosen} never started a cycle"
-            return
-        try:
-            self.path = self.writer.commit()
-        except Exception as exc:
-            self.error = f"the video could not be written to {self.target}: {exc}"
-
-    def abort(self) -> None:
-        if self.writer is not None:
-            self.writer.discard()
-        if self.grabber is not None:
-            self.grabber.close()
+        chosen = ", ".join(str(s) for s in sorted(self.seedlings or ()))
+        self._close(interrupted, f"seedlings {chosen} never started a cycle")
 
 
 @dataclass

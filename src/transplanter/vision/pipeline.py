@@ -107,6 +107,11 @@ class CellGrade:
     secant_lr_mm: float
     secant_ud_mm: float
     centre_px: tuple[float, float]
+    reach_lr_mm: float = 0.0
+    """How far the cell's leaves reach from its centre left or right (the pose judgement of a
+    seedling that crosses no border: the claws go in across its narrower side)."""
+    reach_ud_mm: float = 0.0
+    """... and up or down."""
 
     def as_dict(self) -> dict:
         return {
@@ -118,6 +123,8 @@ class CellGrade:
             "centroid_offset_mm": round(self.centroid_offset_mm, 2),
             "secant_lr_mm": round(self.secant_lr_mm, 2),
             "secant_ud_mm": round(self.secant_ud_mm, 2),
+            "reach_lr_mm": round(self.reach_lr_mm, 2),
+            "reach_ud_mm": round(self.reach_ud_mm, 2),
         }
 
 
@@ -219,10 +226,11 @@ def _measure_cell(
     ud_borders: tuple[float, float],
     s: float,
     core_r: float,
-) -> tuple[float, float, float, float]:
+) -> tuple[float, float, float, float, float, float]:
     """(area mm^2, centroid offset mm, secant with the left/right and with the upper/lower
-    border mm) of the leaf pixels of a cell's pitch square (`patch`) that are connected to its
-    core disk; borders and centre in the patch's pixels."""
+    border mm, reach left/right and up/down from the centre mm) of the leaf pixels of a cell's
+    pitch square (`patch`) that are connected to its core disk; borders and centre in the
+    patch's pixels."""
     ccx, ccy = centre
     mine = np.zeros(patch.shape, dtype=bool)
     if patch.any():
@@ -232,15 +240,17 @@ def _measure_cell(
         touching = np.unique(labels[core & (labels > 0)])
         mine = np.isin(labels, touching) & (labels > 0)
     area = float(mine.sum()) / (s * s)
-    offset = 0.0
+    offset = reach_lr = reach_ud = 0.0
     if area > 0:
         ys, xs = np.nonzero(mine)
         offset = math.hypot(xs.mean() - ccx, ys.mean() - ccy) / s
+        reach_lr = (float(np.abs(xs - ccx).max()) + 0.5) / s  # to the far edge of the pixel
+        reach_ud = (float(np.abs(ys - ccy).max()) + 0.5) / s
     per_col = mine.sum(axis=0).astype(float) / s
     per_row = mine.sum(axis=1).astype(float) / s
     lr = max(_at(per_col, lr_borders[0]), _at(per_col, lr_borders[1]))
     ud = max(_at(per_row, ud_borders[0]), _at(per_row, ud_borders[1]))
-    return area, offset, lr, ud
+    return area, offset, lr, ud, reach_lr, reach_ud
 
 
 def _at(lengths: np.ndarray, x: float) -> float:
@@ -348,7 +358,7 @@ def grade_tray(
             x1 = min(round(col_c[c] + pitch_x / 2), out_w)
             y0 = max(round(row_c[r] - pitch_y / 2), 0)
             y1 = min(round(row_c[r] + pitch_y / 2), out_h)
-            area, offset, lr, ud = _measure_cell(
+            area, offset, lr, ud, reach_lr, reach_ud = _measure_cell(
                 leaves[y0:y1, x0:x1],
                 (col_c[c] - x0, row_c[r] - y0),
                 (col_borders[c][0] - x0, col_borders[c][1] - x0),
@@ -367,6 +377,8 @@ def grade_tray(
                     secant_lr_mm=lr,
                     secant_ud_mm=ud,
                     centre_px=(float(col_c[c]), float(row_c[r])),
+                    reach_lr_mm=reach_lr,
+                    reach_ud_mm=reach_ud,
                 )
             )
     seconds = time.perf_counter() - t0

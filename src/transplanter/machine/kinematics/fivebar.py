@@ -444,6 +444,48 @@ def _wrap_pi(angle):
 SWITCH_NAMES = ("arm 1 home", "arm 2 home", "Z up", "Z down")
 """What each limit switch 1-4 is for (switches 1-3 home the axes; 4 is Z's lower hard limit)."""
 
+JOINT_SPEED_LIMITS = (math.radians(712.5), math.radians(712.5), 0.0475)
+"""Default joint speed limits of a ``bspline5`` transfer (arm 1, arm 2 in rad/s; Z in m/s):
+95 % of what the SGF's 20 kHz step rate allows the default drives (9600 microsteps per arm
+revolution: 750 deg/s; 400 microsteps per mm of Z: 50 mm/s), below the pull-out curve's
+corner (8 rev/s at the motor: 960 deg/s at the arm, 64 mm/s on Z). docs/planner.md."""
+JOINT_ACCEL_LIMITS = (math.radians(25000.0), math.radians(25000.0), 25.0)
+"""Default joint acceleration limits (rad/s^2, rad/s^2, m/s^2), estimates from half the
+pull-out torque (0.225 N m at the motor: a load angle of a third of a full step): the arm's
+0.675 N m less what an 80 g pot, the jaws and the passive links (0.283 kg at C) take at the
+8.83 m/s^2 end-effector limit through the largest Jacobian column of the workspace
+(0.127 m/rad: 0.316 N m), over an arm's own inertia (rotor through the belt 4.9e-5, active
+link 2.9e-4, half a passive link at the elbow 4.3e-4: 7.7e-4 kg m^2): 467 rad/s^2 = 26 700
+deg/s^2; Z: 177 N at the slide less 14 N of weight and 25 N of screw friction over 4.8 kg
+(the slide's 1.46 kg and the rotor's 3.33 kg through the screw): 28.6 m/s^2. Rounded down.
+docs/planner.md."""
+
+
+@dataclass(frozen=True)
+class FiveBarMasses:
+    """The inertia of the arm's lumped dynamics (:meth:`FiveBarKinematics.inverse_dynamics`),
+    in SI units. The twin's values are the MuJoCo model's, read from the compiled model
+    (``transplanter.scene.robots.fivebar.arm_masses``): the firmware side only holds numbers."""
+
+    rotor_inertia_kgm2: float
+    """One arm motor's rotor, at its shaft (the model's armature over the belt ratio
+    squared)."""
+    active_link_kgm2: float
+    """One active link about its motor's axis (at the arm)."""
+    passive_link_kg: float
+    """One passive link; half of it is lumped at its elbow, half at C (a uniform rod's weight
+    splits so; its own turning is left out)."""
+    end_effector_kg: float
+    """What C carries besides the passive links: the wrist, gripper and jaws, and the load
+    (the heaviest pot the scenario draws with its shoot), a point mass at C."""
+
+    def __post_init__(self) -> None:
+        for name, value in self.__dict__.items():
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(
+                    f"FiveBarMasses.{name} must be a finite number >= 0, got {value!r}"
+                )
+
 
 @dataclass(frozen=True)
 class FiveBarKinematics(Kinematics):
@@ -473,6 +515,23 @@ class FiveBarKinematics(Kinematics):
     """Lowest Z a move may target (limit switch 4, Z down, trips there)."""
     z_max_m: float = 0.160
     """Highest Z a move may target."""
+    joint_speed_limits: tuple[float, float, float] = JOINT_SPEED_LIMITS
+    """Joint speed limits of a ``bspline5`` transfer (arm 1, arm 2 in rad/s, Z in m/s); a
+    ``bspline5`` machine refuses one above what its drive's step rate allows
+    (``spline_motion.spline_limits``)."""
+    joint_accel_limits: tuple[float, float, float] = JOINT_ACCEL_LIMITS
+    """Joint acceleration limits of a ``bspline5`` transfer (rad/s^2, rad/s^2, m/s^2)."""
+    masses: FiveBarMasses | None = None
+    """The lumped dynamics' inertia (:meth:`inverse_dynamics`); None: no dynamics model (the
+    scenario's machine has the MuJoCo model's, ``scenario.assemble``)."""
+    arm_torque_limit_nm: float | None = None
+    """Each arm motor's torque limit of a ``bspline5`` transfer, N m at the motor shaft (the
+    belt multiplies it by its ratio at the arm); None: no torque limit. Needs :attr:`masses`
+    to be planned against."""
+
+    transfer_path = "via"
+    """How ``motion.planner = "bspline5"`` moves this arm: a ``G0`` is a spline through the
+    via points the host sent before it (``M720``), not the delta's pick path."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.geometry, FiveBarGeometry):
@@ -493,6 +552,17 @@ class FiveBarKinematics(Kinematics):
                 f"the five-bar needs z_min_m < z_max_m, got {self.z_min_m}, {self.z_max_m}"
             )
         object.__setattr__(self, "drives", drives)
+        self._check_joint_limits()
+        if self.masses is not None and not isinstance(self.masses, FiveBarMasses):
+            raise ValueError(f"masses must be FiveBarMasses or None, got {self.masses!r}")
+        tau = self.arm_torque_limit_nm
+        if tau is not None and not (
+            isinstance(tau, int | float) and math.isfinite(tau) and tau > 0
+        ):
+            raise ValueError(
+                f"the five-bar's arm_torque_limit_nm must be a positive torque (N m at the "
+                f"motor) or None, got {tau!r}"
+            )
         homes = (self.home_theta1_rad, self.home_theta2_rad, self.home_z_m)
         windows = (*(self.limits.motor_window(m) for m in (1, 2)), (self.z_min_m, self.z_max_m))
         axes = tuple(
@@ -500,6 +570,18 @@ class FiveBarKinematics(Kinematics):
             for d, h, w, s in zip(drives, homes, windows, SWITCH_NAMES, strict=False)
         )
         object.__setattr__(self, "_axes", axes)
+
+    def _check_joint_limits(self) -> None:
+        for label in ("joint_speed_limits", "joint_accel_limits"):
+            values = tuple(getattr(self, label))
+            if len(values) != 3 or not all(
+                isinstance(v, int | float) and math.isfinite(v) and v > 0 for v in values
+            ):
+                raise ValueError(
+                    f"the five-bar's {label} must be 3 positive numbers (arm 1, arm 2, Z), "
+                    f"got {values!r}"
+                )
+            object.__setattr__(self, label, tuple(float(v) for v in values))
 
     _shown_coordinates = 2  # the plane's x and y: Z has its own range check
 
@@ -601,6 +683,9 @@ class FiveBarKinematics(Kinematics):
             home_z_m=drv.switch3_z_m,
             z_min_m=lim.z_min_m,
             z_max_m=lim.z_max_m,
+            joint_speed_limits=(drv.arm_speed_limit_rad_s,) * 2 + (drv.z_speed_limit_m_s,),
+            joint_accel_limits=(drv.arm_accel_limit_rad_s2,) * 2 + (drv.z_accel_limit_m_s2,),
+            arm_torque_limit_nm=drv.arm_torque_limit_nm,
         )
 
     @classmethod
@@ -667,3 +752,87 @@ class FiveBarKinematics(Kinematics):
         psi1 = np.arctan2(y - b[..., 1], x - b[..., 0])
         psi2 = np.arctan2(y - d[..., 1], x - d[..., 0])
         return _out(_wrap_pi(psi1 - t1)), _out(_wrap_pi(psi2 - t2))
+
+    # -- the lumped dynamics -----------------------------------------------------------
+    def belt_ratios(self) -> np.ndarray:
+        """(2,) motor revolutions per arm revolution of arm 1 and arm 2 (the belts)."""
+        return np.array([self.drives[0].ratio, self.drives[1].ratio], dtype=np.float64)
+
+    def _require_masses(self) -> FiveBarMasses:
+        if self.masses is None:
+            raise ValueError(
+                "this five-bar has no dynamics model (FiveBarKinematics.masses is None); the "
+                "scenario's machine takes the MuJoCo model's (scenario.assemble)"
+            )
+        return self.masses
+
+    def arm_inertia_kgm2(self) -> np.ndarray:
+        """(2,) each arm's own inertia about its motor's axis, at the arm (kg m^2): the rotor
+        through the belt (I_m N^2), the active link, and half a passive link at the elbow
+        (m_p/2 l1^2)."""
+        m = self._require_masses()
+        n = self.belt_ratios()
+        l1 = self.geometry.l1_m
+        return m.rotor_inertia_kgm2 * n * n + m.active_link_kgm2 + 0.5 * m.passive_link_kg * l1 * l1
+
+    def end_effector_kg(self) -> float:
+        """The mass lumped at C (kg): what the jaws carry (:attr:`FiveBarMasses.end_effector_kg`)
+        and half of each passive link."""
+        m = self._require_masses()
+        return m.end_effector_kg + m.passive_link_kg
+
+    def end_effector_motion(self, joints, speeds, accels):
+        """(C, Cdot, Cddot), each (..., 2) in m, m/s, m/s^2, of the end effector C at arm
+        angles (theta1, theta2) (rad), speeds (rad/s) and accelerations (rad/s^2), exactly:
+        Cdot = J qdot, and from the second derivative of |C - B|^2 = |C - D|^2 = l2^2,
+        (C - B) . Cddot = (C - B) . Bddot - |Cdot - Bdot|^2 (likewise for D), with
+        Bddot = l1 (-sin, cos) qddot_1 - l1 (cos, sin) qdot_1^2: J qddot + Jdot qdot without a
+        finite difference. NaN where the chain cannot close."""
+        c, cd, cdd, _ = self._end_effector_motion(joints, speeds, accels)
+        return c, cd, cdd
+
+    def _end_effector_motion(self, joints, speeds, accels):
+        q, qd, qdd = np.broadcast_arrays(
+            *(np.asarray(v, dtype=np.float64) for v in (joints, speeds, accels))
+        )
+        t1, t2 = q[..., 0], q[..., 1]
+        x, y = (np.asarray(a, dtype=np.float64) for a in self.planar_point(t1, t2))
+        c = np.stack(np.broadcast_arrays(x, y), axis=-1)
+        jac = jacobian(self.geometry, t1, t2, x, y)
+        cd = np.einsum("...ij,...j->...i", jac, qd)
+        l1 = self.geometry.l1_m
+        rows, rhs = [], []
+        for k, elbow in enumerate(elbow_points(self.geometry, t1, t2)):
+            th, w, a = q[..., k], qd[..., k], qdd[..., k]
+            radial = np.stack([np.cos(th), np.sin(th)], axis=-1) * l1  # elbow - motor
+            tangent = np.stack([-np.sin(th), np.cos(th)], axis=-1) * l1
+            elbow_a = tangent * a[..., None] - radial * (w * w)[..., None]
+            r = c - elbow
+            rel = cd - tangent * w[..., None]
+            rows.append(r)
+            rhs.append(np.sum(r * elbow_a, axis=-1) - np.sum(rel * rel, axis=-1))
+        (a11, a12), (a21, a22) = (np.moveaxis(r, -1, 0) for r in rows)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            det = a11 * a22 - a12 * a21
+            cdd = np.stack(
+                [(a22 * rhs[0] - a12 * rhs[1]) / det, (a11 * rhs[1] - a21 * rhs[0]) / det],
+                axis=-1,
+            )
+        return c, cd, cdd, jac
+
+    def inverse_dynamics(self, joints, speeds, accels) -> np.ndarray:
+        """(..., 2) each arm motor's torque (N m at the motor shaft, positive turning its arm
+        counter-clockwise) that drives the arms along (theta1, theta2) at these speeds and
+        accelerations: the lumped model tau_arm = I_a qddot + J^T m_C Cddot (I_a:
+        :meth:`arm_inertia_kgm2`; m_C: :meth:`end_effector_kg` at C; Cddot:
+        :meth:`end_effector_motion`), at the motor tau_arm / N (N the belt ratio). The arms
+        turn in a horizontal plane (the motors' axes are vertical, as in the MuJoCo model),
+        so gravity loads Z only: no static term, and a motion stretched in time by s needs
+        exactly 1/s^2 of the torque. Its work over a move from rest to rest is 0 (Lagrange's
+        equation of the lumped model: no potential energy in the plane)."""
+        _, _, cdd, jac = self._end_effector_motion(joints, speeds, accels)
+        qdd = np.broadcast_to(np.asarray(accels, dtype=np.float64), cdd.shape)
+        arm = self.arm_inertia_kgm2() * qdd + self.end_effector_kg() * np.einsum(
+            "...ji,...j->...i", jac, cdd
+        )
+        return arm / self.belt_ratios()

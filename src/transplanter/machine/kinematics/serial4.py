@@ -160,6 +160,12 @@ def _servo_drive(name: str, servo: ServoClass) -> StepperDrive:
     )
 
 
+LOCATE_RATE_HZ = 200.0
+"""Counts per second of the homing cycle's slow second approach: the simulated switch is read
+once a physics step, so the locate stops within a fifth of a count (0.02 deg) of the park
+angle at a 1 ms step, as a servo's own potentiometer would put it (at the rated speed it
+would overshoot by 4-7 counts, half a degree, an error of the stand-in, not of the arm)."""
+
 PARK_RAD = {"up": (0.0, 90.0 * _DEG, -90.0 * _DEG), "down": (0.0, 0.0, 90.0 * _DEG)}
 """The default park (standby) pose of each elbow branch, the grip centre l2 ahead of and l1
 above the shoulder: elbow up, upper arm vertical and forearm level; elbow down, its mirror
@@ -352,7 +358,7 @@ class Serial4Kinematics(Kinematics):
         arm = cls.from_scenario(scenario)
         return HomingConfig(
             rate_hz=tuple(axis.drive.max_step_rate_hz for axis in arm.axes),
-            locate_rate_hz=tuple(axis.drive.max_step_rate_hz for axis in arm.axes),
+            locate_rate_hz=tuple(LOCATE_RATE_HZ for _ in arm.axes),
             dirs=(+1, +1, +1),
             first_cycle=None,
         )

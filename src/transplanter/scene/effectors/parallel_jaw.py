@@ -14,6 +14,8 @@ from transplanter.scene.config import BIT_CANOPY, JAW_HALF_THICKNESS, SceneConfi
 from transplanter.scene.geometry import side_plate_box
 
 JAWS = ("jaw_left", "jaw_right")
+ACTUATORS = ("gripper", "wrist")
+"""The effector's drives: the jaws' servo and the wrist's."""
 SIDE_PLATES = ("side_plate_left", "side_plate_right")  # visual: they carry the jaws
 
 

@@ -27,6 +27,7 @@ import numpy as np
 from transplanter.errors import TransplanterError
 
 __all__ = [
+    "ACTUATORS",
     "CLAWS",
     "STRIPPERS",
     "ClawCycle",

@@ -22,6 +22,8 @@ MODEL = "delta"
 
 INERTIAL_BODIES = ("platform",)
 ARMS = ("q1", "q2", "q3")
+ACTUATORS = ARMS
+"""The robot's drives, one servo per arm (named as its joint)."""
 EFFECTOR_MODEL = "effectors/plug_claws/plug_claws.xml"
 
 

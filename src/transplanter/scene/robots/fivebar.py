@@ -7,12 +7,17 @@ effector's (scene/effectors/parallel_jaw.py), though drawn in the same model fil
 from __future__ import annotations
 
 import mujoco
+import numpy as np
 
+from transplanter.machine.kinematics.fivebar import FiveBarMasses
 from transplanter.scene.config import PASSIVE_DROP, SceneConfig
 from transplanter.scene.geometry import bridge_box, column_box
 
 MODEL = "fivebar"
 """The robot's Menagerie folder: models/fivebar/fivebar.xml."""
+
+ACTUATORS = ("theta1", "theta2", "z")
+"""The robot's drives (the kinds' interface: first in the model, the effector's next)."""
 
 INERTIAL_BODIES = (
     "platform", "link1", "passive1", "gripper", "jaw_left", "jaw_right", "link2", "passive2",
@@ -130,3 +135,46 @@ def home_ctrl(cfg: SceneConfig) -> list[float]:
     """The motors' commands at power-on (theta1, theta2, Z): no torque until the twin's drives
     compute it from the load angle (transplanter.scene.stepper)."""
     return [0.0, 0.0, 0.0]
+
+
+def _inertia_about_axis(model: mujoco.MjModel, body: str, axis) -> float:
+    """A body's moment of inertia (kg m^2) about the axis through its frame's origin along
+    ``axis`` (its frame): the principal inertia turned by ``body_iquat``, plus m d^2 of its
+    centre of mass off that axis."""
+    b = model.body(body)
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, b.iquat)
+    rot = rot.reshape(3, 3)
+    a = np.asarray(axis, dtype=np.float64)
+    inertia = rot @ np.diag(b.inertia) @ rot.T
+    com = np.asarray(b.ipos, dtype=np.float64)
+    off = com - a * (com @ a)
+    return float(a @ inertia @ a + b.mass[0] * (off @ off))
+
+
+def arm_masses(model: mujoco.MjModel, carried_kg: float) -> FiveBarMasses:
+    """The lumped dynamics' inertia of the compiled robot model (``build.robot_model``): the
+    rotor (theta1's armature over its actuator's gear squared), the active link about its
+    joint, a passive link's mass, and at C the gripper's subtree (wrist, palm, jaws) plus
+    ``carried_kg`` (the load in the jaws: the heaviest pot and its shoot). Arm 2's links
+    must be arm 1's (the model is symmetric; ValueError otherwise)."""
+    axis = np.asarray(model.jnt_axis[model.joint("theta1").id], dtype=np.float64)
+    values = {}
+    for i in (1, 2):
+        joint = model.joint(f"theta{i}")
+        gear = float(model.actuator(f"theta{i}").gear[0])
+        values[i] = (
+            float(model.dof_armature[joint.dofadr[0]]) / (gear * gear),
+            _inertia_about_axis(model, f"link{i}", axis),
+            float(model.body(f"passive{i}").mass[0]),
+        )
+    if not np.allclose(values[1], values[2], rtol=1e-12, atol=0.0):
+        raise ValueError(f"the five-bar's arms differ in the model: {values[1]} != {values[2]}")
+    rotor, active, passive = values[1]
+    gripper = float(model.body_subtreemass[model.body("gripper").id])
+    return FiveBarMasses(
+        rotor_inertia_kgm2=rotor,
+        active_link_kgm2=active,
+        passive_link_kg=passive,
+        end_effector_kg=gripper + float(carried_kg),
+    )

@@ -19,6 +19,10 @@ MODEL = "plug_trays"
 
 JUDGE = "transplanter.twin.delta_refill:DeltaRefillJudge"
 
+CAMERA = "tray_camera"
+"""The imaging station's camera over the tray (scene.tray_camera): `transplanter grade` and
+the trial's pipeline grading photograph the trays with it."""
+
 
 def populate_job(
     spec: mujoco.MjSpec,

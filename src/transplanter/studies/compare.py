@@ -1,0 +1,440 @@
+"""Machines compared on their jobs by the same judge (`transplanter compare`).
+
+Each scenario (a robot, its effector and a job) runs over the same seeds through the sweep
+machinery (`run_sweep` with the scenario as given: parallel, resumable, Ray when asked),
+each in its own directory under ``OUT/runs/<label>``; its runs are then pooled into one row
+of the comparison:
+
+- ``successes`` / ``seedlings`` / ``success_rate`` with the 95 % interval from the spread
+  between trials (`stats.pooled_rate`, as `transplanter trial --seeds` pools);
+- ``cycle_time_s``: the job's cycle (the five-bar's and the serial arm's pick to pick, the
+  delta's time per operation), pooled over every timed cycle;
+- ``plants_per_hour``: the mean over the seeds of each trial's own figure (the five-bar and
+  the serial arm: 3600 / cycle, a seedling placed each cycle; the delta: cells culled or
+  refilled per hour of trays, tray changes included);
+- ``damage_rate``: damaged / seedlings where the job judges damage (the five-bar's bent or
+  crushed shoots, the delta's torn leaves of a refill, the tomatoes' bruises), else None;
+- failures by kind, summed;
+- the drives (`transplanter.twin.motors`): the robot's peak motor torque (N m at the shaft,
+  the largest over the seeds), the mechanical energy per seedling and the mean power;
+- ``drives_usd`` (the scenario's `[costs] drives_usd`, not physics) and the drives' price per
+  plant per hour of capacity.
+
+Rows are ranked by plants per hour among those whose pooled success reaches the floor
+(`--success-floor`), then the rest. Files in OUT: ``compare.json`` (the manifest and the
+rows), ``compare.csv``, ``compare.txt`` (the table as printed) and ``compare.png``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from transplanter import fileio
+from transplanter.scenario.schema import load_scenario
+from transplanter.studies.grid import SweepRefused, SweepSpec
+from transplanter.studies.jobs import job_of
+from transplanter.studies.stats import pool_runs
+
+__all__ = [
+    "CompareReport",
+    "CompareSpec",
+    "FIVEBAR_DAMAGE",
+    "compare_row",
+    "format_table",
+    "rank_rows",
+    "run_compare",
+]
+
+COMPARE_JSON, COMPARE_CSV, COMPARE_TXT, COMPARE_PNG = (
+    "compare.json",
+    "compare.csv",
+    "compare.txt",
+    "compare.png",
+)
+RUNS_DIR = "runs"
+
+FIVEBAR_DAMAGE = ("fail_damaged", "fail_shoot_crushed")
+"""The five-bar trial's failures that are a damaged seedling (its shoot bent or crushed)."""
+
+CSV_FIELDS = (
+    "rank",
+    "scenario",
+    "robot",
+    "effector",
+    "workcell",
+    "trials",
+    "errors",
+    "successes",
+    "seedlings",
+    "unit",
+    "success_rate",
+    "ci95_low",
+    "ci95_high",
+    "meets_floor",
+    "cycle_time_s",
+    "cycle",
+    "plants_per_hour",
+    "damage_rate",
+    "peak_motor_torque_nm",
+    "energy_per_seedling_j",
+    "mean_power_w",
+    "drives_usd",
+    "usd_per_plant_per_hour",
+    "failures",
+)
+
+
+@dataclass(frozen=True)
+class CompareSpec:
+    """What a comparison runs: the scenarios (files or packaged names), the seeds every one
+    runs on, the seedlings per trial (None: each scenario's own), the `--set` overrides
+    applied to every scenario and the success floor of the ranking."""
+
+    scenarios: tuple[str, ...]
+    seeds: tuple[int, ...]
+    seedlings: int | None = None
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    success_floor: float = 0.9
+
+    def __post_init__(self) -> None:
+        if not self.scenarios:
+            raise SweepRefused("compare needs at least one scenario")
+        if not self.seeds:
+            raise SweepRefused("--seeds: give at least one seed")
+        if not 0.0 <= self.success_floor <= 1.0:
+            raise SweepRefused(
+                f"--success-floor {self.success_floor:g} is not a share: give 0 to 1 (0.9 is 90 %)"
+            )
+        labels = self.labels()
+        seen: dict[str, str] = {}
+        for s, label in zip(self.scenarios, labels, strict=True):
+            if label in seen:
+                raise SweepRefused(
+                    f"two scenarios compare as {label!r} ({seen[label]} and {s}): give each "
+                    "once, or copy one to a file of another name"
+                )
+            seen[label] = s
+
+    def labels(self) -> list[str]:
+        """Each scenario's row name: its file's stem (a packaged scenario's name)."""
+        return [_label(s) for s in self.scenarios]
+
+    def sweeps(self) -> list[SweepSpec]:
+        """One single-setting sweep per scenario (refused here if a scenario is bad)."""
+        out = []
+        for s in self.scenarios:
+            seedlings = self.seedlings
+            if seedlings is None:
+                seedlings = load_scenario(s, dict(self.overrides)).meta.seedlings
+            out.append(SweepSpec(s, (), self.seeds, seedlings, dict(self.overrides), design="one"))
+        return out
+
+    def manifest(self, sweeps: Sequence[SweepSpec]) -> dict[str, Any]:
+        return {
+            "scenarios": [
+                {"label": label, **{k: m[k] for k in ("scenario", "scenario_digest", "seedlings")}}
+                for label, m in zip(self.labels(), (s.manifest() for s in sweeps), strict=True)
+            ],
+            "seeds": list(self.seeds),
+            "overrides": dict(self.overrides),
+        }
+
+
+def _label(scenario: str | os.PathLike) -> str:
+    stem = Path(str(scenario)).name
+    stem = stem[:-5] if stem.endswith(".toml") else stem
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", stem) or "scenario"
+
+
+def compare_row(
+    label: str, scenario, rows: Sequence[Mapping[str, Any]], floor: float
+) -> dict[str, Any]:
+    """One scenario's runs pooled into its comparison row (module docstring)."""
+    job = job_of(scenario)
+    counted = [r for r in rows if r.get("successes") is not None and r.get("seedlings")]
+    out: dict[str, Any] = {
+        "scenario": label,
+        "name": scenario.meta.name,
+        "robot": scenario.robot.kind,
+        "effector": scenario.effector.kind,
+        "workcell": scenario.workcell.kind,
+        "job": job.kind if job is not None else "fivebar",
+        "seeds": [r["seed"] for r in rows],
+        "trials": len(counted),
+        "errors": sum(1 for r in rows if r.get("error")),
+        "error_messages": sorted({r["error"] for r in rows if r.get("error")}),
+        "unit": job.unit if job is not None else "seedlings",
+        "cycle": job.label if job is not None else "cycle",
+        "successes": None,
+        "seedlings": None,
+        "success_rate": None,
+        "ci95": None,
+        "ci_method": None,
+        "cycle_time_s": None,
+        "plants_per_hour": None,
+        "damage_rate": None,
+        "failures": {},
+        "peak_motor_torque_nm": None,
+        "motor_energy_j": None,
+        "energy_per_seedling_j": None,
+        "mean_power_w": None,
+        "drives_usd": scenario.costs.drives_usd or None,
+        "usd_per_plant_per_hour": None,
+        "meets_floor": False,
+    }
+    if not counted:
+        return out
+    pooled, cycle = pool_runs(counted)
+    n = pooled.seedlings
+    out.update(
+        successes=pooled.successes,
+        seedlings=n,
+        success_rate=pooled.success_rate,
+        ci95=list(pooled.ci95),
+        ci_method=pooled.method,
+        cycle_time_s=cycle,
+        meets_floor=pooled.success_rate >= floor,
+    )
+    rates = [r["plants_per_hour"] for r in counted if r.get("plants_per_hour") is not None]
+    if rates:
+        out["plants_per_hour"] = sum(rates) / len(rates)
+    damage = FIVEBAR_DAMAGE if job is None else job.damage
+    if damage is not None:
+        out["damage_rate"] = sum(r.get(f) or 0 for r in counted for f in damage) / n
+    kinds = sorted({k for r in counted for k in r if k.startswith("fail_")})
+    out["failures"] = {
+        k.removeprefix("fail_"): total
+        for k in kinds
+        if (total := sum(r.get(k) or 0 for r in counted))
+    }
+    peaks = [r["peak_motor_torque_nm"] for r in counted if r.get("peak_motor_torque_nm")]
+    out["peak_motor_torque_nm"] = max(peaks) if peaks else None
+    metered = [r for r in counted if r.get("motor_energy_j") is not None]
+    if metered:
+        energy = sum(r["motor_energy_j"] for r in metered)
+        out["motor_energy_j"] = energy
+        out["energy_per_seedling_j"] = energy / sum(r["seedlings"] for r in metered)
+        sim = sum(r.get("sim_time_s") or 0.0 for r in metered)
+        out["mean_power_w"] = energy / sim if sim > 0 else None
+    if out["drives_usd"] is not None and out["plants_per_hour"]:
+        out["usd_per_plant_per_hour"] = out["drives_usd"] / out["plants_per_hour"]
+    return out
+
+
+def rank_rows(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Rows meeting the success floor by plants per hour (most first), then the others
+    the same way; each with its `rank` (1 first)."""
+
+    def order(r: Mapping[str, Any]):
+        pph = r.get("plants_per_hour")
+        return (not r.get("meets_floor"), -(pph if pph is not None else -math.inf), r["scenario"])
+
+    ranked = [dict(r) for r in sorted(rows, key=order)]
+    for i, r in enumerate(ranked, 1):
+        r["rank"] = i
+    return ranked
+
+
+def _fmt(v: Any, spec: str) -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def format_table(rows: Sequence[Mapping[str, Any]], floor: float) -> str:
+    """The comparison as text (what `compare` prints and writes to compare.txt)."""
+    head = (
+        f"{'#':>2}  {'scenario':<22} {'robot':<8} {'effector':<13} {'job':<13} "
+        f"{'success':>13} {'95 % CI':>13} "
+        f"{'cycle s':>7} {'plants/h':>8} {'damage':>7} {'torque':>7} {'J/seedl.':>8} "
+        f"{'W':>6} {'drives $':>8} {'$/(pl/h)':>8}"
+    )
+    lines = [head]
+    for r in rows:
+        ok = "" if r["meets_floor"] else " *"
+        success = (
+            "-"
+            if r["success_rate"] is None
+            else f"{100 * r['success_rate']:.1f} % {r['successes']}/{r['seedlings']}"
+        )
+        ci = "-" if r["ci95"] is None else f"{100 * r['ci95'][0]:.1f}-{100 * r['ci95'][1]:.1f} %"
+        damage = "-" if r["damage_rate"] is None else f"{100 * r['damage_rate']:.1f} %"
+        lines.append(
+            f"{r['rank']:>2}  {r['scenario'][:22]:<22} {r['robot']:<8} {r['effector'][:13]:<13} "
+            f"{r['workcell'][:13]:<13} {success:>13} {ci:>13} "
+            f"{_fmt(r['cycle_time_s'], '.3f'):>7} {_fmt(r['plants_per_hour'], '.0f'):>8} "
+            f"{damage:>7} {_fmt(r['peak_motor_torque_nm'], '.3f'):>7} "
+            f"{_fmt(r['energy_per_seedling_j'], '.2f'):>8} {_fmt(r['mean_power_w'], '.2f'):>6} "
+            f"{_fmt(r['drives_usd'], '.0f'):>8} {_fmt(r['usd_per_plant_per_hour'], '.3f'):>8}{ok}"
+        )
+    lines.append(
+        f"ranked by plants per hour among rows with pooled success >= {100 * floor:g} %; "
+        "* below the floor. torque: the robot's peak motor torque (N m at the shaft); "
+        "J/seedl.: the drives' mechanical work per seedling; W: their mean power"
+    )
+    for r in rows:
+        if r["failures"] or r["errors"]:
+            kinds = ", ".join(f"{k} {v}" for k, v in r["failures"].items()) or "none"
+            errs = f"; {r['errors']} run(s) with an error: {'; '.join(r['error_messages'])}"
+            lines.append(f"  {r['scenario']}: failures {kinds}{errs if r['errors'] else ''}")
+    return "\n".join(lines) + "\n"
+
+
+@dataclass
+class CompareReport:
+    out: Path
+    rows: list[dict[str, Any]]
+    table: str
+    ran: int
+    skipped: int
+    interrupted: bool = False
+    plot: Path | None = None
+    plot_error: str | None = None
+
+
+def run_compare(
+    spec: CompareSpec,
+    out: str | os.PathLike,
+    backend: str = "process",
+    workers: int = 1,
+    address: str | None = None,
+    progress: bool = False,
+    plots: bool = True,
+    on_scenario: Callable[[str], None] | None = None,
+) -> CompareReport:
+    """Every scenario over the seeds (resuming what `out` already holds), then the rows,
+    the table, compare.json / .csv / .txt and the plot. A different comparison in `out` is
+    refused before anything runs."""
+    from transplanter.studies.sweep import DirLock, check_out_files, run_sweep
+
+    out = Path(out)
+    sweeps = spec.sweeps()  # ScenarioError here: nothing runs
+    manifest = spec.manifest(sweeps)
+    if out.exists() and not out.is_dir():
+        raise SweepRefused(f"--out {out} is a file; give a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SweepRefused(f"--out {out} cannot be made: {exc.strerror or exc}") from None
+    lock = DirLock(out)
+    try:
+        for s in spec.scenarios:
+            check_out_files(out, (COMPARE_JSON, COMPARE_CSV, COMPARE_TXT, COMPARE_PNG), s)
+        _check_same(out, manifest)
+        rows, ran, skipped, interrupted = [], 0, 0, False
+        for label, sweep in zip(spec.labels(), sweeps, strict=True):
+            if on_scenario is not None:
+                on_scenario(label)
+            report = run_sweep(
+                sweep, out / RUNS_DIR / label, backend=backend, workers=workers,
+                address=address, progress=progress, plots=False,
+            )  # fmt: skip
+            ran += report.ran
+            skipped += report.skipped
+            scenario = sweep.check()
+            rows.append(compare_row(label, scenario, report.rows, spec.success_floor))
+            if report.interrupted:
+                interrupted = True
+                break
+        rows = rank_rows(rows)
+        table = format_table(rows, spec.success_floor)
+        result = CompareReport(out, rows, table, ran, skipped, interrupted)
+        payload = {**manifest, "success_floor": spec.success_floor, "complete": not interrupted}
+        fileio.write_json_atomic(out / COMPARE_JSON, {**payload, "rows": rows}, follow=False)
+        _write_csv(out / COMPARE_CSV, rows)
+        fileio.write_text_atomic(out / COMPARE_TXT, table, follow=False)
+        if plots and rows and not interrupted:
+            try:
+                result.plot = plot_compare(rows, spec.success_floor, out / COMPARE_PNG)
+            except (OSError, ValueError) as exc:
+                result.plot_error = str(exc)
+        return result
+    finally:
+        lock.release()
+
+
+def _check_same(out: Path, manifest: Mapping[str, Any]) -> None:
+    path = out / COMPARE_JSON
+    if not path.exists():
+        return
+    try:
+        old = json.loads(fileio.read_text_input(path, 1 << 26, "comparison"))
+    except (fileio.FileRefused, ValueError) as exc:
+        raise SweepRefused(f"{path} cannot be read ({exc}); use another --out") from None
+    differs = [k for k in ("scenarios", "seeds", "overrides") if old.get(k) != manifest.get(k)]
+    if differs:
+        raise SweepRefused(
+            f"{out} holds another comparison (it differs in: {', '.join(differs)}); results "
+            "of two comparisons are never mixed: use another --out or delete that directory"
+        )
+
+
+def _write_csv(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
+    from transplanter.studies.sweep import write_csv_atomic
+
+    flat = []
+    for r in rows:
+        f = dict(r)
+        f["ci95_low"], f["ci95_high"] = r["ci95"] if r["ci95"] else (None, None)
+        f["failures"] = " ".join(f"{k}={v}" for k, v in r["failures"].items())
+        flat.append(f)
+    write_csv_atomic(path, CSV_FIELDS, flat)
+
+
+def plot_compare(rows: Sequence[Mapping[str, Any]], floor: float, path: Path) -> Path:
+    """compare.png: plants per hour, pooled success with its interval and the floor, cycle,
+    and the drives' energy per seedling, one bar per scenario in rank order (hatched: below
+    the floor). Written atomically."""
+    from transplanter.studies.plots import _pyplot, _save
+
+    plt = _pyplot()
+
+    names = [f"{r['rank']}. {r['scenario']}" for r in rows]
+    hatch = ["" if r["meets_floor"] else "//" for r in rows]
+    colors = [f"C{i % 10}" for i in range(len(rows))]
+
+    def values(key: str, scale: float = 1.0) -> list[float]:
+        return [math.nan if r[key] is None else scale * r[key] for r in rows]
+
+    fig, axes = plt.subplots(2, 3, figsize=(15, 7.5), layout="constrained")
+    panels = (
+        (axes[0, 0], values("plants_per_hour"), "plants per hour"),
+        (axes[0, 1], values("success_rate", 100), "pooled success (%), 95 % interval"),
+        (axes[0, 2], values("cycle_time_s"), "cycle / time per operation (s)"),
+        (axes[1, 0], values("energy_per_seedling_j"), "drives' work per seedling (J)"),
+        (axes[1, 1], values("peak_motor_torque_nm"), "robot's peak motor torque (N m, shaft)"),
+        (axes[1, 2], values("usd_per_plant_per_hour"), "drives' cost per plant/h (US$)"),
+    )
+    y = list(range(len(rows)))
+    for ax, v, title in panels:
+        bars = ax.barh(y, [0 if math.isnan(x) else x for x in v], color=colors)
+        for b, h in zip(bars, hatch, strict=True):
+            b.set_hatch(h)
+        ax.set_yticks(y, names)
+        ax.invert_yaxis()
+        ax.set_title(title)
+        ax.grid(axis="x", alpha=0.3)
+    ax = axes[0, 1]
+    lo = [100 * (r["success_rate"] - r["ci95"][0]) if r["ci95"] else 0 for r in rows]
+    hi = [100 * (r["ci95"][1] - r["success_rate"]) if r["ci95"] else 0 for r in rows]
+    ax.errorbar(
+        [0 if math.isnan(x) else x for x in values("success_rate", 100)], y,
+        xerr=[lo, hi], fmt="none", ecolor="black", capsize=4,
+    )  # fmt: skip
+    ax.axvline(100 * floor, color="red", linestyle="--", label=f"floor {100 * floor:g} %")
+    ax.set_xlim(0, 100)
+    ax.legend(loc="lower left")
+    seeds = sorted({s for r in rows for s in r["seeds"]})
+    which = (
+        f"seed {seeds[0]}" if len(seeds) == 1 else f"{len(seeds)} seeds ({seeds[0]}-{seeds[-1]})"
+    )
+    fig.suptitle(
+        f"{len(rows)} machine(s) on their jobs, {which} each; hatched: pooled success below "
+        f"the {100 * floor:g} % floor"
+    )
+    return _save(fig, path)

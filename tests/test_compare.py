@@ -1,0 +1,127 @@
+"""`transplanter compare` (transplanter.studies.compare): rows pooled from each scenario's
+runs, ranked at a success floor, equal to what `trial` gives; resumable; refusals."""
+
+import json
+
+import pytest
+
+from transplanter.cli import main
+from transplanter.scenario.assemble import assemble
+from transplanter.scenario.schema import load_scenario
+from transplanter.studies.compare import (
+    CompareSpec,
+    compare_row,
+    rank_rows,
+    run_compare,
+)
+from transplanter.studies.grid import SweepRefused
+from transplanter.twin.serial_pots import run_serial_pots
+from transplanter.twin.trial import run_trial
+
+
+def _row(seed, successes, seedlings, cycle, cycles, **more):
+    return {
+        "seed": seed, "successes": successes, "seedlings": seedlings, "cycle_time_s": cycle,
+        "cycles": cycles, "error": None, "sim_time_s": 100.0, **more,
+    }  # fmt: skip
+
+
+def test_a_row_pools_the_runs_of_a_scenario():
+    sc = load_scenario("paper", {"costs.drives_usd": 120})
+    rows = [
+        _row(1, 38, 40, 3.5, 39, plants_per_hour=1028.6, fail_damaged=1, fail_not_gripped=1,
+             motor_energy_j=60.0, peak_motor_torque_nm=0.41),
+        _row(2, 40, 40, 3.4, 39, plants_per_hour=1058.8, fail_shoot_crushed=0,
+             motor_energy_j=70.0, peak_motor_torque_nm=0.52),
+        {**_row(3, None, None, None, None), "error": "setting refused: x"},
+    ]  # fmt: skip
+    r = compare_row("paper", sc, rows, floor=0.9)
+    assert (r["successes"], r["seedlings"], r["trials"], r["errors"]) == (78, 80, 2, 1)
+    assert r["success_rate"] == pytest.approx(0.975) and r["meets_floor"]
+    assert r["ci95"][0] < 0.975 < r["ci95"][1]
+    assert r["cycle_time_s"] == pytest.approx(3.45)  # every timed cycle, pooled
+    assert r["plants_per_hour"] == pytest.approx((1028.6 + 1058.8) / 2)
+    assert r["damage_rate"] == pytest.approx(1 / 80)  # bent or crushed shoots only
+    assert r["failures"] == {"damaged": 1, "not_gripped": 1}
+    assert r["peak_motor_torque_nm"] == 0.52
+    assert r["energy_per_seedling_j"] == pytest.approx(130 / 80)
+    assert r["mean_power_w"] == pytest.approx(130 / 200)
+    assert r["drives_usd"] == 120
+    assert r["usd_per_plant_per_hour"] == pytest.approx(120 / r["plants_per_hour"])
+    assert r["error_messages"] == ["setting refused: x"]
+    assert compare_row("paper", sc, rows, floor=0.98)["meets_floor"] is False
+
+
+def test_a_job_without_a_damage_judge_has_no_damage_rate():
+    sc = load_scenario("serial_arm_pots")
+    r = compare_row("pots", sc, [_row(1, 3, 4, 8.0, 3, plants_per_hour=450.0)], floor=0.5)
+    assert r["damage_rate"] is None and r["unit"] == "seedlings"
+    assert r["job"] == "serial4:conveyor_tube" and r["drives_usd"] == 27.0
+    delta = compare_row("d", load_scenario("delta_refill"), [], floor=0.5)
+    assert delta["cycle"] == "time per operation" and delta["unit"] == "serviced cells"
+    assert delta["success_rate"] is None and delta["trials"] == 0
+
+
+def test_rows_rank_by_plants_per_hour_above_the_floor_first():
+    rows = [
+        {"scenario": "fast_bad", "meets_floor": False, "plants_per_hour": 2000.0},
+        {"scenario": "slow_good", "meets_floor": True, "plants_per_hour": 400.0},
+        {"scenario": "fast_good", "meets_floor": True, "plants_per_hour": 1000.0},
+        {"scenario": "none", "meets_floor": False, "plants_per_hour": None},
+    ]
+    ranked = rank_rows(rows)
+    assert [r["scenario"] for r in ranked] == ["fast_good", "slow_good", "fast_bad", "none"]
+    assert [r["rank"] for r in ranked] == [1, 2, 3, 4]
+
+
+def test_the_spec_refuses_what_it_cannot_compare():
+    with pytest.raises(SweepRefused, match="at least one scenario"):
+        CompareSpec((), (1,))
+    with pytest.raises(SweepRefused, match="not a share"):
+        CompareSpec(("paper",), (1,), success_floor=90)
+    with pytest.raises(SweepRefused, match="two scenarios compare as 'paper'"):
+        CompareSpec(("paper", "paper"), (1,))
+
+
+def test_rows_equal_the_trials_and_a_rerun_resumes(tmp_path):
+    spec = CompareSpec(("paper", "serial_arm_pots"), (3,), seedlings=2, success_floor=0.5)
+    report = run_compare(spec, tmp_path / "c", backend="inline")
+    assert report.ran == 2 and not report.interrupted
+    by = {r["scenario"]: r for r in report.rows}
+    fivebar = run_trial(
+        assemble(load_scenario("paper", {"scenario.seedlings": 2, "scenario.seed": 3}))
+    ).to_dict()
+    row = by["paper"]
+    assert (row["successes"], row["seedlings"]) == (fivebar["successes"], fivebar["seedlings"])
+    assert row["cycle_time_s"] == fivebar["cycle_time_s"]
+    assert row["plants_per_hour"] == fivebar["plants_per_hour"]
+    assert row["motor_energy_j"] == fivebar["motors"]["energy_j"]
+    assert row["peak_motor_torque_nm"] == fivebar["motors"]["peak_robot_torque_nm"]
+    pots = run_serial_pots(load_scenario("serial_arm_pots", {"scenario.seedlings": 2}), 3)
+    d = pots.to_dict()
+    row = by["serial_arm_pots"]
+    assert (row["successes"], row["seedlings"]) == (d["successes"], d["seedlings"])
+    assert row["plants_per_hour"] == d["seedlings_per_hour"]
+    assert row["motor_energy_j"] == d["motors"]["energy_j"]
+    # the files: the rows as JSON, the table, the CSV and the plot
+    saved = json.loads((tmp_path / "c" / "compare.json").read_text())
+    assert [r["scenario"] for r in saved["rows"]] == [r["scenario"] for r in report.rows]
+    assert saved["rows"] == json.loads(json.dumps(report.rows))
+    assert (tmp_path / "c" / "compare.txt").read_text() == report.table
+    assert (tmp_path / "c" / "compare.png").stat().st_size > 10_000
+    assert (tmp_path / "c" / "compare.csv").read_text().count("\n") == 3
+    # a rerun runs nothing and gives the same rows; another comparison there is refused
+    again = run_compare(spec, tmp_path / "c", backend="inline", plots=False)
+    assert (again.ran, again.skipped) == (0, 2) and again.rows == report.rows
+    with pytest.raises(SweepRefused, match="another comparison"):
+        run_compare(CompareSpec(("paper",), (3,), seedlings=2), tmp_path / "c")
+
+
+def test_cli_refusals_name_the_problem(tmp_path, capsys):
+    out = str(tmp_path / "c")
+    assert main(["compare", "paper", "--success-floor", "1.5", "--out", out]) == 2
+    assert "not a share" in capsys.readouterr().err
+    assert main(["compare", "paper", "--seeds", "x", "--out", out]) == 2
+    assert main(["compare", "paper", "no_such_scenario", "--out", out]) == 2
+    assert "no_such_scenario" in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()
