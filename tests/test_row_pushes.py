@@ -20,13 +20,13 @@ def belt():
 
 
 def test_the_pushes_modelled_are_the_skipped_ones_of_the_last_cap():
-    assert PUSH_CAP == 15
+    assert PUSH_CAP == 17
     assert list(modelled_indexes(9, 3)) == [1, 2, 3]  # 6 to come: 9 in all
     assert list(modelled_indexes(6, 0)) == []  # entered before the first index
-    # row 40 enters after 33 indexes: its last 15 before the pickup are indexes 26-40,
-    # of which the window gives 34-40 and the side model 26-33
-    assert list(modelled_indexes(40, 33)) == list(range(26, 34))
-    assert list(modelled_indexes(40, 20)) == []  # nothing of the last 15 skipped yet
+    # row 40 enters after 33 indexes: its last 17 before the pickup are indexes 24-40,
+    # of which the window gives 34-40 and the side model 24-33
+    assert list(modelled_indexes(40, 33)) == list(range(24, 34))
+    assert list(modelled_indexes(40, 20)) == []  # nothing of the last 17 skipped yet
 
 
 def test_the_ballast_is_the_rest_of_the_belt_at_that_index(belt):

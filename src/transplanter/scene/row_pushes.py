@@ -47,7 +47,7 @@ from transplanter.scene.geometry import belt_table, cell_columns_x, pot_inertia,
 
 __all__ = ["PUSH_CAP", "RowPushes", "REST_MAX_S", "modelled_indexes"]
 
-PUSH_CAP = 15
+PUSH_CAP = 17
 """The most index pushes a row is given before its pickup (the window's own and the side
 model's together): past it the offsets' distribution no longer changes (measured with
 benchmarks/push_cap.py, docs/performance.md "The window of live rows"), and it keeps a
