@@ -80,56 +80,19 @@ def main() -> None:
     parser.add_argument("--seeds", default="1-6")
     parser.add_argument("--seedlings", type=int, default=80)
     parser.add_argument("--json", default=None)
-    parser.add_argument(
-        "--offsets-without",
-        default="",
-        metavar="SEEDS",
-        help="seeds left out of the offsets' tables (a struck belt)",
-    )
-    parser.add_argument(
-        "--only",
-        choices=("full", "window"),
-        default=None,
-        help="run one side only (with --json, to --reuse it later)",
-    )
-    parser.add_argument(
-        "--reuse",
-        action="append",
-        default=[],
-        metavar="JSON",
-        help="take the runs of a side from an earlier --json (same arguments)",
-    )
     args = parser.parse_args()
     base = dict(kv.split("=", 1) for kv in args.set)
     base = {k: parse_value(v) for k, v in base.items()}
     base["conveyor.rows"] = args.rows
     modes = {"body per pot": args.rows, f"window of {args.live}": args.live}
     runs: dict[str, list[dict]] = {name: [] for name in modes}
-    reused: dict[str, list[dict]] = {}
-    for path in args.reuse:
-        with open(path) as fh:
-            for name, trials in json.load(fh)["runs"].items():
-                reused.setdefault(name, []).extend(trials)
-    skip = {name for name in modes if reused.get(name)}
-    if args.only is not None:
-        skip |= set(list(modes)[1:] if args.only == "full" else list(modes)[:1])
     for seed in parse_seeds(args.seeds):
         for name, live in modes.items():
-            if name in skip:
-                continue
             runs[name].append(run(args.scenario, {**base, "conveyor.live_rows": live}, seed,
                                   args.seedlings))  # fmt: skip
             r = runs[name][-1]
             print(f"  seed {seed} {name}: {r['wall_s']:.1f} s wall, "
                   f"{Counter(r['outcomes']).most_common()}", flush=True)  # fmt: skip
-    for name in modes:
-        if not runs[name]:
-            runs[name] = [t for t in reused.get(name, []) if t["seed"] in parse_seeds(args.seeds)]
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"args": vars(args), "runs": runs}, fh)
-    if not all(runs.values()):
-        return
     print(f"{args.scenario} {' '.join(args.set)}, {args.rows} rows, seeds {args.seeds}, "
           f"{args.seedlings} seedlings each")  # fmt: skip
     for name, trials in runs.items():
@@ -142,43 +105,38 @@ def main() -> None:
               f"{dict(sorted(kinds.items()))}")  # fmt: skip
     cols = 5
     by_row = {name: {} for name in modes}
-    without = set(parse_seeds(args.offsets_without)) if args.offsets_without else set()
     for name, trials in runs.items():
         for t in trials:
-            if t["seed"] in without:
-                continue
             for pot, xy in t["offsets"].items():
                 by_row[name].setdefault(int(pot) // cols, []).append(xy)
     full, win = (by_row[n] for n in modes)
-    print("row  n  sd x (mm) full / window  mean x full / window  sd y (mm) full / window"
-          "  KS p (x)  Levene p (x)")  # fmt: skip
-    pooled: dict[bool, tuple[list, list]] = {False: ([], []), True: ([], [])}
+    print("row  n  sd x (mm) full / window  sd y (mm) full / window  KS p (x)  Levene p (x)")
+    pooled_full, pooled_win = [], []
     for row in sorted(set(full) & set(win)):
         a, b = np.array(full[row]) * 1e3, np.array(win[row]) * 1e3
         ks = stats.ks_2samp(a[:, 0], b[:, 0]).pvalue
         lev = stats.levene(a[:, 0], b[:, 0]).pvalue
         print(f"{row:>3} {len(a):>3}  {a[:, 0].std(ddof=1):5.2f} / {b[:, 0].std(ddof=1):5.2f}"
-              f"             {a[:, 0].mean():5.2f} / {b[:, 0].mean():5.2f}"
-              f"        {a[:, 1].std(ddof=1):5.2f} / {b[:, 1].std(ddof=1):5.2f}"
+              f"             {a[:, 1].std(ddof=1):5.2f} / {b[:, 1].std(ddof=1):5.2f}"
               f"             {ks:6.3f}    {lev:6.3f}")  # fmt: skip
-        pooled[row >= args.live][0].append(a)
-        pooled[row >= args.live][1].append(b)
-    for entered, (pf, pw) in pooled.items():
-        if not pf:
-            continue
-        a, b = np.concatenate(pf), np.concatenate(pw)
-        rows = f"rows >= {args.live}" if entered else f"rows < {args.live}"
+        if row >= args.live:
+            pooled_full.append(a)
+            pooled_win.append(b)
+    if pooled_full:
+        a, b = np.concatenate(pooled_full), np.concatenate(pooled_win)
         for axis, label in ((0, "across (x)"), (1, "along (y)")):
             ks = stats.ks_2samp(a[:, axis], b[:, axis]).pvalue
             lev = stats.levene(a[:, axis], b[:, axis]).pvalue
-            print(f"{rows} pooled, {label}: n {len(a)}/{len(b)}, sd "
-                  f"{a[:, axis].std(ddof=1):.2f} / {b[:, axis].std(ddof=1):.2f} mm, mean "
-                  f"{a[:, axis].mean():.2f} / {b[:, axis].mean():.2f} mm, "
+            print(f"rows >= {args.live} pooled, {label}: n {len(a)}/{len(b)}, sd "
+                  f"{a[:, axis].std(ddof=1):.2f} / {b[:, axis].std(ddof=1):.2f} mm, "
                   f"KS p {ks:.3f}, Levene p {lev:.3f}")  # fmt: skip
     for name, trials in runs.items():
         wall = sum(t["wall_s"] for t in trials)
         sim = sum(t["sim_s"] for t in trials)
         print(f"{name:>14}: {wall:.0f} s wall for {sim:.0f} s simulated ({sim / wall:.1f}x)")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"args": vars(args), "runs": runs}, fh)
 
 
 if __name__ == "__main__":

@@ -92,31 +92,3 @@ def test_a_job_refuses_a_robot_or_effector_it_is_not_built_for(scenario, overrid
     assert cli.main(args) == 2
     err = capsys.readouterr().err
     assert f'{key} = "{value}"' in err and needle in err
-
-
-def test_the_index_drive_is_sized_for_the_belt_it_drags():
-    """[conveyor] drive_rows: the paper's 8-row belt keeps SceneConfig's carriage and gains
-    exactly (its trials unchanged); a longer belt scales the carriage's mass and both gains by
-    (rows - 1) / (drive_rows - 1), the pots its first index drags against the paper's; a
-    drive_rows at or above rows keeps the 8-row drive on any belt."""
-    from transplanter.scene import SceneConfig
-
-    base = SceneConfig()
-    paper = scene_config(paper_scenario(), machine_config(paper_scenario()))
-    assert (paper.conveyor_mass_kg, paper.conveyor_kp_n_m, paper.conveyor_kd_n_s_m) == (
-        base.conveyor_mass_kg, base.conveyor_kp_n_m, base.conveyor_kd_n_s_m
-    )  # fmt: skip
-    long = paper_scenario(**{"conveyor.rows": 100})
-    cfg = scene_config(long, machine_config(long))
-    assert cfg.conveyor_kp_n_m == pytest.approx(base.conveyor_kp_n_m * 99 / 7)
-    assert cfg.conveyor_kd_n_s_m == pytest.approx(base.conveyor_kd_n_s_m * 99 / 7)
-    assert cfg.conveyor_mass_kg == pytest.approx(base.conveyor_mass_kg * 99 / 7)
-    # the same natural frequency and damping ratio as the paper's carriage on its drive
-    assert cfg.conveyor_kp_n_m / cfg.conveyor_mass_kg == pytest.approx(
-        base.conveyor_kp_n_m / base.conveyor_mass_kg
-    )
-    unsized = paper_scenario(**{"conveyor.rows": 100, "conveyor.drive_rows": 100})
-    cfg = scene_config(unsized, machine_config(unsized))
-    assert cfg.conveyor_kp_n_m == base.conveyor_kp_n_m
-    with pytest.raises(ScenarioError, match="conveyor.drive_rows"):
-        paper_scenario(**{"conveyor.drive_rows": 1})

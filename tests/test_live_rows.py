@@ -46,8 +46,7 @@ def test_live_rows_covering_the_belt_build_the_scene_of_a_body_per_pot():
 def test_an_entering_row_takes_the_fields_and_place_a_body_per_pot_has():
     """Row 6 enters the slots row 0 leaves: each slot gets exactly the compiled fields of
     that pot's own body in a scene with a body per pot, and stands in its cell where the
-    carriage has carried it, at the place the index it skipped left it in (the side model
-    of scene.row_pushes)."""
+    carriage has carried it."""
     window_cfg = SceneConfig(rows=10, live_rows=6, pot_soft_share=0.4)
     scene = build_scene(window_cfg, seed=5)
     full = build_scene(dataclasses.replace(window_cfg, live_rows=10), seed=5)
@@ -55,8 +54,6 @@ def test_an_entering_row_takes_the_fields_and_place_a_body_per_pot_has():
     pitch = window_cfg.row_pitch_m
     data.qpos[scene.conveyor_qpos_adr] = -pitch  # one index done
     window = scene.window
-    window.index_s = 0.6  # the index's time (the twin gives it at each index)
-    pushed = window.side.push(6, [1], 0.6)[-1]  # row 6's pots after index 1, in their cells
     slots = scene.pot_bodies[0].copy()
     for pot in range(5):  # the judge parks row 0's pots; row 6 takes their bodies
         window.release(data, pot)
@@ -77,11 +74,9 @@ def test_an_entering_row_takes_the_fields_and_place_a_body_per_pot_has():
         for name in _GEOM_FIELDS:
             assert np.array_equal(getattr(m, name)[geom], getattr(f, name)[fgeom]), name
         assert m.geom_contype[geom] & row_bit(6)
-        # its place: its cell carried one row pitch, and the offset index 1 left it at
-        cell = np.append(scene.pots.cell_xy[30 + c] - [0, pitch], 0.0)
-        assert np.allclose(data.xpos[body], cell + pushed[c, :3], atol=1e-12)
-        assert np.allclose(data.xquat[body], pushed[c, 3:], atol=1e-12)
-    assert (window.side_pushes[30:35] == 1).all() and (window.side_pushes[35:] == 0).all()
+        # its place: its cell and drawn offset, carried one row pitch
+        start = f.qpos0[full.pot_qpos_adr[30 + c] : full.pot_qpos_adr[30 + c] + 3]
+        assert np.allclose(data.xpos[body], start - [0, pitch, 0], atol=1e-12)
     assert np.allclose(scene.pot_positions(data)[30:35], data.xpos[scene.pot_bodies[6]])
     # the pots that left lie where they were; the waiting ones ride in their cells
     waiting = scene.pot_positions(data)[40:45]
@@ -224,7 +219,6 @@ def test_the_render_model_draws_every_pot_where_the_window_puts_it():
     scene = build_scene(SceneConfig(rows=12, live_rows=6), seed=2)
     data = scene.make_data()
     data.qpos[scene.conveyor_qpos_adr] = -SceneConfig().row_pitch_m
-    scene.window.index_s = 0.6  # row 6 enters after one index of 0.6 s
     for pot in range(5):
         scene.window.release(data, pot)
     mujoco.mj_forward(scene.model, data)
@@ -236,38 +230,3 @@ def test_the_render_model_draws_every_pot_where_the_window_puts_it():
     assert np.allclose(where[32], data.xpos[scene.pot_bodies[6, 2]], atol=1e-12)
     grip = scene.model.site("grip_center").id
     assert np.allclose(drawn.site_xpos[grip], data.site_xpos[grip])
-
-
-def test_the_belt_ballast_drags_what_the_waiting_pots_would():
-    """The carriage of a windowed scene pushes a ballast with the waiting pots' mass and
-    their friction on the belt (the drive lags its profile by what it drags): 30 pots wait
-    on a 12-row belt with 6 live rows, 25 once row 6 has entered; an index pushes it a row
-    pitch, as the ribs push the pots."""
-    cfg = SceneConfig(rows=12, live_rows=6)
-    scene = build_scene(cfg, seed=4)
-    m, pots = scene.model, scene.pots
-    ballast, slide = m.body("ballast").id, m.joint("ballast")
-    dof = int(slide.dofadr[0])
-
-    def expected(first: int) -> tuple[float, float]:
-        mass = pots.mass[first:] + cfg.shoot_mass_kg
-        return mass.sum(), (mass * pots.friction[first:]).sum() / mass.sum()
-
-    mass, friction = expected(30)
-    assert 1.3 < mass < 1.7  # 30 pots of about 50 g
-    assert m.body_mass[ballast] == pytest.approx(mass, rel=1e-12)
-    assert m.dof_frictionloss[dof] == pytest.approx(friction * mass * 9.81, rel=1e-12)
-    assert m.dof_invweight0[dof] == pytest.approx(1 / mass, rel=1e-12)  # a lone slide
-    data, drive = scene.make_data(), ConveyorDrive(scene)
-    for pot in range(5):
-        scene.window.release(data, pot)
-    assert m.body_mass[ballast] == pytest.approx(expected(35)[0], rel=1e-12)
-    y0 = data.qpos[slide.qposadr[0]]
-    drive.start(data, data.time, 0.6)
-    while drive.armed(data):
-        drive.apply(data, data.time)
-        mujoco.mj_step(m, data)
-    assert data.qpos[slide.qposadr[0]] - y0 == pytest.approx(-cfg.row_pitch_m, abs=0.003)
-    # a belt with a body per pot has no ballast
-    full = build_scene(dataclasses.replace(cfg, live_rows=12), seed=4)
-    assert "ballast" not in [full.model.body(b).name for b in range(full.model.nbody)]

@@ -417,24 +417,6 @@ def with_eeprom(scenario: Scenario, image: EepromImage, source: str) -> Scenario
     )
 
 
-def conveyor_drive(rows: int, drive_rows: int) -> dict[str, float]:
-    """The index drive's SceneConfig fields for a belt of `rows` rows whose drive is sized
-    for `drive_rows` (`[conveyor] drive_rows`): the carriage's mass and the drive's PD gains
-    of the paper's 8-row belt (SceneConfig's defaults) times (rows - 1) / (drive_rows - 1)
-    when the belt is longer, else as they are. An index drags the pots of every row but the
-    one just picked, so a belt of 100 rows drags 99 / 7 = 14 times the pots of the paper's
-    first index: its drive and its chain scale with it (the same lag behind the profile, the
-    same natural frequency and damping ratio), where the paper's drive would lag 7 mm behind
-    and leave the pots short of their cells (docs/performance.md, "Long belts")."""
-    base = SceneConfig()
-    scale = max(1.0, (rows - 1) / (drive_rows - 1))
-    return {
-        "conveyor_mass_kg": base.conveyor_mass_kg * scale,
-        "conveyor_kp_n_m": base.conveyor_kp_n_m * scale,
-        "conveyor_kd_n_s_m": base.conveyor_kd_n_s_m * scale,
-    }
-
-
 def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
     """The physical parameters of a scenario as the scene builder's config.
 
@@ -488,7 +470,6 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             rows=conv.rows,
             cols=conv.cols,
             live_rows=conv.live_rows,
-            **conveyor_drive(conv.rows, conv.drive_rows),
             cell_pitch_m=conv.cell_pitch_m,
             row_pitch_m=conv.row_pitch_m,
             pickup_row_y_m=conv.pickup_row_y_m,

@@ -567,12 +567,6 @@ class ConveyorSection:
         "and the rows upstream being pushed into place; the others ride the belt outside the "
         "physics and enter as rows are picked (at least 6; >= rows: every pot a body)",
     )  # fmt: skip
-    drive_rows: int = key(
-        "int", lo=2, hi=10000,
-        doc="rows the index drive is sized for (the paper's belt: 8): on a longer belt the "
-        "carriage's mass and the drive's gains scale with the rows it drags, (rows - 1) / "
-        "(drive_rows - 1); set it to rows or more for the 8-row belt's drive on any belt",
-    )  # fmt: skip
     cell_pitch_m: float = key("float", 1, 1000)
     row_pitch_m: float = key("float", 1, 1000)
     pickup_row_y_m: float = key("float", -1000, 1000)

@@ -23,7 +23,6 @@ BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
 BIT_CANOPY = 8  # leaf proxies (with SceneConfig.canopy_contact): they touch the jaws only
-BIT_BALLAST = 16  # a windowed scene's belt ballast and its ribs (scene.live_rows): nothing else
 ROW_BIT_FIRST = 8
 ROW_BITS = 23
 

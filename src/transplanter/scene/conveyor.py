@@ -87,10 +87,7 @@ class ConveyorDrive:
         self._joint = int(m.dof_jntid[self.dof_adr])
         self._hold = (float(m.jnt_stiffness[self._joint]), float(m.dof_damping[self.dof_adr]))
         self._rib_geoms_by_row = [
-            np.array(
-                [g for g in range(m.ngeom) if (m.geom(g).name or "").startswith(f"rib_{r}_")],
-                dtype=int,
-            )
+            np.array([g for g in range(m.ngeom) if (m.geom(g).name or "").startswith(f"rib_{r}_")])
             for r in range(rows)
         ]
         # as built: each row's own collision bit, opaque

@@ -18,14 +18,8 @@ a row's worth of slots is free, checked at every index start and after every rel
 normally after the first pickup of the row before it (when the last pot of the row picked
 before that has been parked), so it gets live_rows - 1 index pushes before its own pickup
 (live_rows - 2 when a failed pot of that row was still moving), enough for the pots'
-offsets across the belt to settle (config.SETTLE_PUSHES). On the full belt the same row
-would have been pushed by every index since the trial began: the pushes it skipped (of the
-last row_pushes.PUSH_CAP before its pickup) are run in a model of that row alone
-(`scene.row_pushes`) as it enters, and its pots take the poses in their cells that those
-pushes leave them in. The waiting pots' load on the conveyor's drive is a ballast the
-carriage pushes (`conveyor_tube.add_ballast`: their mass and friction on the belt, set as
-rows enter), so the drive lags its profile as on the full belt. This is bookkeeping at index
-and release events, never per step.
+offsets across the belt to settle (config.SETTLE_PUSHES). This is bookkeeping at index and
+release events, never per step.
 
 Which pot a slot holds lives here and in the model, not in the MjData (like the ribs of
 `ConveyorDrive`): one simulation at a time per scene.
@@ -39,7 +33,6 @@ import mujoco
 import numpy as np
 
 from transplanter.scene import kinds as scene_kinds
-from transplanter.scene.row_pushes import PUSH_CAP, RowPushes, modelled_indexes
 
 __all__ = ["LiveRows"]
 
@@ -87,31 +80,11 @@ class LiveRows:
         self._rest_z = pots.height / 2
         self._tree = scene.model.body_treeid[self.slot_body]
         m = scene.model
-        # the machine's and the carriage's joints come before the pots' free joints (the
-        # belt ballast's slide after them)
-        self.machine_nq = int(self.slot_qadr.min())
-        self.machine_nv = int(self.slot_dadr.min())
+        # the machine's and the carriage's joints come before the pots' free joints
+        self.machine_nq = m.nq - 7 * n_slots
+        self.machine_nv = m.nv - 6 * n_slots
         self._slot_bvh = m.body_bvhadr[self.slot_body].copy()
         self._slot_nbvh = m.body_bvhnum[self.slot_body].copy()
-        # the belt ballast (conveyor_tube.add_ballast): the waiting pots' load on the drive
-        self._ballast = m.body("ballast").id
-        self._ballast_geom = m.geom("ballast").id
-        self._ballast_dof = int(m.jnt_dofadr[m.joint("ballast").id])
-        mass0 = float(m.body_mass[self._ballast])
-        # the constants the compiler derives from its mass, per kg (a lone slide: 1/mass)
-        self._ballast_per_kg = (
-            m.body_inertia[self._ballast] / mass0,
-            m.body_invweight0[self._ballast] * mass0,
-            m.dof_invweight0[self._ballast_dof] * mass0,
-        )
-        self._ballast_contype = int(m.geom_contype[self._ballast_geom])
-        self._set_ballast()
-        # the pushes an entering row skipped, run in a model of the row (scene.row_pushes)
-        self.side = RowPushes(scene)
-        self.push_cap = PUSH_CAP
-        self.index_s: float | None = None  # the index time (s), from the first index on
-        # per pot, the side model's pushes before it entered
-        self.side_pushes = np.zeros(n_pots, dtype=int)
 
     # ----- where the pots are -----
     def live(self) -> np.ndarray:
@@ -151,11 +124,8 @@ class LiveRows:
         return out
 
     # ----- events -----
-    def on_index(self, data: mujoco.MjData, index_s: float | None = None) -> None:
-        """An index of `index_s` (default: as the last) starts, before the drive moves the
-        carriage: rows enter if they fit."""
-        if index_s is not None:
-            self.index_s = float(index_s)
+    def on_index(self, data: mujoco.MjData) -> None:
+        """An index starts (before the drive moves the carriage): rows enter if they fit."""
         self.indexes += 1
         self.fill(data)
 
@@ -178,28 +148,6 @@ class LiveRows:
                     return
             self._enter(data, self.next_row, free[:cols])
             self.next_row += 1
-            self._set_ballast()
-
-    def _set_ballast(self) -> None:
-        """The belt ballast drags what the waiting pots would: their mass, and their
-        friction on the belt as its slide's dry friction (none waiting: it touches nothing)."""
-        m, b, dof = self.scene.model, self._ballast, self._ballast_dof
-        pots = self.scene.pots
-        waiting = np.flatnonzero(self.state == WAITING)
-        if waiting.size == 0:
-            m.geom_contype[self._ballast_geom] = 0
-            m.dof_frictionloss[dof] = 0.0
-            return
-        mass = pots.mass[waiting] + self.config.shoot_mass_kg
-        total = float(mass.sum())
-        friction = float((mass * pots.friction[waiting]).sum()) / total
-        inertia, body_w, dof_w = self._ballast_per_kg
-        m.body_mass[b] = m.body_subtreemass[b] = total
-        m.body_inertia[b] = inertia * total
-        m.body_invweight0[b] = body_w / total
-        m.dof_invweight0[dof] = dof_w / total
-        m.dof_M0[dof] = total
-        m.dof_frictionloss[dof] = friction * total * -m.opt.gravity[2]
 
     def _free_resting(self, data: mujoco.MjData) -> None:
         """Pots of rows that left the pickup an index ago or more and lie at rest (asleep,
@@ -234,26 +182,11 @@ class LiveRows:
         sc.set_pot_body(pot, -1, -1, -1, -1)
 
     def _enter(self, data: mujoco.MjData, row: int, slots: np.ndarray) -> None:
-        """Row `row`'s pots take these slots, at rest in their cells as carried now, where
-        the pushes the row skipped leave them (`scene.row_pushes`)."""
+        """Row `row`'s pots take these slots, at rest in their cells as carried now."""
         sc, m = self.scene, self.scene.model
         pots = row * self.cols + np.arange(self.cols)
         lib = self._row_library(row)
         where = self.waiting_positions(data, pots)
-        quats = np.tile([1.0, 0.0, 0.0, 0.0], (self.cols, 1))
-        q = data.qpos[sc.conveyor_qpos_adr]
-        done = round(-q / self.config.row_pitch_m)  # indexes the carriage has made
-        indexes = modelled_indexes(row, done, self.push_cap)
-        if len(indexes):
-            if self.index_s is None:
-                raise RuntimeError("a row enters after an index of unknown time: "
-                                   "on_index(data, index_s) first")  # fmt: skip
-            pose = self.side.push(row, indexes, self.index_s)[-1]
-            where[:, 0] = sc.pots.cell_xy[pots, 0] + pose[:, 0]
-            where[:, 1] = sc.pots.cell_xy[pots, 1] + q + pose[:, 1]
-            where[:, 2] = pose[:, 2]
-            quats = pose[:, 3:]
-            self.side_pushes[pots] = len(indexes)
         for k, (slot, pot) in enumerate(zip(slots.tolist(), pots.tolist(), strict=True)):
             body, geom = int(self.slot_body[slot]), int(self.slot_geom[slot])
             qadr, dadr = int(self.slot_qadr[slot]), int(self.slot_dadr[slot])
@@ -270,7 +203,7 @@ class LiveRows:
             lib_adr = lib.body_bvhadr[lib_body]
             m.bvh_aabb[adr : adr + n] = lib.bvh_aabb[lib_adr : lib_adr + n]
             data.qpos[qadr : qadr + 3] = where[k]
-            data.qpos[qadr + 3 : qadr + 7] = quats[k]
+            data.qpos[qadr + 3 : qadr + 7] = (1.0, 0.0, 0.0, 0.0)
             data.qvel[dadr : dadr + 6] = 0.0
             data.qacc_warmstart[dadr : dadr + 6] = 0.0
             self.slot_pot[slot] = pot

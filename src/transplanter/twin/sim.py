@@ -266,7 +266,7 @@ class Twin:
                 self.belt_realignments.append((t_event, self.conveyor.grid_offset(self.data)))
                 error = self._index_error_sd * self._index_rng.standard_normal()
                 if self.scene.window is not None:  # rows enter the physics (scene.live_rows)
-                    self.scene.window.on_index(self.data, self.machine.sgf.conveyor_index_s)
+                    self.scene.window.on_index(self.data)
                 self.conveyor.start(
                     self.data, t_event, self.machine.sgf.conveyor_index_s, error_m=error
                 )

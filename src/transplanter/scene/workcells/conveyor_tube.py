@@ -9,7 +9,6 @@ import mujoco
 import numpy as np
 
 from transplanter.scene.config import (
-    BIT_BALLAST,
     BIT_CANOPY,
     BIT_GRIPPER,
     BIT_POT,
@@ -65,7 +64,6 @@ def populate(spec: mujoco.MjSpec, cfg: SceneConfig, seed: int, decor: bool) -> P
     if cfg.windowed:  # scene.live_rows: the bodies of the first live_rows rows, reused
         add_rib_slots(spec, cfg)
         add_pots(spec, cfg, pots, decor, count=cfg.body_rows * cfg.cols)
-        add_ballast(spec, cfg, pots)
     else:
         add_ribs(spec, cfg)
         add_pots(spec, cfg, pots, decor)
@@ -162,46 +160,6 @@ def add_rib_slots(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
             g.friction = [cfg.rib_friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
             g.mass = 0
             g.rgba = list(RIB_RGBA)
-
-
-BALLAST_MASS_KG = 0.05
-"""The belt ballast's mass as compiled (a pot's); scene.live_rows sets it at each index."""
-
-
-def add_ballast(spec: mujoco.MjSpec, cfg: SceneConfig, pots: PotBatch) -> None:
-    """A windowed scene's belt ballast (scene.live_rows): the load of the pots that ride the
-    belt outside the physics on the conveyor's drive. A pot-sized box beside the belt on a
-    slide along it (`ballast`, after the pots: its joint is the model's last), between two
-    ribs of the carriage (`ballast_rib_0/1`) that push it a row pitch at each index as the
-    ribs push the pots; it touches nothing else. `LiveRows` gives it the waiting pots' mass
-    and their friction on the belt as the slide's dry friction."""
-    conveyor = spec.body("conveyor")
-    x = cfg.cols * cfg.cell_pitch_m / 2 + cfg.table_side_margin_m + cfg.cell_pitch_m
-    y = cfg.pickup_row_y_m
-    radius, height = float(pots.diameter.mean() / 2), float(pots.height.mean())
-    for k, side in enumerate((-1, 1)):
-        g = conveyor.add_geom()
-        g.name = f"ballast_rib_{k}"
-        g.type = mujoco.mjtGeom.mjGEOM_BOX
-        g.size = [cfg.cell_pitch_m / 2, cfg.rib_thickness_m / 2, cfg.rib_height_m / 2]
-        g.pos = [x, y + side * cfg.row_pitch_m / 2, cfg.rib_height_m / 2]
-        g.contype, g.conaffinity, g.mass = 0, BIT_BALLAST, 0
-        g.priority = 2
-        g.friction = [cfg.rib_friction, TORSIONAL_FRICTION, ROLLING_FRICTION]
-        g.group, g.rgba = 3, list(RIB_RGBA)
-    body = spec.worldbody.add_body()
-    body.name, body.pos = "ballast", [x, y, height / 2]
-    joint = body.add_joint()
-    joint.name, joint.type, joint.axis = "ballast", mujoco.mjtJoint.mjJNT_SLIDE, [0, 1, 0]
-    body.mass = BALLAST_MASS_KG
-    body.inertia = pot_inertia(BALLAST_MASS_KG, radius, height)
-    body.explicitinertial = True
-    g = body.add_geom()
-    g.name, g.type, g.size = "ballast", mujoco.mjtGeom.mjGEOM_BOX, [radius, radius, height / 2]
-    g.contype, g.conaffinity = BIT_BALLAST, 0
-    g.condim, g.priority = 4, 1
-    g.solref, g.solimp = list(cfg.contact_solref), list(cfg.contact_solimp)
-    g.group, g.rgba = 3, list(POT_COLLISION_RGBA)
 
 
 def add_pots(
