@@ -151,11 +151,13 @@ def test_a_torque_the_model_cannot_give_is_refused_naming_the_limit():
 
 
 def test_a_torque_limit_above_the_pull_out_torque_is_refused_naming_the_key():
+    spline = {"motion.planner": "bspline5"}  # the limit is the spline planner's
     with pytest.raises(ScenarioError, match=r"drives.arm_torque_limit_nm = 0.5 N m .* 0.45 N m"):
-        load_scenario("paper", {"drives.arm_torque_limit_nm": 0.5})
-    load_scenario("paper", {"drives.arm_torque_limit_nm": 0.45})  # the pull-out torque itself
+        load_scenario("paper", {**spline, "drives.arm_torque_limit_nm": 0.5})
+    load_scenario("paper", {**spline, "drives.arm_torque_limit_nm": 0.45})  # the pull-out torque
+    load_scenario("paper", {"drives.arm_torque_limit_nm": 0.5})  # lines do not read it
     # above the corner speed the pull-out torque falls: 1200 deg/s is 10 rev/s at the motor
-    fast = {"drives.arm_speed_limit_deg_s": 1200.0, "drives.arm_torque_limit_nm": 0.4}
+    fast = {**spline, "drives.arm_speed_limit_deg_s": 1200.0, "drives.arm_torque_limit_nm": 0.4}
     with pytest.raises(ScenarioError, match=r"at most 0\.36\b"):
         load_scenario("paper", fast)
     assert math.isclose(0.45 * 8.0 / 10.0, 0.36)

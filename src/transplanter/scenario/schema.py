@@ -1593,8 +1593,9 @@ def pullout_torque_nm(drv: Mapping[str, Any], speed_rad_s: float) -> float:
 
 
 def _check_arm_torque_limit(drv: Mapping[str, Any]) -> None:
-    """The planner's arm torque limit is a torque the stepper gives: at most its pull-out
-    torque at the arms' speed limit (above it the rotor slips before the limit binds)."""
+    """With `motion.planner = "bspline5"`, the planner's arm torque limit is a torque the
+    stepper gives: at most its pull-out torque at the arms' speed limit (above it the rotor
+    slips before the limit binds). The lines planner does not read it."""
     limit = drv["arm_torque_limit_nm"]
     pullout = pullout_torque_nm(drv, drv["arm_speed_limit_rad_s"])
     if limit > pullout:
@@ -1650,7 +1651,8 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
             raise ScenarioError(
                 f"drives.{key} (a limit switch) must lie inside {window}.{lo}..{hi}."
             )
-    _check_arm_torque_limit(drv)
+    if v["motion"]["planner"] == "bspline5":  # the limit is the spline planner's alone
+        _check_arm_torque_limit(drv)
     if not z_min < drv["switch3_z_m"] <= z_max:
         raise ScenarioError(
             "drives.switch3_z_mm (limit switch 3) must lie in (limits.z_min_mm, limits.z_max_mm]."
