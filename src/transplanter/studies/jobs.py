@@ -40,6 +40,10 @@ SERIAL_ONLY_SECTIONS = ("fuzzy_gripper", "pool_to_belt", "serial_arm", "serial_p
 """The scenario sections only the serial arm's jobs read (added after the five-bar's sweeps
 had their digests: left out of them, as the plug sections are)."""
 
+POT_FIELDS = ("peak_squeeze_n", "fail_dropped", "fail_missed", "fail_no_pot")
+"""The pot jobs' own columns (the serial arm's and the delta's on the five-bar's line:
+`_pot_row`)."""
+
 DELTA_FAILURES = (
     "cull_dropped",
     "cull_left",
@@ -276,24 +280,14 @@ JOBS: dict[str, Job] = {
     ),
     "serial4:conveyor_tube": Job(
         "serial4:conveyor_tube",
-        fields=(
-            "peak_squeeze_n",
-            "fail_dropped",
-            "fail_missed",
-            "fail_no_pot",
-        ),  # fmt: skip
+        fields=POT_FIELDS,
         means=("plants_per_hour", "peak_squeeze_n"),
         sections=(*SERIAL_SECTIONS, "serial_pots", "conveyor", "pots", "drop_tube"),
         run=_serial_pots,
     ),
     "delta:conveyor_tube": Job(
         "delta:conveyor_tube",
-        fields=(
-            "peak_squeeze_n",
-            "fail_dropped",
-            "fail_missed",
-            "fail_no_pot",
-        ),  # fmt: skip
+        fields=POT_FIELDS,
         means=("plants_per_hour", "peak_squeeze_n"),
         sections=(
             "delta",

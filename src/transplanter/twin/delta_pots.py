@@ -67,10 +67,10 @@ from transplanter.twin.motors import MotorMeter
 from transplanter.twin.serial_arm import SENSE_CYCLE_S, _Call, _Host, _Ranger, _Squeeze, _Wait
 from transplanter.twin.serial_pots import (
     DETECTED_CM,
+    PotBook,
     PotRecord,
     SerialPotsResult,
     line_config,
-    planter,
 )
 
 __all__ = [
@@ -376,23 +376,12 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
         )
     )
     n = min(sc.meta.seedlings, line.rows * line.cols)
-    records = [PotRecord(i, f"pot_{i // line.cols}_{i % line.cols}", *divmod(i, line.cols))
-               for i in range(n)]  # fmt: skip
-    body_ids = {r.pot: model.body(r.pot).id for r in records}
+    book = PotBook(line, model, data, n)
+    records, body_ids, holding, plant, mark = (
+        book.records, book.body_ids, book.holding, book.plant, book.mark
+    )  # fmt: skip
     squeeze = _Squeeze(model, body_ids)
-    holding: list[int] = []
     finger_adr = [model.jnt_qposadr[model.joint(f).id] for f in fuzzy_gripper.FINGERS]
-
-    plant = planter(line, model, data, records, body_ids)
-
-    def mark(i: int, key: str):
-        def fn(t: float) -> None:
-            setattr(records[i], key, t)
-            holding[:] = [i] if key == "start_s" else []
-            if key == "end_s":
-                plant()
-
-        return fn
 
     def station(col: int):
         return lambda _t: rangers[col].last_cm

@@ -57,7 +57,7 @@ __all__ = [
     "SerialPotsResult",
     "line_config",
     "pitch_release",
-    "planter",
+    "PotBook",
     "run_serial_pots",
 ]
 
@@ -91,33 +91,57 @@ def line_config(sc):
     return replace(line, live_rows=line.rows)  # every row's pots are bodies: no window
 
 
-def planter(line, model: mujoco.MjModel, data: mujoco.MjData, records: list, body_ids: dict):
-    """The planting unit of a pot job on the five-bar's line (`line`: its scene config): a
-    function that takes every picked pot below the funnel's throat away, marking its record a
-    success, and rests it far from the machine (as the five-bar's judge parks them)."""
-    throat_r = line.funnel_throat_diameter_m / 2
-    throat_z = line.funnel_top_z_m - line.funnel_height_m
-    tx, ty = line.drop_tube_xy_m
-    planted: list[int] = []
+class PotBook:
+    """The pots a pot job on the five-bar's line (`line`: its scene config) picks: a record
+    and a body id for each of the first `n` cells, the one in the gripper (`holding`), the
+    planting unit and the host's marks."""
 
-    def in_tube(rec) -> bool:
-        x, y, z = (float(v) for v in data.xpos[body_ids[rec.pot]])
-        return math.hypot(x - tx, y - ty) < throat_r and z < throat_z
+    def __init__(self, line, model: mujoco.MjModel, data: mujoco.MjData, n: int):
+        self.records = [
+            PotRecord(i, f"pot_{i // line.cols}_{i % line.cols}", *divmod(i, line.cols))
+            for i in range(n)
+        ]
+        self.body_ids = {r.pot: model.body(r.pot).id for r in self.records}
+        self.holding: list[int] = []
+        self.model, self.data = model, data
+        self._throat_r = line.funnel_throat_diameter_m / 2
+        self._throat_z = line.funnel_top_z_m - line.funnel_height_m
+        self._tube_xy = line.drop_tube_xy_m
+        self._planted: list[int] = []
 
-    def plant() -> None:
-        for rec in records:
-            if rec.start_s is None or rec.outcome == "success" or not in_tube(rec):
+    def _in_tube(self, rec) -> bool:
+        x, y, z = (float(v) for v in self.data.xpos[self.body_ids[rec.pot]])
+        tx, ty = self._tube_xy
+        return math.hypot(x - tx, y - ty) < self._throat_r and z < self._throat_z
+
+    def plant(self) -> None:
+        """The planting unit takes every picked pot below the funnel's throat away, marking
+        its record a success, and rests it far from the machine (as the five-bar's judge
+        parks them)."""
+        model, data = self.model, self.data
+        for rec in self.records:
+            if rec.start_s is None or rec.outcome == "success" or not self._in_tube(rec):
                 continue
             rec.outcome = "success"
-            adr = model.jnt_qposadr[model.body_jntadr[body_ids[rec.pot]]]
-            dof = model.jnt_dofadr[model.body_jntadr[body_ids[rec.pot]]]
-            k = len(planted)
+            adr = model.jnt_qposadr[model.body_jntadr[self.body_ids[rec.pot]]]
+            dof = model.jnt_dofadr[model.body_jntadr[self.body_ids[rec.pot]]]
+            k = len(self._planted)
             data.qpos[adr : adr + 3] = (1.0 + 0.1 * (k % 10), -1.0 - 0.1 * (k // 10), -0.13)
             data.qpos[adr + 3 : adr + 7] = (1.0, 0.0, 0.0, 0.0)
             data.qvel[dof : dof + 6] = 0.0
-            planted.append(rec.index)
+            self._planted.append(rec.index)
 
-    return plant
+    def mark(self, i: int, key: str):
+        """The host's mark of pot i's `key` ("start_s", "end_s"): its time in the record,
+        the pot in the gripper from its start, the planting unit at its end."""
+
+        def fn(t: float) -> None:
+            setattr(self.records[i], key, t)
+            self.holding[:] = [i] if key == "start_s" else []
+            if key == "end_s":
+                self.plant()
+
+        return fn
 
 
 def pitch_release(kin, grasp, over, lowest_y: float, max_tilt_rad: float) -> np.ndarray:
@@ -363,11 +387,11 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     rig.on_machine_event.append(on_event)
     rig.before_step.append(before)
     n = min(sc.meta.seedlings, line.rows * line.cols)
-    records = [PotRecord(i, f"pot_{i // line.cols}_{i % line.cols}", *divmod(i, line.cols))
-               for i in range(n)]  # fmt: skip
-    body_ids = {r.pot: model.body(r.pot).id for r in records}
+    book = PotBook(line, model, data, n)
+    records, body_ids, holding, plant, mark = (
+        book.records, book.body_ids, book.holding, book.plant, book.mark
+    )  # fmt: skip
     squeeze = _Squeeze(model, body_ids)
-    holding: list[int] = []
     rig.on_step.append(lambda _t: squeeze.after_step(data) if holding else None)
     xs = cell_columns_x(line)
     base, yaw = cfg.base_pos_m, cfg.base_yaw_rad
@@ -379,17 +403,6 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     over_tube = paper(*line.drop_tube_xy_m, z_top)
     lowest = z_top + job.release_gap_m + job.grasp_z_m  # the pot's bottom release_gap up
     park = _park_point(rig.kin)
-
-    plant = planter(line, model, data, records, body_ids)
-
-    def mark(i: int, key: str):
-        def fn(t: float) -> None:
-            setattr(records[i], key, t)
-            holding[:] = [i] if key == "start_s" else []
-            if key == "end_s":
-                plant()
-
-        return fn
 
     def sense(col: int):
         def fn(_t: float) -> dict:
