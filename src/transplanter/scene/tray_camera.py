@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import colorsys
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
+from transplanter.scene import offscreen
 from transplanter.scene.plug_tray import TrayDraw
 
 CAMERA = "tray_camera"
@@ -234,13 +234,9 @@ def render_tray(
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     try:
-        renderer = mujoco.Renderer(model, height, width)
-    except Exception as exc:  # FatalError, a GL backend's ImportError
-        backend = os.environ.get("MUJOCO_GL", "") or "glfw (the default)"
-        raise RenderFailed(
-            f"no OpenGL context for offscreen rendering (MUJOCO_GL={backend}): {exc}; "
-            "headless, use MUJOCO_GL=egl or MUJOCO_GL=osmesa"
-        ) from None
+        renderer = offscreen.renderer(model, height, width)
+    except offscreen.NoOffscreenGL as exc:
+        raise RenderFailed(f"{exc}; headless, use MUJOCO_GL=egl or MUJOCO_GL=osmesa") from None
     try:
         flags = renderer.scene.flags
         flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -76,6 +76,9 @@ class Job:
     rate); None: the job does not judge damage."""
     label: str = "cycle"
     """What its `cycle_time_s` is."""
+    pictures: Callable[[Any, Mapping[str, Sequence[Any]]], bool] | None = None
+    """Whether a run photographs (needs an offscreen OpenGL context), given the scenario and
+    the study's varied values by key; None: never."""
 
 
 def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
@@ -250,6 +253,9 @@ JOBS: dict[str, Job] = {
         more="delta_refill.max_cells (0: every cell of a tray) x seeds",
         damage=("fail_leaf_damage",),
         label="time per operation",
+        pictures=lambda sc, varied: (
+            "pipeline" in (sc.delta_refill.vision, *varied.get("delta_refill.vision", ()))
+        ),
     ),
     "plug_bench": Job(
         "plug_bench",
@@ -313,6 +319,26 @@ def job_of(scenario) -> Job | None:
     """The scenario's job, or None for the five-bar's trial."""
     both = f"{scenario.robot.kind}:{scenario.workcell.kind}"
     return JOBS.get(both, JOBS.get(scenario.workcell.kind))
+
+
+def require_pictures(scenario, varied: Mapping[str, Sequence[Any]] | None = None) -> None:
+    """SweepRefused, before any run, when the scenario's job photographs (the delta's trays
+    graded by the pipeline, as set or among the `varied` values) and this process cannot
+    render offscreen: the study's every run would fail alike, and a worker's second try
+    would abort it (scene.offscreen)."""
+    job = job_of(scenario)
+    if job is None or job.pictures is None or not job.pictures(scenario, varied or {}):
+        return
+    from transplanter.scene.offscreen import offscreen_gl_error
+    from transplanter.studies.grid import SweepRefused
+    from transplanter.twin.delta_grading import TRUTH_HINT
+
+    why = offscreen_gl_error()
+    if why is not None:
+        raise SweepRefused(
+            f'delta_refill.vision = "pipeline" photographs the trays in every run: {why}; '
+            f"headless, set MUJOCO_GL=egl (or osmesa) before the command, {TRUTH_HINT}"
+        )
 
 
 def run_job(job: Job, scenario, seed: int, row: dict[str, Any], t0: float) -> dict[str, Any]:

@@ -59,7 +59,7 @@ from transplanter.studies.grid import (
     parse_vary,
     run_key,
 )
-from transplanter.studies.jobs import job_of
+from transplanter.studies.jobs import job_of, require_pictures
 from transplanter.studies.stats import SETTING_FIELDS, aggregate, pool_runs
 
 __all__ = [
@@ -386,7 +386,8 @@ def _run_locked(spec, out, manifest, backend, workers, address, progress, plots,
     """run_sweep once `out` is locked."""
     extra = (RANGE_TXT, RANGE_CSV) if ranged else ()
     check_out_files(out, (MANIFEST, RUNS_JSONL, RUNS_CSV, SETTINGS_CSV, *extra), spec.scenario)
-    job = job_of(spec.check())  # the delta's jobs add their own columns; None: the five-bar
+    scenario = spec.check()
+    job = job_of(scenario)  # the delta's jobs add their own columns; None: the five-bar
     fields, means = (job.fields, job.means) if job is not None else ((), ())
     resumed = check_manifest(out, manifest)
     if not resumed:
@@ -400,6 +401,8 @@ def _run_locked(spec, out, manifest, backend, workers, address, progress, plots,
         ]
         rows = list(done)
         interrupted = False
+        if tasks:
+            require_pictures(scenario, {a.key: a.values for a in spec.axes})
         runner = make_backend(backend, workers, address) if tasks else InlineBackend()
         bar = None
         if progress:

@@ -310,6 +310,10 @@ def drive_study(
     dists = {p.key: p.distribution() for p in spec.params}
     finished = sum(_counts(t, optuna) for t in study.get_trials(deepcopy=False))
     ran, interrupted = 0, False
+    if finished < trials:
+        from transplanter.studies.jobs import require_pictures
+
+        require_pictures(spec.check())
     bar = None
     if progress and finished < trials:
         from tqdm import tqdm

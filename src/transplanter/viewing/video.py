@@ -183,12 +183,12 @@ class FrameGrabber:
         # The offscreen buffer is only drawn into: enlarging it changes no physics.
         vis = model.vis.global_
         vis.offwidth, vis.offheight = max(vis.offwidth, width), max(vis.offheight, height)
+        from transplanter.scene import offscreen
+
         try:
-            self.renderer = mujoco.Renderer(model, height, width)
-        except Exception as exc:  # FatalError, ImportError of a GL backend, EGL errors
-            backend = os.environ.get("MUJOCO_GL", "") or "glfw (the default)"
+            self.renderer = offscreen.renderer(model, height, width)
+        except offscreen.NoOffscreenGL as exc:
             raise GLUnavailable(
-                f"no OpenGL context could be made for offscreen rendering (MUJOCO_GL={backend}): "
                 f"{exc}. Headless, use MUJOCO_GL=egl (needs libEGL: a GPU driver or Mesa's "
                 "libegl1) or MUJOCO_GL=osmesa (libosmesa6); on a desktop, run with a display."
             ) from None
