@@ -193,6 +193,23 @@ def test_the_splines_take_less_time_than_lines_for_the_same_cell(pair):
     assert max(spline.peak_joint_speed_deg_s) > max(lines.peak_joint_speed_deg_s)
 
 
+def test_the_time_per_operation_is_the_work_without_the_trays_own_time(pair):
+    """An operation's time is the work from the claws' arrival at the first cell to the end
+    of the last operation: the image delay, the approach from the homed machine and the last
+    lift are the tray's (in `tray_time_s`, and so in trays and plants per hour)."""
+    r, _ = pair
+    (cell,) = r.cells
+    assert r.time_per_operation_s == r.work_time_s / r.operations
+    # the cell's record starts before the approach from the homed machine (lines: up, across,
+    # down); the work starts when the claws reach the cell
+    assert cell.start_s + 1.0 < cell.end_s - r.work_time_s
+    assert r.tray_time_s > r.work_time_s + 1.0
+    waited = run_delta_refill(_scenario(**{"delta_refill.image_delay_ms": 2000.0}), SEED)
+    assert waited.time_per_operation_s == pytest.approx(r.time_per_operation_s, abs=1e-9)
+    assert waited.tray_time_s == pytest.approx(r.tray_time_s + 2.0, abs=1e-9)
+    assert waited.trays_per_hour < r.trays_per_hour
+
+
 def test_the_scenario_timestep_is_the_physics_step():
     sc = _scenario(**{"physics.timestep_ms": 0.5})
     spec = build_delta_spec(

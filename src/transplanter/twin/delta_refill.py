@@ -68,11 +68,19 @@ from transplanter.vision.grading import EMPTY, HEALTHY, HEALTHY_LR, HEALTHY_UD, 
 __all__ = ["DeltaRefillJudge", "DeltaRefillResult", "run_delta_refill"]
 
 DEFINITIONS = {
-    "time_per_operation_s": "simulated tray time (image delay + every removal and "
-    "supplementation, their moves, cylinder strokes, rotary swings and settles; the tray "
-    "change excluded) / operations, an operation being one serviced cell: a removal and "
-    "a supplementation for an inferior cell, a supplementation for an empty one (the "
-    "paper's Table 4 counts a removal and a supplementation)",
+    "time_per_operation_s": "work time / operations. The work time is simulated from the "
+    "claws' arrival at the first serviced cell to the end of the last operation (its stroke "
+    "and settle): every removal and supplementation, the transfers between them, cylinder "
+    "strokes, rotary swings and settles. An operation is one serviced cell: a removal and a "
+    "supplementation for an inferior cell, a supplementation for an empty one (the paper's "
+    "Table 4 counts a removal and a supplementation). The tray's own time (the image delay, "
+    "the approach from the homed machine to the first cell, the last lift) is in the tray "
+    "time, not here, so that the time per operation does not depend on how many cells a "
+    "tray needs",
+    "work_time_s": "simulated, from the claws' arrival at the first serviced cell to the end "
+    "of the last operation",
+    "tray_time_s": "simulated, from the image to the claws' last lift: the image delay, the "
+    "approach from the homed machine, the work time and the last lift",
     "plants_per_hour": "3600 x plants handled (culled to the bin + refills seated) / "
     "(tray time + tray change)",
     "trays_per_hour": "3600 / (tray time + tray change), at this tray's share of work",
@@ -142,6 +150,7 @@ class DeltaRefillResult:
     operations: int
     tray_time_s: float
     time_per_operation_s: float
+    work_time_s: float
     plants_per_hour: float
     trays_per_hour: float
     leaf_damage_rate: float
@@ -189,6 +198,7 @@ class DeltaRefillResult:
             "pose_judgement": self.pose_judgement,
             "operations": self.operations,
             "tray_time_s": self.tray_time_s,
+            "work_time_s": self.work_time_s,
             "time_per_operation_s": self.time_per_operation_s,
             "plants_per_hour": self.plants_per_hour,
             "trays_per_hour": self.trays_per_hour,
@@ -397,6 +407,8 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
         else:
             items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{num(v_travel)}",
                           f"G1 Z{mm(z)} S{num(v_app)}"])  # fmt: skip
+        if first[0]:
+            items.append(("mark", "work_start"))  # the reply to the approach's last line
         first[0] = False
 
     def leave() -> None:
@@ -439,6 +451,7 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             pick(sx, sy, plug_name("supply", op.supply))
             place(x, y, job.release_above_m)
         items.append(("mark", f"cell{op.cell}_end"))
+    items.append(("mark", "work_end"))
     if spline and not first[0]:
         items.append(f"G1 Z{mm(up)} S{num(v_travel)}")
     items += [("mark", "end"), "G28"]
@@ -699,8 +712,10 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
     end = host.marks.get("end")
     image = host.marks.get("image", 0.0)
     tray_time = (end - image) if (end is not None) else math.nan
+    w0, w1 = host.marks.get("work_start"), host.marks.get("work_end")
+    work_time = (w1 - w0) if (end is not None and w0 is not None) else math.nan
     ops_done = sum(1 for r in records if not math.isnan(r.end_s))
-    per_op = tray_time / ops_done if ops_done else math.nan
+    per_op = work_time / ops_done if ops_done else math.nan
     cycle = tray_time + job.tray_change_s
     handled = sum(1 for r in records if r.culled == "binned") + sum(
         1 for r in records if r.refilled == "seated"
@@ -720,6 +735,7 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
         operations=ops_done,
         tray_time_s=tray_time,
         time_per_operation_s=per_op,
+        work_time_s=work_time,
         plants_per_hour=3600.0 * handled / cycle if cycle > 0 else math.nan,
         trays_per_hour=3600.0 / cycle if cycle > 0 else math.nan,
         leaf_damage_rate=damaged / len(picked) if picked else 0.0,
