@@ -219,3 +219,30 @@ def test_the_scenario_timestep_is_the_physics_step():
         JobCells((), (), ()),
     )
     assert compile_scene(spec).opt.timestep == 0.0005
+
+
+def test_a_step_that_goes_unstable_stops_the_trial_and_voids_its_verdicts(monkeypatch):
+    """MuJoCo resets the whole state when a value blows up (seed 7's tray: a dropped plug
+    wedged into a refilled cell at 11 m/s): the trial stops at that step with the fault
+    naming the body, instead of running the reset world on and judging it (the drives'
+    alarm, then every cell failed)."""
+    real_step = mujoco.mj_step
+
+    def step(model, data):
+        if 0.5 <= data.time < 0.5 + 0.5 * model.opt.timestep:  # a huge speed on a plug
+            plug = next(
+                j for j in range(model.njnt)
+                if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
+                and model.joint(j).name.startswith("s")
+            )  # fmt: skip
+            data.qvel[model.jnt_dofadr[plug]] = 1e12
+        real_step(model, data)
+
+    monkeypatch.setattr(mujoco, "mj_step", step)
+    r = run_delta_refill(_scenario(), SEED)
+    assert not r.valid and r.fault.startswith(delta_refill.UNSTABLE)
+    assert "at 0.500 s" in r.fault and "QVEL" in r.fault and ": s0" in r.fault
+    assert r.failures == {"unstable": 1}
+    assert r.sim_time_s == pytest.approx(0.5, abs=1e-9)  # not a step after it
+    (cell,) = r.cells
+    assert cell.culled == "void" and cell.refilled == "void"

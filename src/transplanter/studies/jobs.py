@@ -98,7 +98,9 @@ def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
         fault=r.fault,
         fault_kind=None
         if r.fault is None
-        else next((k for k in ("drive_alarm", "controller_error") if k in r.failures), None),
+        else next(
+            (k for k in ("drive_alarm", "unstable", "controller_error") if k in r.failures), None
+        ),
         sim_time_s=r.sim_time_s,
         wall_time_s=r.wall_time_s,
         warnings="",

@@ -92,6 +92,38 @@ DEFINITIONS = {
     "substrate_retention": "mean over seated refills of plug mass after / before",
 }
 HEALTHY_CLASSES = (HEALTHY, HEALTHY_LR, HEALTHY_UD)
+UNSTABLE = "MuJoCo: the simulation went unstable"
+FAULT_KINDS = (("drive_alarm", "Err24"), ("unstable", UNSTABLE))
+"""A fault's failure kind by how its text starts (else `controller_error`)."""
+_BAD_VALUES = {
+    mujoco.mjtWarning.mjWARN_BADQPOS: "QPOS",
+    mujoco.mjtWarning.mjWARN_BADQVEL: "QVEL",
+    mujoco.mjtWarning.mjWARN_BADQACC: "QACC",
+}
+
+
+def _instability(model, data, t: float, physics: dict) -> str:
+    """The fault of a step after which MuJoCo reset the state (a NaN, Inf or huge value in
+    qpos, qvel or qacc): where, and the body it was in. The trial stops there: the reset
+    world is not the tray's, so its verdicts are void (`valid` False)."""
+    where = ""
+    for warning, field_name in _BAD_VALUES.items():
+        if data.warning[warning].number:
+            dof = int(data.warning[warning].lastinfo)
+            if 0 <= dof < model.nv:
+                body = model.body(int(model.dof_bodyid[dof])).name
+                plug = physics.get(body)
+                dropped = (
+                    f", dropped by the claws {t - plug.dropped_at_s:.3f} s before"
+                    if plug is not None and plug.dropped_at_s is not None
+                    else ""
+                )
+                where = f" (a NaN, Inf or huge value in {field_name} at DOF {dof}: {body}{dropped})"
+            break
+    return (
+        f"{UNSTABLE} at {t:.3f} s{where} and reset its state; the trial stops there and "
+        "its verdicts are void (a smaller physics.timestep_ms or another seed)"
+    )
 
 
 @dataclass
@@ -102,9 +134,9 @@ class CellRecord:
     index: int
     truth: str
     rotary_deg: float
-    culled: str | None = None  # binned / dropped / left (inferior cells)
+    culled: str | None = None  # binned / dropped / left (inferior cells); void: unstable physics
     supply_index: int | None = None
-    refilled: str | None = None  # seated / dropped / not_seated / not_reached
+    refilled: str | None = None  # seated / dropped / not_seated / not_reached; void (as culled)
     retention: float | None = None
     leaf_damage: list[dict] = field(default_factory=list)
     cull_dropped_at_s: float | None = None
@@ -536,6 +568,7 @@ def run_delta_refill(
     dt = model.opt.timestep
     fault = None
     limit_s = 120.0 + 30.0 * max(len(ops), 1)
+    valid: bool | None = None  # False at once when a step went unstable
     t_end = None
     k = 0
     raw = np.zeros(3, dtype=np.int64)
@@ -572,6 +605,10 @@ def run_delta_refill(
         for p in physics.values():
             p.before_step(data)
         mujoco.mj_step(model, data)
+        if data.time + dt < t:  # MuJoCo found a bad value and reset the state to the model's
+            fault = _instability(model, data, t, physics)
+            valid = False
+            break
         meter.record(data)
         np.maximum(peaks[0], np.abs(data.qvel[arm_dofs]), out=peaks[0])
         np.maximum(peaks[1], np.abs(data.qfrc_actuator[arm_dofs]), out=peaks[1])
@@ -589,7 +626,8 @@ def run_delta_refill(
         if t > limit_s:
             fault = fault or f"the job did not finish in its {limit_s:g} s of simulated time"
             break
-    valid = t <= limit_s and not any(int(w.number) for w in data.warning)
+    if valid is None:
+        valid = t <= limit_s and not any(int(w.number) for w in data.warning)
     if fault is None and host.error is not None:
         fault = host.error
     result = _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller,
@@ -664,6 +702,7 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
             {"leaf": d.leaf, "by": d.by, "force_n": round(d.force_n, 4), "time_s": d.time_s}
         )
     own: set[str] = set()
+    void = fault is not None and fault.startswith(UNSTABLE)  # the state is MuJoCo's reset one
     for op in ops:
         truth = planting.cells[op.cell].truth
         rec = CellRecord(op.cell, truth, op.rotary_deg, supply_index=op.supply, grade=op.truth)
@@ -674,7 +713,7 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
             rec.culled = "nothing"  # no plug: the cell was empty
         elif op.truth == INFERIOR:
             name = plug_name("planting", op.cell)
-            rec.culled = judge.culled(data, physics[name], xy)
+            rec.culled = "void" if void else judge.culled(data, physics[name], xy)
             rec.cull_dropped_at_s = physics[name].dropped_at_s
             own.add(name)
         if op.supply is not None and plug_name("supply", op.supply) not in physics:
@@ -683,7 +722,7 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
             name = plug_name("supply", op.supply)
             own.add(name)
             p = physics[name]
-            rec.refilled = judge.refilled(data, p, xy)
+            rec.refilled = "void" if void else judge.refilled(data, p, xy)
             rec.refill_dropped_at_s = p.dropped_at_s
             rec.refill_peak_load_n = round(p.peak_load_n, 6)
             if rec.refilled == "seated":
@@ -701,14 +740,16 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
     for r in records:
         if r.culled in ("dropped", "left"):
             fail(f"cull_{r.culled}")
-        if r.refilled != "seated":
+        if r.refilled not in ("seated", "void"):
             fail(f"refill_{r.refilled}")
         if r.leaf_damage:
             fail("leaf_damage")
     if neighbours:
         failures["neighbour_leaf_damage"] = len(neighbours)
     if fault is not None:
-        fail("drive_alarm" if fault.startswith("Err24") else "controller_error")
+        fail(
+            next((kind for kind, head in FAULT_KINDS if fault.startswith(head)), "controller_error")
+        )
     end = host.marks.get("end")
     image = host.marks.get("image", 0.0)
     tray_time = (end - image) if (end is not None) else math.nan
