@@ -408,3 +408,26 @@ def test_an_l9_sweep_of_the_bench_prints_and_writes_its_range_analysis(tmp_path,
     assert [r["error"] for r in rows] == [None] * 9
     # one seedling a run: the wet, young plug lifted at 40 m/s^2 (run 7) shears off its pins
     assert [r["successes"] for r in rows] == [1, 1, 1, 1, 1, 1, 0, 1, 1]
+
+
+def test_a_study_that_photographs_is_refused_before_any_run_without_gl(monkeypatch, tmp_path):
+    """Headless without MUJOCO_GL=egl a sweep of the delta's trays graded from pictures is
+    refused in the parent, naming what to set, before a worker starts (a worker's second
+    failed renderer aborted the pool); graded from the truth it is not asked."""
+    from transplanter.scenario.schema import load_scenario
+    from transplanter.scene import offscreen
+    from transplanter.studies.grid import Axis, SweepRefused, SweepSpec
+    from transplanter.studies.sweep import require_pictures, run_sweep
+
+    monkeypatch.setattr(offscreen, "_FAILED", ["no OpenGL context could be made"])
+    with pytest.raises(SweepRefused, match=r"MUJOCO_GL=egl .*delta_refill.vision=truth"):
+        require_pictures(load_scenario("delta_refill"))
+    truth = load_scenario("delta_refill", {"delta_refill.vision": "truth"})
+    require_pictures(truth)
+    with pytest.raises(SweepRefused, match="photographs the trays"):
+        require_pictures(truth, {"delta_refill.vision": ("truth", "pipeline")})
+    require_pictures(load_scenario("paper"))  # the five-bar takes no pictures
+    spec = SweepSpec("delta_refill", (Axis("delta_refill.pose_judgement", (True, False)),), (1,), 1)
+    with pytest.raises(SweepRefused, match="photographs the trays"):
+        run_sweep(spec, tmp_path / "out", workers=2)
+    assert (tmp_path / "out" / "runs.jsonl").read_text() == ""  # no run; a rerun resumes

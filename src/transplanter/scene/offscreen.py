@@ -31,7 +31,9 @@ def renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
         return mujoco.Renderer(model, height, width)
     except Exception as exc:  # FatalError, a GL backend's ImportError, EGL errors
         backend = os.environ.get("MUJOCO_GL", "") or "glfw (the default)"
-        _FAILED.append(f"no OpenGL context for offscreen rendering (MUJOCO_GL={backend}): {exc}")
+        _FAILED.append(
+            f"no OpenGL context could be made for offscreen rendering (MUJOCO_GL={backend}): {exc}"
+        )
         raise NoOffscreenGL(_FAILED[0]) from None
 
 

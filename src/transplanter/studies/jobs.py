@@ -323,26 +323,6 @@ def job_of(scenario) -> Job | None:
     return JOBS.get(both, JOBS.get(scenario.workcell.kind))
 
 
-def require_pictures(scenario, varied: Mapping[str, Sequence[Any]] | None = None) -> None:
-    """SweepRefused, before any run, when the scenario's job photographs (the delta's trays
-    graded by the pipeline, as set or among the `varied` values) and this process cannot
-    render offscreen: the study's every run would fail alike, and a worker's second try
-    would abort it (scene.offscreen)."""
-    job = job_of(scenario)
-    if job is None or job.pictures is None or not job.pictures(scenario, varied or {}):
-        return
-    from transplanter.scene.offscreen import offscreen_gl_error
-    from transplanter.studies.grid import SweepRefused
-    from transplanter.twin.delta_grading import TRUTH_HINT
-
-    why = offscreen_gl_error()
-    if why is not None:
-        raise SweepRefused(
-            f'delta_refill.vision = "pipeline" photographs the trays in every run: {why}; '
-            f"headless, set MUJOCO_GL=egl (or osmesa) before the command, {TRUTH_HINT}"
-        )
-
-
 def run_job(job: Job, scenario, seed: int, row: dict[str, Any], t0: float) -> dict[str, Any]:
     """`row` (the setting, the seed, empty results) filled by one run of `job`; a value the
     job's configs refuse (ValueError) is a refused setting, anything else that raises is the

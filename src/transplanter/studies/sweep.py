@@ -59,7 +59,7 @@ from transplanter.studies.grid import (
     parse_vary,
     run_key,
 )
-from transplanter.studies.jobs import job_of, require_pictures
+from transplanter.studies.jobs import job_of
 from transplanter.studies.stats import SETTING_FIELDS, aggregate, pool_runs
 
 __all__ = [
@@ -67,6 +67,7 @@ __all__ = [
     "BACKENDS",
     "BackendMissing",
     "SweepRefused",
+    "require_pictures",
     "SweepReport",
     "SweepSpec",
     "aggregate",
@@ -379,6 +380,25 @@ def _write_range_analysis(spec: SweepSpec, report: SweepReport) -> None:
     fields = list(dict.fromkeys(k for r in rows for k in r))
     write_csv_atomic(report.out / RANGE_CSV, fields, rows)
     report.range_text = text
+
+
+def require_pictures(scenario, varied: Mapping[str, Sequence[Any]] | None = None) -> None:
+    """SweepRefused, before any run, when the scenario's job photographs (the delta's trays
+    graded by the pipeline, as set or among the `varied` values) and this process cannot
+    render offscreen: the study's every run would fail alike, and a worker's second try
+    would abort it (scene.offscreen)."""
+    job = job_of(scenario)
+    if job is None or job.pictures is None or not job.pictures(scenario, varied or {}):
+        return
+    from transplanter.scene.offscreen import offscreen_gl_error
+    from transplanter.twin.delta_grading import TRUTH_HINT
+
+    why = offscreen_gl_error()
+    if why is not None:
+        raise SweepRefused(
+            f'delta_refill.vision = "pipeline" photographs the trays in every run: {why}; '
+            f"headless, set MUJOCO_GL=egl (or osmesa) before the command, {TRUTH_HINT}"
+        )
 
 
 def _run_locked(spec, out, manifest, backend, workers, address, progress, plots, on_row,

@@ -40,6 +40,7 @@ from transplanter.studies.sweep import (
     backend_of,
     check_out_files,
     pool_runs,
+    require_pictures,
     write_csv_atomic,
 )
 
@@ -311,8 +312,6 @@ def drive_study(
     finished = sum(_counts(t, optuna) for t in study.get_trials(deepcopy=False))
     ran, interrupted = 0, False
     if finished < trials:
-        from transplanter.studies.jobs import require_pictures
-
         require_pictures(spec.check())
     bar = None
     if progress and finished < trials:
