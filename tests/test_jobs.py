@@ -49,6 +49,7 @@ def test_a_delta_tray_is_a_row_of_serviced_cells_not_a_five_bar_refusal():
     assert (row["successes"], row["seedlings"], row["cycles"]) == (1, 1, 1)
     # the work time: the claws' arrival at the cell to its end (the approach is the tray's)
     assert row["cycle_time_s"] == pytest.approx(3.543)
+    assert row["cycle_time_sd_s"] is None  # one operation: no spread
     assert row["substrate_retention"] == pytest.approx(0.87946, abs=1e-5)
     assert row["leaf_damage_rate"] == 0.0 and row["dropped"] == 0
     assert all(row[f"fail_{k}"] == 0 for k in jobs.DELTA_FAILURES)

@@ -85,8 +85,12 @@ def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
     from transplanter.twin.delta_refill import run_delta_refill
 
     r = run_delta_refill(scenario, seed)
-    spans = [c.end_s - c.start_s for c in r.cells if math.isfinite(c.end_s - c.start_s)]
-    sd = float(_sd(spans)) if len(spans) > 1 else None
+    # each operation from the end of the one before (the first from the claws' arrival):
+    # the spans whose mean is the time per operation
+    ends = [c.end_s for c in r.cells if math.isfinite(c.end_s)]
+    starts = [ends[-1] - r.work_time_s, *ends[:-1]] if ends else []
+    spans = [b - a for a, b in zip(starts, ends, strict=True)]
+    sd = float(_sd(spans)) if len(spans) > 1 and math.isfinite(r.work_time_s) else None
     row.update(
         successes=r.successes,
         seedlings=r.seedlings,
