@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,14 @@ from transplanter.scenario.schema import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_PATH = ROOT / "scenarios" / "paper.toml"
+
+
+def pytest_configure(config):
+    """A runner that ignores SIGINT (pytest-xdist's workers, a `nohup` launch) passes the
+    ignore on to the command-line children the Ctrl-C tests interrupt: give this process
+    Python's own handler back, so that a child starts with SIGINT's default."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def paper_scenario(**overrides) -> Scenario:
