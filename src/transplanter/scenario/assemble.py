@@ -176,6 +176,32 @@ def claws_config(s: Scenario):
     return _file_unit_config(s, "plug_claws", PlugClawsConfig)
 
 
+def delta_sgf_config(s: Scenario, job, kinematics, **extra) -> SGFConfig:
+    """The delta's controller for a job's section (`[delta_refill]`, `[delta_pots]`): its
+    lines' segmentation, path acceleration and point time, the pick path of `bspline5` and
+    the travel speed, with `[motion]`'s planner and end-effector limit; `extra`: SGFConfig's
+    other fields (the pot line's conveyor index)."""
+    motion = MotionConfig(
+        resolution_m=job.segment_m,
+        accel_m_s2=job.path_accel_m_s2,
+        profile="scurve",
+        compute_time_per_point_s=job.point_time_s,
+        planner=s.motion.planner,
+        ee_accel_limit_m_s2=s.motion.ee_accel_limit_m_s2,
+        pick_lift_m=job.lift_m,
+        pick_arc_m=job.arc_radius_m,
+        pick_exit_m=job.exit_m,
+    )
+    return SGFConfig(
+        kinematics=kinematics,
+        motion=motion,
+        homing=type(kinematics).homing_from_scenario(s),
+        default_speed_m_s=job.travel_speed_m_s,
+        command_queue_lines=4,
+        **extra,
+    )
+
+
 def fuzzy_gripper_config(s: Scenario):
     """[fuzzy_gripper] as the scene's `FuzzyGripperConfig` (the serial arm's scene), its
     servo class `[serial4] gripper_servo`."""

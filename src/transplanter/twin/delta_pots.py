@@ -55,12 +55,10 @@ from transplanter.machine.delta_drives import DeltaController, PulseServos
 from transplanter.machine.fuzzy_gripper import NO_ECHO, UltrasonicSensor
 from transplanter.machine.gcode import format_number
 from transplanter.machine.kinematics.delta import DeltaKinematics
-from transplanter.machine.motion import MotionConfig
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.servo import ServoMount, servo_class
 from transplanter.machine.servo_drives import ServoBank, frame_steps
-from transplanter.machine.sgf import SGFConfig
-from transplanter.scenario.assemble import require_awake
+from transplanter.scenario.assemble import delta_sgf_config, require_awake
 from transplanter.scene.effectors import fuzzy_gripper
 from transplanter.scene.robots import delta as delta_robot
 from transplanter.twin.motors import MotorMeter
@@ -332,25 +330,7 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
     mujoco.mj_forward(model, data)
     meter = MotorMeter(model, delta_robot.ACTUATORS, fuzzy_gripper.ACTUATORS)
 
-    motion = MotionConfig(
-        resolution_m=job.segment_m,
-        accel_m_s2=job.path_accel_m_s2,
-        profile="scurve",
-        compute_time_per_point_s=job.point_time_s,
-        planner=sc.motion.planner,
-        ee_accel_limit_m_s2=sc.motion.ee_accel_limit_m_s2,
-        pick_lift_m=job.lift_m,
-        pick_arc_m=job.arc_radius_m,
-        pick_exit_m=job.exit_m,
-    )
-    sgf_cfg = SGFConfig(
-        kinematics=kin,
-        motion=motion,
-        homing=DeltaKinematics.homing_from_scenario(sc),
-        default_speed_m_s=job.travel_speed_m_s,
-        conveyor_index_s=sc.conveyor.index_time_s,
-        command_queue_lines=4,
-    )
+    sgf_cfg = delta_sgf_config(sc, job, kin, conveyor_index_s=sc.conveyor.index_time_s)
     controller = DeltaController(sgf_cfg)
     endstops = SimulatedEndstops(sgf_cfg, q0)
     drives = PulseServos(kin, q0, job.following_error_limit_rad)

@@ -38,10 +38,8 @@ from transplanter.machine.bus import ComBus
 from transplanter.machine.delta_drives import DeltaController, PulseServos
 from transplanter.machine.gcode import format_number
 from transplanter.machine.kinematics.delta import DeltaKinematics
-from transplanter.machine.motion import MotionConfig
 from transplanter.machine.rig import SimulatedEndstops
-from transplanter.machine.sgf import SGFConfig
-from transplanter.scenario.assemble import require_awake, require_kinds
+from transplanter.scenario.assemble import delta_sgf_config, require_awake, require_kinds
 from transplanter.scene.delta_scene import (
     DeltaSceneConfig,
     JobCells,
@@ -531,24 +529,7 @@ def run_delta_refill(
     )
     leaves = LeafWatch(model, watched, cfg.claws.leaf_damage_force_n)
 
-    motion = MotionConfig(
-        resolution_m=job.segment_m,
-        accel_m_s2=job.path_accel_m_s2,
-        profile="scurve",
-        compute_time_per_point_s=job.point_time_s,
-        planner=sc.motion.planner,
-        ee_accel_limit_m_s2=sc.motion.ee_accel_limit_m_s2,
-        pick_lift_m=job.lift_m,
-        pick_arc_m=job.arc_radius_m,
-        pick_exit_m=job.exit_m,
-    )
-    sgf_cfg = SGFConfig(
-        kinematics=kin,
-        motion=motion,
-        homing=DeltaKinematics.homing_from_scenario(sc),
-        default_speed_m_s=job.travel_speed_m_s,
-        command_queue_lines=4,
-    )
+    sgf_cfg = delta_sgf_config(sc, job, kin)
     controller = DeltaController(sgf_cfg)
     q0 = np.array(cfg.home_q_rad)
     endstops = SimulatedEndstops(sgf_cfg, q0)
