@@ -3,6 +3,7 @@ the plug is held through contact only, the stripper drops it into the target cel
 substrate's laws move hold and retention the expected way, the rotary setting decides which
 leaves are struck, and the outcome is deterministic and converged in the timestep."""
 
+import copy
 import math
 
 import mujoco
@@ -20,6 +21,7 @@ from transplanter.scene.plug_bench import (
     model_xml,
     run_pick,
 )
+from transplanter.scene.plug_physics import PlugPhysics
 from transplanter.scene.plug_substrate import PlugsConfig, Substrate, from_table
 from transplanter.scene.plug_tray import draw_tray
 
@@ -323,3 +325,45 @@ def test_too_little_pressure_leaves_the_claws_short_of_their_stops():
     assert run_pick(OPTIMUM, PlugClawsConfig(pressure_mpa=0.2), LOW_ACCEL).tip_depth_mm == (
         pytest.approx(full.tip_depth_mm, abs=0.05)
     )
+
+
+def _bench_plug_with_substrate_lost():
+    """The bench's plug after its pins carried 0.8 N (its mass and inertia cut by the loss)."""
+    sub = Substrate(OPTIMUM)
+    model = build_bench(OPTIMUM).compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    physics = PlugPhysics(model, data, "plug", sub)
+    physics.pin_load = lambda _data: 0.8  # the load a lift puts on the pins, without the lift
+    physics.after_step(data, 0.0, carried=True)
+    assert physics.mass_kg == pytest.approx(physics.mass0 * (1 - sub.lost_fraction(0.8)))
+    assert physics.mass_kg < 0.95 * physics.mass0
+    return model, data, physics
+
+
+def test_a_cut_plug_mass_leaves_the_subtree_masses_as_mujoco_computes_them():
+    model, data, _ = _bench_plug_with_substrate_lost()
+    fresh = copy.deepcopy(model)
+    mujoco.mj_setConst(fresh, mujoco.MjData(fresh))
+    np.testing.assert_allclose(model.body_subtreemass, fresh.body_subtreemass, rtol=1e-12)
+
+
+def test_a_dropped_plug_tumbling_in_the_air_keeps_its_angular_momentum():
+    """Seed 8's tray: a plug that lost substrate, then fell off the pins tumbling (18 rad/s
+    across its axis), spun up with no force on it and blew the state up 0.3 s later while the
+    subtree masses were those of the compiled plug."""
+    model, data, physics = _bench_plug_with_substrate_lost()
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    qa, va = physics.qadr, physics.vadr
+    data.qpos[qa : qa + 7] = [0.0, 2.0, 20.0, 0.5053, -0.0546, -0.8573, 0.0819]  # far from all
+    data.qvel[va : va + 6] = [-0.24, -0.04, -1.13, -1.49, -18.03, 1.72]  # seed 8's, at 80.3 s
+    b = physics.body
+
+    def spin(d):
+        return np.linalg.norm(model.body_inertia[b] * d.qvel[va + 3 : va + 6])  # body frame
+
+    l0 = spin(data)
+    for _ in range(1000):
+        mujoco.mj_step(model, data)
+    assert data.time == pytest.approx(1.0)  # no reset
+    assert spin(data) == pytest.approx(l0, rel=1e-3)

@@ -269,8 +269,24 @@ class PlugPhysics:
         elif load > self.peak_load_n:
             self.peak_load_n = load
             scale = 1.0 - self.sub.lost_fraction(load)
-            self.model.body_mass[self.body] = self.mass0 * scale
+            self._set_mass(self.mass0 * scale)
             self.model.body_inertia[self.body] = self.inertia0 * scale
+
+    def _set_mass(self, mass: float) -> None:
+        """The plug's mass, and the subtree masses of it and its ancestors: MuJoCo's
+        centre-of-mass pass divides by `body_subtreemass`, which only compiling (or
+        `mj_setConst`) computes. Left stale, the tree's centre of mass is off the body's, and
+        a free plug tumbling after a drop spun up with no force on it until the state blew up
+        (`implicitfast`, seed 8's tray: docs/delta.md)."""
+        m = self.model
+        change = mass - float(m.body_mass[self.body])
+        m.body_mass[self.body] = mass
+        b = self.body
+        while True:
+            m.body_subtreemass[b] += change
+            if b == 0:
+                break
+            b = int(m.body_parentid[b])
 
     @property
     def mass_kg(self) -> float:
