@@ -69,6 +69,31 @@ def test_the_scene_builds_without_welds_and_holds_home():
     assert np.linalg.norm(data.body("p003").xpos - seat) < 1e-3
 
 
+@pytest.mark.parametrize("cell", [20, 92])  # a plug the job leaves (static), an empty cell
+def test_a_dropped_plug_lands_on_the_tray_not_through_it(cell):
+    """A plug off the pins over a cell the job does not touch lands on that cell's plug (its
+    surface 3 mm below the walls' top) or, where the cell is empty, on the tray's plate."""
+    q0 = tuple(float(v) for v in KIN.joints(np.array([0.0, 0.0, -0.8])))
+    cfg = DeltaSceneConfig(home_q_rad=q0)
+    planting, supply = draw_tray(SEED), draw_tray(SEED + 1000003)
+    assert (planting.cells[cell].seedling is None) == (cell == 92)
+    model = compile_scene(build_delta_spec(cfg, planting, supply, JobCells((3,), (), (0,))))
+    data = mujoco.MjData(model)
+    data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, -0.8))
+    data.ctrl[:3] = delta_robot.home_ctrl(cfg)
+    data.ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
+    qa = model.jnt_qposadr[model.joint("p003").id]
+    x, y = cfg.cell_xy("planting", cell)
+    height = 0.039  # the plug: 42 mm cell less its surface 3 mm below the top
+    data.qpos[qa : qa + 3] = [x, y, cfg.tray_top_m + height + 0.02]  # its bottom 20 mm above
+    for _ in range(800):
+        mujoco.mj_step(model, data)
+    bottom = data.qpos[qa + 2] - height
+    rest = cfg.tray_top_m - (0.003 if cell != 92 else 0.042 + 0.002)
+    assert bottom == pytest.approx(rest, abs=1e-3)
+    assert np.linalg.norm(data.qvel[model.jnt_dofadr[model.joint("p003").id] :][:3]) < 1e-3
+
+
 def _homed_controller(accel_m_s2=5.0):
     sc = _scenario()
     kin = DeltaKinematics.from_scenario(sc)

@@ -8,8 +8,9 @@ The trays' cells are drawn by `transplanter.scene.plug_tray.draw_tray` (planting
 seed; supply tray: the seed's supply stream). What the job touches is physics
 (`transplanter.scene.plug_physics`): the cells it empties or fills get their tapered walls
 and floor, and the plugs it lifts are free bodies held by contact only. Every other plug is
-a static body: its substrate drawn, its leaves collision geoms that the claws and the
-stripper can still strike (a neighbour's leaf crossing into the cell being worked). So a
+a static body: its substrate's surface a box a dropped plug lands on, its leaves collision
+geoms that the claws and the stripper can still strike (a neighbour's leaf crossing into the
+cell being worked); the trays' plates stop what falls through a cell without a plug. So a
 run's cost follows its job, not the tray's 256 plugs.
 
 World frame: the delta's base frame (Z up, the platform below the base). Tray frame to world:
@@ -135,8 +136,9 @@ def centred(seedling: Seedling, centre_mm: tuple[float, float]) -> Seedling:
 def _static_plug(
     spec: mujoco.MjSpec, name: str, x: float, y: float, top: float, sub: Substrate, s: Seedling
 ) -> None:
-    """A plug the job does not lift: a static body, its substrate drawn, its leaves collision
-    geoms (canopy bit) so that a strike on a neighbour is seen and named."""
+    """A plug the job does not lift: a static body, its substrate's surface a collision box
+    that free plugs meet (a dropped plug lands on it, not through the tray), its leaves
+    collision geoms (canopy bit) so that a strike on a neighbour is seen and named."""
     c = sub.cfg
     surface = top - c.surface_below_top_mm * 1e-3
     body = spec.worldbody.add_body(name=name, pos=[x, y, surface])
@@ -147,7 +149,7 @@ def _static_plug(
         size=[side, side, 0.002],
         pos=[0, 0, -0.002],
         contype=0,
-        conaffinity=0,
+        conaffinity=BIT_TRAY,
         rgba=[0.36, 0.25, 0.16, 1.0],
     )
     add_leaves(body, name, s, 0.0)
@@ -172,7 +174,7 @@ def add_trays(
             size=[g.length_mm * 5e-4, g.width_mm * 5e-4, 0.001],
             pos=[0.0, y0, top - g.depth_mm * 1e-3 - 0.003],
             contype=0,
-            conaffinity=0,
+            conaffinity=BIT_TRAY,  # under the cells: what falls through an empty one lands
             rgba=[0.8, 0.8, 0.78, 0.6],
         )
     free = {("planting", i) for i in job.culled} | {("supply", i) for i in job.supply}
