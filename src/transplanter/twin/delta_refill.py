@@ -120,7 +120,7 @@ def _instability(model, data, t: float, physics: dict) -> str:
             break
     return (
         f"{UNSTABLE} at {t:.3f} s{where} and reset its state; the trial stops there and "
-        'its verdicts are void (judge a setting over seeds: docs/delta.md, "Not yet")'
+        'its verdicts are void (judge a setting over seeds: docs/delta.md, "Dropped plugs")'
     )
 
 
