@@ -22,6 +22,8 @@ from transplanter.scene.delta_scene import (
     compile_scene,
 )
 from transplanter.scene.effectors import plug_claws
+from transplanter.scene.plug_physics import PlugPhysics, stripper_push
+from transplanter.scene.plug_substrate import Substrate
 from transplanter.scene.plug_tray import draw_tray
 from transplanter.scene.robots import delta as delta_robot
 from transplanter.twin import delta_refill
@@ -92,6 +94,43 @@ def test_a_dropped_plug_lands_on_the_tray_not_through_it(cell):
     rest = cfg.tray_top_m - (0.003 if cell != 92 else 0.042 + 0.002)
     assert bottom == pytest.approx(rest, abs=1e-3)
     assert np.linalg.norm(data.qvel[model.jnt_dofadr[model.joint("p003").id] :][:3]) < 1e-3
+
+
+def test_a_plug_off_the_pins_but_wedged_in_the_stripper_is_judged_jammed():
+    """Seed 7's refill that sheared off the pins on a dropped cull and rode wedged between the
+    stripper's blocks: `jammed`, not `dropped` (a plug off the pins lying on the tray)."""
+    q0 = tuple(float(v) for v in KIN.joints(np.array([0.0, 0.0, -0.8])))
+    cfg = DeltaSceneConfig(home_q_rad=q0)
+    planting, supply = draw_tray(SEED), draw_tray(SEED + 1000003)
+    model = compile_scene(build_delta_spec(cfg, planting, supply, JobCells((3,), (), (0,))))
+    data = mujoco.MjData(model)
+    data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, -0.8))
+    mujoco.mj_forward(model, data)
+    sub = Substrate(cfg.plugs)
+    cull, refill = PlugPhysics(model, data, "p003", sub), PlugPhysics(model, data, "s000", sub)
+    judge = delta_refill.DeltaRefillJudge(model, cfg, (0.4, 0.0), 0.006)
+    here = cfg.cell_xy("planting", 3)
+    assert judge.culled(data, cull, here) == "left"  # in its seat: never lifted
+    assert judge.refilled(data, refill, here) == "not_seated"  # still in the supply tray
+    block = model.geom("stripper_left").id
+    underside = data.geom_xpos[block][2] - model.geom_size[block][2]
+    mount = data.body("claws_mount").xpos
+    for plug in (cull, refill):
+        plug.dropped_at_s = 1.0
+        qa = plug.qadr
+        data.qpos[qa : qa + 3] = [mount[0], mount[1], underside + 0.005]  # top in the head
+        mujoco.mj_forward(model, data)
+        assert stripper_push(model, data, plug.name) > 0.0
+        data.qpos[qa : qa + 3] = [mount[0], mount[1], cfg.tray_top_m + 0.2]  # free, apart
+    data.qpos[cull.qadr : cull.qadr + 3] = [mount[0], mount[1], underside + 0.005]
+    mujoco.mj_forward(model, data)
+    assert judge.culled(data, cull, here) == "jammed"
+    assert judge.refilled(data, refill, here) == "dropped"
+    data.qpos[cull.qadr : cull.qadr + 3] = [mount[0], mount[1], cfg.tray_top_m + 0.2]
+    data.qpos[refill.qadr : refill.qadr + 3] = [mount[0], mount[1], underside + 0.005]
+    mujoco.mj_forward(model, data)
+    assert judge.culled(data, cull, here) == "dropped"
+    assert judge.refilled(data, refill, here) == "jammed"
 
 
 def _homed_controller(accel_m_s2=5.0):

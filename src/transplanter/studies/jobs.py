@@ -47,7 +47,9 @@ POT_FIELDS = ("peak_squeeze_n", "fail_dropped", "fail_missed", "fail_no_pot")
 DELTA_FAILURES = (
     "cull_dropped",
     "cull_left",
+    "cull_jammed",
     "refill_dropped",
+    "refill_jammed",
     "refill_not_seated",
     "refill_no_supply",
     "leaf_damage",

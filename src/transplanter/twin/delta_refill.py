@@ -49,7 +49,7 @@ from transplanter.scene.delta_scene import (
 )
 from transplanter.scene.effectors import plug_claws
 from transplanter.scene.effectors.plug_claws import ClawCycle
-from transplanter.scene.plug_physics import LeafWatch, PlugPhysics
+from transplanter.scene.plug_physics import LeafWatch, PlugPhysics, stripper_push
 from transplanter.scene.plug_substrate import Substrate
 from transplanter.scene.plug_tray import TrayDraw, draw_tray
 from transplanter.scene.robots import delta as delta_robot
@@ -88,6 +88,9 @@ DEFINITIONS = {
     "seedlings left in place) with a torn leaf / seedlings in it (the paper's Table 5 counts "
     "damaged / 128 of a tray)",
     "substrate_retention": "mean over seated refills of plug mass after / before",
+    "dropped": "plugs that came off the pins out of place: culls neither in the bin nor left "
+    "in their cell, refills not seated, whose pins sheared (dropped, or jammed: wedged against "
+    "the stripper and carried by the head)",
 }
 HEALTHY_CLASSES = (HEALTHY, HEALTHY_LR, HEALTHY_UD)
 UNSTABLE = "MuJoCo: the simulation went unstable"
@@ -132,9 +135,9 @@ class CellRecord:
     index: int
     truth: str
     rotary_deg: float
-    culled: str | None = None  # binned / dropped / left (inferior cells); void: unstable physics
+    culled: str | None = None  # binned / dropped / left / jammed (inferior cells); void: unstable
     supply_index: int | None = None
-    refilled: str | None = None  # seated / dropped / not_seated / not_reached; void (as culled)
+    refilled: str | None = None  # seated / dropped / jammed / not_seated / ...; void (as culled)
     retention: float | None = None
     leaf_damage: list[dict] = field(default_factory=list)
     cull_dropped_at_s: float | None = None
@@ -267,10 +270,19 @@ def _cell_ok(c: CellRecord) -> bool:
 
 class DeltaRefillJudge:
     """Judges the plugs at the end of a trial: where each culled plug ended (the bin, dropped
-    on the way, left in its cell) and whether each refill stands in its target cell."""
+    on the way, left in its cell, jammed in the head) and whether each refill stands in its
+    target cell (or was dropped, or jammed in the head: off the pins but wedged against the
+    stripper, carried wherever the head went)."""
 
-    def __init__(self, cfg: DeltaSceneConfig, bin_xy: tuple[float, float], tol_m: float):
-        self.cfg, self.bin_xy, self.tol_m = cfg, bin_xy, tol_m
+    def __init__(
+        self, model: mujoco.MjModel, cfg: DeltaSceneConfig, bin_xy: tuple[float, float], tol_m
+    ):
+        self.model, self.cfg, self.bin_xy, self.tol_m = model, cfg, bin_xy, tol_m
+
+    def _jammed(self, data: mujoco.MjData, physics: PlugPhysics) -> bool:
+        return (
+            physics.dropped_at_s is not None and stripper_push(self.model, data, physics.name) > 0.0
+        )
 
     def culled(self, data: mujoco.MjData, physics: PlugPhysics, cell_xy) -> str:
         x, y, z = (float(v) for v in data.xpos[physics.body])
@@ -280,12 +292,14 @@ class DeltaRefillJudge:
             return "binned"
         if physics.seated_in(data, cell_xy, self.tol_m):
             return "left"
-        return "dropped"
+        return "jammed" if self._jammed(data, physics) else "dropped"
 
     def refilled(self, data: mujoco.MjData, physics: PlugPhysics, cell_xy) -> str:
         if physics.seated_in(data, cell_xy, self.tol_m):
             return "seated"
-        return "dropped" if physics.dropped_at_s is not None else "not_seated"
+        if physics.dropped_at_s is None:
+            return "not_seated"
+        return "jammed" if self._jammed(data, physics) else "dropped"
 
 
 @dataclass(frozen=True)
@@ -674,7 +688,7 @@ class DeltaView:
 def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives, fault,
            sim_t, wall, valid) -> DeltaRefillResult:  # fmt: skip
     job = sc.delta_refill
-    judge = DeltaRefillJudge(cfg, (job.bin_x_m, job.bin_y_m), 0.006)
+    judge = DeltaRefillJudge(leaves.model, cfg, (job.bin_x_m, job.bin_y_m), 0.006)
     records: list[CellRecord] = []
     damage_by_plug: dict[str, list[dict]] = {}
     for d in leaves.damage:
@@ -719,7 +733,7 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
         failures[kind] = failures.get(kind, 0) + 1
 
     for r in records:
-        if r.culled in ("dropped", "left"):
+        if r.culled in ("dropped", "left", "jammed"):
             fail(f"cull_{r.culled}")
         if r.refilled not in ("seated", "void"):
             fail(f"refill_{r.refilled}")
@@ -750,7 +764,8 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
     in_tray = sum(1 for c in planting.cells if c.seedling is not None) - len(culled) + len(seated)
     torn_here = {p for p in damage_by_plug if p.startswith("p") and p not in culled}
     torn_here |= {plug_name("supply", r.supply_index) for r in seated if r.leaf_damage}
-    dropped = sum(1 for r in records if r.culled == "dropped" or r.refilled == "dropped")
+    off = ("dropped", "jammed")  # off the pins, out of place
+    dropped = sum(1 for r in records if r.culled in off or r.refilled in off)
     return DeltaRefillResult(
         seed=seed,
         pose_judgement=job.pose_judgement,
