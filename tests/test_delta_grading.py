@@ -139,10 +139,12 @@ def test_a_seedling_graded_empty_gets_a_refill_on_top_of_its_plug():
     r = run_delta_refill(_scenario(), SEED, grades=grades)
     (cell,) = r.cells
     assert (cell.index, cell.grade, cell.truth) == (0, "empty", "healthy")
-    # the refill let go 8 mm above the cell lands on the plug still in it and falls off
-    assert cell.culled is None and cell.refilled == "dropped" and cell.retention is None
+    # the refill brought down over the cell meets the plug still in it, shears off the pins
+    # and stays wedged against the stripper: it rides in the head to the home pose
+    assert cell.culled is None and cell.refilled == "jammed" and cell.retention is None
     assert cell.misgrades == ["refill_on_plug"]
-    assert r.failures["misgrade_refill_on_plug"] == 1 and r.failures["refill_dropped"] == 1
+    assert r.failures["misgrade_refill_on_plug"] == 1 and r.failures["refill_jammed"] == 1
+    assert r.dropped == 1
     assert r.fault is None
 
 

@@ -275,8 +275,12 @@ class DeltaRefillJudge:
     stripper, carried wherever the head went)."""
 
     def __init__(
-        self, model: mujoco.MjModel, cfg: DeltaSceneConfig, bin_xy: tuple[float, float], tol_m
-    ):
+        self,
+        model: mujoco.MjModel,
+        cfg: DeltaSceneConfig,
+        bin_xy: tuple[float, float],
+        tol_m: float,
+    ) -> None:
         self.model, self.cfg, self.bin_xy, self.tol_m = model, cfg, bin_xy, tol_m
 
     def _jammed(self, data: mujoco.MjData, physics: PlugPhysics) -> bool:
