@@ -46,12 +46,24 @@ def pair():
     return run_delta_refill(sc, SEED), run_delta_refill(sc, SEED)
 
 
-def test_the_scene_builds_without_welds_and_holds_home():
+def _home_scene():
+    """Seed SEED's scene for a job culling planting cell 3 and refilling from supply cell 0,
+    at power-on (home pose, drives and claws holding it), forward-computed: (scene config,
+    planting tray, model, data)."""
     q0 = tuple(float(v) for v in KIN.joints(np.array([0.0, 0.0, -0.8])))
     cfg = DeltaSceneConfig(home_q_rad=q0)
     planting, supply = draw_tray(SEED), draw_tray(SEED + 1000003)
-    spec = build_delta_spec(cfg, planting, supply, JobCells((3,), (), (0,)))
-    model = compile_scene(spec)
+    model = compile_scene(build_delta_spec(cfg, planting, supply, JobCells((3,), (), (0,))))
+    data = mujoco.MjData(model)
+    data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, -0.8))
+    data.ctrl[:3] = delta_robot.home_ctrl(cfg)
+    data.ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
+    mujoco.mj_forward(model, data)
+    return cfg, planting, model, data
+
+
+def test_the_scene_builds_without_welds_and_holds_home():
+    cfg, _, model, data = _home_scene()
     # the only equalities are the delta's six closed-chain connects: nothing glues a plug
     assert model.neq == 6
     assert all(model.eq_type[i] == mujoco.mjtEq.mjEQ_CONNECT for i in range(model.neq))
@@ -59,11 +71,6 @@ def test_the_scene_builds_without_welds_and_holds_home():
         f"close{i}{s}" for i in (1, 2, 3) for s in "ab"
     }
     assert model.body("claws_mount").parentid == model.body("platform").id
-    data = mujoco.MjData(model)
-    data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, -0.8))
-    data.ctrl[:3] = delta_robot.home_ctrl(cfg)
-    data.ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
-    mujoco.mj_forward(model, data)
     seat = data.body("p003").xpos.copy()
     for _ in range(500):
         mujoco.mj_step(model, data)
@@ -75,15 +82,8 @@ def test_the_scene_builds_without_welds_and_holds_home():
 def test_a_dropped_plug_lands_on_the_tray_not_through_it(cell):
     """A plug off the pins over a cell the job does not touch lands on that cell's plug (its
     surface 3 mm below the walls' top) or, where the cell is empty, on the tray's plate."""
-    q0 = tuple(float(v) for v in KIN.joints(np.array([0.0, 0.0, -0.8])))
-    cfg = DeltaSceneConfig(home_q_rad=q0)
-    planting, supply = draw_tray(SEED), draw_tray(SEED + 1000003)
+    cfg, planting, model, data = _home_scene()
     assert (planting.cells[cell].seedling is None) == (cell == 92)
-    model = compile_scene(build_delta_spec(cfg, planting, supply, JobCells((3,), (), (0,))))
-    data = mujoco.MjData(model)
-    data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, -0.8))
-    data.ctrl[:3] = delta_robot.home_ctrl(cfg)
-    data.ctrl[3:6] = plug_claws.home_ctrl(cfg.claws)
     qa = model.jnt_qposadr[model.joint("p003").id]
     x, y = cfg.cell_xy("planting", cell)
     height = 0.039  # the plug: 42 mm cell less its surface 3 mm below the top
@@ -99,13 +99,7 @@ def test_a_dropped_plug_lands_on_the_tray_not_through_it(cell):
 def test_a_plug_off_the_pins_but_wedged_in_the_stripper_is_judged_jammed():
     """Seed 7's refill that sheared off the pins on a dropped cull and rode wedged between the
     stripper's blocks: `jammed`, not `dropped` (a plug off the pins lying on the tray)."""
-    q0 = tuple(float(v) for v in KIN.joints(np.array([0.0, 0.0, -0.8])))
-    cfg = DeltaSceneConfig(home_q_rad=q0)
-    planting, supply = draw_tray(SEED), draw_tray(SEED + 1000003)
-    model = compile_scene(build_delta_spec(cfg, planting, supply, JobCells((3,), (), (0,))))
-    data = mujoco.MjData(model)
-    data.qpos[:] = delta_robot.home_qpos(model, cfg, (0.0, 0.0, -0.8))
-    mujoco.mj_forward(model, data)
+    cfg, _, model, data = _home_scene()
     sub = Substrate(cfg.plugs)
     cull, refill = PlugPhysics(model, data, "p003", sub), PlugPhysics(model, data, "s000", sub)
     judge = delta_refill.DeltaRefillJudge(model, cfg, (0.4, 0.0), 0.006)

@@ -84,7 +84,7 @@ class Job:
 
 
 def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
-    from transplanter.twin.delta_refill import run_delta_refill
+    from transplanter.twin.delta_refill import FAULT_KINDS, run_delta_refill
 
     r = run_delta_refill(scenario, seed)
     # each operation from the end of the one before (the first from the claws' arrival):
@@ -105,7 +105,8 @@ def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
         fault_kind=None
         if r.fault is None
         else next(
-            (k for k in ("drive_alarm", "unstable", "controller_error") if k in r.failures), None
+            (k for k in (*(k for k, _ in FAULT_KINDS), "controller_error") if k in r.failures),
+            None,
         ),
         sim_time_s=r.sim_time_s,
         wall_time_s=r.wall_time_s,
