@@ -9,8 +9,17 @@ for it (the approach line): per row, the sd of its offset across the belt (x) an
 offsets, levene on their spread) per row and over the rows that entered the window. Asserts
 nothing; --json writes every offset and outcome.
 
+Two switches take out what the model does to a pot wherever it is pushed, with or without the
+window (docs/performance.md, "Why the far rows drift"; benchmarks/push_drift.py measures them
+on the belt alone): `--drive stepper` drives each index with the conveyor stepper's own
+stiffness and damping instead of the index PD, so the carriage's lag no longer grows with the
+pots it pushes; `--collider libccd` collides the pots' cylinders with the table's and ribs'
+boxes with MuJoCo's libccd instead of its native collider, whose contact pushes a pot sideways
+by how far it stands from the table box's centre.
+
     python benchmarks/window_evidence.py paper --rows 16 --live 8 --seeds 1-6 --seedlings 80
     python benchmarks/window_evidence.py paper --set taught.z_low_mm=28 ...
+    python benchmarks/window_evidence.py paper --drive stepper --collider libccd ...
 """
 
 from __future__ import annotations
@@ -19,7 +28,9 @@ import argparse
 import json
 import time
 from collections import Counter
+from dataclasses import replace
 
+import mujoco
 import numpy as np
 from scipy import stats
 
@@ -31,8 +42,13 @@ from transplanter.twin.results import Outcome
 from transplanter.twin.sim import LineEventKind, Twin
 from transplanter.twin.trial import run_trial
 
+STRUCK_M = 0.006  # a pot this far from its cell centre was struck out of it (m)
 
-def run(scenario: str, overrides: dict, seed: int, seedlings: int) -> dict:
+
+def run(
+    scenario: str, overrides: dict, seed: int, seedlings: int, drive: str = "model",
+    collider: str = "native",
+) -> dict:  # fmt: skip
     """One trial: its outcomes and, per seedling, its pot's offset in its cell (m) when the
     arm is sent for it."""
     config = assemble(
@@ -40,10 +56,18 @@ def run(scenario: str, overrides: dict, seed: int, seedlings: int) -> dict:
             scenario, {**overrides, "scenario.seed": seed, "scenario.seedlings": seedlings}
         )  # fmt: skip
     )
+    if drive == "stepper":  # the index drive as stiff as the stepper's hold between indexes
+        sc = config.scene
+        config = replace(config, scene=replace(
+            sc, conveyor_kp_n_m=sc.conveyor_hold_stiffness_n_m,
+            conveyor_kd_n_s_m=sc.conveyor_hold_damping_n_s_m,
+        ))  # fmt: skip
     offsets: dict[int, tuple[float, float]] = {}
 
     def factory(cfg):
         twin = Twin(cfg)
+        if collider == "libccd":
+            twin.scene.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_NATIVECCD)
 
         def at_approach(event):
             line = event.line
@@ -79,6 +103,8 @@ def main() -> None:
     parser.add_argument("--live", type=int, default=8)
     parser.add_argument("--seeds", default="1-6")
     parser.add_argument("--seedlings", type=int, default=80)
+    parser.add_argument("--drive", choices=("model", "stepper"), default="model")
+    parser.add_argument("--collider", choices=("native", "libccd"), default="native")
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
     base = dict(kv.split("=", 1) for kv in args.set)
@@ -89,12 +115,13 @@ def main() -> None:
     for seed in parse_seeds(args.seeds):
         for name, live in modes.items():
             runs[name].append(run(args.scenario, {**base, "conveyor.live_rows": live}, seed,
-                                  args.seedlings))  # fmt: skip
+                                  args.seedlings, args.drive, args.collider))  # fmt: skip
             r = runs[name][-1]
             print(f"  seed {seed} {name}: {r['wall_s']:.1f} s wall, "
                   f"{Counter(r['outcomes']).most_common()}", flush=True)  # fmt: skip
     print(f"{args.scenario} {' '.join(args.set)}, {args.rows} rows, seeds {args.seeds}, "
-          f"{args.seedlings} seedlings each")  # fmt: skip
+          f"{args.seedlings} seedlings each, drive {args.drive}, "
+          f"collider {args.collider}")  # fmt: skip
     for name, trials in runs.items():
         ok = [sum(o == Outcome.SUCCESS for o in t["outcomes"]) for t in trials]
         pooled = pooled_rate(ok, [len(t["outcomes"]) for t in trials])
@@ -104,30 +131,42 @@ def main() -> None:
               f"{100 * pooled.success_rate:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]  "
               f"{dict(sorted(kinds.items()))}")  # fmt: skip
     cols = 5
-    by_row = {name: {} for name in modes}
+    by_row: dict[str, dict[int, list]] = {name: {} for name in modes}
+    struck = Counter()
     for name, trials in runs.items():
         for t in trials:
             for pot, xy in t["offsets"].items():
+                if max(abs(v) for v in xy) > STRUCK_M:  # struck out of its cell: not an offset
+                    struck[name] += 1
+                    continue
                 by_row[name].setdefault(int(pot) // cols, []).append(xy)
-    full, win = (by_row[n] for n in modes)
-    print("row  n  sd x (mm) full / window  sd y (mm) full / window  KS p (x)  Levene p (x)")
-    pooled_full, pooled_win = [], []
-    for row in sorted(set(full) & set(win)):
-        a, b = np.array(full[row]) * 1e3, np.array(win[row]) * 1e3
+    full, win = ({r: np.array(v) * 1e3 for r, v in by_row[n].items()} for n in modes)
+    print(f"pots struck out of their cells, left out: {dict(struck) or 'none'}")
+    print(
+        "row  n  sd x (mm) full / window  sd y (mm) full / window  KS p (x)  Levene p (x)"
+        "  mean x (mm) full / window"
+    )
+    rows = sorted(set(full) & set(win))
+    for row in rows:
+        a, b = full[row], win[row]
         ks = stats.ks_2samp(a[:, 0], b[:, 0]).pvalue
         lev = stats.levene(a[:, 0], b[:, 0]).pvalue
         print(f"{row:>3} {len(a):>3}  {a[:, 0].std(ddof=1):5.2f} / {b[:, 0].std(ddof=1):5.2f}"
               f"             {a[:, 1].std(ddof=1):5.2f} / {b[:, 1].std(ddof=1):5.2f}"
-              f"             {ks:6.3f}    {lev:6.3f}")  # fmt: skip
-        if row >= args.live:
-            pooled_full.append(a)
-            pooled_win.append(b)
-    if pooled_full:
-        a, b = np.concatenate(pooled_full), np.concatenate(pooled_win)
+              f"             {ks:6.3f}    {lev:6.3f}"
+              f"       {a[:, 0].mean():+5.2f} / {b[:, 0].mean():+5.2f}")  # fmt: skip
+    groups = {f"rows < {args.live}": [r for r in rows if r < args.live],
+              f"rows >= {args.live}": [r for r in rows if r >= args.live]}  # fmt: skip
+    for group, members in groups.items():
+        if not members:
+            continue
+        a = np.concatenate([full[r] for r in members])
+        b = np.concatenate([win[r] for r in members])
         for axis, label in ((0, "across (x)"), (1, "along (y)")):
             ks = stats.ks_2samp(a[:, axis], b[:, axis]).pvalue
             lev = stats.levene(a[:, axis], b[:, axis]).pvalue
-            print(f"rows >= {args.live} pooled, {label}: n {len(a)}/{len(b)}, sd "
+            print(f"{group} pooled, {label}: n {len(a)}/{len(b)}, mean "
+                  f"{a[:, axis].mean():+.2f} / {b[:, axis].mean():+.2f} mm, sd "
                   f"{a[:, axis].std(ddof=1):.2f} / {b[:, axis].std(ddof=1):.2f} mm, "
                   f"KS p {ks:.3f}, Levene p {lev:.3f}")  # fmt: skip
     for name, trials in runs.items():
