@@ -14,21 +14,20 @@ It separates what the window of live rows (`conveyor.live_rows`) changes from wh
 does wherever a pot is pushed (docs/performance.md, "Why the far rows drift"):
 
 - `--live L` (< rows): the window, as a trial has it (rows enter as slots free up);
-- `--drive stepper`: the index drive follows its profile with the conveyor stepper's own
-  stiffness and damping (`SceneConfig.conveyor_hold_stiffness_n_m`, the hold between indexes)
-  instead of the index PD (`conveyor_kp_n_m`, `conveyor_kd_n_s_m`);
+- `--drive pd|stepper`: `SceneConfig.conveyor_index_drive`, the index PD (`conveyor_kp_n_m`,
+  `conveyor_kd_n_s_m`) or the conveyor stepper's own stiffness and damping about a set point
+  that follows the profile;
 - `--collider libccd`: MuJoCo's convex collider for the pots' cylinders against the boxes of
   the table and ribs is libccd (`mjDSBL_NATIVECCD`) instead of its native one;
 - `--table-shift M`: the belt table's box is M metres longer beyond the far end of the belt
   (its top and front edge where they were; only its centre moves);
-- `--feet K`: a trial of a change not made to the model: each pot stands on the table on a
-  ring of K small spheres inside its base (a sphere on a box is a pair MuJoCo collides in
-  closed form), and its cylinder no longer touches the table (it still touches everything
-  else). A body per pot only.
+- `--feet K`: `SceneConfig.pot_feet`, each pot on a ring of K sphere feet inside its base
+  that alone touch the table (0: its cylinder stands on the table's box).
 
     python benchmarks/push_drift.py --rows 24 --seeds 1-6 --indexes 8
     python benchmarks/push_drift.py --rows 24 --live 8 --seeds 1-6 --indexes 8
     python benchmarks/push_drift.py --rows 24 --seeds 1-6 --collider libccd
+    python benchmarks/push_drift.py --rows 32 --live 12 --drive stepper --feet 8 --indexes 16
 """
 
 from __future__ import annotations
@@ -43,43 +42,12 @@ import numpy as np
 
 from transplanter.scenario.assemble import assemble
 from transplanter.scenario.schema import load_scenario
-from transplanter.scene import ConveyorDrive, build_scene, kinds
-from transplanter.scene.build import compile_with_home, full_spec
-from transplanter.scene.config import BIT_POT
-from transplanter.scene.handles import Scene
+from transplanter.scene import ConveyorDrive, build_scene
+from transplanter.scene.config import INDEX_DRIVES
 from transplanter.studies.stats import parse_seeds
 
 REST_S = 1.5  # at rest after each index, before the pots' offsets are read
 STRUCK_M = 0.006  # a pot this far across the belt from its cell centre was struck out of it
-FOOT_RADIUS_M = 0.0015  # --feet: the spheres' radius
-BIT_TABLE, BIT_FOOT = 16, 32  # --feet: collision bits no geom of the scene uses
-
-
-def scene_on_feet(cfg, seed: int, k: int) -> Scene:
-    """The scene with each pot on a ring of k sphere feet that alone touch the table."""
-    spec, pots = full_spec(cfg, seed, decor=False)
-    for i in range(cfg.rows * cfg.cols):
-        r, c = divmod(i, cfg.cols)
-        wall = spec.geom(f"pot_{r}_{c}")
-        radius, half = wall.size[0], wall.size[1]
-        body = spec.body(f"pot_{r}_{c}")
-        for j in range(k):
-            a = 2 * np.pi * j / k
-            foot = body.add_geom()
-            foot.type = mujoco.mjtGeom.mjGEOM_SPHERE
-            foot.size = [FOOT_RADIUS_M, 0, 0]
-            foot.pos = [wall.pos[0] + (radius - FOOT_RADIUS_M) * np.cos(a),
-                        wall.pos[1] + (radius - FOOT_RADIUS_M) * np.sin(a),
-                        wall.pos[2] - half + FOOT_RADIUS_M]  # fmt: skip
-            foot.contype, foot.conaffinity = BIT_FOOT, 0
-            foot.condim, foot.priority = wall.condim, wall.priority
-            foot.friction, foot.solref, foot.solimp = wall.friction, wall.solref, wall.solimp
-            foot.mass, foot.group = 0, 3
-    table = spec.geom("belt_table")
-    table.contype = BIT_TABLE  # the pots' cylinders (BIT_POT) no longer touch it
-    table.conaffinity = BIT_FOOT | (table.conaffinity & ~BIT_POT)
-    proxies = kinds.workcell(cfg.workcell_kind).leaf_proxies(cfg, pots)
-    return Scene(compile_with_home(spec, cfg), cfg, pots, proxies)
 
 
 def run(args: argparse.Namespace, seed: int) -> dict:
@@ -88,11 +56,10 @@ def run(args: argparse.Namespace, seed: int) -> dict:
     overrides = {"scenario.seed": seed, "conveyor.rows": args.rows,
                  "conveyor.live_rows": args.live or args.rows}  # fmt: skip
     config = assemble(load_scenario(args.scenario, overrides))
-    cfg = config.scene
-    if args.drive == "stepper":
-        cfg = replace(cfg, conveyor_kp_n_m=cfg.conveyor_hold_stiffness_n_m,
-                      conveyor_kd_n_s_m=cfg.conveyor_hold_damping_n_s_m)  # fmt: skip
-    scene = scene_on_feet(cfg, seed, args.feet) if args.feet else build_scene(cfg, seed=seed)
+    sc = config.scene
+    cfg = replace(sc, conveyor_index_drive=args.drive or sc.conveyor_index_drive,
+                  pot_feet=sc.pot_feet if args.feet is None else args.feet)  # fmt: skip
+    scene = build_scene(cfg, seed=seed)
     m = scene.model
     if args.collider == "libccd":
         m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_NATIVECCD)
@@ -141,14 +108,14 @@ def main() -> None:
     parser.add_argument("--live", type=int, default=0, help="live rows (0: a body per pot)")
     parser.add_argument("--seeds", default="1-6")
     parser.add_argument("--indexes", type=int, default=8)
-    parser.add_argument("--drive", choices=("model", "stepper"), default="model")
+    parser.add_argument("--drive", choices=INDEX_DRIVES, default=None,
+                        help="conveyor_index_drive (default: the model's)")  # fmt: skip
     parser.add_argument("--collider", choices=("native", "libccd"), default="native")
     parser.add_argument("--table-shift", type=float, default=0.0, metavar="M")
-    parser.add_argument("--feet", type=int, default=0, metavar="K")
+    parser.add_argument("--feet", type=int, default=None, metavar="K",
+                        help="pot_feet (0: cylinders; default: the model's)")  # fmt: skip
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
-    if args.feet and args.live:
-        parser.error("--feet builds a body per pot: leave out --live")
     t0 = time.perf_counter()
     seeds = [run(args, seed) for seed in parse_seeds(args.seeds)]
     by_push: dict[int, list] = {}
@@ -172,8 +139,8 @@ def main() -> None:
                     first_by_col.setdefault(pot % cols, []).append(x)
     print(f"{args.scenario}, {args.rows} rows, "
           f"{'window of ' + str(args.live) if args.live else 'a body per pot'}, "
-          f"drive {args.drive}, collider {args.collider}, table shift {args.table_shift} m, "
-          f"{f'{args.feet} sphere feet' if args.feet else 'cylinders on the table'}, "
+          f"drive {args.drive or 'model'}, collider {args.collider}, "
+          f"table shift {args.table_shift} m, pot feet {args.feet or 'model'}, "
           f"seeds {args.seeds}, {args.indexes} indexes")  # fmt: skip
     print(
         "pushes    n   across: mean   sd (mm)   along: mean   sd (mm)"

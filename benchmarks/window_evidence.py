@@ -9,17 +9,19 @@ for it (the approach line): per row, the sd of its offset across the belt (x) an
 offsets, levene on their spread) per row and over the rows that entered the window. Asserts
 nothing; --json writes every offset and outcome.
 
-Two switches take out what the model does to a pot wherever it is pushed, with or without the
-window (docs/performance.md, "Why the far rows drift"; benchmarks/push_drift.py measures them
-on the belt alone): `--drive stepper` drives each index with the conveyor stepper's own
-stiffness and damping instead of the index PD, so the carriage's lag no longer grows with the
-pots it pushes; `--collider libccd` collides the pots' cylinders with the table's and ribs'
-boxes with MuJoCo's libccd instead of its native collider, whose contact pushes a pot sideways
-by how far it stands from the table box's centre.
+Three switches take out what the model does to a pot wherever it is pushed, with or without
+the window (docs/performance.md, "Why the far rows drift"; benchmarks/push_drift.py measures
+them on the belt alone): `--drive stepper` (`SceneConfig.conveyor_index_drive`) drives each
+index with the conveyor stepper's own stiffness and damping instead of the index PD, so the
+carriage's lag no longer grows with the pots it pushes; `--feet K` (`SceneConfig.pot_feet`)
+stands each pot on K sphere feet, and `--collider libccd` collides the pots' cylinders with the
+table's and ribs' boxes with MuJoCo's libccd instead of its native collider: either takes out
+the native cylinder-on-box contact that pushes a pot sideways by where it stands on the table.
 
     python benchmarks/window_evidence.py paper --rows 16 --live 8 --seeds 1-6 --seedlings 80
     python benchmarks/window_evidence.py paper --set taught.z_low_mm=28 ...
     python benchmarks/window_evidence.py paper --drive stepper --collider libccd ...
+    python benchmarks/window_evidence.py paper --drive stepper --feet 8 --rows 24 --live 12 ...
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from scipy import stats
 from transplanter.machine.pgf import LinePhase
 from transplanter.scenario.assemble import assemble
 from transplanter.scenario.schema import load_scenario, parse_value
+from transplanter.scene.config import INDEX_DRIVES
 from transplanter.studies.stats import parse_seeds, pooled_rate
 from transplanter.twin.results import Outcome
 from transplanter.twin.sim import LineEventKind, Twin
@@ -46,8 +49,8 @@ STRUCK_M = 0.006  # a pot this far from its cell centre was struck out of it (m)
 
 
 def run(
-    scenario: str, overrides: dict, seed: int, seedlings: int, drive: str = "model",
-    collider: str = "native",
+    scenario: str, overrides: dict, seed: int, seedlings: int, drive: str | None = None,
+    collider: str = "native", feet: int | None = None,
 ) -> dict:  # fmt: skip
     """One trial: its outcomes and, per seedling, its pot's offset in its cell (m) when the
     arm is sent for it."""
@@ -56,12 +59,11 @@ def run(
             scenario, {**overrides, "scenario.seed": seed, "scenario.seedlings": seedlings}
         )  # fmt: skip
     )
-    if drive == "stepper":  # the index drive as stiff as the stepper's hold between indexes
-        sc = config.scene
-        config = replace(config, scene=replace(
-            sc, conveyor_kp_n_m=sc.conveyor_hold_stiffness_n_m,
-            conveyor_kd_n_s_m=sc.conveyor_hold_damping_n_s_m,
-        ))  # fmt: skip
+    sc = config.scene
+    config = replace(config, scene=replace(
+        sc, conveyor_index_drive=drive or sc.conveyor_index_drive,
+        pot_feet=sc.pot_feet if feet is None else feet,
+    ))  # fmt: skip
     offsets: dict[int, tuple[float, float]] = {}
 
     def factory(cfg):
@@ -103,7 +105,10 @@ def main() -> None:
     parser.add_argument("--live", type=int, default=8)
     parser.add_argument("--seeds", default="1-6")
     parser.add_argument("--seedlings", type=int, default=80)
-    parser.add_argument("--drive", choices=("model", "stepper"), default="model")
+    parser.add_argument("--drive", choices=INDEX_DRIVES, default=None,
+                        help="conveyor_index_drive (default: the model's)")  # fmt: skip
+    parser.add_argument("--feet", type=int, default=None, metavar="K",
+                        help="pot_feet (0: cylinders; default: the model's)")  # fmt: skip
     parser.add_argument("--collider", choices=("native", "libccd"), default="native")
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
@@ -115,13 +120,14 @@ def main() -> None:
     for seed in parse_seeds(args.seeds):
         for name, live in modes.items():
             runs[name].append(run(args.scenario, {**base, "conveyor.live_rows": live}, seed,
-                                  args.seedlings, args.drive, args.collider))  # fmt: skip
+                                  args.seedlings, args.drive, args.collider,
+                                  args.feet))  # fmt: skip
             r = runs[name][-1]
             print(f"  seed {seed} {name}: {r['wall_s']:.1f} s wall, "
                   f"{Counter(r['outcomes']).most_common()}", flush=True)  # fmt: skip
     print(f"{args.scenario} {' '.join(args.set)}, {args.rows} rows, seeds {args.seeds}, "
-          f"{args.seedlings} seedlings each, drive {args.drive}, "
-          f"collider {args.collider}")  # fmt: skip
+          f"{args.seedlings} seedlings each, drive {args.drive or 'model'}, "
+          f"collider {args.collider}, pot feet {args.feet or 'model'}")  # fmt: skip
     for name, trials in runs.items():
         ok = [sum(o == Outcome.SUCCESS for o in t["outcomes"]) for t in trials]
         pooled = pooled_rate(ok, [len(t["outcomes"]) for t in trials])

@@ -13,7 +13,14 @@ from conftest import paper_config, paper_scenario
 from transplanter.scenario.schema import ScenarioError
 from transplanter.scene import ConveyorDrive, build_scene
 from transplanter.scene.config import MIN_LIVE_ROWS, SceneConfig, row_bit
-from transplanter.scene.live_rows import _BODY_FIELDS, _DOF_FIELDS, _GEOM_FIELDS, GONE, LIVE
+from transplanter.scene.live_rows import (
+    _BODY_FIELDS,
+    _DOF_FIELDS,
+    _FOOT_FIELDS,
+    _GEOM_FIELDS,
+    GONE,
+    LIVE,
+)
 from transplanter.twin.results import Outcome
 from transplanter.twin.sim import Twin
 from transplanter.twin.trial import run_trial
@@ -43,11 +50,13 @@ def test_live_rows_covering_the_belt_build_the_scene_of_a_body_per_pot():
         assert np.array_equal(getattr(windowless.model, name), getattr(wide.model, name)), name
 
 
-def test_an_entering_row_takes_the_fields_and_place_a_body_per_pot_has():
+@pytest.mark.parametrize("feet", [0, 8])
+def test_an_entering_row_takes_the_fields_and_place_a_body_per_pot_has(feet):
     """Row 6 enters the slots row 0 leaves: each slot gets exactly the compiled fields of
-    that pot's own body in a scene with a body per pot, and stands in its cell where the
-    carriage has carried it."""
-    window_cfg = SceneConfig(rows=10, live_rows=6, pot_soft_share=0.4)
+    that pot's own body in a scene with a body per pot (its feet too, when the pots stand on
+    feet: their ring follows the pot's radius, their height its base), and stands in its
+    cell where the carriage has carried it."""
+    window_cfg = SceneConfig(rows=10, live_rows=6, pot_soft_share=0.4, pot_feet=feet)
     scene = build_scene(window_cfg, seed=5)
     full = build_scene(dataclasses.replace(window_cfg, live_rows=10), seed=5)
     data = scene.make_data()
@@ -74,6 +83,11 @@ def test_an_entering_row_takes_the_fields_and_place_a_body_per_pot_has():
         for name in _GEOM_FIELDS:
             assert np.array_equal(getattr(m, name)[geom], getattr(f, name)[fgeom]), name
         assert m.geom_contype[geom] & row_bit(6)
+        for k in range(feet):
+            foot, ffoot = m.geom(f"foot_0_{c}_{k}").id, f.geom(f"foot_6_{c}_{k}").id
+            assert m.geom_bodyid[foot] == body
+            for name in _FOOT_FIELDS:
+                assert np.array_equal(getattr(m, name)[foot], getattr(f, name)[ffoot]), name
         # its place: its cell and drawn offset, carried one row pitch
         start = f.qpos0[full.pot_qpos_adr[30 + c] : full.pot_qpos_adr[30 + c] + 3]
         assert np.allclose(data.xpos[body], start - [0, pitch, 0], atol=1e-12)

@@ -2,6 +2,7 @@
 
 import copy
 import math
+from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -671,6 +672,107 @@ def test_the_conveyor_drive_holds_the_carriage_between_indexes():
     run.step(400)
     assert abs(conveyor.displacement(data)) < 2e-4
     assert data.ntree_awake == 1  # the hold lets it sleep (a passive force, no actuator)
+
+
+def _pushed(cfg, seed, pushes=1):
+    """A belt (no pots picked) pushed `pushes` times at the paper's 0.6 s index, 1.5 s at
+    rest after each: the scene, its data, the carriage's largest lag behind its profile (m)
+    and every pot's offset from its cell centre (x across, y along; m)."""
+    scene = build_scene(cfg, seed=seed)
+    data, drive = scene.make_data(), ConveyorDrive(scene)
+    for _ in range(500):
+        mujoco.mj_step(scene.model, data)
+    lag = 0.0
+    for _ in range(pushes):
+        drive.start(data, data.time, 0.6)
+        while drive.armed(data):
+            drive.apply(data, data.time)
+            q_ref, _ = drive.reference(data, data.time)
+            lag = max(lag, abs(q_ref - drive.position(data)))
+            mujoco.mj_step(scene.model, data)
+        for _ in range(1500):
+            mujoco.mj_step(scene.model, data)
+    cells = scene.pots.cell_xy + [0.0, drive.position(data)]
+    return scene, data, lag, scene.pot_positions(data)[:, :2] - cells
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rows", [8, 24])
+def test_the_stepper_index_follows_its_profile_whatever_the_pots_it_pushes(rows):
+    """The "stepper" index drive (the hold's set point moved along the profile) lags it by
+    less than 0.5 mm with 8 rows of pots or 24, and leaves the pots centred along the belt;
+    the "pd" estimate lags by the pots' friction (about 3 mm with 24 rows) and leaves them
+    ahead by its overshoot."""
+    cfg = SceneConfig(rows=rows, live_rows=rows, conveyor_index_drive="stepper")
+    scene, data, lag, offset = _pushed(cfg, seed=2)
+    on_belt = slice(2 * cfg.cols, None)  # row 0 went off the edge, row 1 is its neighbour
+    assert lag < 5e-4
+    assert abs(offset[on_belt, 1].mean()) < 3e-4
+    k, b = cfg.conveyor_hold_stiffness_n_m, cfg.conveyor_hold_damping_n_s_m
+    assert model_hold(scene) == pytest.approx((k, b))  # the hold stayed on throughout
+    assert scene.model.qpos_spring[scene.conveyor_qpos_adr] == pytest.approx(-cfg.row_pitch_m)
+    if rows == 24:
+        _, _, pd_lag, pd_offset = _pushed(replace(cfg, conveyor_index_drive="pd"), seed=2)
+        assert pd_lag > 2e-3
+        assert offset[on_belt, 1].mean() + 1e-3 < pd_offset[on_belt, 1].mean()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2])
+def test_pots_on_feet_are_pushed_alike_wherever_they_stand_on_the_table(seed):
+    """On sphere feet a pushed pot ends where its cell leaves it, on the near half of the belt
+    as on the far half (a cylinder on the table's box is pushed sideways by where it stands
+    on it: +0.5 to +1 mm more on the far half after one push)."""
+    cfg = SceneConfig(rows=24, live_rows=24, conveyor_index_drive="stepper", pot_feet=8)
+    _, _, _, offset = _pushed(cfg, seed=seed)
+    across = offset[:, 0].reshape(cfg.rows, cfg.cols)[2:]  # rows on the belt
+    near, far = across[:11].mean(), across[11:].mean()
+    assert abs(far - near) < 3e-4
+    assert abs(across.mean()) < 4e-4
+
+
+def test_only_the_feet_of_pots_on_feet_touch_the_table():
+    """With pot_feet the table touches the pots' feet (and the gripper, and bond pads), never
+    their cylinders; the feet touch nothing else. Every pot stands on its feet."""
+    cfg = SceneConfig(rows=3, cols=3, pot_feet=8, pot_crooked_share=0.4, pot_bond_share=0.5,
+                      pot_bond_force_n=5.0)  # fmt: skip
+    scene = build_scene(cfg, seed=4)
+    m = scene.model
+    data = scene.make_data()
+    for _ in range(300):
+        mujoco.mj_step(m, data)
+    table = m.geom("belt_table").id
+    feet = {m.geom(f"foot_{r}_{c}_{k}").id for r in range(3) for c in range(3) for k in range(8)}
+    touching = set()
+    for con in data.contact[: data.ncon]:
+        pair = {int(con.geom1), int(con.geom2)}
+        if pair & feet:
+            assert table in pair
+        if table in pair:
+            other = (pair - {table}).pop()
+            assert other in feet or (m.geom(other).name or "").startswith("pot_base_")
+            touching.add(m.geom_bodyid[other])
+    assert {m.geom_bodyid[f] for f in feet} == {m.body(f"pot_{r}_{c}").id for r in range(3)
+                                                  for c in range(3)}  # fmt: skip
+    assert len(touching) == 9 or data.ntree_awake < 9  # asleep pots keep no contacts
+    # each pot stands as high as on its cylinder (crooked and bonded pots too)
+    cylinder = build_scene(replace(cfg, pot_feet=0), seed=4)
+    data0 = cylinder.make_data()
+    for _ in range(300):
+        mujoco.mj_step(cylinder.model, data0)
+    heights = scene.pot_positions(data)[:, 2]
+    np.testing.assert_allclose(heights, cylinder.pot_positions(data0)[:, 2], atol=1e-4)
+    assert np.abs(heights - scene.pots.height / 2).min() < 1e-4
+    gripper = m.geom("jaw_left").id
+    assert m.geom_contype[gripper] & m.geom_conaffinity[table]
+
+
+def test_feet_and_index_drives_out_of_range_are_refused():
+    for feet in (-1, 1, 2, 17, 8.0):
+        with pytest.raises(ValueError, match="pot_feet"):
+            SceneConfig(pot_feet=feet)
+    with pytest.raises(ValueError, match="conveyor_index_drive must be one of pd, stepper"):
+        SceneConfig(conveyor_index_drive="servo")
 
 
 def model_hold(scene):

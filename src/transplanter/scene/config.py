@@ -23,6 +23,10 @@ BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
 BIT_CANOPY = 8  # leaf proxies (with SceneConfig.canopy_contact): they touch the jaws only
+# With SceneConfig.pot_feet > 0 the belt table is BIT_TABLE and touches only the pots' feet
+# (BIT_FOOT), the bond pads (BIT_FOOT) and the gripper; the pots' cylinders no longer touch it.
+BIT_TABLE = 16
+BIT_FOOT = 32
 ROW_BIT_FIRST = 8
 ROW_BITS = 23
 
@@ -109,6 +113,12 @@ SHOOT_SPREAD = 0.085
 CROOKED_FOOT_HEIGHT = 0.006
 # The deepest a pot's soil may lie below its rim (m; SceneConfig.pot_fill_gap_m).
 POT_FILL_GAP_MAX = 0.02
+# A pot's feet (SceneConfig.pot_feet): spheres of this radius (m) on a ring inside the rim of
+# its base, touching the base's plane from above (their lowest points on it).
+POT_FOOT_RADIUS = 0.0015
+# The most feet a pot may stand on (more cost more contacts and change nothing measured).
+POT_FEET_MAX = 16
+INDEX_DRIVES = ("pd", "stepper")
 
 
 @dataclass(frozen=True)
@@ -219,6 +229,12 @@ class SceneConfig:
     conveyor_frictionloss_n: float = 5.0
     conveyor_kp_n_m: float = 20000.0
     conveyor_kd_n_s_m: float = 400.0
+    # What drives the carriage along the index profile: "pd", a PD force with the gains above
+    # (estimates; it lags by the friction of the pots it pushes: 1.1 mm with 8 rows of pots,
+    # 2.9 mm with 24), or "stepper", the conveyor stepper's own stiffness and damping (the
+    # hold below) about a set point that follows the profile, with the damping fed the
+    # profile's speed (0.08 / 0.26 mm); docs/performance.md, "Why the far rows drift".
+    conveyor_index_drive: str = "pd"
     conveyor_settle_s: float = 0.10
     conveyor_push_share: float = 0.85
     conveyor_overshoot_m: float | None = None
@@ -245,6 +261,13 @@ class SceneConfig:
     pot_offset_max_m: float = 0.003
     pot_friction: float = 0.6
     pot_friction_sd: float = 0.05
+    # How a pot stands on the belt table: 0, its collision cylinder's base on the table's box
+    # (MuJoCo's native convex collider, which pushes a pot sideways by where it stands on the
+    # box at every index push), or on this many sphere feet (POT_FOOT_RADIUS) on a ring inside
+    # its base, which alone touch the table (a sphere on a box is a closed-form pair, no
+    # bias); the cylinder still touches everything else. docs/performance.md, "Why the far
+    # rows drift".
+    pot_feet: int = 0
     # Pots bonded to the belt (roots through the drainage hole, wet paper): the share of pots
     # with a bond, its median strength (N) and the spread (sd of ln strength, log-normal).
     # A bond is MuJoCo adhesion at the pot's base, acting on its contact with the belt only.
@@ -348,6 +371,20 @@ class SceneConfig:
             raise ValueError(
                 "SceneConfig.detent_torque_nm must be below the holding torque "
                 f"({self.holding_torque_nm} N m), got {self.detent_torque_nm}"
+            )
+        if self.conveyor_index_drive not in INDEX_DRIVES:
+            raise ValueError(
+                f"SceneConfig.conveyor_index_drive must be one of {', '.join(INDEX_DRIVES)}, "
+                f"got {self.conveyor_index_drive!r}"
+            )
+        if not (
+            isinstance(self.pot_feet, (int, np.integer))
+            and (self.pot_feet == 0 or 3 <= self.pot_feet <= POT_FEET_MAX)
+        ):
+            raise ValueError(
+                f"SceneConfig.pot_feet must be 0 (the pot's cylinder stands on the table) or an "
+                f"integer from 3 (fewer do not stand a pot up) to {POT_FEET_MAX}, got "
+                f"{self.pot_feet!r}"
             )
         if self.rows < 1 or self.cols < 1:
             raise ValueError(

@@ -9,7 +9,11 @@ index ended at; a passive force lets the tree sleep at rest, an actuator would n
 `ConveyorDrive.start(data, now, total_s)` arms a smooth profile followed by a short hold,
 all within total_s (the carriage is at rest and released by now + total_s, when the firmware
 acknowledges M710); `apply(data, now)`, called before every physics step while
-`armed(data)`, writes a PD force following it into `qfrc_applied` of the conveyor dof. A
+`armed(data)`, drives the carriage along it (SceneConfig.conveyor_index_drive): "pd" writes a
+PD force following it into `qfrc_applied` of the conveyor dof (the hold off meanwhile);
+"stepper" moves the hold's set point (`qpos_spring`) along it, so the stepper's own stiffness
+pulls the carriage, and writes the damping times the profile's speed into `qfrc_applied`
+(the joint's damping then acts on the carriage's speed relative to the profile's). A
 non-zero applied force is MuJoCo's documented way to wake a sleeping tree, and writing back
 an exact 0.0 at the end lets it fall asleep again. The profile overshoots by the cell
 clearance and comes back, so the ribs push every pot to its new cell centre and then leave
@@ -19,8 +23,9 @@ Where the state lives: the index state (active flag, start time, profile duratio
 start position) is in data.userdata[0:USERDATA_CONVEYOR], nowhere else, so it is part of
 the MjData and copies with it (mujoco.mj_copyData, copy.copy). The drive object itself holds
 only constants of the model (addresses, gains), so one drive serves any MjData of its scene.
-The hold is in the model (jnt_stiffness and dof_damping of the slide, off during an index;
-qpos_spring, the held position, set as each index ends), edited like the ribs below.
+The hold is in the model (jnt_stiffness and dof_damping of the slide, off during a "pd"
+index; qpos_spring, the held position, moved along a "stepper" index and set as each index
+ends), edited like the ribs below.
 
 Rows past the edge: each row's ribs collide only with that row's pots (collision bits
 8..31). When an index carries a row's cells off the belt's top run, its ribs go round the
@@ -83,9 +88,10 @@ class ConveyorDrive:
             rows = self.config.rib_slot_rows
             self._rib_bodies = np.array([m.body(f"ribs_{k}").id for k in range(rows)])
         # The drive's hold (joint stiffness about qpos_spring, and damping) as built; off
-        # while the index profile drives the carriage, back at the new position after it.
+        # while a "pd" index drives the carriage, back at the new position after it.
         self._joint = int(m.dof_jntid[self.dof_adr])
         self._hold = (float(m.jnt_stiffness[self._joint]), float(m.dof_damping[self.dof_adr]))
+        self._by_pd = self.config.conveyor_index_drive == "pd"
         self._rib_geoms_by_row = [
             np.array([g for g in range(m.ngeom) if (m.geom(g).name or "").startswith(f"rib_{r}_")])
             for r in range(rows)
@@ -129,8 +135,9 @@ class ConveyorDrive:
         profile_s, _ = self.index_phases(total_s)
         pitch = self.config.row_pitch_m
         q0 = round(data.qpos[self.qpos_adr] / pitch) * pitch
-        self.model.jnt_stiffness[self._joint] = 0.0
-        self.model.dof_damping[self.dof_adr] = 0.0
+        if self._by_pd:  # the PD force alone drives it; the stepper's hold leads it otherwise
+            self.model.jnt_stiffness[self._joint] = 0.0
+            self.model.dof_damping[self.dof_adr] = 0.0
         self._set_rows_past_the_edge(q0 - pitch)
         u[_U_ACTIVE], u[_U_T0], u[_U_PROFILE], u[_U_END], u[_U_Q0], u[_U_ERR] = (
             1.0,
@@ -175,7 +182,8 @@ class ConveyorDrive:
         return q0 - travel + overshoot * s, overshoot * ds / T
 
     def apply(self, data: mujoco.MjData, now: float) -> None:
-        """Call before every physics step: PD force along the index profile, else nothing."""
+        """Call before every physics step: drive the carriage along the index profile
+        (SceneConfig.conveyor_index_drive), else nothing."""
         if data.userdata[_U_ACTIVE] == 0.0:
             return
         if self._done(data, now):
@@ -183,9 +191,13 @@ class ConveyorDrive:
             return
         cfg = self.config
         q_ref, v_ref = self.reference(data, now)
-        q = data.qpos[self.qpos_adr]
-        v = data.qvel[self.dof_adr]
-        force = cfg.conveyor_kp_n_m * (q_ref - q) + cfg.conveyor_kd_n_s_m * (v_ref - v)
+        if self._by_pd:
+            q = data.qpos[self.qpos_adr]
+            v = data.qvel[self.dof_adr]
+            force = cfg.conveyor_kp_n_m * (q_ref - q) + cfg.conveyor_kd_n_s_m * (v_ref - v)
+        else:  # the hold's spring pulls towards q_ref; its damper acts on v - v_ref
+            self.model.qpos_spring[self.qpos_adr] = q_ref
+            force = self._hold[1] * v_ref
         # -0.0 would also wake the tree; an exact zero would let it sleep mid-index.
         data.qfrc_applied[self.dof_adr] = force if force != 0.0 else 1e-12
 

@@ -7,7 +7,7 @@ bodies of the first live_rows rows only (`pot_{r}_{c}`, the slots) and rows of r
 move to the rows they serve (`ConveyorDrive`). A pot of a later row rides the belt outside
 the physics, in its cell at its drawn offset, until its row enters: the slots of `cols`
 pots that have left the physics take its pots' masses, inertias, sizes, frictions, wall
-softness and row bits (compiled from the same `add_pots` as a body per pot, so the fields
+softness, row bits and feet (compiled from the same `add_pots` as a body per pot, so the fields
 are the compiler's own) and their poses in the cells the carriage has carried them to.
 
 A pot leaves the physics when the judge parks it (`release`), or, once its row is two
@@ -47,6 +47,8 @@ _GEOM_FIELDS = (
     "geom_size", "geom_rbound", "geom_aabb", "geom_friction", "geom_solimp", "geom_solref",
     "geom_contype", "geom_conaffinity",
 )  # fmt: skip
+# A pot's feet (SceneConfig.pot_feet) sit on a ring by its radius, at its base by its height.
+_FOOT_FIELDS = ("geom_pos", *_GEOM_FIELDS)
 REST_SPEED = 1e-3
 """A pot slower than this (m/s and rad/s, every component) lies at rest."""
 WAITING, LIVE, GONE = 0, 1, 2
@@ -83,6 +85,7 @@ class LiveRows:
         # the machine's and the carriage's joints come before the pots' free joints
         self.machine_nq = m.nq - 7 * n_slots
         self.machine_nv = m.nv - 6 * n_slots
+        self.slot_feet = _feet(m, n_slots, cfg.cols, cfg.pot_feet)
         self._slot_bvh = m.body_bvhadr[self.slot_body].copy()
         self._slot_nbvh = m.body_bvhnum[self.slot_body].copy()
 
@@ -186,6 +189,7 @@ class LiveRows:
         sc, m = self.scene, self.scene.model
         pots = row * self.cols + np.arange(self.cols)
         lib = self._row_library(row)
+        lib_feet = _feet(lib, self.cols, self.cols, self.config.pot_feet, first_row=row)
         where = self.waiting_positions(data, pots)
         for k, (slot, pot) in enumerate(zip(slots.tolist(), pots.tolist(), strict=True)):
             body, geom = int(self.slot_body[slot]), int(self.slot_geom[slot])
@@ -199,6 +203,8 @@ class LiveRows:
                 getattr(m, name)[dadr : dadr + 6] = getattr(lib, name)[lib_dof : lib_dof + 6]
             for name in _GEOM_FIELDS:
                 getattr(m, name)[geom] = getattr(lib, name)[lib_geom]
+            for name in _FOOT_FIELDS:
+                getattr(m, name)[self.slot_feet[slot]] = getattr(lib, name)[lib_feet[k]]
             adr, n = self._slot_bvh[slot], self._slot_nbvh[slot]
             lib_adr = lib.body_bvhadr[lib_body]
             m.bvh_aabb[adr : adr + n] = lib.bvh_aabb[lib_adr : lib_adr + n]
@@ -218,3 +224,12 @@ class LiveRows:
         add_pots(spec, self.config, self.scene.pots, decor=False, count=self.cols,
                  first=row * self.cols)  # fmt: skip
         return spec.compile()
+
+
+def _feet(m: mujoco.MjModel, n_pots: int, cols: int, feet: int, first_row: int = 0) -> np.ndarray:
+    """(n_pots, feet) geom ids of the feet of pots first_row*cols .. + n_pots - 1 of `m`."""
+    out = np.zeros((n_pots, feet), dtype=int)
+    for i in range(n_pots):
+        r, c = divmod(first_row * cols + i, cols)
+        out[i] = [m.geom(f"foot_{r}_{c}_{k}").id for k in range(feet)]
+    return out

@@ -10,8 +10,10 @@ import numpy as np
 
 from transplanter.scene.config import (
     BIT_CANOPY,
+    BIT_FOOT,
     BIT_GRIPPER,
     BIT_POT,
+    BIT_TABLE,
     BIT_WORLD,
     CROOKED_FOOT_HEIGHT,
     LEAF_BASE_LOW,
@@ -20,6 +22,7 @@ from transplanter.scene.config import (
     LEAF_PROXY_CENTRE,
     LEAF_PROXY_RGBA,
     POT_COLLISION_RGBA,
+    POT_FOOT_RADIUS,
     RIB_RGBA,
     ROLLING_FRICTION,
     SOFT_WALL_IMPEDANCE,
@@ -116,6 +119,9 @@ def apply_conveyor_layout(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     spec.body("conveyor").mass = cfg.conveyor_mass_kg
     table = spec.geom("belt_table")
     table.size, table.pos = belt_table(cfg, table.size[2])
+    if cfg.pot_feet:  # the pots stand on their feet: the table touches those, not cylinders
+        table.contype = BIT_TABLE
+        table.conaffinity = BIT_FOOT | BIT_GRIPPER
 
 
 def add_ribs(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
@@ -189,11 +195,13 @@ def add_pots(
         soil = pots.soil_z(i)  # the seedling stands on the soil (pot frame)
         if crook is None:
             _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", [0, 0, 0], h / 2)
+            _add_feet(body, cfg, pots, i, f"foot_{r}_{c}", [0, 0, -h / 2])
         else:  # a flat foot, the wall leaning over it; the wall's mass leans with it
             pivot, rot, quat = crook
             foot = CROOKED_FOOT_HEIGHT
             _add_pot_geom(body, cfg, pots, i, f"pot_foot_{r}_{c}", pivot - [0, 0, foot / 2],
                           foot / 2)  # fmt: skip
+            _add_feet(body, cfg, pots, i, f"foot_{r}_{c}", pivot - [0, 0, foot])
             wall_half = (h - foot) / 2
             centre = pivot + rot @ [0, 0, wall_half]
             wall = _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", centre, wall_half)
@@ -242,6 +250,33 @@ def _add_pot_geom(body, cfg: SceneConfig, pots: PotBatch, i: int, name, pos, hal
     return g
 
 
+def _add_feet(body, cfg: SceneConfig, pots: PotBatch, i: int, prefix: str, base) -> None:
+    """Pot i's feet (cfg.pot_feet; none at 0): spheres of POT_FOOT_RADIUS on a ring inside
+    the rim of its base (centre `base`, pot frame), their lowest points on the base's plane.
+    They touch the belt table only (BIT_FOOT; the table's conaffinity has it when the pots
+    have feet), with the pot's friction and contact softness; massless (the pot's inertia is
+    explicit)."""
+    ring = pots.diameter[i] / 2 - POT_FOOT_RADIUS
+    for k in range(cfg.pot_feet):
+        angle = 2 * np.pi * k / cfg.pot_feet
+        g = body.add_geom()
+        g.name = f"{prefix}_{k}"
+        g.type = mujoco.mjtGeom.mjGEOM_SPHERE
+        g.size = [POT_FOOT_RADIUS, 0, 0]
+        g.pos = [base[0] + ring * np.cos(angle), base[1] + ring * np.sin(angle),
+                 base[2] + POT_FOOT_RADIUS]  # fmt: skip
+        g.contype = BIT_FOOT
+        g.conaffinity = 0
+        g.condim = 4
+        g.priority = 1
+        g.friction = [pots.friction[i], TORSIONAL_FRICTION, ROLLING_FRICTION]
+        g.solref = list(cfg.contact_solref)
+        g.solimp = list(cfg.contact_solimp)
+        g.mass = 0
+        g.group = 3
+        g.rgba = list(POT_COLLISION_RGBA)
+
+
 def _crooked(pos, quat, crook):
     """A frame (pos, quat) of the straight pot above its foot, on the crooked pot."""
     if crook is None:
@@ -268,7 +303,7 @@ def _add_bond(spec: mujoco.MjSpec, cfg: SceneConfig, body, r, c, radius, h, forc
     pad.name = f"pot_base_{r}_{c}"
     pad.type = mujoco.mjtGeom.mjGEOM_CYLINDER
     pad.size = [BOND_PAD_RADIUS_SHARE * radius, BOND_PAD_HALF_THICKNESS, 0]
-    pad.contype = BIT_POT
+    pad.contype = BIT_FOOT if cfg.pot_feet else BIT_POT  # what the table touches
     pad.conaffinity = 0
     pad.mass = 0
     pad.group = 3
