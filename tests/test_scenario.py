@@ -205,6 +205,19 @@ def test_friction_zero_means_no_friction_and_the_old_floor_key_is_refused_with_w
         load_scenario("paper", {"pots.friction_min": 0.05})
 
 
+def test_the_pots_feet_and_the_index_drive_are_scenario_keys_the_scene_uses():
+    config = assemble(load_scenario("paper", {"pots.feet": 8, "conveyor.index_drive": "stepper"}))
+    assert (config.scene.pot_feet, config.scene.conveyor_index_drive) == (8, "stepper")
+    paper = assemble(load_scenario("paper")).scene
+    assert (paper.pot_feet, paper.conveyor_index_drive) == (0, "pd")
+    with pytest.raises(ScenarioError, match="pots.feet = 2: a pot does not stand on fewer than 3"):
+        load_scenario("paper", {"pots.feet": 2})
+    with pytest.raises(ScenarioError, match="pots.feet"):
+        load_scenario("paper", {"pots.feet": 17})
+    with pytest.raises(ScenarioError, match="conveyor.index_drive"):
+        load_scenario("paper", {"conveyor.index_drive": "servo"})
+
+
 def test_the_paper_scenario_injects_no_faults():
     from transplanter.machine.faults import FaultConfig
 

@@ -529,6 +529,8 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             stem_sway_sd_hz=pots.stem_sway_sd_hz,
             stem_damping_ratio=pots.stem_damping_ratio,
             conveyor_index_error_sd_m=conv.index_error_sd_m,
+            conveyor_index_drive=conv.index_drive,
+            pot_feet=pots.feet,
             drop_tube_xy_m=(tube.x_m, tube.y_m),
             funnel_top_diameter_m=tube.funnel_top_diameter_m,
             funnel_top_z_m=tube.funnel_top_z_m,

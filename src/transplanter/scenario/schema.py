@@ -574,6 +574,11 @@ class ConveyorSection:
     index_error_sd_m: float = key(
         "float", 0, 20, doc="where an index leaves the row: belt stretch and rib play (sd)"
     )
+    index_drive: str = key(
+        "str", choices=("pd", "stepper"),
+        doc="what moves the carriage along an index: a PD force (estimated gains), or the "
+        "conveyor stepper's own stiffness about a set point following the profile",
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -620,6 +625,11 @@ class PotsSection:
     canopy_contact: bool = key(
         "bool", doc="the leaves' capsule proxies touch the jaws (soft): they push and drag the pot"
     )
+    feet: int = key(
+        "int", lo=0, hi=16,
+        doc="0: a pot's cylinder stands on the belt table; 3-16: the pot stands on this many "
+        "small spheres inside its base, which alone touch the table",
+    )  # fmt: skip
     canopy_timeconst_s: float = key(
         "float", 0, 1000, doc="contact time constant of a leaf on a jaw: larger is softer"
     )
@@ -1692,6 +1702,11 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
                 "contact; with pots.bond_share > 0, pots.crooked_share > 0 or "
                 "pots.canopy_contact, set conveyor.live_rows >= conveyor.rows."
             )
+    if pots["feet"] in (1, 2):
+        raise ScenarioError(
+            f"pots.feet = {pots['feet']}: a pot does not stand on fewer than 3 feet. Set 0 (its "
+            "cylinder stands on the table) or 3 to 16."
+        )
     if conv["index_time_s"] < 0.2:
         raise ScenarioError("conveyor.index_time_s must be at least 0.2 s (push and settle).")
     fg = v["fuzzy_gripper"]
