@@ -9,14 +9,15 @@ step) are its own. Prints numbers; asserts nothing.
   (`conveyor.live_rows` = 8; --live 6,8 for others) and, for the belts up to --full-up-to
   rows, with a body per pot (live_rows = rows): wall time per seedling, real-time factor, peak
   memory, and the share of the wall time spent starting (imports, compile, first step);
-- with --soak N: N seedlings on a 100-row belt beside the 40-seedling paper trial of the same
-  run: real-time factor (and its ratio to the paper trial's), peak memory, and the first and
+- with --soak N: N seedlings on a 100-row belt (live_rows: the first of --live) beside the
+  40-seedling paper trial of the same run: real-time factor (and its ratio to the paper trial's), peak memory, and the first and
   last 100 seedlings' success and mean cycle time.
 
 Real-time factors are given on wall time and on the process's CPU time (on a machine shared
 with other work the wall time measures the neighbours too).
 
     python benchmarks/bench_belt.py [--rows 8,24,100,400] [--seedlings 40] [--soak 500]
+    python benchmarks/bench_belt.py --rows 100 --live 8,12,16 --set pots.feet=8
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ import time
 T0 = time.perf_counter()
 
 
-def one(rows: int, live_rows: int, seedlings: int, seed: int) -> dict:
+def one(rows: int, live_rows: int, seedlings: int, seed: int, sets: dict | None = None) -> dict:
     """One trial in this process: its timings, memory and per-seedling outcomes."""
     import resource
 
@@ -47,6 +48,7 @@ def one(rows: int, live_rows: int, seedlings: int, seed: int) -> dict:
         load_scenario(
             "paper",
             {
+                **(sets or {}),
                 "conveyor.rows": rows,
                 "conveyor.live_rows": live_rows,
                 "scenario.seedlings": seedlings,
@@ -86,9 +88,13 @@ def one(rows: int, live_rows: int, seedlings: int, seed: int) -> dict:
     }
 
 
+SETS: list[str] = []  # --set SECTION.KEY=VALUE of the command line, passed to each trial
+
+
 def measure(rows: int, live_rows: int, seedlings: int, seed: int) -> dict:
+    sets = [arg for kv in SETS for arg in ("--set", kv)]
     out = subprocess.run(
-        [sys.executable, __file__, "--one", f"{rows},{live_rows},{seedlings},{seed}"],
+        [sys.executable, __file__, "--one", f"{rows},{live_rows},{seedlings},{seed}", *sets],
         check=True, capture_output=True, text=True,
     )  # fmt: skip
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -116,12 +122,18 @@ def main() -> None:
     parser.add_argument("--full-up-to", type=int, default=24,
                         help="also run belts up to this many rows with a body per pot")  # fmt: skip
     parser.add_argument("--soak", type=int, default=0, help="seedlings of the 100-row soak")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="a scenario key for every trial (e.g. pots.feet=8)")  # fmt: skip
     args = parser.parse_args()
     if args.one:
+        from transplanter.scenario.schema import parse_value
+
         rows, live, seedlings, seed = (int(x) for x in args.one.split(","))
-        print(json.dumps(one(rows, live, seedlings, seed)))
+        sets = {k: parse_value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
+        print(json.dumps(one(rows, live, seedlings, seed, sets)))
         return
-    print(f"paper scenario, seed {args.seed}, one process per trial")
+    SETS.extend(args.set)
+    print(f"paper scenario {' '.join(args.set)}, seed {args.seed}, one process per trial")
     lives = [int(x) for x in args.live.split(",")]
     for rows in (int(x) for x in args.rows.split(",") if x):
         for live in lives:  # live_rows = rows is the belt without a window
@@ -131,7 +143,7 @@ def main() -> None:
             print(line(measure(rows, rows, args.seedlings, args.seed)), flush=True)
     if args.soak:
         paper = measure(8, 8, 40, args.seed)
-        soak = measure(100, 8, args.soak, args.seed)
+        soak = measure(100, lives[0], args.soak, args.seed)  # the first --live
         print(line(paper))
         print(line(soak))
         for clock in ("wall", "cpu"):

@@ -12,7 +12,7 @@ import pytest
 from conftest import paper_config, paper_scenario
 from transplanter.scenario.schema import ScenarioError
 from transplanter.scene import ConveyorDrive, build_scene
-from transplanter.scene.config import MIN_LIVE_ROWS, SceneConfig, row_bit
+from transplanter.scene.config import MIN_LIVE_ROWS, MIN_LIVE_ROWS_ON_FEET, SceneConfig, row_bit
 from transplanter.scene.live_rows import (
     _BODY_FIELDS,
     _DOF_FIELDS,
@@ -172,6 +172,9 @@ def test_a_windowed_trial_judges_the_same_seedlings_and_rows_enter_settled():
     [
         ({"conveyor.rows": 20, "conveyor.live_rows": MIN_LIVE_ROWS - 1},
          rf"conveyor.live_rows = {MIN_LIVE_ROWS - 1} is below the minimum of {MIN_LIVE_ROWS}"),
+        ({"conveyor.rows": 20, "conveyor.live_rows": MIN_LIVE_ROWS_ON_FEET - 1, "pots.feet": 8},
+         rf"live_rows = {MIN_LIVE_ROWS_ON_FEET - 1} is below the minimum of "
+         rf"{MIN_LIVE_ROWS_ON_FEET} for conveyor.rows = 20 with pots on 8 feet"),
         ({"conveyor.rows": 20, "conveyor.live_rows": 6, "pots.bond_share": 0.1},
          r"live_rows >= conveyor.rows"),
         ({"conveyor.rows": 20, "conveyor.live_rows": 6, "pots.canopy_contact": True},
@@ -187,6 +190,7 @@ def test_a_window_it_cannot_hold_is_refused(overrides, match):
             live_rows=overrides["conveyor.live_rows"],
             pot_bond_share=overrides.get("pots.bond_share", 0.0),
             canopy_contact=overrides.get("pots.canopy_contact", False),
+            pot_feet=overrides.get("pots.feet", 0),
         )
     # a window as wide as the belt is no window: anything goes
     assert paper_scenario(**{**overrides, "conveyor.live_rows": 20})

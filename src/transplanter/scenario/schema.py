@@ -1685,15 +1685,17 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
             f"(conveyor.rows x conveyor.cols = {cells} pots)."
         )
     if conv["live_rows"] < conv["rows"]:
-        from transplanter.scene.config import MIN_LIVE_ROWS, SETTLE_PUSHES
+        from transplanter.scene.config import min_live_rows, settle_pushes
 
-        if conv["live_rows"] < MIN_LIVE_ROWS:
+        least, pushes = min_live_rows(pots["feet"]), settle_pushes(pots["feet"])
+        if conv["live_rows"] < least:
+            stand = f"on {pots['feet']} feet (pots.feet)" if pots["feet"] else "on their cylinders"
             raise ScenarioError(
-                f"conveyor.live_rows = {conv['live_rows']} is below the minimum of "
-                f"{MIN_LIVE_ROWS} for conveyor.rows = {conv['rows']}: the pickup row, the row "
-                f"just picked and enough rows upstream that every pot gets {SETTLE_PUSHES} "
-                f"index pushes before its pickup. Set live_rows >= {MIN_LIVE_ROWS}, or >= rows "
-                "(every pot a body)."
+                f"conveyor.live_rows = {conv['live_rows']} is below the minimum of {least} for "
+                f"conveyor.rows = {conv['rows']} with pots {stand}: the pickup row, the row "
+                f"just picked and enough rows upstream that every pot gets {pushes} index "
+                f"pushes before its pickup. Set live_rows >= {least}, or >= rows (every pot a "
+                "body)."
             )
         if pots["bond_share"] > 0 or pots["crooked_share"] > 0 or pots["canopy_contact"]:
             raise ScenarioError(

@@ -32,24 +32,40 @@ ROW_BITS = 23
 
 
 # An index pushes every pot of the belt across its cell's play; the sideways spread of the
-# pots' offsets grows with each push from rest and settles after about this many (sd 0.89,
-# 1.31, 1.67, 1.98, 2.02, 2.05 mm after 0-5 pushes: docs/performance.md, "The window of live
-# rows").
+# pots' offsets grows with each push from rest and settles after about this many (a pot's
+# cylinder on the table: sd 0.89, 1.31, 1.67, 1.98, 2.02, 2.05 mm after 0-5 pushes; on feet,
+# SceneConfig.pot_feet, the jostle is smaller and settles later: 1.01, 1.65, 1.99, 2.10 mm
+# after 1, 4, 8 and 10 pushes, 2.2 from about 15 on; docs/performance.md, "The window of
+# live rows").
 SETTLE_PUSHES = 4
+SETTLE_PUSHES_ON_FEET = 10
 # The fewest live rows of a windowed scene: a row enters when the row before the pickup row
 # has left the physics, so it gets live_rows - 1 pushes before its pickup, live_rows - 2 when
 # a failed pot of the row just picked still moves at that index (it waits for the next).
 MIN_LIVE_ROWS = SETTLE_PUSHES + 2
+MIN_LIVE_ROWS_ON_FEET = SETTLE_PUSHES_ON_FEET + 2
+
+
+def settle_pushes(pot_feet: int) -> int:
+    """The index pushes that settle a pot's sideways offset (on its cylinder or on feet)."""
+    return SETTLE_PUSHES_ON_FEET if pot_feet else SETTLE_PUSHES
+
+
+def min_live_rows(pot_feet: int) -> int:
+    """The fewest live rows of a windowed scene whose pots stand on `pot_feet` feet."""
+    return MIN_LIVE_ROWS_ON_FEET if pot_feet else MIN_LIVE_ROWS
 
 
 def window_problem(cfg: SceneConfig) -> str:
     """Why a scene with cfg.live_rows < cfg.rows cannot be windowed ('' when it can)."""
-    if cfg.live_rows < MIN_LIVE_ROWS:
+    least, pushes = min_live_rows(cfg.pot_feet), settle_pushes(cfg.pot_feet)
+    if cfg.live_rows < least:
+        stand = f"on {cfg.pot_feet} feet" if cfg.pot_feet else "on their cylinders"
         return (
-            f"conveyor.live_rows = {cfg.live_rows} is below the minimum of {MIN_LIVE_ROWS} for "
-            f"conveyor.rows = {cfg.rows}: the pickup row, the row just picked and enough rows "
-            f"upstream that every pot gets {SETTLE_PUSHES} index pushes before its pickup; set "
-            f"live_rows to at least {MIN_LIVE_ROWS} (or to rows: every pot a body)"
+            f"conveyor.live_rows = {cfg.live_rows} is below the minimum of {least} for "
+            f"conveyor.rows = {cfg.rows} with pots {stand}: the pickup row, the row just "
+            f"picked and enough rows upstream that every pot gets {pushes} index pushes before "
+            f"its pickup; set live_rows to at least {least} (or to rows: every pot a body)"
         )
     if cfg.pot_bond_share > 0 or cfg.canopy_contact or cfg.pot_crooked_share > 0:
         return (

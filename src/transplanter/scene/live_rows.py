@@ -18,7 +18,7 @@ a row's worth of slots is free, checked at every index start and after every rel
 normally after the first pickup of the row before it (when the last pot of the row picked
 before that has been parked), so it gets live_rows - 1 index pushes before its own pickup
 (live_rows - 2 when a failed pot of that row was still moving), enough for the pots'
-offsets across the belt to settle (config.SETTLE_PUSHES). This is bookkeeping at index and
+offsets across the belt to settle (config.settle_pushes). This is bookkeeping at index and
 release events, never per step.
 
 Which pot a slot holds lives here and in the model, not in the MjData (like the ribs of
