@@ -10,8 +10,8 @@ step) are its own. Prints numbers; asserts nothing.
   rows, with a body per pot (live_rows = rows): wall time per seedling, real-time factor, peak
   memory, and the share of the wall time spent starting (imports, compile, first step);
 - with --soak N: N seedlings on a 100-row belt (live_rows: the first of --live) beside the
-  40-seedling paper trial of the same run: real-time factor (and its ratio to the paper trial's), peak memory, and the first and
-  last 100 seedlings' success and mean cycle time.
+  40-seedling paper trial of the same run: real-time factor (and its ratio to the paper
+  trial's), peak memory, and the first and last 100 seedlings' success and mean cycle time.
 
 Real-time factors are given on wall time and on the process's CPU time (on a machine shared
 with other work the wall time measures the neighbours too).
