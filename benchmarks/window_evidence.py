@@ -6,8 +6,10 @@ body per pot) and with live_rows = --live. It prints the pooled success with its
 and the failure kinds of each, and where every pot stands in its cell when the arm is sent
 for it (the approach line): per row, the sd of its offset across the belt (x) and along it
 (y) with and without the window, and the two-sample tests (scipy.stats.ks_2samp on the
-offsets, levene on their spread) per row and over the rows that entered the window. Asserts
-nothing; --json writes every offset and outcome.
+offsets, levene on their spread) per row and over the rows that entered the window, of every
+pot and of the pots met before their trial's first failure (a strike or a lost position moves
+pots, differently on each side: chaos, not the belt). Asserts nothing; --json writes every
+offset and outcome.
 
 Three switches take out what the model does to a pot wherever it is pushed, with or without
 the window (docs/performance.md, "Why the far rows drift"; benchmarks/push_drift.py measures
@@ -22,6 +24,7 @@ the native cylinder-on-box contact that pushes a pot sideways by where it stands
     python benchmarks/window_evidence.py paper --set taught.z_low_mm=28 ...
     python benchmarks/window_evidence.py paper --drive stepper --collider libccd ...
     python benchmarks/window_evidence.py paper --drive stepper --feet 8 --rows 24 --live 12 ...
+    python benchmarks/window_evidence.py paper --from-json runs.json   (the tables again)
 """
 
 from __future__ import annotations
@@ -97,6 +100,27 @@ def run(
     }
 
 
+def pooled_tests(full: dict, win: dict, live: int, indent: str) -> None:
+    """KS and Levene tests of the offsets (mm, per row) pooled over the rows below `live`
+    (bodies from the start on both sides) and over the rows that entered the window."""
+    rows = sorted(set(full) & set(win))
+    groups = {f"rows < {live}": [r for r in rows if r < live],
+              f"rows >= {live}": [r for r in rows if r >= live]}  # fmt: skip
+    for group, members in groups.items():
+        a = np.concatenate([full[r] for r in members] or [np.zeros((0, 2))])
+        b = np.concatenate([win[r] for r in members] or [np.zeros((0, 2))])
+        if min(len(a), len(b)) < 3:
+            print(f"{indent}{group} pooled: n {len(a)}/{len(b)}, too few to test")
+            continue
+        for axis, label in ((0, "across (x)"), (1, "along (y)")):
+            ks = stats.ks_2samp(a[:, axis], b[:, axis]).pvalue
+            lev = stats.levene(a[:, axis], b[:, axis]).pvalue
+            print(f"{indent}{group} pooled, {label}: n {len(a)}/{len(b)}, mean "
+                  f"{a[:, axis].mean():+.2f} / {b[:, axis].mean():+.2f} mm, sd "
+                  f"{a[:, axis].std(ddof=1):.2f} / {b[:, axis].std(ddof=1):.2f} mm, "
+                  f"KS p {ks:.3f}, Levene p {lev:.3f}")  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario")
@@ -111,13 +135,20 @@ def main() -> None:
                         help="pot_feet (0: cylinders; default: the model's)")  # fmt: skip
     parser.add_argument("--collider", choices=("native", "libccd"), default="native")
     parser.add_argument("--json", default=None)
+    parser.add_argument("--from-json", default=None, metavar="FILE",
+                        help="print the tables of a saved --json, running nothing")  # fmt: skip
     args = parser.parse_args()
+    saved = None
+    if args.from_json:
+        with open(args.from_json) as fh:
+            saved = json.load(fh)
+        args = argparse.Namespace(**{**saved["args"], "json": None})
     base = dict(kv.split("=", 1) for kv in args.set)
     base = {k: parse_value(v) for k, v in base.items()}
     base["conveyor.rows"] = args.rows
     modes = {"body per pot": args.rows, f"window of {args.live}": args.live}
-    runs: dict[str, list[dict]] = {name: [] for name in modes}
-    for seed in parse_seeds(args.seeds):
+    runs: dict[str, list[dict]] = saved["runs"] if saved else {name: [] for name in modes}
+    for seed in [] if saved else parse_seeds(args.seeds):
         for name, live in modes.items():
             runs[name].append(run(args.scenario, {**base, "conveyor.live_rows": live}, seed,
                                   args.seedlings, args.drive, args.collider,
@@ -138,14 +169,21 @@ def main() -> None:
               f"{dict(sorted(kinds.items()))}")  # fmt: skip
     cols = 5
     by_row: dict[str, dict[int, list]] = {name: {} for name in modes}
+    # the same, of the pots the arm was sent for before its trial's first failure (a strike or
+    # a lost position then moves pots on both sides, and differently: chaos, not the belt)
+    clean: dict[str, dict[int, list]] = {name: {} for name in modes}
     struck = Counter()
     for name, trials in runs.items():
         for t in trials:
+            first = next((i for i, o in enumerate(t["outcomes"]) if o != Outcome.SUCCESS),
+                         len(t["outcomes"]))  # fmt: skip
             for pot, xy in t["offsets"].items():
                 if max(abs(v) for v in xy) > STRUCK_M:  # struck out of its cell: not an offset
                     struck[name] += 1
                     continue
                 by_row[name].setdefault(int(pot) // cols, []).append(xy)
+                if int(pot) < first:
+                    clean[name].setdefault(int(pot) // cols, []).append(xy)
     full, win = ({r: np.array(v) * 1e3 for r, v in by_row[n].items()} for n in modes)
     print(f"pots struck out of their cells, left out: {dict(struck) or 'none'}")
     print(
@@ -161,20 +199,10 @@ def main() -> None:
               f"             {a[:, 1].std(ddof=1):5.2f} / {b[:, 1].std(ddof=1):5.2f}"
               f"             {ks:6.3f}    {lev:6.3f}"
               f"       {a[:, 0].mean():+5.2f} / {b[:, 0].mean():+5.2f}")  # fmt: skip
-    groups = {f"rows < {args.live}": [r for r in rows if r < args.live],
-              f"rows >= {args.live}": [r for r in rows if r >= args.live]}  # fmt: skip
-    for group, members in groups.items():
-        if not members:
-            continue
-        a = np.concatenate([full[r] for r in members])
-        b = np.concatenate([win[r] for r in members])
-        for axis, label in ((0, "across (x)"), (1, "along (y)")):
-            ks = stats.ks_2samp(a[:, axis], b[:, axis]).pvalue
-            lev = stats.levene(a[:, axis], b[:, axis]).pvalue
-            print(f"{group} pooled, {label}: n {len(a)}/{len(b)}, mean "
-                  f"{a[:, axis].mean():+.2f} / {b[:, axis].mean():+.2f} mm, sd "
-                  f"{a[:, axis].std(ddof=1):.2f} / {b[:, axis].std(ddof=1):.2f} mm, "
-                  f"KS p {ks:.3f}, Levene p {lev:.3f}")  # fmt: skip
+    pooled_tests(full, win, args.live, "")
+    print("pots met before their trial's first failure:")
+    pooled_tests(*({r: np.array(v) * 1e3 for r, v in clean[n].items()} for n in modes),
+                 args.live, "  ")  # fmt: skip
     for name, trials in runs.items():
         wall = sum(t["wall_s"] for t in trials)
         sim = sum(t["sim_s"] for t in trials)
