@@ -50,51 +50,55 @@ def test_live_rows_covering_the_belt_build_the_scene_of_a_body_per_pot():
         assert np.array_equal(getattr(windowless.model, name), getattr(wide.model, name)), name
 
 
-@pytest.mark.parametrize("feet", [0, 8])
-def test_an_entering_row_takes_the_fields_and_place_a_body_per_pot_has(feet):
-    """Row 6 enters the slots row 0 leaves: each slot gets exactly the compiled fields of
+@pytest.mark.parametrize("feet, live", [(0, 6), (8, 12)])
+def test_an_entering_row_takes_the_fields_and_place_a_body_per_pot_has(feet, live):
+    """Row `live` enters the slots row 0 leaves: each slot gets exactly the compiled fields of
     that pot's own body in a scene with a body per pot (its feet too, when the pots stand on
     feet: their ring follows the pot's radius, their height its base), and stands in its
     cell where the carriage has carried it."""
-    window_cfg = SceneConfig(rows=10, live_rows=6, pot_soft_share=0.4, pot_feet=feet)
+    rows = live + 4
+    window_cfg = SceneConfig(rows=rows, live_rows=live, pot_soft_share=0.4, pot_feet=feet)
     scene = build_scene(window_cfg, seed=5)
-    full = build_scene(dataclasses.replace(window_cfg, live_rows=10), seed=5)
+    full = build_scene(dataclasses.replace(window_cfg, live_rows=rows), seed=5)
     data = scene.make_data()
     pitch = window_cfg.row_pitch_m
     data.qpos[scene.conveyor_qpos_adr] = -pitch  # one index done
     window = scene.window
     slots = scene.pot_bodies[0].copy()
-    for pot in range(5):  # the judge parks row 0's pots; row 6 takes their bodies
+    first = 5 * live  # the entering row's first pot
+    for pot in range(5):  # the judge parks row 0's pots; row `live` takes their bodies
         window.release(data, pot)
-    assert (window.state[:5] == GONE).all() and (window.state[30:35] == LIVE).all()
-    assert np.array_equal(scene.pot_bodies[6], slots) and (scene.pot_bodies[0] == -1).all()
+    assert (window.state[:5] == GONE).all() and (window.state[first : first + 5] == LIVE).all()
+    assert np.array_equal(scene.pot_bodies[live], slots) and (scene.pot_bodies[0] == -1).all()
     mujoco.mj_forward(scene.model, data)
     m, f = scene.model, full.model
     for c in range(5):
-        body, fbody = scene.pot_bodies[6, c], f.body(f"pot_6_{c}").id
+        body, fbody = scene.pot_bodies[live, c], f.body(f"pot_{live}_{c}").id
         for name in _BODY_FIELDS:
             assert np.array_equal(getattr(m, name)[body], getattr(f, name)[fbody]), name
-        dof, fdof = scene.pot_dof_adr[30 + c], full.pot_dof_adr[30 + c]
+        dof, fdof = scene.pot_dof_adr[first + c], full.pot_dof_adr[first + c]
         for name in _DOF_FIELDS:
             assert np.array_equal(
                 getattr(m, name)[dof : dof + 6], getattr(f, name)[fdof : fdof + 6]
             )
-        geom, fgeom = scene.pot_geoms[30 + c], full.pot_geoms[30 + c]
+        geom, fgeom = scene.pot_geoms[first + c], full.pot_geoms[first + c]
         for name in _GEOM_FIELDS:
             assert np.array_equal(getattr(m, name)[geom], getattr(f, name)[fgeom]), name
-        assert m.geom_contype[geom] & row_bit(6)
+        assert m.geom_contype[geom] & row_bit(live)
         for k in range(feet):
-            foot, ffoot = m.geom(f"foot_0_{c}_{k}").id, f.geom(f"foot_6_{c}_{k}").id
+            foot, ffoot = m.geom(f"foot_0_{c}_{k}").id, f.geom(f"foot_{live}_{c}_{k}").id
             assert m.geom_bodyid[foot] == body
             for name in _FOOT_FIELDS:
                 assert np.array_equal(getattr(m, name)[foot], getattr(f, name)[ffoot]), name
         # its place: its cell and drawn offset, carried one row pitch
-        start = f.qpos0[full.pot_qpos_adr[30 + c] : full.pot_qpos_adr[30 + c] + 3]
+        start = f.qpos0[full.pot_qpos_adr[first + c] : full.pot_qpos_adr[first + c] + 3]
         assert np.allclose(data.xpos[body], start - [0, pitch, 0], atol=1e-12)
-    assert np.allclose(scene.pot_positions(data)[30:35], data.xpos[scene.pot_bodies[6]])
+    assert np.allclose(scene.pot_positions(data)[first : first + 5],
+                       data.xpos[scene.pot_bodies[live]])  # fmt: skip
     # the pots that left lie where they were; the waiting ones ride in their cells
-    waiting = scene.pot_positions(data)[40:45]
-    assert np.allclose(waiting[:, :2], scene.pots.cell_xy[40:45] + scene.pots.offset[40:45]
+    nxt = slice(first + 10, first + 15)
+    waiting = scene.pot_positions(data)[nxt]
+    assert np.allclose(waiting[:, :2], scene.pots.cell_xy[nxt] + scene.pots.offset[nxt]
                        - [0, pitch])  # fmt: skip
 
 
