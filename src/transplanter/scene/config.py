@@ -23,10 +23,6 @@ BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
 BIT_CANOPY = 8  # leaf proxies (with SceneConfig.canopy_contact): they touch the jaws only
-# With SceneConfig.pot_feet > 0 the belt table is BIT_TABLE and touches only the pots' feet
-# (BIT_FOOT), the bond pads (BIT_FOOT) and the gripper; the pots' cylinders no longer touch it.
-BIT_TABLE = 16
-BIT_FOOT = 32
 ROW_BIT_FIRST = 8
 ROW_BITS = 23
 
@@ -130,8 +126,11 @@ CROOKED_FOOT_HEIGHT = 0.006
 # The deepest a pot's soil may lie below its rim (m; SceneConfig.pot_fill_gap_m).
 POT_FILL_GAP_MAX = 0.02
 # A pot's feet (SceneConfig.pot_feet): spheres of this radius (m) on a ring inside the rim of
-# its base, touching the base's plane from above (their lowest points on it).
+# its base, touching the base's plane from above (their lowest points on it); the pot's
+# collision cylinder then starts POT_FOOT_LIFT (m) above that plane, so that on the table only
+# the feet touch it (the pot tilted by more than about 1.8 degrees meets it with its rim).
 POT_FOOT_RADIUS = 0.0015
+POT_FOOT_LIFT = 0.0005
 # The most feet a pot may stand on (more cost more contacts and change nothing measured).
 POT_FEET_MAX = 16
 INDEX_DRIVES = ("pd", "stepper")
