@@ -731,47 +731,58 @@ def test_pots_on_feet_are_pushed_alike_wherever_they_stand_on_the_table(seed):
     assert abs(across.mean()) < 4e-4
 
 
+def _collide(m, g1, g2) -> bool:
+    """MuJoCo's contype/conaffinity filter of two geoms."""
+    return bool(m.geom_contype[g1] & m.geom_conaffinity[g2]) or bool(
+        m.geom_contype[g2] & m.geom_conaffinity[g1]
+    )
+
+
 def test_only_the_feet_of_pots_on_feet_touch_the_table():
-    """With pot_feet the table touches the pots' feet (and bond pads), never their cylinders,
-    which start 0.5 mm above the feet's lowest points; the feet touch only static geoms. The
-    table's collision bits are as without feet (the serial arm and the delta still meet it).
-    Every pot stands as high as on its cylinder, crooked and bonded pots too."""
+    """With pot_feet the table touches the pots' feet and bond pads, never their cylinders,
+    which still pass the collision filter with every other geom they passed it with before;
+    the feet touch the table only. The table's contype is unchanged, so the serial arm's links
+    (contype 1, conaffinity 1) and the delta's (2, 1) still meet it. Every pot stands on its
+    feet, as high as on its cylinder, crooked and bonded pots too."""
     cfg = SceneConfig(rows=3, cols=3, pot_feet=8, pot_crooked_share=0.4, pot_bond_share=0.5,
                       pot_bond_force_n=5.0)  # fmt: skip
     scene = build_scene(cfg, seed=4)
     cylinder = build_scene(replace(cfg, pot_feet=0), seed=4)
-    m = scene.model
+    m, m0 = scene.model, cylinder.model
     table = m.geom("belt_table").id
-    for name in ("geom_contype", "geom_conaffinity"):
-        assert getattr(m, name)[table] == getattr(cylinder.model, name)[table]
+    assert m.geom_contype[table] == m0.geom_contype[m0.geom("belt_table").id]
+    for contype, conaffinity in ((1, 1), (2, 1)):  # the serial arm's, the delta's collision class
+        assert contype & m.geom_conaffinity[table] or m.geom_contype[table] & conaffinity
+    named = [m0.geom(g).name for g in range(m0.ngeom) if m0.geom(g).name]
+    for r in range(3):
+        for c in range(3):
+            pot = m.geom(f"pot_{r}_{c}").id
+            assert not _collide(m, pot, table) and _collide(m0, m0.geom(f"pot_{r}_{c}").id, table)
+            for name in named:
+                if name != "belt_table" and not name.startswith("pot_base_"):  # pads: the table's
+                    before = _collide(m0, m0.geom(f"pot_{r}_{c}").id, m0.geom(name).id)
+                    assert _collide(m, pot, m.geom(name).id) == before, (r, c, name)
     feet = {m.geom(f"foot_{r}_{c}_{k}").id for r in range(3) for c in range(3) for k in range(8)}
-    static = {g for g in range(m.ngeom) if m.body_weldid[m.geom_bodyid[g]] == 0}
+    assert all(_collide(m, f, g) == (g == table) for f in feet for g in range(m.ngeom))
     data = scene.make_data()
     touching = set()
     for _ in range(300):  # the pots settle onto the table, then fall asleep
         mujoco.mj_step(m, data)
         for con in data.contact[: data.ncon]:
             pair = {int(con.geom1), int(con.geom2)}
-            if pair & feet:
-                assert pair - feet <= static
             if table in pair:
                 other = (pair - {table}).pop()
                 assert other in feet or (m.geom(other).name or "").startswith("pot_base_")
-                touching.add(int(m.geom_bodyid[other]))
+                touching.add(int(m.body_rootid[m.geom_bodyid[other]]))
     pot_bodies = {m.body(f"pot_{r}_{c}").id for r in range(3) for c in range(3)}
     assert {int(m.geom_bodyid[f]) for f in feet} == pot_bodies
-    assert {int(m.body_rootid[b]) for b in touching} == pot_bodies  # every pot on its feet
+    assert touching == pot_bodies  # every pot on its feet
     data0 = cylinder.make_data()
     for _ in range(300):
-        mujoco.mj_step(cylinder.model, data0)
+        mujoco.mj_step(m0, data0)
     heights = scene.pot_positions(data)[:, 2]
     np.testing.assert_allclose(heights, cylinder.pot_positions(data0)[:, 2], atol=1e-4)
     assert np.abs(heights - scene.pots.height / 2).min() < 1e-4
-    straight = [i for i in range(9) if scene.pots.wall_frame(i) is None]
-    for i in straight:  # the cylinder's base 0.5 mm over the feet's
-        g = m.geom(f"pot_{i // 3}_{i % 3}").id
-        base = m.geom_pos[g, 2] - m.geom_size[g, 1]
-        assert base == pytest.approx(-scene.pots.height[i] / 2 + 0.0005)
 
 
 def test_feet_and_index_drives_out_of_range_are_refused():

@@ -23,6 +23,12 @@ BIT_WORLD = 1
 BIT_POT = 2
 BIT_GRIPPER = 4
 BIT_CANOPY = 8  # leaf proxies (with SceneConfig.canopy_contact): they touch the jaws only
+# Pots on feet (SceneConfig.pot_feet): the feet and bond pads are BIT_FOOT, which only the belt
+# table has in its conaffinity (it loses BIT_POT); the pots' cylinders then collide as
+# BIT_WORLD | BIT_POT | their row's bit with conaffinity BIT_POT | BIT_GRIPPER, so they meet
+# everything they met before (static geoms, pots, jaws, ribs, the other kinds' links) but
+# the table (contype BIT_WORLD, as before: the serial arm's and the delta's links still meet it).
+BIT_FOOT = 32
 ROW_BIT_FIRST = 8
 ROW_BITS = 23
 
@@ -126,11 +132,8 @@ CROOKED_FOOT_HEIGHT = 0.006
 # The deepest a pot's soil may lie below its rim (m; SceneConfig.pot_fill_gap_m).
 POT_FILL_GAP_MAX = 0.02
 # A pot's feet (SceneConfig.pot_feet): spheres of this radius (m) on a ring inside the rim of
-# its base, touching the base's plane from above (their lowest points on it); the pot's
-# collision cylinder then starts POT_FOOT_LIFT (m) above that plane, so that on the table only
-# the feet touch it (the pot tilted by more than about 1.8 degrees meets it with its rim).
+# its base, touching the base's plane from above (their lowest points on it).
 POT_FOOT_RADIUS = 0.0015
-POT_FOOT_LIFT = 0.0005
 # The most feet a pot may stand on (more cost more contacts and change nothing measured).
 POT_FEET_MAX = 16
 INDEX_DRIVES = ("pd", "stepper")

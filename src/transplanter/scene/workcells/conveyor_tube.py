@@ -10,6 +10,7 @@ import numpy as np
 
 from transplanter.scene.config import (
     BIT_CANOPY,
+    BIT_FOOT,
     BIT_GRIPPER,
     BIT_POT,
     BIT_WORLD,
@@ -20,7 +21,6 @@ from transplanter.scene.config import (
     LEAF_PROXY_CENTRE,
     LEAF_PROXY_RGBA,
     POT_COLLISION_RGBA,
-    POT_FOOT_LIFT,
     POT_FOOT_RADIUS,
     RIB_RGBA,
     ROLLING_FRICTION,
@@ -118,6 +118,8 @@ def apply_conveyor_layout(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     spec.body("conveyor").mass = cfg.conveyor_mass_kg
     table = spec.geom("belt_table")
     table.size, table.pos = belt_table(cfg, table.size[2])
+    if cfg.pot_feet:  # the table meets the pots' feet, not their cylinders (config.BIT_FOOT)
+        table.conaffinity = (table.conaffinity & ~BIT_POT) | BIT_FOOT
 
 
 def add_ribs(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
@@ -189,15 +191,14 @@ def add_pots(
         body.explicitinertial = True
         crook = pots.wall_frame(i)
         soil = pots.soil_z(i)  # the seedling stands on the soil (pot frame)
-        lift = POT_FOOT_LIFT if cfg.pot_feet else 0.0  # on feet the cylinder starts above them
         if crook is None:
-            _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", [0, 0, lift / 2], (h - lift) / 2)
+            _add_pot_geom(body, cfg, pots, i, f"pot_{r}_{c}", [0, 0, 0], h / 2)
             _add_feet(body, cfg, pots, i, f"foot_{r}_{c}", [0, 0, -h / 2])
         else:  # a flat foot, the wall leaning over it; the wall's mass leans with it
             pivot, rot, quat = crook
             foot = CROOKED_FOOT_HEIGHT
-            _add_pot_geom(body, cfg, pots, i, f"pot_foot_{r}_{c}",
-                          pivot - [0, 0, (foot - lift) / 2], (foot - lift) / 2)  # fmt: skip
+            _add_pot_geom(body, cfg, pots, i, f"pot_foot_{r}_{c}", pivot - [0, 0, foot / 2],
+                          foot / 2)  # fmt: skip
             _add_feet(body, cfg, pots, i, f"foot_{r}_{c}", pivot - [0, 0, foot])
             wall_half = (h - foot) / 2
             centre = pivot + rot @ [0, 0, wall_half]
@@ -233,8 +234,12 @@ def _add_pot_geom(body, cfg: SceneConfig, pots: PotBatch, i: int, name, pos, hal
     g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
     g.size = [pots.diameter[i] / 2, half_height, 0]
     g.pos = list(pos)
-    g.contype = BIT_POT | row_bit(r)
-    g.conaffinity = BIT_WORLD | BIT_POT | BIT_GRIPPER
+    if cfg.pot_feet:  # everything it met before but the table (config.BIT_FOOT)
+        g.contype = BIT_WORLD | BIT_POT | row_bit(r)
+        g.conaffinity = BIT_POT | BIT_GRIPPER
+    else:
+        g.contype = BIT_POT | row_bit(r)
+        g.conaffinity = BIT_WORLD | BIT_POT | BIT_GRIPPER
     g.condim = 4
     g.priority = 1
     g.friction = [pots.friction[i], TORSIONAL_FRICTION, ROLLING_FRICTION]
@@ -250,11 +255,10 @@ def _add_pot_geom(body, cfg: SceneConfig, pots: PotBatch, i: int, name, pos, hal
 def _add_feet(body, cfg: SceneConfig, pots: PotBatch, i: int, prefix: str, base) -> None:
     """Pot i's feet (cfg.pot_feet; none at 0): spheres of POT_FOOT_RADIUS on a ring inside
     the rim of its base (centre `base`, pot frame), their lowest points on the base's plane,
-    POT_FOOT_LIFT below the pot's cylinder. They collide as a bond's pad does (contype
-    BIT_POT, conaffinity 0: the static geoms, the table among them, and the jaws or another
-    pot should they reach a pot's base), with the pot's friction and contact softness;
-    massless (the pot's inertia is explicit). The table's and the other kinds' collision
-    bits stay as they are."""
+    flush with the base of the pot's cylinder. They touch the belt table only (BIT_FOOT,
+    which the table's conaffinity then has in place of BIT_POT: the cylinder no longer meets
+    it), with the pot's friction and contact softness; massless (the pot's inertia is
+    explicit)."""
     ring = pots.diameter[i] / 2 - POT_FOOT_RADIUS
     for k in range(cfg.pot_feet):
         angle = 2 * np.pi * k / cfg.pot_feet
@@ -264,7 +268,7 @@ def _add_feet(body, cfg: SceneConfig, pots: PotBatch, i: int, prefix: str, base)
         g.size = [POT_FOOT_RADIUS, 0, 0]
         g.pos = [base[0] + ring * np.cos(angle), base[1] + ring * np.sin(angle),
                  base[2] + POT_FOOT_RADIUS]  # fmt: skip
-        g.contype = BIT_POT
+        g.contype = BIT_FOOT
         g.conaffinity = 0
         g.condim = 4
         g.priority = 1
@@ -302,7 +306,7 @@ def _add_bond(spec: mujoco.MjSpec, cfg: SceneConfig, body, r, c, radius, h, forc
     pad.name = f"pot_base_{r}_{c}"
     pad.type = mujoco.mjtGeom.mjGEOM_CYLINDER
     pad.size = [BOND_PAD_RADIUS_SHARE * radius, BOND_PAD_HALF_THICKNESS, 0]
-    pad.contype = BIT_POT
+    pad.contype = BIT_FOOT if cfg.pot_feet else BIT_POT  # the table's bit for what it meets
     pad.conaffinity = 0
     pad.mass = 0
     pad.group = 3
