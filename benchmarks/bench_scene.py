@@ -4,8 +4,10 @@ floor under them: the arm swinging (one tree awake, no contact) in the robot mod
 in the scene built with 1, 4 and 8 rows of pots, best of three runs each.
 
 Run: .venv/bin/python benchmarks/bench_scene.py
+     .venv/bin/python benchmarks/bench_scene.py --feet 8 --drive stepper   (pots on feet)
 """
 
+import argparse
 import math
 import sys
 import time
@@ -29,7 +31,11 @@ def ik(cfg, x, y):
 
 
 def main() -> None:
-    cfg = SceneConfig()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--feet", type=int, default=0, help="SceneConfig.pot_feet")
+    parser.add_argument("--drive", default="pd", help="SceneConfig.conveyor_index_drive")
+    args = parser.parse_args()
+    cfg = SceneConfig(pot_feet=args.feet, conveyor_index_drive=args.drive)
     scene = build_scene(cfg, seed=0)
     model, data = scene.model, scene.make_data()
     conveyor = ConveyorDrive(scene)
@@ -119,7 +125,7 @@ def main() -> None:
     robot = mujoco.MjModel.from_xml_path(str(MODELS / "fivebar" / "fivebar.xml"))
     print(f"  robot alone (models/fivebar/fivebar.xml): {swinging_rate(robot, None):,.0f} steps/s")
     for rows in (1, 4, 8):
-        scene = build_scene(SceneConfig(rows=rows), seed=0)
+        scene = build_scene(SceneConfig(rows=rows, pot_feet=cfg.pot_feet), seed=0)
         ConveyorDrive(scene)  # as a trial: rows past the front drum leave the broadphase
         rate = swinging_rate(scene.model, scene)
         print(f"  scene with {rows} row(s) of pots: {rate:,.0f} steps/s")
