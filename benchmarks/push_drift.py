@@ -101,6 +101,33 @@ def run(args: argparse.Namespace, seed: int) -> dict:
     return {"seed": seed, "cols": cfg.cols, "indexes": out}
 
 
+def tally(seeds: list[dict], rows: int) -> tuple[dict, dict, dict, list]:
+    """The offsets (mm) of run()'s seeds: by the pushes a pot has had, (x, y, on the far half
+    of the belt as built); after the last index, x by row; after a pot's first push, x by
+    column; and every index's lag (m). The two rows at the pickup, waiting pots and pots
+    struck out of their cells (STRUCK_M across) are left out."""
+    by_push: dict[int, list] = {}
+    last: dict[int, list] = {}
+    first_by_col: dict[int, list] = {}
+    lags = []
+    for s in seeds:
+        cols = s["cols"]
+        for i, rec in enumerate(s["indexes"]):
+            lags.append(rec["lag"])
+            off = np.array(rec["offset"]) * 1e3
+            for pot, (x, y) in enumerate(off):
+                row = pot // cols
+                if row < i + 3 or not rec["live"][pot] or abs(x) > STRUCK_M * 1e3:
+                    continue  # the two rows at the pickup, a waiting pot, a struck pot
+                far = row >= rows // 2  # on the far half of the belt as built
+                by_push.setdefault(rec["pushes"][pot], []).append((x, y, far))
+                if i == len(s["indexes"]) - 1:
+                    last.setdefault(row, []).append(x)
+                if rec["pushes"][pot] == 1:
+                    first_by_col.setdefault(pot % cols, []).append(x)
+    return by_push, last, first_by_col, lags
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenario", default="paper")
@@ -118,25 +145,7 @@ def main() -> None:
     args = parser.parse_args()
     t0 = time.perf_counter()
     seeds = [run(args, seed) for seed in parse_seeds(args.seeds)]
-    by_push: dict[int, list] = {}
-    last: dict[int, list] = {}
-    first_by_col: dict[int, list] = {}
-    lags = []
-    for s in seeds:
-        cols = s["cols"]
-        for i, rec in enumerate(s["indexes"]):
-            lags.append(rec["lag"])
-            off = np.array(rec["offset"]) * 1e3
-            for pot, (x, y) in enumerate(off):
-                row = pot // cols
-                if row < i + 3 or not rec["live"][pot] or abs(x) > STRUCK_M * 1e3:
-                    continue  # the two rows at the pickup, a waiting pot, a struck pot
-                far = row >= args.rows // 2  # on the far half of the belt as built
-                by_push.setdefault(rec["pushes"][pot], []).append((x, y, far))
-                if i == len(s["indexes"]) - 1:
-                    last.setdefault(row, []).append(x)
-                if rec["pushes"][pot] == 1:
-                    first_by_col.setdefault(pot % cols, []).append(x)
+    by_push, last, first_by_col, lags = tally(seeds, args.rows)
     print(f"{args.scenario}, {args.rows} rows, "
           f"{'window of ' + str(args.live) if args.live else 'a body per pot'}, "
           f"drive {args.drive or 'model'}, collider {args.collider}, "
