@@ -88,13 +88,11 @@ def one(rows: int, live_rows: int, seedlings: int, seed: int, sets: dict | None 
     }
 
 
-SETS: list[str] = []  # --set SECTION.KEY=VALUE of the command line, passed to each trial
-
-
-def measure(rows: int, live_rows: int, seedlings: int, seed: int) -> dict:
-    sets = [arg for kv in SETS for arg in ("--set", kv)]
+def measure(rows: int, live_rows: int, seedlings: int, seed: int, sets: list[str]) -> dict:
+    """One trial in a fresh process; `sets`: its --set SECTION.KEY=VALUE."""
+    flags = [arg for kv in sets for arg in ("--set", kv)]
     out = subprocess.run(
-        [sys.executable, __file__, "--one", f"{rows},{live_rows},{seedlings},{seed}", *sets],
+        [sys.executable, __file__, "--one", f"{rows},{live_rows},{seedlings},{seed}", *flags],
         check=True, capture_output=True, text=True,
     )  # fmt: skip
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -132,18 +130,17 @@ def main() -> None:
         sets = {k: parse_value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
         print(json.dumps(one(rows, live, seedlings, seed, sets)))
         return
-    SETS.extend(args.set)
     print(f"paper scenario {' '.join(args.set)}, seed {args.seed}, one process per trial")
     lives = [int(x) for x in args.live.split(",")]
     for rows in (int(x) for x in args.rows.split(",") if x):
         for live in lives:  # live_rows = rows is the belt without a window
             if live <= rows:
-                print(line(measure(rows, live, args.seedlings, args.seed)), flush=True)
+                print(line(measure(rows, live, args.seedlings, args.seed, args.set)), flush=True)
         if max(lives) < rows <= args.full_up_to:
-            print(line(measure(rows, rows, args.seedlings, args.seed)), flush=True)
+            print(line(measure(rows, rows, args.seedlings, args.seed, args.set)), flush=True)
     if args.soak:
-        paper = measure(8, 8, 40, args.seed)
-        soak = measure(100, lives[0], args.soak, args.seed)  # the first --live
+        paper = measure(8, 8, 40, args.seed, args.set)
+        soak = measure(100, lives[0], args.soak, args.seed, args.set)  # the first --live
         print(line(paper))
         print(line(soak))
         for clock in ("wall", "cpu"):

@@ -35,7 +35,6 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -50,15 +49,27 @@ REST_S = 1.5  # at rest after each index, before the pots' offsets are read
 STRUCK_M = 0.006  # a pot this far across the belt from its cell centre was struck out of it
 
 
+def add_model_args(parser: argparse.ArgumentParser) -> None:
+    """--drive and --feet: the scenario keys conveyor.index_drive and pots.feet."""
+    parser.add_argument("--drive", choices=INDEX_DRIVES, default=None,
+                        help="conveyor.index_drive (default: the scenario's)")  # fmt: skip
+    parser.add_argument("--feet", type=int, default=None, metavar="K",
+                        help="pots.feet (0: cylinders; default: the scenario's)")  # fmt: skip
+
+
+def model_keys(args: argparse.Namespace) -> dict:
+    """The scenario keys --drive and --feet stand for (none when left out)."""
+    keys = {} if args.drive is None else {"conveyor.index_drive": args.drive}
+    return keys if args.feet is None else {**keys, "pots.feet": args.feet}
+
+
 def run(args: argparse.Namespace, seed: int) -> dict:
     """One seed's belt pushed args.indexes times: per index, every pot's offset (m), whether
     it was a body and the pushes it has had as one; the carriage's largest lag (m)."""
     overrides = {"scenario.seed": seed, "conveyor.rows": args.rows,
-                 "conveyor.live_rows": args.live or args.rows}  # fmt: skip
+                 "conveyor.live_rows": args.live or args.rows, **model_keys(args)}  # fmt: skip
     config = assemble(load_scenario(args.scenario, overrides))
-    sc = config.scene
-    cfg = replace(sc, conveyor_index_drive=args.drive or sc.conveyor_index_drive,
-                  pot_feet=sc.pot_feet if args.feet is None else args.feet)  # fmt: skip
+    cfg = config.scene
     scene = build_scene(cfg, seed=seed)
     m = scene.model
     if args.collider == "libccd":
@@ -135,12 +146,9 @@ def main() -> None:
     parser.add_argument("--live", type=int, default=0, help="live rows (0: a body per pot)")
     parser.add_argument("--seeds", default="1-6")
     parser.add_argument("--indexes", type=int, default=8)
-    parser.add_argument("--drive", choices=INDEX_DRIVES, default=None,
-                        help="conveyor_index_drive (default: the model's)")  # fmt: skip
+    add_model_args(parser)
     parser.add_argument("--collider", choices=("native", "libccd"), default="native")
     parser.add_argument("--table-shift", type=float, default=0.0, metavar="M")
-    parser.add_argument("--feet", type=int, default=None, metavar="K",
-                        help="pot_feet (0: cylinders; default: the model's)")  # fmt: skip
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
     t0 = time.perf_counter()
@@ -148,8 +156,8 @@ def main() -> None:
     by_push, last, first_by_col, lags = tally(seeds, args.rows)
     print(f"{args.scenario}, {args.rows} rows, "
           f"{'window of ' + str(args.live) if args.live else 'a body per pot'}, "
-          f"drive {args.drive or 'model'}, collider {args.collider}, "
-          f"table shift {args.table_shift} m, pot feet {args.feet or 'model'}, "
+          f"{model_keys(args) or 'the scenario drive and feet'}, collider {args.collider}, "
+          f"table shift {args.table_shift} m, "
           f"seeds {args.seeds}, {args.indexes} indexes")  # fmt: skip
     print(
         "pushes    n   across: mean   sd (mm)   along: mean   sd (mm)"

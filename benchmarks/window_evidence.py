@@ -33,28 +33,24 @@ import argparse
 import json
 import time
 from collections import Counter
-from dataclasses import replace
 
 import mujoco
 import numpy as np
+from push_drift import STRUCK_M, add_model_args, model_keys  # benchmarks/, beside this
 from scipy import stats
 
 from transplanter.machine.pgf import LinePhase
 from transplanter.scenario.assemble import assemble
 from transplanter.scenario.schema import load_scenario, parse_value
-from transplanter.scene.config import INDEX_DRIVES
 from transplanter.studies.stats import parse_seeds, pooled_rate
 from transplanter.twin.results import Outcome
 from transplanter.twin.sim import LineEventKind, Twin
 from transplanter.twin.trial import run_trial
 
-STRUCK_M = 0.006  # a pot this far from its cell centre was struck out of it (m)
-
 
 def run(
-    scenario: str, overrides: dict, seed: int, seedlings: int, drive: str | None = None,
-    collider: str = "native", feet: int | None = None,
-) -> dict:  # fmt: skip
+    scenario: str, overrides: dict, seed: int, seedlings: int, collider: str = "native"
+) -> dict:
     """One trial: its outcomes and, per seedling, its pot's offset in its cell (m) when the
     arm is sent for it."""
     config = assemble(
@@ -62,11 +58,6 @@ def run(
             scenario, {**overrides, "scenario.seed": seed, "scenario.seedlings": seedlings}
         )  # fmt: skip
     )
-    sc = config.scene
-    config = replace(config, scene=replace(
-        sc, conveyor_index_drive=drive or sc.conveyor_index_drive,
-        pot_feet=sc.pot_feet if feet is None else feet,
-    ))  # fmt: skip
     offsets: dict[int, tuple[float, float]] = {}
 
     def factory(cfg):
@@ -129,10 +120,7 @@ def main() -> None:
     parser.add_argument("--live", type=int, default=8)
     parser.add_argument("--seeds", default="1-6")
     parser.add_argument("--seedlings", type=int, default=80)
-    parser.add_argument("--drive", choices=INDEX_DRIVES, default=None,
-                        help="conveyor_index_drive (default: the model's)")  # fmt: skip
-    parser.add_argument("--feet", type=int, default=None, metavar="K",
-                        help="pot_feet (0: cylinders; default: the model's)")  # fmt: skip
+    add_model_args(parser)
     parser.add_argument("--collider", choices=("native", "libccd"), default="native")
     parser.add_argument("--json", default=None)
     parser.add_argument("--from-json", default=None, metavar="FILE",
@@ -146,19 +134,19 @@ def main() -> None:
     base = dict(kv.split("=", 1) for kv in args.set)
     base = {k: parse_value(v) for k, v in base.items()}
     base["conveyor.rows"] = args.rows
+    base.update(model_keys(args))
     modes = {"body per pot": args.rows, f"window of {args.live}": args.live}
     runs: dict[str, list[dict]] = saved["runs"] if saved else {name: [] for name in modes}
     for seed in [] if saved else parse_seeds(args.seeds):
         for name, live in modes.items():
             runs[name].append(run(args.scenario, {**base, "conveyor.live_rows": live}, seed,
-                                  args.seedlings, args.drive, args.collider,
-                                  args.feet))  # fmt: skip
+                                  args.seedlings, args.collider))  # fmt: skip
             r = runs[name][-1]
             print(f"  seed {seed} {name}: {r['wall_s']:.1f} s wall, "
                   f"{Counter(r['outcomes']).most_common()}", flush=True)  # fmt: skip
     print(f"{args.scenario} {' '.join(args.set)}, {args.rows} rows, seeds {args.seeds}, "
-          f"{args.seedlings} seedlings each, drive {args.drive or 'model'}, "
-          f"collider {args.collider}, pot feet {args.feet or 'model'}")  # fmt: skip
+          f"{args.seedlings} seedlings each, {model_keys(args) or 'scenario drive and feet'}, "
+          f"collider {args.collider}")  # fmt: skip
     for name, trials in runs.items():
         ok = [sum(o == Outcome.SUCCESS for o in t["outcomes"]) for t in trials]
         pooled = pooled_rate(ok, [len(t["outcomes"]) for t in trials])
