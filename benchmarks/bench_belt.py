@@ -5,19 +5,24 @@ does, so its peak memory and its start-up (imports, the scene's compile, the fir
 step) are its own. Prints numbers; asserts nothing.
 
 - cost against the belt: the paper scenario with `conveyor.rows` = 8, 24, 100 and 400 and the
-  same seedlings (--seedlings, default 40), with the default window of live rows
-  (`conveyor.live_rows` = 8; --live 6,8 for others) and, for the belts up to --full-up-to
-  rows, with a body per pot (live_rows = rows): wall time per seedling, real-time factor, peak
-  memory, and the share of the wall time spent starting (imports, compile, first step);
+  same seedlings (--seedlings, default 40), with the scenario's window of live rows
+  (`conveyor.live_rows`, 12 in `paper.toml`; --live 12,16 for others) and, for the belts up to
+  --full-up-to rows, with a body per pot (live_rows = rows): wall time per seedling,
+  real-time factor, peak memory, and the share of the wall time spent starting (imports,
+  compile, first step);
 - with --soak N: N seedlings on a 100-row belt (live_rows: the first of --live) beside the
   40-seedling paper trial of the same run: real-time factor (and its ratio to the paper
-  trial's), peak memory, and the first and last 100 seedlings' success and mean cycle time.
+  trial's), peak memory, and the first and last 100 seedlings' success, failure kinds and
+  cycle time (`--set recovery.stall_detection=true`: the machine re-homes after a stall, as a
+  production machine would over 500 seedlings; the paper's open-loop arm fails every pick
+  after its first lost position, docs/performance.md "The soak on the default").
 
 Real-time factors are given on wall time and on the process's CPU time (on a machine shared
 with other work the wall time measures the neighbours too).
 
     python benchmarks/bench_belt.py [--rows 8,24,100,400] [--seedlings 40] [--soak 500]
-    python benchmarks/bench_belt.py --rows 100 --live 8,12,16 --set pots.feet=8
+    python benchmarks/bench_belt.py --rows 100 --live 6,8 --set pots.feet=0 \
+        --set conveyor.index_drive=pd          (the pots on cylinders, the PD index)
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import json
 import subprocess
 import sys
 import time
+from collections import Counter
 
 T0 = time.perf_counter()
 
@@ -84,6 +90,7 @@ def one(rows: int, live_rows: int, seedlings: int, seed: int, sets: dict | None 
         "sim_s": result.sim_time_s,
         "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "success": [r.outcome == Outcome.SUCCESS for r in result.per_seedling],
+        "outcome": [r.outcome.value for r in result.per_seedling],
         "cycle_s": [r.cycle_time_s for r in result.per_seedling],
     }
 
@@ -96,6 +103,14 @@ def measure(rows: int, live_rows: int, seedlings: int, seed: int, sets: list[str
         check=True, capture_output=True, text=True,
     )  # fmt: skip
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def scenario_live_rows(sets: list[str]) -> int:
+    """The paper scenario's conveyor.live_rows with these --set keys."""
+    from transplanter.scenario.schema import load_scenario, parse_value
+
+    overrides = {k: parse_value(v) for k, v in (kv.split("=", 1) for kv in sets)}
+    return load_scenario("paper", overrides).conveyor.live_rows
 
 
 def line(r: dict) -> str:
@@ -114,7 +129,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--one", help=argparse.SUPPRESS)
     parser.add_argument("--rows", default="8,24,100,400", help="belts to run ('' for none)")
-    parser.add_argument("--live", default="8", help="live_rows to run each belt with, e.g. 6,8")
+    parser.add_argument(
+        "--live", default="", help="live_rows for each belt, e.g. 12,16 (default: the scenario's)"
+    )
     parser.add_argument("--seedlings", type=int, default=40)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--full-up-to", type=int, default=24,
@@ -131,7 +148,7 @@ def main() -> None:
         print(json.dumps(one(rows, live, seedlings, seed, sets)))
         return
     print(f"paper scenario {' '.join(args.set)}, seed {args.seed}, one process per trial")
-    lives = [int(x) for x in args.live.split(",")]
+    lives = [int(x) for x in args.live.split(",") if x] or [scenario_live_rows(args.set)]
     for rows in (int(x) for x in args.rows.split(",") if x):
         for live in lives:  # live_rows = rows is the belt without a window
             if live <= rows:
@@ -148,12 +165,23 @@ def main() -> None:
             rtf_soak = soak["sim_s"] / soak[f"trial_{clock}_s"]
             print(f"soak real-time factor ({clock} time) {rtf_soak:.1f}x against the paper "
                   f"trial's {rtf_paper:.1f}x: ratio {rtf_paper / rtf_soak:.2f}")  # fmt: skip
+        counts = []
         for label, part in (("first 100", slice(0, 100)), ("last 100", slice(-100, None))):
             ok = soak["success"][part]
+            counts.append((sum(ok), len(ok) - sum(ok)))
             cycles = [c for c in soak["cycle_s"][part] if c is not None]
+            clean = sorted(c for c, s in zip(soak["cycle_s"][part], ok, strict=True) if s)
+            kinds = Counter(o for o in soak["outcome"][part] if o != "success")
             print(f"{label}: {sum(ok)}/{len(ok)} success, mean cycle "
                   f"{sum(cycles) / len(cycles):.4f} s (min {min(cycles):.4f}, max "
-                  f"{max(cycles):.4f})")  # fmt: skip
+                  f"{max(cycles):.4f}; the successes' median {clean[len(clean) // 2]:.4f}), "
+                  f"failures {dict(kinds) or 'none'}")  # fmt: skip
+        from scipy.stats import fisher_exact
+
+        print(
+            f"first against last 100: Fisher's exact p {fisher_exact(counts).pvalue:.3f} "
+            "(failures cluster after a strike: read it with the kinds)"
+        )
 
 
 if __name__ == "__main__":

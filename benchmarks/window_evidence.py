@@ -11,19 +11,21 @@ pot and of the pots met before their trial's first failure (a strike or a lost p
 pots, differently on each side: chaos, not the belt). Asserts nothing; --json writes every
 offset and outcome.
 
-Three switches take out what the model does to a pot wherever it is pushed, with or without
-the window (docs/performance.md, "Why the far rows drift"; benchmarks/push_drift.py measures
-them on the belt alone): `--drive stepper` (`SceneConfig.conveyor_index_drive`) drives each
-index with the conveyor stepper's own stiffness and damping instead of the index PD, so the
-carriage's lag no longer grows with the pots it pushes; `--feet K` (`SceneConfig.pot_feet`)
-stands each pot on K sphere feet, and `--collider libccd` collides the pots' cylinders with the
-table's and ribs' boxes with MuJoCo's libccd instead of its native collider: either takes out
-the native cylinder-on-box contact that pushes a pot sideways by where it stands on the table.
+The defaults are the paper scenario's model (pots on 8 feet, the stepper index, a window of
+12 on a 24-row belt). Three switches choose what the model does to a pot wherever it is
+pushed, with or without the window (docs/performance.md, "Why the far rows drift";
+benchmarks/push_drift.py measures them on the belt alone): `--drive pd|stepper`
+(`conveyor.index_drive`: the index PD, whose lag grows with the pots it pushes, or the
+conveyor stepper's own stiffness and damping), `--feet K` (`pots.feet`: each pot on K sphere
+feet, 0 its cylinder on the table) and `--collider libccd` (the pots' cylinders collided with
+the table's and ribs' boxes by MuJoCo's libccd instead of its native collider): feet and
+libccd each take out the native cylinder-on-box contact that pushes a pot sideways by where it
+stands on the table.
 
-    python benchmarks/window_evidence.py paper --rows 16 --live 8 --seeds 1-6 --seedlings 80
+    python benchmarks/window_evidence.py paper --rows 24 --live 12 --seeds 1-6 --seedlings 120
     python benchmarks/window_evidence.py paper --set taught.z_low_mm=28 ...
-    python benchmarks/window_evidence.py paper --drive stepper --collider libccd ...
-    python benchmarks/window_evidence.py paper --drive stepper --feet 8 --rows 24 --live 12 ...
+    python benchmarks/window_evidence.py paper --feet 0 --drive pd --rows 16 --live 8 --seedlings 80
+    python benchmarks/window_evidence.py paper --feet 0 --collider libccd ...
     python benchmarks/window_evidence.py paper --from-json runs.json   (the tables again)
 """
 
@@ -116,10 +118,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
-    parser.add_argument("--rows", type=int, default=16)
-    parser.add_argument("--live", type=int, default=8)
+    parser.add_argument("--rows", type=int, default=24)
+    parser.add_argument("--live", type=int, default=12)
     parser.add_argument("--seeds", default="1-6")
-    parser.add_argument("--seedlings", type=int, default=80)
+    parser.add_argument("--seedlings", type=int, default=120)
     add_model_args(parser)
     parser.add_argument("--collider", choices=("native", "libccd"), default="native")
     parser.add_argument("--json", default=None)

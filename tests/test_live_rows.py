@@ -25,6 +25,9 @@ from transplanter.twin.results import Outcome
 from transplanter.twin.sim import Twin
 from transplanter.twin.trial import run_trial
 
+# the pots on their cylinders and the PD index (the paper scenario: 8 feet, the stepper index)
+CYLINDERS = {"pots.feet": 0, "conveyor.index_drive": "pd"}
+
 
 def _pot_bodies(model: mujoco.MjModel) -> list[str]:
     return [model.body(b).name for b in range(model.nbody) if model.body(b).name.startswith("pot_")]
@@ -150,9 +153,10 @@ def test_rows_that_entered_are_pushed_along_by_the_ribs_that_moved_to_them():
 
 
 def test_a_windowed_trial_judges_the_same_seedlings_and_rows_enter_settled():
-    """31 seedlings on a 12-row belt with 6 live rows: the pots of row 6 entered after the
-    first index and had 5 pushes before their pickup; every seedling is judged on its own
-    pot, as with a body per pot."""
+    """31 seedlings on a 12-row belt with 6 live rows (pots on their cylinders and the PD
+    index, whose jostle settles within 6 rows; the paper scenario's feet need 12): the pots
+    of row 6 entered after the first index and had 5 pushes before their pickup; every
+    seedling is judged on its own pot, as with a body per pot."""
     twins: list[Twin] = []
 
     def twin(config):
@@ -160,7 +164,8 @@ def test_a_windowed_trial_judges_the_same_seedlings_and_rows_enter_settled():
         return twins[-1]
 
     result = run_trial(
-        paper_config(31, **{"conveyor.rows": 12, "conveyor.live_rows": 6}), twin_factory=twin
+        paper_config(31, **{"conveyor.rows": 12, "conveyor.live_rows": 6, **CYLINDERS}),
+        twin_factory=twin,
     )
     window = twins[0].scene.window
     assert [r.pot for r in result.per_seedling] == list(range(31))
@@ -174,14 +179,14 @@ def test_a_windowed_trial_judges_the_same_seedlings_and_rows_enter_settled():
 @pytest.mark.parametrize(
     "overrides, match",
     [
-        ({"conveyor.rows": 20, "conveyor.live_rows": MIN_LIVE_ROWS - 1},
+        ({"conveyor.rows": 20, "conveyor.live_rows": MIN_LIVE_ROWS - 1, **CYLINDERS},
          rf"conveyor.live_rows = {MIN_LIVE_ROWS - 1} is below the minimum of {MIN_LIVE_ROWS}"),
         ({"conveyor.rows": 20, "conveyor.live_rows": MIN_LIVE_ROWS_ON_FEET - 1, "pots.feet": 8},
          rf"live_rows = {MIN_LIVE_ROWS_ON_FEET - 1} is below the minimum of "
          rf"{MIN_LIVE_ROWS_ON_FEET} for conveyor.rows = 20 with pots on 8 feet"),
-        ({"conveyor.rows": 20, "conveyor.live_rows": 6, "pots.bond_share": 0.1},
+        ({"conveyor.rows": 20, "conveyor.live_rows": 6, "pots.bond_share": 0.1, **CYLINDERS},
          r"live_rows >= conveyor.rows"),
-        ({"conveyor.rows": 20, "conveyor.live_rows": 6, "pots.canopy_contact": True},
+        ({"conveyor.rows": 20, "conveyor.live_rows": 6, "pots.canopy_contact": True, **CYLINDERS},
          r"live_rows >= conveyor.rows"),
     ],
 )  # fmt: skip

@@ -206,10 +206,12 @@ def test_friction_zero_means_no_friction_and_the_old_floor_key_is_refused_with_w
 
 
 def test_the_pots_feet_and_the_index_drive_are_scenario_keys_the_scene_uses():
-    config = assemble(load_scenario("paper", {"pots.feet": 8, "conveyor.index_drive": "stepper"}))
-    assert (config.scene.pot_feet, config.scene.conveyor_index_drive) == (8, "stepper")
     paper = assemble(load_scenario("paper")).scene
-    assert (paper.pot_feet, paper.conveyor_index_drive) == (0, "pd")
+    assert (paper.pot_feet, paper.conveyor_index_drive, paper.live_rows) == (8, "stepper", 12)
+    config = assemble(load_scenario("paper", {"pots.feet": 0, "conveyor.index_drive": "pd"}))
+    assert (config.scene.pot_feet, config.scene.conveyor_index_drive) == (0, "pd")
+    config = assemble(load_scenario("paper", {"pots.feet": 4}))
+    assert config.scene.pot_feet == 4
     with pytest.raises(ScenarioError, match="pots.feet = 2: a pot does not stand on fewer than 3"):
         load_scenario("paper", {"pots.feet": 2})
     with pytest.raises(ScenarioError, match="pots.feet"):

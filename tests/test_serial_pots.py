@@ -71,7 +71,7 @@ def test_the_release_leans_the_pot_no_more_than_allowed():
 
 
 def test_the_line_is_the_scenarios_without_a_window():
-    sc = load_scenario("serial_arm_pots", {"conveyor.live_rows": 6})
+    sc = load_scenario("serial_arm_pots", {"conveyor.live_rows": 6, "pots.feet": 0})
     line = line_config(sc)
     assert (line.rows, line.cols, line.live_rows) == (8, 5, 8)
     assert line.drop_tube_xy_m == pytest.approx((0.0, 0.14))
