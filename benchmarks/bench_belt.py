@@ -105,12 +105,18 @@ def measure(rows: int, live_rows: int, seedlings: int, seed: int, sets: list[str
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def parse_sets(sets: list[str]) -> dict:
+    """--set SECTION.KEY=VALUE arguments as scenario overrides."""
+    from transplanter.scenario.schema import parse_value
+
+    return {k: parse_value(v) for k, v in (kv.split("=", 1) for kv in sets)}
+
+
 def scenario_live_rows(sets: list[str]) -> int:
     """The paper scenario's conveyor.live_rows with these --set keys."""
-    from transplanter.scenario.schema import load_scenario, parse_value
+    from transplanter.scenario.schema import load_scenario
 
-    overrides = {k: parse_value(v) for k, v in (kv.split("=", 1) for kv in sets)}
-    return load_scenario("paper", overrides).conveyor.live_rows
+    return load_scenario("paper", parse_sets(sets)).conveyor.live_rows
 
 
 def line(r: dict) -> str:
@@ -141,11 +147,8 @@ def main() -> None:
                         help="a scenario key for every trial (e.g. pots.feet=8)")  # fmt: skip
     args = parser.parse_args()
     if args.one:
-        from transplanter.scenario.schema import parse_value
-
         rows, live, seedlings, seed = (int(x) for x in args.one.split(","))
-        sets = {k: parse_value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
-        print(json.dumps(one(rows, live, seedlings, seed, sets)))
+        print(json.dumps(one(rows, live, seedlings, seed, parse_sets(args.set))))
         return
     print(f"paper scenario {' '.join(args.set)}, seed {args.seed}, one process per trial")
     lives = [int(x) for x in args.live.split(",") if x] or [scenario_live_rows(args.set)]
