@@ -43,7 +43,7 @@ spec = CompareSpec(
     ("paper", "serial_arm_pots", "delta_refill"),
     seeds=(1,),
     seedlings=SEEDLINGS,
-    overrides={"delta_refill.max_cells": 1, "delta_refill.vision": "truth"},
+    overrides={"delta_refill.max_cells": 1, "delta_refill.vision": "truth"},  # the delta's only
     success_floor=0.9,
 )
 report = run_compare(spec, OUT, backend="inline")

@@ -177,7 +177,7 @@ def test_the_scenario_section_defaults_to_the_config_and_gives_back_what_is_set(
     sc = load_scenario("paper")
     assert fuzzy_gripper_config(sc) == FuzzyGripperConfig()
     assert {f.name for f in fields(FuzzyGripperConfig)} - {"servo"} == set(SCHEMA["fuzzy_gripper"])
-    sc = load_scenario("paper", {"fuzzy_gripper.finger_length_mm": 85.5,
+    sc = load_scenario("serial_arm", {"fuzzy_gripper.finger_length_mm": 85.5,
                                  "fuzzy_gripper.finger_mass_g": 7.5,
                                  "fuzzy_gripper.open_angle_deg": 50,
                                  "serial4.gripper_servo": "mg996r"})  # fmt: skip
@@ -187,7 +187,7 @@ def test_the_scenario_section_defaults_to_the_config_and_gives_back_what_is_set(
     assert (cfg.finger_length_mm, cfg.finger_mass_g, cfg.open_angle_deg) == (85.5, 7.5, 50)
     assert cfg.servo == "mg996r"
     with pytest.raises(ScenarioError, match="fuzzy_gripper.grip_angle_deg must be below"):
-        load_scenario("paper", {"fuzzy_gripper.grip_angle_deg": 48})
+        load_scenario("serial_arm", {"fuzzy_gripper.grip_angle_deg": 48})
     # the scene takes them
     model = compile_scene(build_serial_spec(replace(SerialSceneConfig(), gripper=cfg)))
     assert model.geom("finger_left_beam").size[0] == pytest.approx((0.0855 + 0.012 + 0.004) / 2)

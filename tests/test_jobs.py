@@ -8,8 +8,7 @@ from transplanter.studies.backends import RESULT_FIELDS, run_one
 from transplanter.studies.grid import task
 
 # the truth's grading map: no GL context needed
-SMALL = {"delta_refill.max_cells": 1, "delta_refill.image_delay_ms": 0.0,
-         "delta_refill.vision": "truth"}  # fmt: skip
+SMALL = {"delta_refill.image_delay_ms": 0.0, "delta_refill.vision": "truth"}
 NO_SPREAD = {"plug_bench.vigour_cv_pct": 0.0, "plug_bench.moisture_band_pct": 0.0}
 
 
@@ -25,15 +24,13 @@ def test_jobs_by_workcell_kind():
 
 
 def test_the_serial_arms_jobs_are_rows_of_their_picks():
-    row = run_one(task("serial_arm", {"pool_to_belt.count": 2}, {}, 1, 40))
+    row = run_one(task("serial_arm", {}, {}, 1, 2))  # 2 tomatoes: the job's units
     assert row["error"] is None, row["error"]
     assert (row["successes"], row["seedlings"], row["cycles"]) == (2, 2, 1)
     assert 8.5 < row["cycle_time_s"] < 10.0
     assert row["plants_per_hour"] == pytest.approx(3600 / row["cycle_time_s"], rel=1e-3)
     assert 8.0 < row["peak_squeeze_n"] < 20.0 and row["fail_dropped"] == 0
-    step = run_one(
-        task("serial_arm", {"pool_to_belt.count": 2}, {"physics.timestep_ms": 0.3}, 1, 40)
-    )
+    step = run_one(task("serial_arm", {}, {"physics.timestep_ms": 0.3}, 1, 2))
     assert step["error"].startswith("setting refused: ") and "20 ms PWM frame" in step["error"]
     pots = run_one(task("serial_arm_pots", {}, {}, 2, 2))
     assert pots["error"] is None, pots["error"]
@@ -43,7 +40,7 @@ def test_the_serial_arms_jobs_are_rows_of_their_picks():
 
 def test_a_delta_tray_is_a_row_of_serviced_cells_not_a_five_bar_refusal():
     # before the dispatch every delta run was "setting refused: taught.drop_mm ..."
-    row = run_one(task("delta_refill", SMALL, {"delta_refill.pose_judgement": True}, 10, 40))
+    row = run_one(task("delta_refill", SMALL, {"delta_refill.pose_judgement": True}, 10, 1))
     assert row["error"] is None, row["error"]
     assert set(RESULT_FIELDS) <= set(row) and set(jobs.JOBS["plug_trays"].fields) <= set(row)
     assert (row["successes"], row["seedlings"], row["cycles"]) == (1, 1, 1)
@@ -57,7 +54,7 @@ def test_a_delta_tray_is_a_row_of_serviced_cells_not_a_five_bar_refusal():
 
 
 def test_a_setting_the_schema_refuses_is_a_row_with_the_reason():
-    row = run_one(task("delta_refill", SMALL, {"plugs.moisture_pct": 150.0}, 1, 40))
+    row = run_one(task("delta_refill", SMALL, {"plugs.moisture_pct": 150.0}, 1, 1))
     assert row["error"].startswith("setting refused: ") and "plugs.moisture_pct" in row["error"]
     assert row["successes"] is None
 

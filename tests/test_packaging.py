@@ -53,6 +53,7 @@ def test_wheel_holds_models_scenarios_and_every_module(wheel):
         assert f"transplanter/models/{f}" in shipped
     assert {n for n in names if n.startswith("transplanter/models/")} == shipped
     assert "transplanter/scenarios/paper.toml" in names
+    assert "transplanter/scenarios/parts/pot_line.toml" in names  # paper.toml's base
     for module in (ROOT / "src" / "transplanter").rglob("*.py"):
         rel = module.relative_to(ROOT / "src").as_posix()
         assert rel in names, rel

@@ -157,7 +157,7 @@ def test_populate_builds_the_drawn_bodies():
 
 
 def test_scenario_keys_reach_the_physics():
-    sc = load_scenario("paper", {"pool_to_belt.belt_speed_mm_s": 40, "pool_to_belt.count": 2})
+    sc = load_scenario("serial_arm", {"pool_to_belt.belt_speed_mm_s": 40, "pool_to_belt.count": 2})
     cfg = ptb.pool_config(sc)
     assert cfg.belt_speed_m_s == pytest.approx(0.040) and cfg.count == 2
     assert ptb.pool_config(load_scenario("paper")) == ptb.PoolToBeltConfig()
@@ -180,7 +180,9 @@ def test_scenario_keys_reach_the_physics():
 )
 def test_bad_values_are_refused_with_the_key_named(override, message):
     with pytest.raises(ScenarioError, match=message):
-        load_scenario("paper", override)
+        load_scenario("serial_arm", override)
+    with pytest.raises(ScenarioError, match="no kind of this scenario reads|wrong unit"):
+        load_scenario("paper", override)  # the five-bar's job reads no [pool_to_belt]
 
 
 def test_the_config_refuses_what_the_schema_refuses():

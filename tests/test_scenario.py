@@ -80,9 +80,12 @@ def test_bad_values_are_refused_naming_the_key(tmp_path, body, needle):
 
 
 def test_missing_value_is_refused(tmp_path):
-    text = PAPER.read_text(encoding="utf-8").replace("index_time_s = 0.6\n", "")
+    line = PAPER.parent / "parts" / "pot_line.toml"  # paper.toml's base: its pot line
+    (tmp_path / "parts").mkdir()
+    text = line.read_text(encoding="utf-8").replace("index_time_s = 0.6\n", "")
+    (tmp_path / "parts" / "pot_line.toml").write_text(text, encoding="utf-8")
     path = tmp_path / "missing.toml"
-    path.write_text(text, encoding="utf-8")
+    path.write_text(PAPER.read_text(encoding="utf-8"), encoding="utf-8")
     with pytest.raises(ScenarioError, match=r"conveyor.index_time_s is missing"):
         load_scenario(path)
 

@@ -114,7 +114,10 @@ def test_an_l2_shorter_than_the_grippers_reach_is_refused_naming_the_keys():
 
 
 def test_the_scenarios_servo_classes_change_the_physics():
-    sc = load_scenario("paper", {"serial4.shoulder_servo": "sg90", "serial4.l1_mm": 90})
+    sc = load_scenario(
+        "serial_arm",
+        {"serial4.shoulder_servo": "sg90", "serial4.l1_mm": 90, "serial4.gripper_servo": "sg90"},
+    )
     cfg = serial_scene_config(sc)
     assert cfg.servos == ("sg90", "sg90", "mg996r", "sg90") and cfg.l1_m == pytest.approx(0.09)
     assert cfg.timestep_s == sc.physics.timestep_s

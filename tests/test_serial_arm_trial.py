@@ -202,15 +202,16 @@ def test_a_job_that_keeps_its_bodies_awake_refuses_sleep(scenario, extra, capsys
 
 def test_a_motion_key_set_for_the_serial_arm_is_refused_not_ignored(capsys):
     from transplanter.scenario.schema import ScenarioError
-    from transplanter.twin.serial_arm import require_own_motion, run_pick_place
+    from transplanter.twin.serial_arm import require_own_motion
 
     require_own_motion(load_scenario("serial_arm"), "x")  # the file's own [motion]: fine
-    sc = load_scenario("serial_arm", {"motion.accel_mm_s2": 2000, "serial_arm.hover_mm": 30})
-    with pytest.raises(ScenarioError, match=r"motion\.accel_mm_s2: the serial arm's pick.*"
-                       r"\[serial_arm\] travel_speed_mm_s"):  # fmt: skip
-        run_pick_place(sc, 1)
+    # the loader refuses it: the serial arm's controller takes its motion from [serial_arm]
+    with pytest.raises(ScenarioError, match=r"\[motion\] accel_mm_s2 \(read by the fivebar "):
+        load_scenario("serial_arm", {"motion.accel_mm_s2": 2000, "serial_arm.hover_mm": 30})
     assert cli.main(["trial", "serial_arm_pots", "--set", "motion.planner=bspline5"]) == 2
-    assert "does not read [motion]" in capsys.readouterr().err
+    assert "[motion] planner (read by the delta robot, the fivebar robot)" in (
+        capsys.readouterr().err
+    )
 
 
 def test_a_motion_section_in_a_serial_scenario_file_is_refused_not_ignored(tmp_path, capsys):
@@ -220,4 +221,5 @@ def test_a_motion_section_in_a_serial_scenario_file_is_refused_not_ignored(tmp_p
     path.write_text('[scenario]\nbase = "serial_arm_pots"\n[motion]\naccel_mm_s2 = 3000.0\n')
     assert cli.main(["trial", str(path), "--seedlings", "1"]) == 2
     err = capsys.readouterr().err
-    assert "motion.accel_mm_s2" in err and "remove the [motion] section" in err
+    assert "[motion] accel_mm_s2 (read by the fivebar robot)" in err
+    assert "given in the scenario file or its base chain" in err

@@ -12,7 +12,7 @@ import pytest
 
 from transplanter import cli
 from transplanter.machine.kinematics.serial4 import Serial4Geometry, Serial4Kinematics
-from transplanter.scenario.schema import load_scenario
+from transplanter.scenario.schema import ScenarioError, load_scenario
 from transplanter.twin.serial_pots import line_config, pitch_release, run_serial_pots
 
 
@@ -71,9 +71,11 @@ def test_the_release_leans_the_pot_no_more_than_allowed():
 
 
 def test_the_line_is_the_scenarios_without_a_window():
-    sc = load_scenario("serial_arm_pots", {"conveyor.live_rows": 6, "pots.feet": 0})
+    sc = load_scenario("serial_arm_pots", {"pots.feet": 0})
     line = line_config(sc)
     assert (line.rows, line.cols, line.live_rows) == (8, 5, 8)
+    with pytest.raises(ScenarioError, match=r"\[conveyor\] live_rows \(read by the "):
+        load_scenario("serial_arm_pots", {"conveyor.live_rows": 6})  # no window: refused
     assert line.drop_tube_xy_m == pytest.approx((0.0, 0.14))
 
 

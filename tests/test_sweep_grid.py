@@ -3,6 +3,7 @@ grid of (setting, seed) runs."""
 
 import pytest
 
+from transplanter.scenario.schema import ScenarioError
 from transplanter.studies.grid import Axis, SweepRefused, SweepSpec, parse_param_range, parse_vary
 
 REFUSED = Axis("taught.z_low_mm", (61.0, 70.0))
@@ -167,5 +168,7 @@ def test_a_five_bar_sweeps_identity_does_not_hold_the_plug_sections():
 
     # [plugs] is not the five-bar's: its sweeps keep the digest they had before the plug
     # sections existed (checked against e03f64d: 533902d7...), so their results resume
-    assert digest("paper", **{"plugs.moisture_pct": 75}) == digest("paper")
+    # (a [plugs] key given to the five-bar's scenario is refused now: no kind of it reads it)
+    with pytest.raises(ScenarioError, match=r"\[plugs\] moisture_pct \(read by the plug"):
+        digest("paper", **{"plugs.moisture_pct": 75})
     assert digest("plug_bench", **{"plugs.moisture_pct": 75}) != digest("plug_bench")

@@ -5,7 +5,7 @@ import csv
 import pytest
 
 from transplanter.cli import main
-from transplanter.scenario.schema import load_scenario
+from transplanter.scenario.schema import ScenarioError, load_scenario
 from transplanter.studies.sweep import SweepRefused
 from transplanter.studies.tune import Param, TuneSpec, base_reference, tuned_toml
 
@@ -160,6 +160,7 @@ def test_a_delta_jobs_study_is_identified_by_the_sections_it_reads():
         return scenario_digest(load_scenario(name, over))
 
     # the five-bar's digest is its sections' as before: [plugs] is not one of them
-    assert digest("paper", **{"plugs.moisture_pct": 75}) == digest("paper")
+    with pytest.raises(ScenarioError, match=r"\[plugs\] moisture_pct \(read by the plug"):
+        digest("paper", **{"plugs.moisture_pct": 75})  # no kind of the five-bar's reads it
     assert digest("delta_refill", **{"plugs.moisture_pct": 75}) != digest("delta_refill")
     assert digest("delta_refill", **{"delta_refill.lift_mm": 90}) != digest("delta_refill")

@@ -56,7 +56,13 @@ OPTIONS: dict[str, dict[str, Any]] = {
         "help": "override a scenario key in its file unit, e.g. --set taught.z_low_mm=30 "
         '(a TOML value: 30, true, [0, 140], "scurve"); repeatable',
     },
-    "--seedlings": {"type": ascii_int, "default": None, "help": "override scenario.seedlings"},
+    "--seedlings": {
+        "type": ascii_int,
+        "default": None,
+        "help": "how many units the job does: seedlings on the pot line and the claws' bench "
+        "(scenario.seedlings), cells of the tray (delta_refill.max_cells), tomatoes "
+        "(pool_to_belt.count)",
+    },
     "--seed": {"type": ascii_int, "default": None, "help": "override scenario.seed"},
     "--seeds": {
         "default": None,
@@ -101,12 +107,17 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 def _trial_overrides(args: argparse.Namespace) -> dict[str, Any]:
     """The --set overrides with --seedlings and --seed, where the command has them and they
-    are given, as scenario.seedlings and scenario.seed; ScenarioError for a malformed --set."""
+    are given: --seedlings as the job's unit count (schema.units_key: scenario.seedlings,
+    delta_refill.max_cells, pool_to_belt.count), --seed as scenario.seed; ScenarioError for a
+    malformed --set or a scenario that does not load."""
+    from transplanter.scenario.schema import with_units
+
     overrides = _overrides(args)
-    for option in ("seedlings", "seed"):
-        value = getattr(args, option, None)
-        if value is not None:
-            overrides[f"scenario.{option}"] = value
+    if getattr(args, "seed", None) is not None:
+        overrides["scenario.seed"] = args.seed
+    units = getattr(args, "seedlings", None)
+    if units is not None:
+        overrides = with_units(args.scenario, overrides, units)
     return overrides
 
 

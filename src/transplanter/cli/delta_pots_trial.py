@@ -11,24 +11,12 @@ from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _seeds
 
-__all__ = ["NOT_FILMED", "handles", "pots_line", "run_trial"]
+__all__ = ["NOT_FILMED", "pots_line", "run_trial"]
 
 NOT_FILMED = (
     "the delta's pot job (robot delta in the conveyor_tube workcell) runs headless only: "
     "transplanter trial, sweep and compare (render, view and export do not build its scene yet)"
 )
-
-
-def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
-    """The scenario's job is the delta's on the pot line (a scenario that does not load is
-    left to the trial command's own refusal)."""
-    from transplanter.scenario.schema import ScenarioError, load_scenario
-
-    try:
-        sc = load_scenario(args.scenario, overrides)
-    except ScenarioError:
-        return False
-    return sc.robot.kind == "delta" and sc.workcell.kind == "conveyor_tube"
 
 
 def pots_line(r) -> str:

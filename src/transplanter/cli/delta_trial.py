@@ -11,21 +11,9 @@ import math
 from pathlib import Path
 from typing import Any
 
-from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds, _show
+from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _progress, _seeds, _show
 
-__all__ = ["export", "handles", "render", "run_trial"]
-
-
-def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
-    """The scenario's job is the delta's plug trays (a scenario that does not load is left to
-    the trial command's own refusal)."""
-    from transplanter.scenario.schema import ScenarioError, load_scenario
-
-    try:
-        kind = load_scenario(args.scenario, overrides).workcell.kind
-        return kind in ("plug_trays", "plug_bench")  # the tray job, the claws' bench
-    except ScenarioError:
-        return False
+__all__ = ["export", "render", "run_trial"]
 
 
 def export(scenario, target: Path) -> Path:
@@ -121,21 +109,31 @@ def run_trial(
         return EXIT_REFUSED
     if bench:
         from transplanter.twin.plug_bench_trial import run_bench_trial
+    from transplanter.twin.delta_refill import ProgressObserver
+    from transplanter.twin.report import progress_bar
+
     results, outputs = [], []
     for seed in seeds:
+        total = scenario.meta.seedlings if bench else None  # the tray's: once it is graded
+        bar, update = progress_bar(total, _progress(args), "seedling" if bench else "cell")
         try:
             if bench:
-                result = run_bench_trial(scenario, seed)
+                result = run_bench_trial(scenario, seed, progress=update)
             elif record_path is None:
-                result = run_delta_refill(scenario, seed)
+                watch = [ProgressObserver(update)] if update is not None else []
+                result = run_delta_refill(scenario, seed, observers=watch)
             else:
                 from transplanter.viewing.delta import DeltaRecording, run_observed
 
                 recording = DeltaRecording(record_path, args.record_rate)
-                result = run_observed(scenario, seed, [recording])
+                watch = [ProgressObserver(update)] if update is not None else []
+                result = run_observed(scenario, seed, [recording, *watch])
         except (GradingUnavailable, GradingFailed, ScenarioError) as exc:
             _err(f"trial refused: {exc}")
             return EXIT_REFUSED
+        finally:
+            if bar is not None:
+                bar.close()
         if record_path is not None:
             if result.recording_error is None:
                 shown = _show(record_path)

@@ -12,21 +12,9 @@ import math
 from pathlib import Path
 from typing import Any
 
-from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _seeds, _show
+from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _progress, _seeds, _show
 
-__all__ = ["format_tables", "handles", "render", "run_trial"]
-
-
-def handles(args: argparse.Namespace, overrides: dict[str, Any]) -> bool:
-    """The scenario's job is the serial arm's (a scenario that does not load is left to the
-    trial command's own refusal)."""
-    from transplanter.scenario.schema import ScenarioError, load_scenario
-
-    try:
-        sc = load_scenario(args.scenario, overrides)
-    except ScenarioError:
-        return False
-    return sc.robot.kind == "serial4" and sc.workcell.kind in ("pool_to_belt", "conveyor_tube")
+__all__ = ["format_tables", "render", "run_trial"]
 
 
 def _num(v, fmt: str = "{:.2f}") -> str:
@@ -144,6 +132,8 @@ def run_trial(
             _err(f"scenario refused: {exc}")
             return EXIT_REFUSED
         return _run_pots(args, scenario, seeds, json_path)
+    from transplanter.twin.report import progress_bar
+
     results, outputs = [], []
     for seed in seeds:
         recording = None
@@ -151,7 +141,12 @@ def run_trial(
             from transplanter.viewing.serial_arm import SerialRecording
 
             recording = SerialRecording(record_path, args.record_rate)
-        result = run_serial_arm(scenario, seed, recording=recording)
+        bar, update = progress_bar(scenario.pool_to_belt.count, _progress(args), "tomato")
+        try:
+            result = run_serial_arm(scenario, seed, recording=recording, progress=update)
+        finally:
+            if bar is not None:
+                bar.close()
         results.append(result)
         print(format_tables(result))
         if recording is not None and result.recording_error is None:
@@ -270,10 +265,16 @@ def run_pot_seeds(
     per seed, a `line` each, the pooled rate and mean cycle over --seeds, the JSON and the
     definitions."""
     from transplanter.studies.stats import pooled_rate
+    from transplanter.twin.report import progress_bar
 
     results = []
     for seed in seeds:
-        result = run(scenario, seed)
+        bar, update = progress_bar(scenario.meta.seedlings, _progress(args), "seedling")
+        try:
+            result = run(scenario, seed, progress=update)
+        finally:
+            if bar is not None:
+                bar.close()
         results.append(result)
         print(line(result))
     if args.seeds is None:

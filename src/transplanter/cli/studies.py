@@ -66,12 +66,13 @@ def register(sub) -> None:
 
 
 def _seedlings(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
-    """--seedlings, or the scenario's (with the --set overrides) when not given."""
+    """--seedlings, or the scenario's (with the --set overrides) when not given: the job's
+    unit count (schema.units_of: the trays' max_cells, the pool's tomatoes)."""
     if args.seedlings is not None:
         return args.seedlings
-    from transplanter.scenario.schema import load_scenario
+    from transplanter.scenario.schema import load_scenario, units_of
 
-    return load_scenario(args.scenario, overrides).meta.seedlings
+    return units_of(load_scenario(args.scenario, overrides))
 
 
 def _sweep_parser(sub) -> None:
@@ -283,8 +284,9 @@ def _compare_parser(sub) -> None:
         help="scenario files or packaged names (paper serial_arm_pots delta_refill)",
     )
     _add(p, "--seeds", default="1-5", help="seeds every scenario runs on ('1-5', '1,3'); 1-5")
-    _add(p, "--seedlings", help="seedlings per trial (each scenario's own; the delta's tray "
-         "job services its tray's cells whatever this says)")  # fmt: skip
+    _add(p, "--seedlings", help="units per trial, each job's own: seedlings on the pot line, "
+         "cells of the delta's tray (delta_refill.max_cells), tomatoes (pool_to_belt.count); "
+         "default each scenario's own")  # fmt: skip
     p.add_argument(
         "--success-floor",
         type=_share,

@@ -117,18 +117,9 @@ def cmd_trial(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
-    from transplanter.cli import delta_trial  # the delta's plug-tray job: its own trial
-
-    if delta_trial.handles(args, overrides):
-        return delta_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
-    from transplanter.cli import serial_trial  # the serial arm's jobs: their own trial
-
-    if serial_trial.handles(args, overrides):
-        return serial_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
-    from transplanter.cli import delta_pots_trial  # the delta on the pot line: its own trial
-
-    if delta_pots_trial.handles(args, overrides):
-        return delta_pots_trial.run_trial(args, overrides, targets["--json"], targets["--record"])
+    job_cli = _job_cli(args, overrides)  # a job with its own trial (transplanter.kinds)
+    if job_cli is not None:
+        return job_cli.run_trial(args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
@@ -167,6 +158,23 @@ def cmd_trial(args: argparse.Namespace) -> int:
         args, [result], summary, payload, targets["--json"], interrupted=interrupted,
         note=f"interrupted after {result.judged} seedlings", outputs=outputs,
     )  # fmt: skip
+
+
+def _job_cli(args: argparse.Namespace, overrides: dict[str, Any]):
+    """The command-line module of the scenario's job with its robot, where it has its own
+    trial (`transplanter.kinds`: JobKind.cli), None for the twin's own; None too for a
+    scenario that does not load (the twin's path refuses it, saying why)."""
+    import importlib
+
+    from transplanter import kinds
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+
+    try:
+        sc = load_scenario(args.scenario, overrides)
+    except ScenarioError:
+        return None
+    module = kinds.job(sc.workcell.kind).cli(sc.robot.kind)
+    return importlib.import_module(module) if module else None
 
 
 def _move_exported(staging: Path, target: Path) -> None:
@@ -406,24 +414,17 @@ def cmd_render(args: argparse.Namespace) -> int:
     if clash is not None:
         _err(f"render refused: {clash}")
         return EXIT_REFUSED
-    from transplanter.cli import delta_trial  # the delta's plug-tray job: its own trial
-
     try:
         overrides = _trial_overrides(args)
     except ScenarioError as exc:
         _err(f"render refused: {exc}")
         return EXIT_REFUSED
-    if delta_trial.handles(args, overrides):
-        return delta_trial.render(args, overrides, target, json_target)
-    from transplanter.cli import serial_trial  # the serial arm's jobs: their own trial
-
-    if serial_trial.handles(args, overrides):
-        return serial_trial.render(args, overrides, target, json_target)
-    from transplanter.cli import delta_pots_trial
-
-    if delta_pots_trial.handles(args, overrides):
-        _err(f"render refused: {delta_pots_trial.NOT_FILMED}")
-        return EXIT_REFUSED
+    job_cli = _job_cli(args, overrides)  # a job with its own trial films it itself
+    if job_cli is not None:
+        if not hasattr(job_cli, "render"):
+            _err(f"render refused: {job_cli.NOT_FILMED}")
+            return EXIT_REFUSED
+        return job_cli.render(args, overrides, target, json_target)
     if args.cells_of is not None:
         _err("render refused: --cells-of is for the delta's plug-tray job; give --seedlings-of")
         return EXIT_REFUSED
@@ -497,13 +498,13 @@ def cmd_view(args: argparse.Namespace) -> int:
             f"(needs {video.INSTALL_HINT}), or run view on a machine with a display"
         )
         return EXIT_REFUSED
-    from transplanter.cli import delta_pots_trial
     from transplanter.scenario.schema import ScenarioError
     from transplanter.twin.report import format_summary
 
     try:
-        if delta_pots_trial.handles(args, _trial_overrides(args)):
-            raise ScenarioError(delta_pots_trial.NOT_FILMED)
+        job_cli = _job_cli(args, _trial_overrides(args))
+        if job_cli is not None and hasattr(job_cli, "NOT_FILMED"):
+            raise ScenarioError(job_cli.NOT_FILMED)
         config = _single_trial_config(args)
     except ScenarioError as exc:
         _err(f"view refused: {exc}")
@@ -538,7 +539,6 @@ def cmd_export(args: argparse.Namespace) -> int:
     import tempfile
 
     from transplanter import fileio
-    from transplanter.cli import delta_trial
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.scene import export_scene
@@ -549,11 +549,10 @@ def cmd_export(args: argparse.Namespace) -> int:
         if clash is not None:
             raise fileio.FileRefused(clash)
         overrides = _trial_overrides(args)
-        from transplanter.cli import delta_pots_trial
-
-        if delta_pots_trial.handles(args, overrides):
-            raise ScenarioError(delta_pots_trial.NOT_FILMED)
-        delta = delta_trial.handles(args, overrides)  # the delta's plug trays: its own scene
+        job_cli = _job_cli(args, overrides)
+        if job_cli is not None and hasattr(job_cli, "NOT_FILMED"):
+            raise ScenarioError(job_cli.NOT_FILMED)
+        delta = job_cli is not None and hasattr(job_cli, "export")  # a job's own scene
         if delta:
             config = load_scenario(args.scenario, overrides)
         else:
@@ -567,7 +566,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
         if delta:
-            delta_trial.export(config, staging / path.name)
+            job_cli.export(config, staging / path.name)
         else:
             export_scene(config.scene, config.seed, staging / path.name)
         _move_exported(staging, path)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from transplanter import fileio
+from transplanter import fileio, kinds
 from transplanter.errors import TransplanterError
 from transplanter.machine.eeprom import MAX_PICKUPS
 
@@ -1469,7 +1469,9 @@ def file_keys(scenario: Scenario, section: str) -> list[str]:
 def _base_path(path: Path, base: Any) -> Path:
     """The file a `base = ...` names: a file in the scenario's own directory (or below it),
     an absolute path (as `transplanter tune` writes for a scenario kept elsewhere), else a
-    packaged scenario by name; never a relative path out of the directory ('../x.toml')."""
+    packaged scenario by name or a packaged part by its path (`parts/pot_line.toml`: a copy
+    of paper.toml elsewhere still finds its pot line); never a relative path out of the
+    directory ('../x.toml')."""
     if not isinstance(base, str) or not base:
         raise ScenarioError(f"{path}: scenario.base must be a file name, got {_shown(base)}.")
     if Path(base).is_absolute():
@@ -1480,8 +1482,11 @@ def _base_path(path: Path, base: Any) -> Path:
             f"{path}: scenario.base = {_shown(base)} points outside the scenario's directory; "
             "name a file beside it, an absolute path or a packaged scenario (e.g. 'paper.toml')."
         )
-    if candidate.exists() or len(Path(base).parts) != 1:
+    if candidate.exists():
         return candidate
+    if len(Path(base).parts) != 1:  # a packaged part (parts/pot_line.toml) if none is here
+        packaged = Path(str(importlib.resources.files("transplanter.scenarios"))) / base
+        return packaged if packaged.is_file() else candidate
     return resolve_scenario_path(base)  # a packaged scenario by name
 
 
@@ -1853,13 +1858,177 @@ def scenario_files(name: str | Path) -> list[Path]:
     return files
 
 
+REFERENCE_SCENARIO = "paper"
+"""The packaged scenario whose values fill a section that a scenario neither gives nor reads
+(the five-bar's [arm], [taught], ... in a delta's scenario): a Scenario has every section,
+and one its kinds do not read is never used (`transplanter.kinds`)."""
+
+
+def _kinds_of(raw: Mapping[str, Any], source: str) -> tuple[str, str, str]:
+    """The robot, effector and job kinds a raw scenario names (defaults where it names
+    none); ScenarioError for a kind no registry knows, with the nearest known name."""
+    out = []
+    for section in ("robot", "effector", "workcell"):
+        table = raw.get(section, {})
+        value = table.get("kind", DEFAULT_SECTIONS[section]["kind"])
+        name = _convert(section, "kind", SCHEMA[section]["kind"], value)
+        category = "job" if section == "workcell" else section
+        try:
+            kinds.get(category, name)
+        except kinds.UnknownKind as exc:
+            raise ScenarioError(f"{source}: {exc}.") from None
+        out.append(name)
+    return out[0], out[1], out[2]
+
+
+def _refuse_unread(
+    raw: Mapping[str, Any], overrides: Mapping[str, Any], source: str
+) -> tuple[str, str, str]:
+    """Refuse a key that no kind of the scenario reads (a value the run would ignore), naming
+    who reads it; the scenario's kinds otherwise. Unknown sections and keys are refused first,
+    with their own messages."""
+    for section, table in raw.items():
+        if section not in SCHEMA:
+            raise ScenarioError(
+                f"{source}: unknown section [{section}]. Known sections: {', '.join(SCHEMA)}."
+            )
+        if isinstance(table, dict):
+            for key_name in table:
+                if key_name not in SCHEMA[section]:
+                    raise _unknown_key_error(section, key_name, SCHEMA[section])
+    robot, effector, job = _kinds_of(raw, source)
+    if kinds.job(job).refusal(robot, effector) is not None:
+        # a combination the job cannot run: what it would read is undefined, and the trial
+        # refuses it with the job's reason before any step (`ik` and `plan` need only the
+        # robot's kinematics)
+        return robot, effector, job
+    given = {s: list(t) for s, t in raw.items() if isinstance(t, dict)}
+    unread = kinds.unread_keys(given, robot, effector, job)
+    if unread:
+        n = len(unread)
+        by_set = [u for u in unread if f"{u[0]}.{u[1]}" in overrides]
+        where = "given by --set" if len(by_set) == n else (
+            "given in the scenario file or its base chain" if not by_set
+            else "given in the scenario file, its base chain or by --set"
+        )  # fmt: skip
+        them = "them" if n > 1 else "it"
+        raise ScenarioError(
+            f"{source}: {n} key{'s' if n > 1 else ''} {where} that no kind of this scenario "
+            f"reads (robot {robot}, effector {effector}, workcell {job}), so the run would "
+            f"ignore {them}: {kinds.describe_unread(unread)}. Remove {them}, or run a "
+            f"scenario of the kinds that read {them} (`transplanter scenarios` lists them)."
+        )
+    return robot, effector, job
+
+
+_REFERENCE_RAW: dict[str, Any] | None = None
+
+
+def _with_unread_sections(raw: dict, robot: str, effector: str, job: str) -> dict:
+    """`raw` with every key it lacks that its kinds do not read (whole sections, or the rest
+    of a section they read in part: the five-bar's [arm] and [taught] in a delta's scenario,
+    [bus] line_numbers beside its baud_bps) filled from the reference scenario
+    (REFERENCE_SCENARIO): present, valid and never used. A key its kinds read must be given
+    (or have a default)."""
+    global _REFERENCE_RAW
+    runs = kinds.job(job).refusal(robot, effector) is None
+    # a combination the job cannot run reads nothing: filled whole, its trial refuses it
+    table = kinds.reads(robot, effector, job) if runs else {}
+    out = dict(raw)
+    for section, keys in SCHEMA.items():
+        read = table.get(section, ())
+        if read == kinds.ALL:
+            continue
+        have = out.get(section)
+        if have is not None and not isinstance(have, dict):
+            continue  # validate says why
+        defaults = DEFAULT_SECTIONS.get(section, {})
+        lacking = [k for k in keys if k not in (have or {}) and k not in defaults and k not in read]
+        if not lacking:
+            continue
+        if _REFERENCE_RAW is None:
+            _REFERENCE_RAW = _read_raw(resolve_scenario_path(REFERENCE_SCENARIO))
+        reference = _REFERENCE_RAW.get(section, {})
+        out[section] = {**{k: reference[k] for k in lacking if k in reference}, **(have or {})}
+    return out
+
+
+def units_key(path: str | Path, overrides: Mapping[str, Any] | None = None) -> str:
+    """The key that `--seedlings N` sets for the scenario's job: how many units a run does
+    (`scenario.seedlings` for the pot line and the claws' bench, `delta_refill.max_cells`
+    for the trays, `pool_to_belt.count` for the tomatoes); from the kinds the file (and
+    `overrides`) name, before the scenario is validated (ScenarioError for a file that does
+    not load or an unknown kind)."""
+    path = resolve_scenario_path(path)
+    raw = _read_raw(path)
+    if overrides:
+        raw = _apply_overrides(raw, {k: v for k, v in overrides.items() if k.endswith(".kind")})
+    job = _kinds_of(raw, str(path))[2]
+    return kinds.job(job).UNITS_KEY
+
+
+def with_units(
+    path: str | Path,
+    overrides: Mapping[str, Any] | None,
+    units: int | None,
+    keep_given: bool = False,
+) -> dict[str, Any]:
+    """`overrides` with `units` (None: the scenario's own) as the job's unit count
+    (`units_key`). The key given in `overrides` too is refused (ScenarioError: two values
+    for one count), or with `keep_given` kept (a comparison's --set for one job is more
+    particular than its --seedlings for all)."""
+    out = dict(overrides or {})
+    if units is not None:
+        key = units_key(path, out)
+        if key in out and not keep_given:
+            if out[key] != units:
+                raise ScenarioError(
+                    f"--seedlings {units} and {key} = {out[key]} both give how many units "
+                    "the job does: give one"
+                )
+        elif key not in out:
+            out[key] = units
+    return out
+
+
+def read_overrides(path: str | Path, overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """The overrides of `overrides` that the scenario's kinds read (`transplanter kinds`):
+    what a `--set` given to several scenarios at once (`transplanter compare`) means for
+    this one; the kinds from the file and the overrides' `*.kind` keys."""
+    path = resolve_scenario_path(path)
+    raw = _read_raw(path)
+    raw = _apply_overrides(raw, {k: v for k, v in overrides.items() if k.endswith(".kind")})
+    robot, effector, job = _kinds_of(raw, str(path))
+    if kinds.job(job).refusal(robot, effector) is not None:
+        return dict(overrides)  # the scenario's own refusal says why it cannot run
+    table = kinds.reads(robot, effector, job)
+    out = {}
+    for dotted, value in overrides.items():
+        section, _, key = dotted.partition(".")
+        keys = table.get(section, ())
+        if keys == kinds.ALL or key in keys:
+            out[dotted] = value
+    return out
+
+
+def units_of(scenario: Scenario) -> int:
+    """How many units the scenario's job does in a run, as its `units_key` holds it (the
+    trays' `max_cells` 0: every cell the grading finds)."""
+    return int(scenario.get(kinds.job(scenario.workcell.kind).UNITS_KEY))
+
+
 def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:
     """Read, merge (`base`), override (`{"taught.s_high_mm_s": 200}`, file units) and
-    validate a scenario file, or a packaged scenario by name (`paper`)."""
+    validate a scenario file, or a packaged scenario by name (`paper`). A key that no kind of
+    the scenario (`[robot]`, `[effector]`, `[workcell]`; `transplanter.kinds`) reads is
+    refused, naming who reads it; a section it neither gives nor reads is filled with the
+    reference scenario's values, never used."""
     path = resolve_scenario_path(path)
     raw = _read_raw(path)
     if overrides:
         raw = _apply_overrides(raw, overrides)
+    robot, effector, job = _refuse_unread(raw, overrides or {}, str(path))
+    raw = _with_unread_sections(raw, robot, effector, job)
     values = validate(raw, str(path))
     sections = {("meta" if k == "scenario" else k): SECTIONS[k](**v) for k, v in values.items()}
     return Scenario(path=path, overrides=tuple((overrides or {}).items()), **sections)

@@ -11,7 +11,7 @@ import time
 from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
-from transplanter.scenario.schema import ScenarioError, load_scenario
+from transplanter.scenario.schema import ScenarioError, load_scenario, with_units
 from transplanter.studies.grid import SweepRefused
 from transplanter.twin.motors import motor_columns
 from transplanter.twin.results import FAILURE_KINDS
@@ -65,13 +65,12 @@ def run_one(task: Mapping[str, Any]) -> dict[str, Any]:
 
     row: dict[str, Any] = {**task["setting"], "seed": task["seed"], **_empty_result()}
     t0 = time.perf_counter()
-    overrides = {
-        **task["overrides"],
-        **task["setting"],
-        "scenario.seed": task["seed"],
-        "scenario.seedlings": task["seedlings"],
-    }
     try:
+        overrides = with_units(
+            task["scenario"],
+            {**task["overrides"], **task["setting"], "scenario.seed": task["seed"]},
+            task["seedlings"],
+        )
         scenario = load_scenario(task["scenario"], overrides)
         job = job_of(scenario)  # the delta's tray or the claws' bench (studies.jobs), or None
         config = None if job is not None else assemble(scenario, preflight=True)

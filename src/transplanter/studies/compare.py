@@ -37,7 +37,13 @@ from pathlib import Path
 from typing import Any
 
 from transplanter import fileio
-from transplanter.scenario.schema import load_scenario
+from transplanter.scenario.schema import (
+    ScenarioError,
+    load_scenario,
+    read_overrides,
+    units_key,
+    units_of,
+)
 from transplanter.studies.grid import SweepRefused, SweepSpec
 from transplanter.studies.jobs import job_of
 from transplanter.studies.stats import pool_runs
@@ -128,12 +134,28 @@ class CompareSpec:
 
     def sweeps(self) -> list[SweepSpec]:
         """One single-setting sweep per scenario (refused here if a scenario is bad)."""
-        out = []
+        out, used = [], set()
         for s in self.scenarios:
+            own = read_overrides(s, self.overrides)  # a --set reaches the scenarios that read it
+            used |= set(own)
             seedlings = self.seedlings
-            if seedlings is None:
-                seedlings = load_scenario(s, dict(self.overrides)).meta.seedlings
-            out.append(SweepSpec(s, (), self.seeds, seedlings, dict(self.overrides), design="one"))
+            if units_key(s, own) in own:  # its own --set count is more particular
+                seedlings = None
+            elif seedlings is None:
+                seedlings = units_of(load_scenario(s, own))
+            out.append(SweepSpec(s, (), self.seeds, seedlings, own, design="one"))
+        unread = sorted(set(self.overrides) - used)
+        if unread:
+            from transplanter import kinds
+
+            who = [(*k.split(".", 1), ", ".join(kinds.readers(*k.split(".", 1))) or "no kind")
+                   for k in unread]  # fmt: skip
+            them = "them" if len(unread) > 1 else "it"
+            raise ScenarioError(
+                f"--set {', '.join(unread)}: no scenario of the comparison reads {them} (by "
+                f"its robot, effector and job kinds): {kinds.describe_unread(who)}; remove "
+                f"{them}, or add a scenario whose kinds read {them}"
+            )
         return out
 
     def manifest(self, sweeps: Sequence[SweepSpec]) -> dict[str, Any]:

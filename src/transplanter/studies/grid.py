@@ -23,6 +23,7 @@ from transplanter.scenario.schema import (
     key_spec,
     load_scenario,
     parse_value,
+    with_units,
 )
 
 MAX_GRID_VALUES = 10000  # values of one --vary key; more is a typo, not a sweep
@@ -185,7 +186,7 @@ class SweepSpec:
     scenario: str
     axes: tuple[Axis, ...]
     seeds: tuple[int, ...]
-    seedlings: int
+    seedlings: int | None  # None: the scenario's own count (its file and --set give it)
     overrides: Mapping[str, Any] = field(default_factory=dict)
     design: str = "full"
     """'full': every combination of the axes' values; 'L9': the nine runs of the L9(3^4)
@@ -242,7 +243,7 @@ class SweepSpec:
         return math.prod(len(a.values) for a in self.axes) * len(self.seeds)
 
     def base_overrides(self) -> dict[str, Any]:
-        return {**self.overrides, "scenario.seedlings": self.seedlings}
+        return with_units(self.scenario, self.overrides, self.seedlings)
 
     def check(self):
         """The scenario with the --set overrides and seedlings, or ScenarioError (before any

@@ -33,7 +33,12 @@ from pathlib import Path
 from typing import Any
 
 from transplanter import fileio, interrupts
-from transplanter.scenario.schema import ScenarioError, load_scenario, resolve_scenario_path
+from transplanter.scenario.schema import (
+    ScenarioError,
+    load_scenario,
+    resolve_scenario_path,
+    with_units,
+)
 from transplanter.studies.grid import task
 from transplanter.studies.sweep import (
     SweepRefused,
@@ -111,9 +116,8 @@ class TuneSpec:
 
     def check(self):
         """The scenario with --set and the seedlings (ScenarioError before any run)."""
-        return load_scenario(
-            self.scenario, {**self.overrides, "scenario.seedlings": self.seedlings}
-        )
+        overrides = with_units(self.scenario, self.overrides, self.seedlings)
+        return load_scenario(self.scenario, overrides)
 
     def identity(self, scenario_digest: str) -> dict[str, Any]:
         """What a resumed study must share with this command."""

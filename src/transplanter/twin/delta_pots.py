@@ -68,6 +68,7 @@ from transplanter.twin.serial_pots import (
     PotBook,
     PotRecord,
     SerialPotsResult,
+    _reporter,
     line_config,
 )
 
@@ -288,9 +289,10 @@ def require_delta_gripper(sc) -> None:
     )
 
 
-def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
+def run_delta_pots(sc, seed: int | None = None, progress=None) -> DeltaPotsResult:
     """`scenario.seedlings` pots of the scenario's pot line (seed `seed`, default the
-    scenario's), picked row by row into the drop tube by the delta (module docstring)."""
+    scenario's), picked row by row into the drop tube by the delta (module docstring).
+    `progress(done, sim_t)`: called once a simulated second with the pots done."""
     require_awake(sc, "the delta's pot job")
     from transplanter.scene.conveyor import ConveyorDrive
     from transplanter.scene.geometry import cell_columns_x
@@ -361,6 +363,7 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
         book.records, book.body_ids, book.holding, book.plant, book.mark
     )  # fmt: skip
     squeeze = _Squeeze(model, body_ids)
+    report = _reporter(progress, records, dt) if progress is not None else None
     finger_adr = [model.jnt_qposadr[model.joint(f).id] for f in fuzzy_gripper.FINGERS]
 
     def station(col: int):
@@ -491,6 +494,8 @@ def run_delta_pots(sc, seed: int | None = None) -> DeltaPotsResult:
         meter.record(data)
         if holding:
             squeeze.after_step(data)
+        if report is not None:
+            report((k + 1) * dt)
         k += 1
         if t_end is None and (host.done or host.error is not None):
             t_end = t + 1.0

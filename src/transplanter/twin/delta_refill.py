@@ -63,7 +63,7 @@ from transplanter.twin.delta_grading import (
 from transplanter.twin.motors import MotorMeter
 from transplanter.vision.grading import EMPTY, HEALTHY, HEALTHY_LR, HEALTHY_UD, INFERIOR
 
-__all__ = ["DeltaRefillJudge", "DeltaRefillResult", "run_delta_refill"]
+__all__ = ["DeltaRefillJudge", "DeltaRefillResult", "ProgressObserver", "run_delta_refill"]
 
 DEFINITIONS = {
     "time_per_operation_s": "work time / operations. The work time is simulated from the "
@@ -687,6 +687,33 @@ class DeltaView:
             if t >= o.next_t:
                 o.look(self)
         return min(o.next_t for o in self.observers)
+
+
+class ProgressObserver:
+    """A DeltaObserver that reports the tray's progress once a simulated second,
+    `progress(done, sim_t, total)`: the cells serviced so far of the cells the host planned.
+    It only reads the host's marks, so the trial is the same with it."""
+
+    def __init__(self, progress, period_s: float = 1.0) -> None:
+        self.progress, self.period_s = progress, period_s
+        self.next_t = period_s
+        self.total = 0
+
+    def attach(self, view: DeltaView) -> None:
+        self.total = len(view.ops)
+        self.progress(0, 0.0, self.total)
+
+    def look(self, view: DeltaView) -> None:
+        marks = view.host.marks
+        done = sum(f"cell{op.cell}_end" in marks for op in view.ops)
+        self.progress(done, view.t, self.total)
+        self.next_t = view.t + self.period_s
+
+    def finish(self, view: DeltaView, result: DeltaRefillResult) -> None:
+        self.progress(result.operations, result.sim_time_s, self.total)
+
+    def abort(self) -> None:
+        pass
 
 
 def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives, fault,

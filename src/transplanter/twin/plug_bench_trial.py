@@ -105,11 +105,17 @@ def _seedlings(seed: int, n: int):
     return out[:n]
 
 
-def run_bench_trial(sc, seed: int | None = None) -> BenchRunResult:
+def run_bench_trial(sc, seed: int | None = None, progress=None) -> BenchRunResult:
     """One run of the scenario `sc` ([plugs], [plug_claws], [plug_bench], its seedlings) with
-    seed `seed` (default the scenario's)."""
+    seed `seed` (default the scenario's); `progress(done, sim_t)` after each pick (the
+    simulated time of the picks so far)."""
     require_awake(sc, "the claws' bench")
-    from transplanter.scenario.assemble import claws_config, plugs_config
+    from transplanter.scenario.assemble import claws_config, plugs_config, require_kinds
+
+    require_kinds(
+        sc, "the claws' bench", None, "plug_claws",
+        "the bench pulls plugs with the plug claws and moves them itself, no robot",
+    )  # fmt: skip
     from transplanter.scene.plug_bench import BenchConfig, centred_seedling, run_pick
     from transplanter.twin.delta_grading import truth_cell
     from transplanter.twin.delta_refill import rotary_for
@@ -155,6 +161,8 @@ def run_bench_trial(sc, seed: int | None = None) -> BenchRunResult:
                 "time_s": round(r.times_s["released"], 6),
             }
         )
+        if progress is not None:
+            progress(i + 1, sum(p["time_s"] for p in picks))
     arrived = [p for p in picks if p["arrived"]]
     times = np.array([p["time_s"] for p in picks])
     return BenchRunResult(

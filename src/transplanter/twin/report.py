@@ -172,16 +172,21 @@ def format_summary(result: TrialResult) -> str:
     return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
 
 
-def progress_bar(total: int, enabled: bool):
-    """A tqdm bar over the trial's seedlings, and the callback run_trial updates it with;
-    (None, None) when disabled."""
+def progress_bar(total: int | None, enabled: bool, unit: str = "seedling"):
+    """A tqdm bar over the trial's units (seedlings, cells, tomatoes: `unit`, singular), and
+    the callback a trial updates it with, `update(done, sim_t, total=None)` (a total known
+    only once the run has planned its work, as the trays' cells); (None, None) when
+    disabled."""
     if not enabled:
         return None, None
     from tqdm import tqdm
 
-    bar = tqdm(total=total, unit="seedling", dynamic_ncols=True)
+    bar = tqdm(total=total, unit=unit, dynamic_ncols=True)
 
-    def update(done: int, sim_t: float) -> None:
+    def update(done: int, sim_t: float, total: int | None = None) -> None:
+        if total is not None and bar.total != total:
+            bar.total = total
+            bar.refresh()
         bar.set_postfix_str(f"sim {sim_t:.1f} s", refresh=False)
         bar.update(done - bar.n)
 

@@ -835,14 +835,15 @@ class _Squeeze:
 
 
 def run_pick_place(
-    sc, seed: int | None = None, recording=None
+    sc, seed: int | None = None, recording=None, progress=None
 ) -> tuple[list[PickRecord], dict, str | None, bool]:
     """The pool_to_belt job: every tomato of the pool picked at the station and released
     over the belt (module docstring). Returns the records, the job's totals, the host's
     error (None when the program ended) and whether the physics stayed valid.
     ``recording``: an observer, `viewing.serial_arm.SerialRecording` or `SerialVideo` (it only
     reads the state; it is told the tomato in progress, the controller's output and the
-    squeeze)."""
+    squeeze). ``progress(done, sim_t)``: called once a simulated second with the tomatoes
+    whose pick has ended."""
     require_awake(sc, "the serial arm's pick and place")
     require_own_motion(sc, "the serial arm's pick and place")
     from transplanter.scene.workcells import pool_to_belt
@@ -870,6 +871,14 @@ def run_pick_place(
             recording.look(t)
 
     rig.on_step.append(watch)
+    if progress is not None:
+        every = max(1, round(1.0 / rig.dt))
+
+        def report(t: float) -> None:
+            if rig.k % every == 0:
+                progress(sum(r.end_s is not None for r in records), t)
+
+        rig.on_step.append(report)
     if recording is not None:
         recording.attach(rig)
     pool_to_belt.start_belt(data)
@@ -1056,10 +1065,12 @@ class SerialArmResult:
 
 
 def run_serial_arm(
-    sc, seed: int | None = None, jobs=("targets", "gripper", "pick"), recording=None
-):
+    sc, seed: int | None = None, jobs=("targets", "gripper", "pick"), recording=None,
+    progress=None,
+):  # fmt: skip
     """The serial arm's trial: the jobs named (all three by default), each in its scene;
-    ``recording`` (`viewing.serial_arm.SerialRecording`) films the pick and place."""
+    ``recording`` (`viewing.serial_arm.SerialRecording`) films the pick and place;
+    ``progress(done, sim_t)`` follows its tomatoes."""
     wall0 = time.perf_counter()
     seed = sc.seed if seed is None else seed
     result = SerialArmResult(sc.meta.name, seed)
@@ -1075,7 +1086,7 @@ def run_serial_arm(
         if err:
             result.errors["gripper_cases"] = err
     if "pick" in jobs:
-        result.picks, result.pick_totals, err, ok = run_pick_place(sc, seed, recording)
+        result.picks, result.pick_totals, err, ok = run_pick_place(sc, seed, recording, progress)
         if recording is not None:
             result.recording_error = recording.error
         valid.append(ok)

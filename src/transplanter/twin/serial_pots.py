@@ -91,6 +91,21 @@ def line_config(sc):
     return replace(line, live_rows=line.rows)  # every row's pots are bodies: no window
 
 
+def _reporter(progress, records, dt: float):
+    """A per-step hook calling `progress(done, sim_t)` once a simulated second: the records
+    whose pick has ended (or that the host skipped)."""
+    every = max(1, round(1.0 / dt))
+    k = [0]
+
+    def fn(t: float) -> None:
+        k[0] += 1
+        if k[0] % every == 0:
+            done = sum(r.end_s is not None or r.outcome == "no pot" for r in records)
+            progress(done, t)
+
+    return fn
+
+
 class PotBook:
     """The pots a pot job on the five-bar's line (`line`: its scene config) picks: a record
     and a body id for each of the first `n` cells, the one in the gripper (`holding`), the
@@ -349,9 +364,10 @@ class SerialPotsResult:
         }
 
 
-def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
+def run_serial_pots(sc, seed: int | None = None, progress=None) -> SerialPotsResult:
     """`scenario.seedlings` pots of the scenario's pot line (seed `seed`, default the
-    scenario's), picked row by row into the drop tube (module docstring)."""
+    scenario's), picked row by row into the drop tube (module docstring). `progress(done,
+    sim_t)`: called once a simulated second with the pots whose pick has ended."""
     require_awake(sc, "the serial arm's pot job")
     require_own_motion(sc, "the serial arm's pot job")
     from transplanter.scene.conveyor import ConveyorDrive
@@ -393,6 +409,8 @@ def run_serial_pots(sc, seed: int | None = None) -> SerialPotsResult:
     )  # fmt: skip
     squeeze = _Squeeze(model, body_ids)
     rig.on_step.append(lambda _t: squeeze.after_step(data) if holding else None)
+    if progress is not None:
+        rig.on_step.append(_reporter(progress, records, rig.dt))
     xs = cell_columns_x(line)
     base, yaw = cfg.base_pos_m, cfg.base_yaw_rad
     z_top = line.funnel_top_z_m

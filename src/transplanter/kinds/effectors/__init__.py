@@ -1,0 +1,1 @@
+"""The effectors kinds (transplanter.kinds)."""

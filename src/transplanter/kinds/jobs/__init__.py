@@ -1,0 +1,1 @@
+"""The jobs kinds (transplanter.kinds)."""

@@ -1,0 +1,1 @@
+"""The robots kinds (transplanter.kinds)."""
