@@ -1,5 +1,5 @@
 """Write the visual meshes of the twin into the assets/ folders of models/ (re-runnable,
-deterministic): the robot's to models/fivebar/assets/, the workcell's to
+deterministic): the parallel jaws' to models/effectors/parallel_jaw/assets/, the workcell's to
 models/workcells/conveyor_tube/assets/.
 
 Run: .venv/bin/python scripts/make_meshes.py
@@ -29,7 +29,7 @@ import numpy as np
 import trimesh
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
-ROBOT_ASSETS = MODELS / "fivebar" / "assets"
+EFFECTOR_ASSETS = MODELS / "effectors" / "parallel_jaw" / "assets"
 DELTA_ASSETS = MODELS / "delta" / "assets"
 WORKCELL_ASSETS = MODELS / "workcells" / "conveyor_tube" / "assets"
 
@@ -105,7 +105,7 @@ def meshes() -> dict[Path, trimesh.Trimesh]:
     return {
         WORKCELL_ASSETS / "paper_pot.stl": paper_pot(),
         WORKCELL_ASSETS / "seedling_leaf.stl": seedling_leaf(),
-        ROBOT_ASSETS / "jaw.stl": jaw(),
+        EFFECTOR_ASSETS / "jaw.stl": jaw(),
         WORKCELL_ASSETS / "funnel.stl": funnel(),
         DELTA_ASSETS / "delta_base.stl": delta_base(),
         DELTA_ASSETS / "delta_platform.stl": delta_platform(),

@@ -1,5 +1,6 @@
-"""Write SceneConfig()'s numbers into the robot's and the workcell's MJCF files:
-models/fivebar/fivebar.xml and models/workcells/conveyor_tube/conveyor_tube.xml.
+"""Write SceneConfig()'s numbers into the robot's, its effector's and the workcell's MJCF files:
+models/fivebar/fivebar.xml, models/effectors/parallel_jaw/parallel_jaw.xml and
+models/workcells/conveyor_tube/conveyor_tube.xml.
 
 Run: .venv/bin/python scripts/make_models.py          (rewrites the files in place)
      .venv/bin/python scripts/make_models.py --check  (exit status 1 if they are stale)
@@ -24,12 +25,20 @@ import mujoco
 
 from transplanter.scene.build import (
     compile_with_home,
+    effector_xml,
     robot_xml,
     scene_spec,
     workcell_xml,
 )
 from transplanter.scene.config import SceneConfig
-from transplanter.scene.robots.fivebar import INERTIAL_BODIES as ARM_BODIES
+from transplanter.scene.robots.fivebar import INERTIAL_BODIES, MOUNT
+
+EFFECTOR_BODIES = ("gripper", "jaw_left", "jaw_right")
+"""The bodies of INERTIAL_BODIES drawn in the effector's file; the others are the robot's."""
+ARM_BODIES = tuple(b for b in INERTIAL_BODIES if b not in EFFECTOR_BODIES)
+ROBOT_JOINTS = ("z", "theta1", "phi1", "theta2", "phi2")
+EFFECTOR_JOINTS = ("wrist", "jaw_left", "jaw_right")
+ROBOT_ACTUATORS = 3  # the robot's motors come first, the effector's servos next
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 JACOBIAN = {
@@ -48,8 +57,56 @@ def fmt(*values) -> str:
     return " ".join(out)
 
 
+def _home(spec: mujoco.MjSpec, model: mujoco.MjModel, joints) -> str:
+    """The home keyframe's qpos of these (single-valued) joints, in their order."""
+    qpos = list(spec.key("home").qpos)
+    return fmt(*(qpos[model.joint(j).qposadr[0]] for j in joints))
+
+
+def _inertials(spec: mujoco.MjSpec, bodies, with_pos: bool = True) -> list:
+    out = []
+    for body in bodies:
+        b = spec.body(body)
+        out.append(("body", body, {"pos": fmt(*b.pos)} if with_pos else {}))
+        out.append(("inertial", None, {
+            "pos": fmt(*b.ipos), "quat": fmt(*b.iquat), "mass": fmt(b.mass),
+            "diaginertia": fmt(*b.inertia),
+        }))  # fmt: skip
+    return out
+
+
+def effector_values(
+    spec: mujoco.MjSpec, model: mujoco.MjModel
+) -> list[tuple[str, str | None, dict[str, str]]]:
+    """(tag, name, {attribute: text}) for models/effectors/parallel_jaw/parallel_jaw.xml (its
+    root `gripper` sits at the robot's mount frame: no pos of its own)."""
+    out = _inertials(spec, EFFECTOR_BODIES[:1], with_pos=False)
+    out += _inertials(spec, EFFECTOR_BODIES[1:])
+    for jaw in ("jaw_left", "jaw_right"):
+        j = spec.joint(jaw)
+        out.append(("joint", jaw, {"range": fmt(*j.range), "damping": fmt(j.damping[0])}))
+    for geom in ("palm", "palm_visual", "side_plate_left", "side_plate_right"):
+        g = spec.geom(geom)
+        out.append(("geom", geom, {"size": fmt(*g.size), "pos": fmt(*g.pos)}))
+    column = spec.geom("column")
+    out.append(("geom", "column", {"size": fmt(*column.size[:2]), "pos": fmt(*column.pos)}))
+    out.append(("site", "grip_center", {"pos": fmt(*spec.site("grip_center").pos)}))
+    grip = spec.actuator("gripper")
+    out.append(("position", "gripper", {
+        "kp": fmt(grip.gainprm[0]), "forcerange": fmt(*grip.forcerange),
+        "ctrlrange": fmt(*grip.ctrlrange),
+    }))  # fmt: skip
+    wrist = spec.actuator("wrist")
+    out.append(("position", "wrist", {
+        "kp": fmt(wrist.gainprm[0]), "forcerange": fmt(*wrist.forcerange),
+    }))  # fmt: skip
+    ctrl = list(spec.key("home").ctrl)[ROBOT_ACTUATORS : ROBOT_ACTUATORS + 2]
+    out.append(("key", "home", {"qpos": _home(spec, model, EFFECTOR_JOINTS), "ctrl": fmt(*ctrl)}))
+    return out
+
+
 def robot_values(
-    spec: mujoco.MjSpec, machine_nq: int
+    spec: mujoco.MjSpec, model: mujoco.MjModel
 ) -> list[tuple[str, str | None, dict[str, str]]]:
     """(tag, name, {attribute: text}) for models/fivebar/fivebar.xml. Unnamed tags (option, flag,
     inertial) are found as the first such tag after the previous entry's tag."""
@@ -63,54 +120,31 @@ def robot_values(
         }),
         ("flag", None, {"sleep": "enable" if sleep else "disable"}),
     ]  # fmt: skip
-    for body in ARM_BODIES:
-        b = spec.body(body)
-        out.append(("body", body, {"pos": fmt(*b.pos)}))
-        out.append(("inertial", None, {
-            "pos": fmt(*b.ipos), "quat": fmt(*b.iquat), "mass": fmt(b.mass),
-            "diaginertia": fmt(*b.inertia),
-        }))  # fmt: skip
+    out += _inertials(spec, ARM_BODIES)
+    out.append(("frame", MOUNT, {"pos": fmt(*spec.frame(MOUNT).pos)}))
     for joint in ("z", "theta1", "theta2"):
         j = spec.joint(joint)
         values = {"range": fmt(*j.range), "damping": fmt(j.damping[0])}
         if joint == "z":  # the lead screw's friction
             values["frictionloss"] = fmt(j.frictionloss)
         out.append(("joint", joint, {**values, "armature": fmt(j.armature)}))
-    for jaw in ("jaw_left", "jaw_right"):
-        j = spec.joint(jaw)
-        out.append(("joint", jaw, {"range": fmt(*j.range), "damping": fmt(j.damping[0])}))
     out.append(("geom", "platform", {"mass": fmt(spec.geom("platform").mass)}))
     for geom in ("motor1", "motor2"):
         out.append(("geom", geom, {"pos": fmt(*spec.geom(geom).pos)}))
-    for geom in ("palm", "palm_visual", "side_plate_left", "side_plate_right"):
-        g = spec.geom(geom)
-        out.append(("geom", geom, {"size": fmt(*g.size), "pos": fmt(*g.pos)}))
     for geom in ("link1", "link2", "passive1", "passive2"):
         g = spec.geom(geom)
         out.append(("geom", geom, {"fromto": fmt(*g.fromto), "mass": fmt(g.mass)}))
-    column = spec.geom("column")
-    out.append(("geom", "column", {"size": fmt(*column.size[:2]), "pos": fmt(*column.pos)}))
-    for site in ("c1", "c2", "grip_center"):
+    for site in ("c1", "c2"):
         out.append(("site", site, {"pos": fmt(*spec.site(site).pos)}))
     for act in ("theta1", "theta2", "z"):
         a = spec.actuator(act)
         out.append(("general", act, {
             "gear": fmt(a.gear[0]), "gainprm": fmt(a.gainprm[0]), "biasprm": fmt(*a.biasprm[:3]),
         }))  # fmt: skip
-    grip = spec.actuator("gripper")
-    out.append(("position", "gripper", {
-        "kp": fmt(grip.gainprm[0]), "forcerange": fmt(*grip.forcerange),
-        "ctrlrange": fmt(*grip.ctrlrange),
-    }))  # fmt: skip
-    wrist = spec.actuator("wrist")
-    out.append(("position", "wrist", {
-        "kp": fmt(wrist.gainprm[0]), "forcerange": fmt(*wrist.forcerange),
-    }))  # fmt: skip
     trip = spec.numeric("limit_switch_trip")
     out.append(("numeric", "limit_switch_trip", {"data": fmt(*trip.data)}))
-    # the machine's own joints come first in the scene's qpos; the conveyor's (0) is padded
-    key = spec.key("home")
-    out.append(("key", "home", {"qpos": fmt(*list(key.qpos)[:machine_nq]), "ctrl": fmt(*key.ctrl)}))
+    ctrl = list(spec.key("home").ctrl)[:ROBOT_ACTUATORS]
+    out.append(("key", "home", {"qpos": _home(spec, model, ROBOT_JOINTS), "ctrl": fmt(*ctrl)}))
     return out
 
 
@@ -186,13 +220,15 @@ def generate(models: Path = MODELS) -> dict[str, str]:
     files in `models`."""
     cfg = SceneConfig()
     spec = scene_spec(cfg, models)
-    compile_with_home(spec, cfg)
+    model = compile_with_home(spec, cfg)
     robot, workcell = robot_xml(models=models), workcell_xml(models=models)
-    machine_nq = mujoco.MjModel.from_xml_path(str(robot)).nq
-    robot_text = set_attributes(robot.read_text(), robot_values(spec, machine_nq))
+    effector = effector_xml(cfg.effector_kind, models)
+    robot_text = set_attributes(robot.read_text(), robot_values(spec, model))
+    effector_text = set_attributes(effector.read_text(), effector_values(spec, model))
     workcell_text = set_attributes(workcell.read_text(), workcell_values(spec))
     return {
         robot.relative_to(models).as_posix(): robot_text,
+        effector.relative_to(models).as_posix(): effector_text,
         workcell.relative_to(models).as_posix(): set_tube_walls(workcell_text, tube_walls(spec)),
     }
 

@@ -48,14 +48,25 @@ def test_the_scene_is_made_of_a_robot_and_a_workcell_from_these_folders():
     assert files == {"README.md", "__init__.py"}
 
 
+def _named_files(folder) -> set[str]:
+    """The mesh and texture files the folder's XML names."""
+    spec = mujoco.MjSpec.from_file(str(main_xml(folder)))
+    return {mesh.file for mesh in spec.meshes} | {t.file for t in spec.textures if t.file}
+
+
+def _assets(folder) -> list:
+    return sorted((folder / "assets").iterdir()) if (folder / "assets").is_dir() else []
+
+
 @pytest.mark.parametrize("folder", FOLDERS, ids=ids)
 def test_folder_has_the_menagerie_files(folder):
-    expected = ["README.md", "CHANGELOG.md", "LICENSE", f"{folder.name}.xml", "assets"]
+    expected = ["README.md", "CHANGELOG.md", "LICENSE", f"{folder.name}.xml"]
     if folder in TOOLED:
         expected.append("scene.xml")
+    if _named_files(folder):  # assets/ holds its meshes (the five-bar's are its effector's)
+        expected.append("assets")
     missing = [name for name in expected if not (folder / name).exists()]
     assert missing == []
-    assert (folder / "assets").is_dir()
     assert (folder / "LICENSE").read_text().startswith("MIT License")  # as pyproject.toml's
     assert folder.name in (folder / "README.md").read_text()
 
@@ -64,14 +75,13 @@ def test_folder_has_the_menagerie_files(folder):
 def test_assets_are_exactly_the_meshes_the_xml_names(folder):
     spec = mujoco.MjSpec.from_file(str(main_xml(folder)))
     assert spec.meshdir == "assets"
-    named = {mesh.file for mesh in spec.meshes} | {t.file for t in spec.textures if t.file}
-    assert named == {p.name for p in (folder / "assets").iterdir()}
+    assert _named_files(folder) == {p.name for p in _assets(folder)}
 
 
 def test_asset_file_names_are_unique_across_folders():
     """The scene merges the folders' assets under one meshdir (and `transplanter export`
     writes them into one assets/ folder)."""
-    names = [p.name for folder in FOLDERS for p in (folder / "assets").iterdir()]
+    names = [p.name for folder in FOLDERS for p in _assets(folder)]
     assert len(names) == len(set(names))
 
 
@@ -84,11 +94,17 @@ def test_robot_has_a_home_keyframe_and_visual_and_collision_classes(robot):
     mujoco.mj_forward(model, data)
     assert np.all(np.isfinite(data.qacc))
     # every geom is in the visual or the collision class or a class nested in one of them
+    # (named `visual` and `collision`, or `<part>_visual` and `<part>_collision` where the
+    # file is merged into a robot's scene beside classes of those names: the parallel jaws)
     root = ET.parse(main_xml(robot)).getroot()
     under = {}
     for kind in ("visual", "collision"):
-        (top,) = [d for d in root.iter("default") if d.get("class") == kind]
-        under.update({d.get("class"): kind for d in top.iter("default")})
+        names = {kind} | {c for c in (d.get("class") or "" for d in root.iter("default"))
+                          if c.endswith(f"_{kind}")}  # fmt: skip
+        tops = [d for d in root.iter("default") if d.get("class") in names]
+        assert len(tops) <= 1 and (tops or kind == "collision")  # a robot may collide nowhere
+        for top in tops:
+            under.update({d.get("class"): kind for d in top.iter("default")})
     spec = mujoco.MjSpec.from_file(str(main_xml(robot)))
     strays = [g.name or g.meshname for g in spec.geoms if g.classname.name not in under]
     assert strays == []

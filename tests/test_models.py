@@ -14,7 +14,10 @@ from transplanter.machine.kinematics import fivebar as kinematics
 from transplanter.scene import SceneConfig, build_scene
 from transplanter.scene.build import (
     compile_with_home,
+    effector_xml,
     merge_models,
+    model_files,
+    mounts,
     robot_xml,
     scene_files,
     scene_spec,
@@ -47,8 +50,9 @@ def run_noisy(model, seconds=2.0, seed=0):
 
 
 def files_model():
-    """The robot's and the workcell's files as they are, merged as build_scene merges them."""
-    return merge_models(scene_files()).compile()
+    """The robot's, its effector's and the workcell's files as they are, merged as build_scene
+    merges them (the effector at the robot's mount)."""
+    return merge_models(scene_files(), attach=mounts(SceneConfig())).compile()
 
 
 def load_make_models():
@@ -84,6 +88,19 @@ def test_default_config_changes_nothing_in_the_model_files():
     assert a.keys() == b.keys()
     differ = [name for name in a if not np.array_equal(a[name], b[name])]
     assert differ == []
+    # each file's `home` holds the scene's home of its own joints and actuators
+    home = applied.key("home")
+    for xml, joints, actuators in (
+        (robot_xml(), ("z", "theta1", "phi1", "theta2", "phi2"), ("theta1", "theta2", "z")),
+        (effector_xml("parallel_jaw"), ("wrist", "jaw_left", "jaw_right"), ("gripper", "wrist")),
+    ):
+        own = mujoco.MjModel.from_xml_path(str(xml))
+        assert own.key("home").qpos.tolist() == [
+            home.qpos[applied.joint(j).qposadr[0]] for j in joints
+        ]
+        assert own.key("home").ctrl.tolist() == [
+            home.ctrl[applied.actuator(n).id] for n in actuators
+        ]
 
 
 def test_merging_one_file_gives_the_model_of_that_file():
@@ -101,7 +118,7 @@ def test_merging_refuses_an_include_and_two_assets_of_one_name(tmp_path):
     including.write_text(f'<mujoco><include file="{robot_xml()}"/></mujoco>')
     with pytest.raises(ValueError, match="include"):
         merge_models([including])
-    files, jaw = [], (robot_xml().parent / "assets" / "jaw.stl").read_bytes()
+    files, jaw = [], (effector_xml("parallel_jaw").parent / "assets" / "jaw.stl").read_bytes()
     for k in (1, 2):
         (tmp_path / f"m{k}" / "assets").mkdir(parents=True)
         (tmp_path / f"m{k}" / "assets" / "box.stl").write_bytes(jaw[: 84 + 50 * k])
@@ -193,7 +210,7 @@ def test_built_scene_runs_without_warnings():
 
 
 def test_home_keyframe_closes_the_loop_and_matches_fk():
-    model = mujoco.MjModel.from_xml_path(str(robot_xml()))
+    model = merge_models([robot_xml()], "fivebar", attach=mounts(CFG)).compile()  # with its jaws
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)
@@ -350,8 +367,11 @@ def test_exported_scene_is_the_scene_a_trial_builds(tmp_path):
         runs.append(data.qpos.copy())
     np.testing.assert_allclose(runs[0], runs[1], atol=1e-4)  # 0.1 mm, 0.1 mrad after 1 s
     assert sorted(p.name for p in (tmp_path / "assets").iterdir()) == sorted(
-        p.name for xml in scene_files() for p in (xml.parent / "assets").iterdir()
-    )  # the robot's and the workcell's meshes
+        p.name
+        for xml in model_files()
+        if (xml.parent / "assets").is_dir()
+        for p in (xml.parent / "assets").iterdir()
+    )  # the robot's (none), its effector's and the workcell's meshes
 
 
 def test_export_never_writes_a_mesh_through_a_planted_link(tmp_path, capsys):

@@ -44,7 +44,8 @@ def test_wheel_holds_models_scenarios_and_every_module(wheel):
     for f in (
         "fivebar/fivebar.xml",
         "fivebar/scene.xml",
-        "fivebar/assets/jaw.stl",
+        "effectors/parallel_jaw/parallel_jaw.xml",
+        "effectors/parallel_jaw/assets/jaw.stl",
         "fivebar/LICENSE",
         "workcells/conveyor_tube/conveyor_tube.xml",
         "workcells/conveyor_tube/assets/funnel.stl",

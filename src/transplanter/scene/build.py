@@ -74,18 +74,46 @@ def scene_files(
     return robot_xml(cfg.robot_kind, models), workcell_xml(cfg.workcell_kind, models)
 
 
-def merge_models(files: Sequence[str | Path], name: str = SCENE_MODEL) -> mujoco.MjSpec:
+def model_files(cfg: SceneConfig | None = None, models: str | Path | None = None) -> list[Path]:
+    """Every MJCF file the scene of `cfg`'s kinds is made of: the robot's, its effector's
+    (where it has a folder of its own) and the workcell's."""
+    cfg = cfg if cfg is not None else SceneConfig()
+    robot, workcell = scene_files(models, cfg)
+    effector = effector_xml(cfg.effector_kind, models)
+    return [robot, *([effector] if effector is not None else []), workcell]
+
+
+def merge_models(
+    files: Sequence[str | Path],
+    name: str = SCENE_MODEL,
+    attach: Sequence[tuple[str, str | Path]] = (),
+) -> mujoco.MjSpec:
     """One MjSpec from MJCF files, merged as MJCF's <include> merges them: the sections of each
     file's <mujoco>, in the order of the files, under one <mujoco model=name>. Unlike <include>,
     each file's asset files (meshes, textures) are read from its own folder: MuJoCo resolves
     every asset against the main file's meshdir, so an included file cannot bring its own
     assets/ folder (and MjSpec.attach renames every element unless given an empty prefix, which
     MuJoCo warns about). The files must agree on their compiler's asset folders (Menagerie:
-    meshdir="assets"); two files may not bring different files under the same name."""
+    meshdir="assets"); two files may not bring different files under the same name.
+
+    `attach`: (frame, file) pairs: the bodies of `file`'s worldbody go into the `<frame
+    name=frame>` of the files before it (a robot's mount: its effector, Menagerie-style), its
+    other sections after that file's (its tendons, equalities and actuators follow the
+    robot's), its keyframes left out (the scene sets `home` itself)."""
     root = ET.Element("mujoco", model=name)
     assets: dict[str, bytes] = {}
     dirs: dict[str, str] | None = None
-    for file in map(Path, files):
+    docs = [(Path(f), None) for f in files]
+    # an attached file right after the file that holds its frame
+    for frame, file in attach:
+        holder = next(
+            (i for i, (f, _) in enumerate(docs) if _has_frame(ET.parse(f).getroot(), frame)),
+            None,
+        )
+        if holder is None:
+            raise ValueError(f"{file}: no <frame name={frame!r}> in {', '.join(map(str, files))}")
+        docs.insert(holder + 1, (Path(file), frame))
+    for file, frame in docs:
         doc = ET.parse(file).getroot()
         if doc.find(".//include") is not None:
             raise ValueError(f"{file}: has an <include>; merge the included file instead")
@@ -107,8 +135,46 @@ def merge_models(files: Sequence[str | Path], name: str = SCENE_MODEL) -> mujoco
         if compiler is not None and dirs is not None:  # the folders of the files that use them
             for d, value in dirs.items():
                 compiler.set(d, value)
-        root.extend(list(doc))
-    return mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"), assets=assets)
+        sections = list(doc)
+        if frame is not None:
+            target = next(f for f in root.iter("frame") if f.get("name") == frame)
+            for section in sections:
+                if section.tag == "worldbody":
+                    target.extend(list(section))
+            sections = [s for s in sections if s.tag not in ("worldbody", "keyframe", "compiler")]
+        root.extend(sections)
+    spec = mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"), assets=assets)
+    if attach:
+        _join_keys(spec, [f for f, _ in docs])
+    return spec
+
+
+def _join_keys(spec: mujoco.MjSpec, files: Sequence[Path]) -> None:
+    """The merged spec's `home` keyframe made of every file's own `home` (a robot's and its
+    attached effector's: each holds its joints and actuators, in that file's order), the other
+    joints at qpos0: the one keyframe MJCF would give a single file holding them all."""
+    key = next((k for k in spec.keys if k.name == "home"), None)
+    if key is None:
+        return
+    model = spec.compile()
+    qpos, ctrl = model.qpos0.copy(), [0.0] * model.nu
+    for file in files:
+        own = mujoco.MjModel.from_xml_path(str(file))
+        if own.nkey == 0 or mujoco.mj_name2id(own, mujoco.mjtObj.mjOBJ_KEY, "home") < 0:
+            continue
+        home = own.key("home")
+        for j in range(own.njnt):
+            size = {0: 7, 1: 4}.get(int(own.jnt_type[j]), 1)  # free, ball, slide or hinge
+            src, dst = int(own.jnt_qposadr[j]), int(model.joint(own.joint(j).name).qposadr[0])
+            qpos[dst : dst + size] = home.qpos[src : src + size]
+        for a in range(own.nu):
+            ctrl[model.actuator(own.actuator(a).name).id] = float(home.ctrl[a])
+    key.qpos = qpos.tolist()
+    key.ctrl = ctrl
+
+
+def _has_frame(doc: ET.Element, name: str) -> bool:
+    return any(f.get("name") == name for f in doc.iter("frame"))
 
 
 def build_scene(config: SceneConfig | None = None, seed: int = 0) -> Scene:
@@ -155,22 +221,40 @@ def export_scene(cfg: SceneConfig, seed: int, out: str | Path) -> Path:
     xml = spec.to_xml()
     assets = target.parent / spec.meshdir
     assets.mkdir(exist_ok=True)
-    for xml_file in scene_files(
-        cfg=cfg
-    ):  # every folder's meshes (the model's mesh files are unique)
-        for mesh in sorted((xml_file.parent / spec.meshdir).iterdir()):
+    for xml_file in model_files(cfg):  # every folder's meshes (the model's mesh files are unique)
+        folder = xml_file.parent / spec.meshdir
+        for mesh in sorted(folder.iterdir()) if folder.is_dir() else ():
             if mesh.suffix == ".stl":
                 shutil.copyfile(mesh, assets / mesh.name)
     fileio.write_text_atomic(target, xml)
     return target
 
 
+def effector_xml(effector: str, models: str | Path | None = None) -> Path | None:
+    """An effector's MJCF: models/effectors/<MODEL>/<MODEL>.xml of its scene module (None for
+    an effector drawn in its robot's file)."""
+    model = getattr(kinds.effector(effector), "MODEL", "")
+    if not model:
+        return None
+    root = Path(models if models is not None else models_dir())
+    return root / "effectors" / model / f"{model}.xml"
+
+
+def mounts(cfg: SceneConfig, models: str | Path | None = None) -> tuple[tuple[str, Path], ...]:
+    """(the robot's mount frame, the effector's MJCF) for `merge_models`: the config's
+    effector attached at its robot's ``MOUNT``; () for an effector drawn in the robot's own
+    file."""
+    path = effector_xml(cfg.effector_kind, models)
+    return () if path is None else ((kinds.robot(cfg.robot_kind).MOUNT, path),)
+
+
 def scene_spec(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjSpec:
     """The robot and the workcell of the config's kinds from `models` (default: the package's
-    models/) merged into one spec (`merge_models`), with the config applied by each kind's
-    scene module (robot, effector, workcell): all but what the job puts in (ribs and pots)."""
+    models/) merged into one spec (`merge_models`), the effector attached at the robot's mount
+    (`mounts`), with the config applied by each kind's scene module (robot,
+    effector, workcell): all but what the job puts in (ribs and pots)."""
     robot = kinds.robot(cfg.robot_kind)
-    spec = merge_models(scene_files(models, cfg))
+    spec = merge_models(scene_files(models, cfg), attach=mounts(cfg, models))
     apply_options(spec, cfg)
     robot.apply(spec, cfg)
     kinds.effector(cfg.effector_kind).apply(spec, cfg)
@@ -184,7 +268,8 @@ def robot_spec(cfg: SceneConfig, models: str | Path | None = None) -> mujoco.MjS
     config applied and its inertials derived, as :func:`scene_spec` does, without the
     workcell; its masses and inertias are the scene's."""
     robot = kinds.robot(cfg.robot_kind)
-    spec = mujoco.MjSpec.from_file(str(robot_xml(cfg.robot_kind, models)))
+    spec = merge_models([robot_xml(cfg.robot_kind, models)], cfg.robot_kind,
+                        attach=mounts(cfg, models))  # fmt: skip
     apply_options(spec, cfg)
     robot.apply(spec, cfg)
     kinds.effector(cfg.effector_kind).apply(spec, cfg)

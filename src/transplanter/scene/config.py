@@ -100,9 +100,9 @@ POT_COLLISION_RGBA = (0.55, 0.4, 0.25, 0.5)
 LEAF_PROXY_RGBA = (0.2, 0.8, 0.2, 0.3)
 STATIC_COLLISION_RGBA = (0.5, 0.5, 0.55, 0.3)
 
-# Gripper layout of models/fivebar/fivebar.xml (m): the column runs from just under the wrist
-# servo (WRIST_SERVO_BOTTOM below C) down to the top of the palm, a bridge plate
-# BRIDGE_THICKNESS thick whose underside sits SceneConfig.bridge_clearance_m above the grip
+# Gripper layout of models/effectors/parallel_jaw/parallel_jaw.xml (m): the column runs from
+# just under the wrist servo (WRIST_SERVO_BOTTOM below C) down to the top of the palm, a bridge
+# plate BRIDGE_THICKNESS thick whose underside sits SceneConfig.bridge_clearance_m above the grip
 # centre; the jaws (JAW_HALF_HEIGHT either side of the grip centre) hang from it on side
 # plates, so the seedling's shoot stands free between them under the bridge. The jaws start
 # JAW_HALF_THICKNESS off the centre. Passive links run PASSIVE_DROP below the active ones

@@ -2,8 +2,8 @@
 closed by a hobby servo whose force limit is the grip force (a pot is held by friction only),
 and the wrist servo that turns them. Each jaw hangs on a side plate from the bridge (the
 palm), high enough over the grip centre that the seedling's shoot stands free between them.
-The bodies are drawn in the robot's model file (models/fivebar/fivebar.xml); this module
-sets their numbers from the SceneConfig.
+Its Menagerie folder is models/effectors/parallel_jaw/ (attached at the robot's mount frame by
+transplanter.scene.build); this module sets its numbers from the SceneConfig.
 """
 
 from __future__ import annotations
@@ -11,8 +11,12 @@ from __future__ import annotations
 import mujoco
 
 from transplanter.scene.config import BIT_CANOPY, JAW_HALF_THICKNESS, SceneConfig
-from transplanter.scene.geometry import side_plate_box
+from transplanter.scene.geometry import bridge_box, column_box, side_plate_box
 
+MODEL = "parallel_jaw"
+"""The effector's Menagerie folder: models/effectors/parallel_jaw/parallel_jaw.xml."""
+ROOT = "gripper"
+"""Its root body, attached at the robot's mount (transplanter.scene.build.mounts)."""
 JAWS = ("jaw_left", "jaw_right")
 ACTUATORS = ("gripper", "wrist")
 """The effector's drives: the jaws' servo and the wrist's."""
@@ -20,8 +24,19 @@ SIDE_PLATES = ("side_plate_left", "side_plate_right")  # visual: they carry the 
 
 
 def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
-    """Jaw positions under the column, the gripper and wrist servos, jaw travel and damping;
-    with canopy contact, the jaws also meet the leaves' proxies."""
+    """The column down to the grip centre and the palm (the bridge: its underside
+    bridge_clearance_m above the grip centre), jaw positions under the column, the gripper
+    and wrist servos, jaw travel and damping."""
+    bridge_half, bridge_z = bridge_box(cfg)
+    for geom_name in ("palm", "palm_visual"):
+        g = spec.geom(geom_name)
+        g.pos = [g.pos[0], g.pos[1], bridge_z]
+        g.size = [g.size[0], g.size[1], bridge_half]
+    column = spec.geom("column")
+    half_length, centre_z = column_box(cfg)
+    column.size = [column.size[0], half_length, 0]
+    column.pos = [0, 0, centre_z]
+    spec.site("grip_center").pos = [0, 0, -cfg.column_height_m]
     spec.body("jaw_left").pos = [-JAW_HALF_THICKNESS, 0, -cfg.column_height_m]
     spec.body("jaw_right").pos = [JAW_HALF_THICKNESS, 0, -cfg.column_height_m]
     plate_half, plate_z = side_plate_box(cfg)  # up to the bridge, riding with the jaw

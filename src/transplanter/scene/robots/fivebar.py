@@ -1,7 +1,8 @@
 """The five-bar robot's part of the scene (models/fivebar/): its links, column, stepper drives
 and limit switches follow the SceneConfig, its inertials are derived from its geoms, and its
-joints and motors have a power-on pose. The parallel jaws hanging under its column are the
-effector's (scene/effectors/parallel_jaw.py), though drawn in the same model file.
+joints and motors have a power-on pose. Its effector attaches at the frame `tool_mount` (MOUNT)
+at passive link 1's tip: the parallel jaws of models/effectors/parallel_jaw/
+(scene/effectors/parallel_jaw.py), whose column runs down to the grip centre.
 """
 
 from __future__ import annotations
@@ -11,11 +12,12 @@ import numpy as np
 
 from transplanter.machine.kinematics.fivebar import FiveBarMasses
 from transplanter.scene.config import PASSIVE_DROP, SceneConfig
-from transplanter.scene.geometry import bridge_box, column_box
 
 MODEL = "fivebar"
 """The robot's Menagerie folder: models/fivebar/fivebar.xml."""
 
+MOUNT = "tool_mount"
+"""The frame at passive link 1's tip (the end effector C) where an effector attaches."""
 ACTUATORS = ("theta1", "theta2", "z")
 """The robot's drives (the kinds' interface: first in the model, the effector's next)."""
 
@@ -37,21 +39,10 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         spec.geom(f"passive{i}").fromto = [0, 0, 0, cfg.l2_m, 0, 0]
         spec.geom(f"passive{i}").mass = cfg.passive_link_mass_kg
         spec.site(f"c{i}").pos = [cfg.l2_m, 0, 0]
-    spec.body("gripper").pos = [cfg.l2_m, 0, PASSIVE_DROP]
+    spec.frame(MOUNT).pos = [cfg.l2_m, 0, PASSIVE_DROP]  # the effector's mount at C
     spec.geom("platform").mass = cfg.platform_mass_kg
-    # Column: arm plane at column_height_m above the grip centre. The palm is the gripper's
-    # bridge: its underside bridge_clearance_m above the grip centre.
+    # the arm plane at column_height_m above the grip centre (the effector's column below C)
     spec.body("platform").pos = [0, 0, cfg.column_height_m]
-    bridge_half, bridge_z = bridge_box(cfg)
-    for geom_name in ("palm", "palm_visual"):
-        g = spec.geom(geom_name)
-        g.pos = [g.pos[0], g.pos[1], bridge_z]
-        g.size = [g.size[0], g.size[1], bridge_half]
-    column = spec.geom("column")
-    half_length, centre_z = column_box(cfg)
-    column.size = [column.size[0], half_length, 0]
-    column.pos = [0, 0, centre_z]
-    spec.site("grip_center").pos = [0, 0, -cfg.column_height_m]
 
     # Stepper drives: a general actuator per motor on its joint through the gear, whose ctrl
     # is the torque at the motor shaft (N m) the twin computes from the load angle before
