@@ -60,9 +60,7 @@ def _assets(folder) -> list:
 
 @pytest.mark.parametrize("folder", FOLDERS, ids=ids)
 def test_folder_has_the_menagerie_files(folder):
-    expected = ["README.md", "CHANGELOG.md", "LICENSE", f"{folder.name}.xml"]
-    if folder in TOOLED:
-        expected.append("scene.xml")
+    expected = ["README.md", "CHANGELOG.md", "LICENSE", f"{folder.name}.xml", "scene.xml"]
     if _named_files(folder):  # assets/ holds its meshes (the five-bar's are its effector's)
         expected.append("assets")
     missing = [name for name in expected if not (folder / name).exists()]
@@ -127,6 +125,15 @@ def test_robot_xml_holds_the_robot_only_and_scene_xml_includes_it(robot):
     )
 
 
+@pytest.mark.parametrize("workcell", WORKCELLS, ids=[p.name for p in WORKCELLS])
+def test_a_workcells_scene_xml_includes_it_and_adds_only_static_drawings(workcell):
+    """Every workcell folder has a scene.xml (Menagerie): its XML, plus what is only drawn."""
+    includes = [i.get("file") for i in ET.parse(workcell / "scene.xml").getroot().iter("include")]
+    assert includes == [f"{workcell.name}.xml"]
+    alone, in_scene = load(main_xml(workcell)), load(workcell / "scene.xml")
+    assert (in_scene.nbody, in_scene.nq, in_scene.nu) == (alone.nbody, alone.nq, alone.nu)
+
+
 @pytest.mark.parametrize("effector", EFFECTORS, ids=[p.name for p in EFFECTORS])
 def test_effector_xml_holds_the_effector_only_and_scene_xml_includes_it(effector):
     """No world geoms, lights or cameras in the effector's XML; its scene.xml includes it and
@@ -162,7 +169,7 @@ def step_noisy(model, seconds=1.0, seed=0):
     return data
 
 
-SCENES = [p / "scene.xml" for p in TOOLED] + [main_xml(p) for p in WORKCELLS]
+SCENES = [p / "scene.xml" for p in FOLDERS] + [main_xml(p) for p in WORKCELLS]
 
 
 @pytest.mark.parametrize("xml", SCENES, ids=[p.relative_to(MODELS).as_posix() for p in SCENES])
