@@ -342,6 +342,33 @@ def test_a_failed_write_says_so(machine, tmp_path):
     assert "gone" in hmi.last_refusal
 
 
+def test_hmi_out_on_a_full_disk_says_so_in_one_line_exit_5_and_leaves_no_part(
+    tmp_path, monkeypatch, capsys
+):
+    """A full disk at Write EEPROM ended with exit 1, as if the keys had never asked for the
+    write: it is one line naming --out and the disk, exit 5, and the file is as it was (no
+    part of the image, no temporary file)."""
+    import errno
+    from pathlib import Path
+
+    from transplanter.cli import main
+
+    def full_disk(path, data):  # the disk fills up part way through the image
+        with open(path, "wb") as f:
+            f.write(data[:100])
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    out = tmp_path / "taught.eeprom"
+    out.write_bytes(b"the image of yesterday")
+    monkeypatch.setattr(Path, "write_bytes", full_disk)
+    assert main(["hmi", "paper", "--out", str(out), "--keys-file", str(TEACH_PAPER)]) == 5
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("--out:"), err
+    assert str(out) in err[0] and "No space left on device" in err[0]
+    assert out.read_bytes() == b"the image of yesterday"
+    assert [p.name for p in tmp_path.iterdir()] == ["taught.eeprom"]
+
+
 def test_terminal_keys_map_onto_the_keypad():
     assert [terminal_key(k) for k in "09aD*#"] == ["0", "9", "A", "D", "*", "#"]
     assert terminal_key("enter") == "#" and terminal_key("backspace") == "C"

@@ -127,6 +127,29 @@ def test_only_the_command_word_makes_a_line_m110(bench):
                                                             "M0110 N3"]  # fmt: skip
 
 
+def test_a_line_with_nothing_to_run_never_takes_another_lines_reply(bench):
+    """`; c` was queued for a reply the SGF never gives, so every later line got the reply
+    of the line before it (`M999` answered `Unknown command: "; c"`, `M105` without its
+    `T:0`). As Marlin's reader, an unnumbered line with nothing to run (empty, blanks, a
+    comment) is skipped unanswered; a numbered one takes its line number and its `ok`."""
+    for line in ("; c", "", "   ", "(a note)"):
+        bench.device.receive(line, bench.t)
+    assert bench.send("M999") == ['echo:Unknown command: "M999"', "ok"]
+    assert bench.send("M105") == ["ok T:0"]
+    assert bench.send(framed(2, "; c")) == ["ok"] and bench.device.last_line_number == 2
+    assert bench.send(framed(3, "M105")) == ["ok T:0"]
+    # while a move runs, with the comment between it and the poll: each its own reply
+    bench.device.receive("G1 X0 Y170 Z60 S100", bench.t)
+    bench.device.receive("; between", bench.t)
+    assert bench.send("M105") == ["ok", "ok T:0"]
+    assert bench.sgf.position_xyz == pytest.approx([0.0, 0.170, 0.060])
+    assert bench.out == ["ok", 'echo:Unknown command: "M999"', "ok", "ok T:0", "ok", "ok T:0",
+                         "ok", "ok T:0"]  # fmt: skip
+    assert [a.text for a in bench.device.accepted] == [
+        "G28", "M999", "M105", "; c", "M105", "G1 X0 Y170 Z60 S100", "M105"
+    ]  # fmt: skip
+
+
 def test_replies_in_marlin_form(bench):
     assert bench.send("M105") == ["ok T:0"]
     assert bench.send("M123") == ['echo:Unknown command: "M123"', "ok"]

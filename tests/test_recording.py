@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import os
+import re
 
 import mujoco
 import numpy as np
@@ -313,6 +315,32 @@ def test_replay_says_a_file_is_not_a_recording_even_without_a_display(
     assert replay(fake) == 1
     err = capsys.readouterr().err
     assert "is not a rerun recording" in err and "no display" not in err
+
+
+def test_replay_names_a_directory_or_a_fifo_and_asks_for_a_recording_file(
+    tmp_path, monkeypatch, capsys
+):
+    """A directory or a FIFO given to replay was said not to exist. It is named for what it
+    is, with what replay needs, before any viewer starts; the FIFO is never read (no
+    writer: a read would block)."""
+
+    def no_viewer(command):  # pragma: no cover - refused before any viewer
+        raise AssertionError(f"a viewer started: {command}")
+
+    monkeypatch.setattr("sys.platform", "linux")
+    monkeypatch.setenv("DISPLAY", ":0")
+    monkeypatch.setattr("subprocess.Popen", no_viewer)
+    folder = tmp_path / "trial.rrd"
+    folder.mkdir()
+    fifo = tmp_path / "pipe.rrd"
+    os.mkfifo(fifo)
+    for path, kind in ((folder, "a directory"), (fifo, "a named pipe (FIFO)")):
+        assert replay(path) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"is {kind}, not a recording" in err[0], err
+        assert "give a recording file (.rrd" in err[0] and "does not exist" not in err[0]
+        with pytest.raises(ValueError, match=f"is {re.escape(kind)}, not a recording"):
+            read_summary(path)
 
 
 def test_read_summary_rejects_a_cut_off_file(trial, tmp_path):

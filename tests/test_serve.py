@@ -351,6 +351,28 @@ def test_serve_refuses_an_endless_line_and_answers_the_next(serve):
     assert got["serial"]["executed"] == ["M105"] and got["serial"]["resends"] == 1
 
 
+def test_a_comment_line_leaves_every_reply_with_its_own_line(serve):
+    """A comment-only line (`; c`, as a host such as Printrun may send) shifted every later
+    reply by one: `M999` was answered `Unknown command: "; c"`, `M105` lost its `T:0`. As
+    Marlin, unnumbered empty and comment lines are skipped unanswered; a numbered one gets
+    its `ok`."""
+    from transplanter.machine.gcode import checksum
+
+    proc, device, out = serve("--seedlings", "1")
+    host = Host(device)
+    try:
+        host.port.write(b"; c\n\n(a note)\n")
+        assert host.ask("M999") == ['echo:Unknown command: "M999"', "ok"]
+        assert host.ask("M105") == ["ok T:0"]
+        for head, reply in (("N1 ; c", "ok"), ("N2 M105", "ok T:0")):
+            assert host.ask(f"{head}*{checksum(head)}") == [reply], head
+    finally:
+        host.close()
+    got = finish_serve(proc, out)
+    assert got["serial"]["executed"] == ["M999", "M105", "; c", "M105"]
+    assert got["serial"]["lines_received"] == 7 and got["serial"]["resends"] == 0
+
+
 def test_m112_during_a_move_stops_it_at_once(serve):
     """M112 during a move was queued and answered 'Unknown command' after the move. In real
     time (so that the move lasts 10 s of wall clock) the host sends M112 once the device's

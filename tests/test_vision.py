@@ -248,6 +248,46 @@ def test_grade_refuses_a_scenario_without_a_camera(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_grade_refuses_a_bad_seed_or_an_out_it_cannot_write_before_drawing(
+    tmp_path, capsys, monkeypatch
+):
+    """`--seed=-1` ended in numpy's `expected non-negative integer` traceback (trial refuses
+    it in one line); an --out that cannot take the files was found only after the picture
+    was drawn and graded. Both are refused, exit 2, before anything is drawn, and nothing is
+    created."""
+    from transplanter.studies import vision as studies_vision
+
+    def never(*args, **kwargs):  # pragma: no cover - a refusal draws nothing
+        raise AssertionError("a picture was drawn")
+
+    monkeypatch.setattr(studies_vision, "grade_seed", never)
+    out = tmp_path / "g"
+
+    def refused(*args: str) -> str:
+        assert cli.main(["grade", *args]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1, err
+        return err[0]
+
+    for seed in ("-1", str(2**63)):
+        assert "--seed" in refused(f"--seed={seed}", "--out", str(out))
+    assert "-1 is outside the allowed range" in refused("--seed=-1", "--out", str(out))
+    assert not out.exists()
+    for name in ("tray.png", "grading.json"):
+        (out / name).mkdir(parents=True)
+        assert f"{name} is a directory" in refused("--out", str(out))
+        (out / name).rmdir()
+    (out / "overlay.png").symlink_to(tmp_path / "elsewhere.png")  # a name grade derives
+    assert "overlay.png is a symbolic link" in refused("--out", str(out))
+    (out / "overlay.png").unlink()
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    assert "is not a folder" in refused("--out", str(blocker / "g"))
+    assert "exists and is not a folder" in refused("--out", str(blocker))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file", "g"]
+    assert list(out.iterdir()) == [] and blocker.read_text() == ""
+
+
 def test_grade_takes_the_draws_and_picture_from_a_scenario(tmp_path):
     from transplanter.scene.plug_tray import SeedlingDraw, draw_tray
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from transplanter.cli.common import (
     EXIT_OK,
+    EXIT_OUTPUT_FAILED,
     EXIT_REFUSED,
     _clash,
     _err,
@@ -32,7 +33,8 @@ def register(sub) -> None:
         "X, 8/2 Y, 9/3 Z, 5 step 10/1/0.1 mm, # store.",
         epilog="exit status: 0 the image was written (or an interactive session ended), "
         "1 the key sequence ended without writing it, 2 refused (options, scenario, a bad "
-        "key in the script, --from image, --out path)",
+        "key in the script, --from image, --out path), 5 the last write of the image failed "
+        "(a full disk: --out is left as it was)",
     )
     add_options(p, "scenario")
     p.add_argument("--out", type=Path, required=True, help="the EEPROM image to write (.eeprom)")
@@ -122,6 +124,12 @@ def cmd_hmi(args: argparse.Namespace) -> int:
         run_keys(hmi, keys, show if args.show_screens else None)
         if not args.show_screens:
             print(hmi.lcd_text())
+    if hmi.write_error is not None:  # the last Write EEPROM failed: --out is as it was
+        _err(
+            f"--out: the EEPROM image could not be written to {_show(args.out)} "
+            f"({hmi.write_error}); the file is as it was"
+        )
+        return EXIT_OUTPUT_FAILED
     if hmi.refused:
         print(f"refused: {_show(hmi.last_refusal)}")
     if hmi.writes:

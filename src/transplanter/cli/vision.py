@@ -117,10 +117,41 @@ def _scenario(args: argparse.Namespace):
     return scenario
 
 
+def _unwritable(out: Path) -> str | None:
+    """Why grade could not write its three files into the folder `out`, or None; checked
+    before any work and creating nothing: a folder that exists must take each file (not a
+    directory or a symbolic link in its place, a writable folder: `fileio.check_output`), one
+    that does not must be makeable (its nearest existing parent a writable folder)."""
+    from transplanter import fileio
+
+    try:
+        if out.is_dir():
+            for name in (PICTURE, OVERLAY, RESULTS):
+                try:
+                    fileio.check_output(out / name, derived=True)
+                except fileio.FileRefused as exc:
+                    return f"--out: {exc}"
+            return None
+        if out.exists() or out.is_symlink():
+            return f"--out {out}: exists and is not a folder; give a folder"
+        parent = out.parent
+        while not (parent.exists() or parent.is_symlink()):
+            parent = parent.parent
+        if not parent.is_dir():
+            return f"--out {out} cannot be made: {parent} is not a folder"
+        try:
+            fileio.discard(fileio.temp_beside(parent / out.name))
+        except OSError as exc:
+            return f"--out {out} cannot be made: {parent} is not writable: {exc.strerror}"
+    except OSError as exc:  # a parent that cannot be searched
+        return f"--out {out}: {exc.strerror or exc}"
+    return None
+
+
 def cmd_grade(args: argparse.Namespace) -> int:
     from transplanter import fileio
     from transplanter.scenario.assemble import vision_config
-    from transplanter.scenario.schema import ScenarioError
+    from transplanter.scenario.schema import ScenarioError, check_value
     from transplanter.scene.tray_camera import RenderFailed
     from transplanter.studies.vision import grade_seed
     from transplanter.vision.metrics import format_matrix
@@ -132,11 +163,17 @@ def cmd_grade(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         _err(f"grade refused: {exc}")
         return EXIT_REFUSED
+    try:
+        check_value("scenario.seed", args.seed)  # the seeds trial takes (-1 was a traceback)
+    except ScenarioError as exc:
+        _err(f"grade refused: --seed: {exc}")
+        return EXIT_REFUSED
     vc = vision_config(scenario)
     size = (vc.width_px, vc.height_px)
     out: Path = args.out
-    if out.exists() and not out.is_dir():
-        _err(f"--out {out}: exists and is not a folder")
+    refused = _unwritable(out)  # before the picture is drawn, not after
+    if refused is not None:
+        _err(f"grade refused: {refused}")
         return EXIT_REFUSED
     try:
         graded = grade_seed(
@@ -176,7 +213,11 @@ def cmd_grade(args: argparse.Namespace) -> int:
             (OVERLAY, png_bytes(draw_overlay(graded.grading, graded.tray.classes()))),
         ):
             tmp = fileio.temp_beside(out / name)
-            tmp.write_bytes(data)
+            try:
+                tmp.write_bytes(data)
+            except BaseException:
+                fileio.discard(tmp)  # a full disk leaves no cut-off temporary file
+                raise
             fileio.commit(tmp, out / name, follow=False)
         fileio.write_json_atomic(out / RESULTS, payload, follow=False)
     except OSError as exc:

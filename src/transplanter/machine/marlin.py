@@ -15,6 +15,10 @@ exactly once. Its replies follow Marlin 2 (``GCodeQueue::get_serial_commands`` a
   runs. Unlike Marlin, a line with ``*`` but no ``N`` is refused the same way (the tail of a
   line that noise split in two), so a single corrupted byte never reaches the SGF;
 - unnumbered lines without ``*`` run as they are (hosts that do not frame);
+- a line with nothing to run (empty, blanks, or a comment only: ``; note``, ``(note)``) is
+  skipped without a reply when unnumbered, as Marlin's reader drops it before its queue
+  (``process_line_done``); a numbered one whose framing passes takes its line number and is
+  answered ``ok`` in its turn. Either way every other line's reply stays its own;
 - ``ok`` per executed line, in order; ``M105`` answers ``ok T:0`` (hosts poll temperature);
 - a refused command: ``echo:Unknown command: "<line>"`` for a command the dialect does not
   have, ``Error:<message> [error:<code>]`` for any other refusal (the grbl code of
@@ -39,7 +43,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from transplanter.errors import ErrorCode
-from transplanter.machine.gcode import MAX_LINE_CHARS, checksum, is_emergency_stop
+from transplanter.machine.gcode import (
+    MAX_LINE_CHARS,
+    GcodeError,
+    checksum,
+    is_emergency_stop,
+    parse_line,
+)
 from transplanter.machine.sgf import SGF
 
 __all__ = [
@@ -88,6 +98,17 @@ def _m110(command: str) -> re.Match | None:
     """The match of ``M110 [N<n>]`` when it is the command's word, else None: a comment
     (``; ...``, ``( ... )``) or a later word naming M110 does not make a line M110."""
     return _M110_RE.match(_PAREN_COMMENT_RE.sub(" ", command.split(";", 1)[0]))
+
+
+def _nothing_to_run(command: str) -> bool:
+    """Whether a command without framing is empty, blanks or comments only: the line the SGF
+    would take without a reply (``gcode.parse_line`` gives None)."""
+    if command[:1] not in ("", ";", "("):
+        return False  # begins with a word (commands come stripped)
+    try:
+        return parse_line(command) is None
+    except GcodeError:
+        return False  # an unclosed comment: the SGF refuses it with its error
 
 
 def split_framing(line: str) -> tuple[int | None, str, str | None]:
@@ -247,6 +268,9 @@ class MarlinDevice:
         if error is not None:
             self._resend(error)
             return
+        blank = _nothing_to_run(command)
+        if blank and number is None:
+            return  # Marlin skips it unanswered: no ok owed, the next reply is the next line's
         if not self.sgf.room_for(command):
             self._resend("receive buffer full")
             return
@@ -259,7 +283,8 @@ class MarlinDevice:
         else:
             if number is not None:
                 self.last_line_number = number
-            command_for_sgf = command
+            # a numbered line with nothing to run owes its ok, in its turn: a no-op too
+            command_for_sgf = "M400" if blank else command
         entry = AcceptedLine(rx_index, command, number, now)
         self.accepted.append(entry)
         self._waiting.append(entry)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import os
 import shutil
+import stat
 import subprocess
 import sys
 import warnings
@@ -16,6 +17,7 @@ from pathlib import Path
 
 import rerun as rr
 
+from transplanter import fileio
 from transplanter.viewing.recording import EVENTS_ENTITY, SCALARS_ROOT, TIMELINE
 
 __all__ = ["replay", "read_summary"]
@@ -32,13 +34,30 @@ RRD_MAGIC = b"RRF2"
 
 
 def _check_rrd(path: str | os.PathLike) -> Path:
+    """The recording's path once it is a regular file that starts as an .rrd does:
+    FileNotFoundError when nothing is there, ValueError naming what is there instead (a
+    directory, a FIFO: opened without blocking and never read) or why it is no recording."""
     rrd = Path(path)
-    if not rrd.is_file():
-        raise FileNotFoundError(f"recording {str(rrd)!r} does not exist")
-    if rrd.suffix != ".rrd":
-        raise ValueError(f"{str(rrd)!r} is not a rerun recording: expected a .rrd file")
-    with rrd.open("rb") as handle:
-        head = handle.read(len(RRD_MAGIC))
+    try:
+        fd = os.open(rrd, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO must not block the open
+    except FileNotFoundError:
+        raise FileNotFoundError(f"recording {str(rrd)!r} does not exist") from None
+    except OSError as error:
+        raise ValueError(f"recording {str(rrd)!r} cannot be read: {error.strerror}") from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            raise ValueError(
+                f"{str(rrd)!r} is {fileio._kind(mode)}, not a recording: give a recording "
+                "file (.rrd, as `transplanter trial --record` writes)"
+            )
+        if rrd.suffix != ".rrd":
+            raise ValueError(f"{str(rrd)!r} is not a rerun recording: expected a .rrd file")
+        head = os.read(fd, len(RRD_MAGIC))
+    except OSError as error:  # EISDIR and the like, should the file change under us
+        raise ValueError(f"recording {str(rrd)!r} cannot be read: {error.strerror}") from None
+    finally:
+        os.close(fd)
     if head != RRD_MAGIC:
         raise ValueError(
             f"{str(rrd)!r} is not a rerun recording: it does not start as an .rrd file does "

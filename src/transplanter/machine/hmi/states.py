@@ -90,6 +90,9 @@ class Hmi:
         self.image_bytes: bytes | None = None
         """The last image written."""
         self.writes = 0
+        self.write_error: str | None = None
+        """Why the last Write EEPROM could not write ``out_path`` (a full disk: the file is
+        then as it was, no part of the image in it); None once one succeeds."""
         self._home()
 
     # -- the LCD --------------------------------------------------------------------
@@ -356,8 +359,10 @@ class Hmi:
                 write_image(self.out_path, data)
             except OSError as error:
                 self._note_refusal(f"{self.out_path}: {error}")
+                self.write_error = error.strerror or str(error)
                 self.note = "NO write failed"
                 return False
+        self.write_error = None
         self.image_bytes = data
         self.writes += 1
         crc = int.from_bytes(data[CRC_OFFSET : CRC_OFFSET + 4], "little")
