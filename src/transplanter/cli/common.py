@@ -9,6 +9,7 @@ modules use them, nothing outside it should.
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from collections.abc import Sequence
@@ -32,6 +33,15 @@ def ascii_float(text: str) -> float:
     if not (text.isascii() and _FLOAT_RE.fullmatch(text.strip())):
         raise argparse.ArgumentTypeError(f"{text!r} is not a number (ASCII digits 0-9)")
     return float(text)
+
+
+def ascii_finite_float(text: str) -> float:
+    """A finite number written in ASCII: `ascii_float` without inf and nan, and without what
+    rounds to them ('1e309'), refused as written."""
+    value = ascii_float(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
 
 
 def ascii_int(text: str) -> int:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from transplanter.cli.common import _err, _machine, _show, add_options, ascii_float
+from transplanter.cli.common import _err, _machine, _show, add_options, ascii_finite_float
 from transplanter.units import M_PER_MM
 
 # A G-code program for `plan`: a 100k-move file is about 3 MB; anything far bigger is not one.
@@ -22,11 +22,11 @@ def register(sub) -> None:
 
 def _ik_parser(sub) -> None:
     p = sub.add_parser("ik", help="joint angles for a point (mm), or why it cannot be reached")
-    p.add_argument("x", type=ascii_float, help="x in mm")
-    p.add_argument("y", type=ascii_float, help="y in mm")
+    p.add_argument("x", type=ascii_finite_float, help="x in mm")
+    p.add_argument("y", type=ascii_finite_float, help="y in mm")
     p.add_argument(
         "z",
-        type=ascii_float,
+        type=ascii_finite_float,
         nargs="?",
         help="z in mm (default: the taught Z_up; the five-bar's plane does not depend on it)",
     )
@@ -47,16 +47,28 @@ def cmd_ik(args: argparse.Namespace) -> int:
         return 2
     z_mm = args.z if args.z is not None else machine.eeprom.z_up_m / M_PER_MM
     point = np.array([[args.x, args.y, z_mm]]) * M_PER_MM
-    report = kinematics.check(point)
+    report, reason = check_point(kinematics, point[0])
     shown = f"({args.x:g}, {args.y:g})" if args.z is None else f"({args.x:g}, {args.y:g}, {z_mm:g})"
-    refusal = kinematics.limit_target(point[0])
-    if not report.ok[0] or refusal is not None:
-        reason = report.reasons[0] or refusal.text()
+    if reason is not None:
         print(f"{shown} mm cannot be reached: {reason}")
         return 1
     for line in kinematics.point_lines(report, 0):
         print(line)
     return 0
+
+
+def check_point(kinematics, point_m: np.ndarray):
+    """(the arm's ReachReport of one point (m), why it cannot be reached or None): its reach,
+    then its limits (ik, and plan-move's two ends before planning). A point far outside
+    every arm (1e308 mm) squares past the largest float on the way to its refusal: the
+    arms read that as a chain that cannot close and refuse it with its distance, so the
+    overflow is no news and is not warned about."""
+    with np.errstate(over="ignore"):
+        report = kinematics.check(point_m[None])
+        refusal = kinematics.limit_target(point_m)
+    if report.ok[0] and refusal is None:
+        return report, None
+    return report, report.reasons[0] or refusal.text()
 
 
 def _plan_parser(sub) -> None:

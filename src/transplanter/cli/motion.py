@@ -9,8 +9,21 @@ import math
 
 import numpy as np
 
-from transplanter.cli.common import _clash, _err, _inputs, _machine, _show, add_options
+from transplanter.cli.common import (
+    EXIT_OUTPUT_FAILED,
+    EXIT_REFUSED,
+    _clash,
+    _err,
+    _inputs,
+    _machine,
+    _show,
+    add_options,
+    ascii_finite_float,
+)
+from transplanter.cli.kinematics import check_point
 from transplanter.units import M_PER_MM
+
+EE_ACCEL_KEY = "motion.ee_accel_limit_mm_s2"  # the scenario key --ee-accel stands in for
 
 
 def register(sub) -> None:
@@ -28,12 +41,13 @@ def register(sub) -> None:
         help="place point in mm in the base frame",
     )  # fmt: skip
     p.add_argument(
-        "--ee-accel", type=float, default=None, metavar="M_S2",
-        help="end-effector acceleration limit in m/s^2 (default: the scenario's "
-        "motion.ee_accel_limit_mm_s2, 8830 unless set: an estimate, see docs/planner.md)",
+        "--ee-accel", type=ascii_finite_float, default=None, metavar="M_S2",
+        help="end-effector acceleration limit in m/s^2, within the range of the scenario's "
+        "motion.ee_accel_limit_mm_s2 (default: its value, 8830 mm/s^2 unless set: an "
+        "estimate, see docs/planner.md)",
     )  # fmt: skip
     p.add_argument(
-        "--exit-mm", type=float, default=0.0, metavar="MM",
+        "--exit-mm", type=ascii_finite_float, default=0.0, metavar="MM",
         help="a key point this high straight above each end, as delta_refill's transfers "
         "(delta_refill.exit_mm); default 0: the paper's seven key points",
     )  # fmt: skip
@@ -47,18 +61,40 @@ def register(sub) -> None:
 def _point(text: str) -> np.ndarray:
     parts = text.split(",")
     try:
-        values = [float(v) for v in parts]
-    except ValueError:
+        values = [ascii_finite_float(v) for v in parts]
+    except argparse.ArgumentTypeError:
         values = []
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y,Z (three numbers in mm)")
+    if len(values) != 3:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not X,Y,Z (three finite numbers in mm, ASCII digits 0-9)"
+        )
     return np.array(values)
+
+
+def _ee_accel_refusal(value: float) -> str | None:
+    """Why --ee-accel (m/s^2) is refused: outside the range the schema gives its scenario key
+    (in mm/s^2); None when it is within."""
+    from transplanter.scenario.schema import key_spec
+
+    spec = key_spec(EE_ACCEL_KEY)
+    lo, hi = spec.lo * spec.scale, spec.hi * spec.scale
+    if lo <= value <= hi:
+        return None
+    return (
+        f"--ee-accel {value!r} m/s^2 is outside [{lo:g}, {hi:g}] m/s^2, the range of "
+        f"{EE_ACCEL_KEY} ([{spec.lo:g}, {spec.hi:g}] mm/s^2): give a value within it"
+    )
 
 
 def cmd_plan_move(args: argparse.Namespace) -> int:
     from transplanter import fileio
     from transplanter.machine import planner_bspline as pb
 
+    if args.ee_accel is not None:
+        refusal = _ee_accel_refusal(args.ee_accel)
+        if refusal is not None:
+            _err(refusal)
+            return EXIT_REFUSED
     json_target = None
     if args.json is not None:
         try:
@@ -95,6 +131,11 @@ def cmd_plan_move(args: argparse.Namespace) -> int:
         _err(str(exc))
         return 1
     start, end = args.start * M_PER_MM, args.end * M_PER_MM
+    for option, given, point in (("--from", args.start, start), ("--to", args.end, end)):
+        reason = check_point(kin, point)[1]  # before the planner computes with it
+        if reason is not None:
+            print(f"move refused (reach): {option} {_mm(given)} mm: {reason}")
+            return 1
     try:
         path = pb.PickPath(exit_m=args.exit_mm * M_PER_MM)
     except ValueError as exc:
@@ -110,9 +151,17 @@ def cmd_plan_move(args: argparse.Namespace) -> int:
         return 1
     _print_plan(kin, plan, limits, args, topp)
     if json_target is not None:
-        fileio.write_json_atomic(json_target, _payload(kin, plan, limits, topp))
+        try:
+            fileio.write_json_atomic(json_target, _payload(kin, plan, limits, topp))
+        except OSError as exc:
+            _err(f"--json: the results could not be written to {_show(args.json)}: {exc}")
+            return EXIT_OUTPUT_FAILED
         print(f"wrote {_show(json_target)}")
     return 0
+
+
+def _mm(point) -> str:
+    return f"({point[0]:g}, {point[1]:g}, {point[2]:g})"
 
 
 def _limits_text(limits) -> str:
@@ -128,10 +177,8 @@ def _limits_text(limits) -> str:
 
 
 def _print_plan(kin, plan, limits, args, topp) -> None:
-    a, b = args.start, args.end
     print(
-        f"move ({a[0]:g}, {a[1]:g}, {a[2]:g}) -> ({b[0]:g}, {b[1]:g}, {b[2]:g}) mm, "
-        f"{kin.kind}; limits {_limits_text(limits)}"
+        f"move {_mm(args.start)} -> {_mm(args.end)} mm, {kin.kind}; limits {_limits_text(limits)}"
     )
     names = " ".join(f"{ax.name:>9}" for ax in kin.axes)
     print(f"key    {'x_mm':>8} {'y_mm':>8} {'z_mm':>8}  {names}  (deg)")
