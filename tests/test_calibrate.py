@@ -247,6 +247,57 @@ def test_ctrl_c_keeps_the_finished_points(tmp_path, monkeypatch):
     assert (tmp_path / "out" / "calibrated.toml").exists()
 
 
+@pytest.mark.parametrize("where", ["asking", "telling"])
+def test_a_stop_while_asking_or_telling_leaves_no_trial_running(
+    tmp_path, fake_physics, monkeypatch, where
+):
+    """Ctrl-C (or SIGTERM) while the sampler chose a trial's point, or while its results were
+    stored, left the trial RUNNING in the study for good. Now a stop while asking fails the
+    trial (no results: it does not count), one while telling lets it finish and stops
+    after it; the signal is sent by this process from inside Optuna, at exactly that point."""
+    import os
+    import signal
+
+    import optuna
+
+    sent = []
+
+    def stop_once(trial_number):
+        if trial_number == 1 and not sent:
+            sent.append(trial_number)
+            os.kill(os.getpid(), signal.SIGINT)
+
+    if where == "asking":
+        real = optuna.samplers.TPESampler.sample_independent
+
+        def sample(self, study, trial, name, distribution):
+            stop_once(trial.number)
+            return real(self, study, trial, name, distribution)
+
+        monkeypatch.setattr(optuna.samplers.TPESampler, "sample_independent", sample)
+    else:
+        real = optuna.study.Study.tell
+
+        def tell(self, trial, *args, **kwargs):
+            stop_once(trial.number)
+            return real(self, trial, *args, **kwargs)
+
+        monkeypatch.setattr(optuna.study.Study, "tell", tell)
+    db = tmp_path / "c.db"
+    report = run_calibrate(spec_of(), 5, tmp_path / "out", storage=db, backend="inline")
+    assert sent == [1] and report.interrupted
+    study = optuna.load_study(study_name="calibrate", storage=f"sqlite:///{db}")
+    states = [t.state.name for t in study.get_trials(deepcopy=False)]
+    if where == "asking":
+        assert states == ["COMPLETE", "FAIL"]  # trial 1 stopped before it ran: not counted
+        assert (report.finished, report.ran, len(report.rows)) == (1, 1, 1)
+    else:
+        assert states == ["COMPLETE", "COMPLETE"]  # trial 1 finished whole, then the stop
+        assert (report.finished, report.ran, len(report.rows)) == (2, 2, 2)
+    again = run_calibrate(spec_of(), 3, tmp_path / "out", storage=db, backend="inline")
+    assert not again.interrupted and again.finished == 3  # the rerun goes on
+
+
 def test_cli_exit_130_on_ctrl_c(tmp_path, monkeypatch, capsys):
     def stop(task):
         raise KeyboardInterrupt

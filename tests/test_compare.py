@@ -125,3 +125,72 @@ def test_cli_refusals_name_the_problem(tmp_path, capsys):
     assert main(["compare", "paper", "no_such_scenario", "--out", out]) == 2
     assert "no_such_scenario" in capsys.readouterr().err
     assert not (tmp_path / "c").exists()
+
+
+@pytest.mark.parametrize(("text", "kind"), [("null", "null"), ("[]", "a list"), ("7", "a number")])
+def test_a_manifest_that_is_not_an_object_is_refused_in_one_line(tmp_path, capsys, text, kind):
+    """compare.json holding null (or a scenario's sweep.json holding []) was an
+    AttributeError when compare resumed from that --out."""
+    args = ["compare", "paper", "--seeds", "1", "--seedlings", "1", "--quiet"]
+    out = tmp_path / "c"
+    out.mkdir()
+    (out / "compare.json").write_text(text)
+    assert main([*args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{out / 'compare.json'} is not a comparison's manifest" in err[0]
+    assert f"it holds {kind}" in err[0]
+    assert [p.name for p in out.iterdir()] == ["compare.json"]
+    # a scenario's own sweep under runs/
+    out = tmp_path / "d"
+    (out / "runs" / "paper").mkdir(parents=True)
+    (out / "runs" / "paper" / "sweep.json").write_text(text)
+    assert main([*args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "runs/paper/sweep.json is not a sweep's manifest" in err[0], err
+    assert sorted(p.name for p in out.rglob("*")) == ["paper", "runs", "sweep.json"]
+
+
+def test_a_link_planted_under_runs_is_refused_and_nothing_is_written_through_it(
+    tmp_path, capsys, monkeypatch
+):
+    """A link at OUT/runs/paper was followed: the sweep's runs.csv, runs.jsonl, settings.csv
+    and sweep.json were written into its target, outside --out."""
+    from transplanter.studies import backends
+    from transplanter.studies.sweep import run_sweep
+
+    def no_physics(task):  # pragma: no cover - a refusal runs nothing
+        return {**task["setting"], "seed": task["seed"], **backends._empty_result()}
+
+    monkeypatch.setattr(backends, "run_one", no_physics)
+    monkeypatch.setattr(backends, "ProcessBackend", lambda workers: backends.InlineBackend())
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    args = ["compare", "paper", "--seeds", "1", "--seedlings", "1", "--quiet"]
+    out = tmp_path / "c"
+    (out / "runs").mkdir(parents=True)
+    (out / "runs" / "paper").symlink_to(elsewhere)
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / "runs").symlink_to(elsewhere)  # OUT/runs itself
+    for link in (out / "runs" / "paper", tmp_path / "d" / "runs"):
+        assert main([*args, "--out", str(link.parent if link.name == "runs" else out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{link} is a symbolic link" in err[0], err
+        assert "compare refused" in err[0]
+    assert not any(elsewhere.iterdir())  # nothing written there
+    assert sorted(p.name for p in out.rglob("*")) == ["paper", "runs"]  # nor in --out
+    # a link planted after compare checked: the scenario's sweep refuses it too
+    sweep = CompareSpec(("paper",), (1,), seedlings=1).sweeps()[0]
+    with pytest.raises(SweepRefused, match="is a symbolic link"):
+        run_sweep(sweep, out / "runs" / "paper", backend="inline", own_dir=True)
+    assert not any(elsewhere.iterdir())
+
+
+def test_compare_help_names_every_exit_status(capsys):
+    """143 (SIGTERM), which compare returns as sweep does, was missing."""
+    with pytest.raises(SystemExit) as info:
+        main(["compare", "--help"])
+    assert info.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    epilog = text[text.index("exit status:") :]
+    for status in ("0 done", "2 refused", "5 a result file", "130 interrupted", "143 the same"):
+        assert status in epilog, status

@@ -371,6 +371,24 @@ def test_an_out_that_cannot_be_made_is_refused_with_exit_2(tmp_path, capsys):
     assert len(err) == 1 and "cannot be made" in err[0]
 
 
+@pytest.mark.parametrize(
+    ("text", "kind"), [("null", "null"), ("[]", "a list"), ('"x"', "a string"), ("3", "a number")]
+)
+def test_a_manifest_that_is_not_an_object_is_refused_in_one_line(tmp_path, capsys, text, kind):
+    """A sweep.json holding valid JSON that is not an object was an AttributeError."""
+    out = tmp_path / "s"
+    out.mkdir()
+    (out / "sweep.json").write_text(text)
+    args = ["sweep", "paper", "--vary", "taught.z_low_mm=61,70", "--seeds", "1"]
+    assert main([*args, "--seedlings", "2", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert f"{out / 'sweep.json'} is not a sweep's manifest" in err[0]
+    assert f"it holds {kind}" in err[0]
+    assert [p.name for p in out.iterdir()] == ["sweep.json"]  # nothing written
+    assert (out / "sweep.json").read_text() == text
+
+
 def test_the_sweep_table_has_the_failures_by_kind_as_columns(tmp_path, capsys):
     # a bridge just over the rims crushes the shoots; the paper's 68 mm leaves them free
     args = ["sweep", "paper", "--vary", "gripper.bridge_clearance_mm=25,68", "--seeds", "1"]

@@ -1,7 +1,12 @@
 """transplanter.studies.backends: one run as a row (never an exception) and the backends by name."""
 
 import os
+import select
+import signal
+import subprocess
 import sys
+import time
+from pathlib import Path
 
 import pytest
 
@@ -124,3 +129,70 @@ def test_the_process_pool_submits_a_bounded_number_of_tasks_at_a_time(monkeypatc
 
 def _echo(task):
     return dict(task)
+
+
+# A process that starts a pool of two workers, prints their pids once both have started (the
+# readiness signal) and waits; the test kills it with SIGKILL, as the OOM killer does.
+_POOL_PARENT = """
+import os, sys
+from transplanter.studies.backends import ProcessBackend
+runner = ProcessBackend(2)
+futures = [runner.pool.submit(os.getpid) for _ in range(2)]
+for f in futures:
+    f.result()
+print(*runner.pool._processes, flush=True)
+sys.stdin.read()
+"""
+
+
+def _children(parent, word):
+    """The pids of `parent`'s children whose command line holds `word`."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            ppid = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+            cmdline = (stat.parent / "cmdline").read_bytes()
+        except (OSError, ValueError, IndexError):
+            continue
+        if ppid == parent and word in cmdline:
+            found.append(int(stat.parent.name))
+    return found
+
+
+@pytest.mark.skipif(not hasattr(os, "pidfd_open"), reason="waits on pidfds (Linux)")
+def test_the_pool_workers_and_the_resource_tracker_die_with_a_killed_parent():
+    """`kill -9` of a sweep, compare, tune or calibrate (the OOM killer) left its workers
+    (about 150 MB each, ignoring SIGINT and SIGTERM) and the resource tracker idle forever."""
+    import transplanter
+
+    env = {**os.environ, "PYTHONPATH": str(Path(transplanter.__file__).parents[1])}
+    parent = subprocess.Popen(
+        [sys.executable, "-c", _POOL_PARENT], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL, env=env, text=True,
+    )  # fmt: skip
+    fds = {}
+    try:
+        workers = [int(pid) for pid in parent.stdout.readline().split()]  # both started
+        assert len(workers) == 2, "the pool's two workers"
+        tracker = _children(parent.pid, b"resource_tracker")
+        assert len(tracker) == 1, "the resource tracker"
+        assert sorted(_children(parent.pid, b"spawn_main")) == sorted(workers)
+        fds = {pid: os.pidfd_open(pid) for pid in [*workers, *tracker]}  # never a reused pid
+        parent.kill()
+        parent.wait(30)
+        deadline = time.monotonic() + 30
+        for fd in fds.values():  # a pidfd is readable once its process has ended
+            select.select([fd], [], [], max(0.0, deadline - time.monotonic()))
+        still = [pid for pid, fd in fds.items() if not _ended(fd)]
+        assert not still, f"left running after their parent was killed: {still}"
+    finally:
+        parent.kill()
+        parent.wait(30)
+        for fd in fds.values():
+            if not _ended(fd):  # today's code leaves them running: end them
+                signal.pidfd_send_signal(fd, signal.SIGKILL)
+            os.close(fd)
+
+
+def _ended(pidfd):
+    return bool(select.select([pidfd], [], [], 0)[0])

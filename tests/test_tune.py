@@ -128,6 +128,53 @@ def test_a_storage_that_cannot_hold_a_study_is_refused_in_one_line(tmp_path, cap
     assert text.read_text() == "not a database\n"  # untouched
 
 
+def _fake_run_one(task):
+    """A stand-in for the physics: every seedling placed, the cycle shorter as Z_low rises."""
+    from transplanter.studies import backends
+
+    z, n = task["setting"]["taught.z_low_mm"], task["seedlings"]
+    row = {**task["setting"], "seed": task["seed"], **backends._empty_result()}
+    row.update(successes=n, seedlings=n, success_rate=1.0, cycle_time_s=4.0 - 0.03 * z,
+               cycles=n, error=None, wall_time_s=0.0)  # fmt: skip
+    return row
+
+
+def test_every_damaged_page_of_a_storage_is_refused_in_one_line(tmp_path, capsys, monkeypatch):
+    """A study file with one damaged 4 KiB page: on some pages tune and calibrate crashed
+    (the study's attributes and trials were read outside the refusal), on others the
+    refusal blamed the commit; now SQLite's integrity check refuses each page, naming the
+    file, and the file is left as it was."""
+    from transplanter.studies import backends
+
+    monkeypatch.setattr(backends, "run_one", _fake_run_one)
+    monkeypatch.setattr(backends, "ProcessBackend", lambda workers: backends.InlineBackend())
+    db = tmp_path / "study.db"
+    common = ["--seeds", "1", "--seedlings", "2", "--trials", "3", "--quiet"]
+    tune = ["tune", "paper", "--param", "taught.z_low_mm=28..40", *common]
+    calibrate = ["calibrate", "paper", "--observed", "1/2", "--fit", "taught.z_low_mm=28..40",
+                 "--backend", "inline", *common]  # fmt: skip
+    for args in (tune, calibrate):  # both studies in one file
+        assert main([*args, "--storage", str(db), "--out", str(tmp_path / "made")]) == 0
+    capsys.readouterr()
+    good = db.read_bytes()
+    page_size = int.from_bytes(good[16:18], "big")  # the database header's page size
+    pages = len(good) // page_size
+    assert page_size == 4096 and pages >= 20
+    bad, out = tmp_path / "bad.db", tmp_path / "out"
+    for page in range(pages):
+        damaged = bytearray(good)
+        damaged[page * page_size : (page + 1) * page_size] = b"\xa5" * page_size
+        for args in (tune, calibrate):
+            bad.write_bytes(damaged)
+            assert main([*args, "--storage", str(bad), "--out", str(out)]) == 2, page + 1
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and f"--storage {bad} is " in err[0], (page + 1, err)
+            why = "not a SQLite database" if page == 0 else "is damaged (SQLite: "
+            assert why in err[0], (page + 1, err)
+            assert bad.read_bytes() == damaged  # untouched
+    assert not out.exists() or not any(out.iterdir())
+
+
 def _scored(trial, k, n=40, cycle=3.2):
     return {"trial": trial, "successes": k, "seedlings": n, "cycle_time_s": cycle}
 

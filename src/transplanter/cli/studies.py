@@ -275,7 +275,8 @@ def _compare_parser(sub) -> None:
         "compare.csv, compare.txt, compare.png and runs/<scenario>/ (each scenario's sweep); "
         "rerunning the same command resumes.",
         epilog="exit status: 0 done, 2 refused before any run, 5 a result file could not be "
-        "written, 130 interrupted (finished runs are kept; rerun to finish)",
+        "written, 130 interrupted (Ctrl-C: finished runs are kept; rerun to finish), 143 the "
+        "same for SIGTERM (the pool's workers are stopped)",
     )
     p.add_argument(
         "scenarios",

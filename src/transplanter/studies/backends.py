@@ -135,9 +135,42 @@ def _ignore_stop_signals() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
-def _start_worker() -> None:
-    """A process-pool worker's start: stop signals ignored, and the trial's imports (about a
-    second: MuJoCo, SciPy, the twin) done now, while the pool starts, not in its first task."""
+PR_SET_PDEATHSIG = 1  # prctl(2): the signal this process gets when its parent ends
+
+
+def _die_with_parent(parent: int) -> None:
+    """End this worker when `parent` (the process that made the pool) ends, however it ends:
+    `kill -9` or the OOM killer give the parent no chance to stop its workers, which ignore
+    SIGINT and SIGTERM and would wait on its queue forever (with them the resource tracker,
+    whose pipe they hold). On Linux the kernel sends SIGKILL (prctl PR_SET_PDEATHSIG: on the
+    end of the thread that started the worker, the one running the pool's tasks); elsewhere a
+    daemon thread watches for the parent's end."""
+    import sys
+
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0:
+            if os.getppid() != parent:  # it ended before the request was made
+                os._exit(1)
+            return
+    import threading
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
+
+
+def _start_worker(parent: int | None = None) -> None:
+    """A process-pool worker's start: it ends with its parent (`parent`'s pid), stop signals
+    are ignored, and the trial's imports (about a second: MuJoCo, SciPy, the twin) done now,
+    while the pool starts, not in its first task."""
+    if parent is not None:
+        _die_with_parent(parent)
     _ignore_stop_signals()
     import transplanter.scenario.assemble  # noqa: F401
     import transplanter.twin.trial  # noqa: F401
@@ -151,7 +184,8 @@ IN_FLIGHT_PER_WORKER = 2
 
 
 class ProcessBackend:
-    """A `ProcessPoolExecutor` of spawned processes (MuJoCo and fork do not mix)."""
+    """A `ProcessPoolExecutor` of spawned processes (MuJoCo and fork do not mix), which end
+    with this process however it ends (`_die_with_parent`)."""
 
     def __init__(self, workers: int) -> None:
         import multiprocessing
@@ -162,6 +196,7 @@ class ProcessBackend:
             max_workers=workers,
             mp_context=multiprocessing.get_context("spawn"),
             initializer=_start_worker,
+            initargs=(os.getpid(),),  # the workers end with this process (_die_with_parent)
         )
 
     def run(self, tasks: Iterable[Mapping[str, Any]]) -> Iterator[dict[str, Any]]:

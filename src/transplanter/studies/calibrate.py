@@ -32,7 +32,6 @@ import math
 import os
 import re
 import shlex
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -384,11 +383,9 @@ def run_calibrate(
     out.mkdir(parents=True, exist_ok=True)
     check_out_files(out, (CSV_NAME, JSON_NAME, TOML_NAME), search.scenario)  # before any trial
     study, url = open_study(
-        optuna, storage, study_name, ["minimize"], "calibrate", spec.identity(digest)
-    )
-    with warnings.catch_warnings():  # "experimental" since Optuna 3.2, and stable in use
-        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        study.set_metric_names(["deviance_g2"])  # optuna-dashboard's and the plots' axis
+        optuna, storage, study_name, ["minimize"], "calibrate", spec.identity(digest),
+        ["deviance_g2"],  # optuna-dashboard's and the plots' axis
+    )  # fmt: skip
     observed = spec.observed
 
     def objective(scored: Mapping[str, Any]) -> float | None:

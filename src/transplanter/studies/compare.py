@@ -348,13 +348,18 @@ def run_compare(
         for s in spec.scenarios:
             check_out_files(out, (COMPARE_JSON, COMPARE_CSV, COMPARE_TXT, COMPARE_PNG), s)
         _check_same(out, manifest)
+        runs = out / RUNS_DIR
+        for path in (runs, *(runs / label for label in spec.labels())):
+            _check_own_dir(path, make=False)  # a planted link refused before anything runs
         rows, ran, skipped, interrupted = [], 0, 0, False
         for label, sweep in zip(spec.labels(), sweeps, strict=True):
             if on_scenario is not None:
                 on_scenario(label)
+            _check_own_dir(runs, make=True)
+            _check_own_dir(runs / label, make=True)
             report = run_sweep(
-                sweep, out / RUNS_DIR / label, backend=backend, workers=workers,
-                address=address, progress=progress, plots=False,
+                sweep, runs / label, backend=backend, workers=workers,
+                address=address, progress=progress, plots=False, own_dir=True,
             )  # fmt: skip
             ran += report.ran
             skipped += report.skipped
@@ -380,6 +385,30 @@ def run_compare(
         lock.release()
 
 
+def _check_own_dir(path: Path, make: bool) -> None:
+    """SweepRefused if `path` (OUT/runs or a scenario's directory in it: names compare
+    derives) is a symbolic link, which would take the scenario's runs elsewhere, or is not a
+    directory; made when missing with `make`."""
+    if make:
+        try:
+            path.mkdir()
+        except FileExistsError:
+            pass
+        except OSError as exc:
+            raise SweepRefused(f"{path} cannot be made: {exc.strerror or exc}") from None
+    if path.is_symlink():
+        raise SweepRefused(
+            f"{path} is a symbolic link; compare keeps each scenario's runs under "
+            f"{RUNS_DIR}/ itself and never writes through a link: remove the link or use "
+            "another --out"
+        )
+    if os.path.lexists(path) and not path.is_dir():
+        raise SweepRefused(
+            f"{path} is not a directory; compare keeps a scenario's runs there: move it away "
+            "or use another --out"
+        )
+
+
 def _check_same(out: Path, manifest: Mapping[str, Any]) -> None:
     path = out / COMPARE_JSON
     if not path.exists():
@@ -388,6 +417,13 @@ def _check_same(out: Path, manifest: Mapping[str, Any]) -> None:
         old = json.loads(fileio.read_text_input(path, 1 << 26, "comparison"))
     except (fileio.FileRefused, ValueError) as exc:
         raise SweepRefused(f"{path} cannot be read ({exc}); use another --out") from None
+    if not isinstance(old, dict):  # valid JSON, but not what compare writes (null, [] ...)
+        from transplanter.studies.sweep import _json_kind
+
+        raise SweepRefused(
+            f"{path} is not a comparison's manifest (a JSON object expected, it holds "
+            f"{_json_kind(old)}); use another --out, or move the file away to start over"
+        )
     differs = [k for k in ("scenarios", "seeds", "overrides") if old.get(k) != manifest.get(k)]
     if differs:
         raise SweepRefused(

@@ -151,10 +151,15 @@ class DirLock:
     made for it); SweepRefused if another sweep holds it. Released by `release`, or when
     the process ends however it ends."""
 
-    def __init__(self, out: Path) -> None:
+    def __init__(self, out: Path, follow: bool = True) -> None:
         import fcntl
 
-        self.fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
+        try:  # `follow=False`: a directory the program named, never entered through a link
+            self.fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY | (0 if follow else os.O_NOFOLLOW))
+        except OSError:
+            if not follow and os.path.islink(out):
+                raise SweepRefused(_link_refused(out)) from None
+            raise
         try:
             fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -242,6 +247,11 @@ def check_manifest(out: Path, manifest: Mapping[str, Any]) -> bool:
         old = json.loads(fileio.read_text_input(path, 1 << 24, "sweep manifest"))
     except (fileio.FileRefused, ValueError) as exc:
         raise SweepRefused(f"{path} cannot be read ({exc}); use another --out") from None
+    if not isinstance(old, dict):  # valid JSON, but not what a sweep writes (null, [] ...)
+        raise SweepRefused(
+            f"{path} is not a sweep's manifest (a JSON object expected, it holds "
+            f"{_json_kind(old)}); use another --out, or move the file away to start over"
+        )
     differs = [k for k in MANIFEST_IDENTITY if old.get(k) != manifest.get(k)]
     if differs:
         raise SweepRefused(
@@ -250,6 +260,17 @@ def check_manifest(out: Path, manifest: Mapping[str, Any]) -> bool:
             "or delete that directory"
         )
     return True
+
+
+def _json_kind(value: Any) -> str:
+    """What a JSON document holds, for a refusal: 'null', 'a list', 'a number' ..."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, int | float):
+        return "a number"
+    return "a string" if isinstance(value, str) else "a list"
 
 
 # ---------------------------------------------------------------------------------------
@@ -336,20 +357,25 @@ def run_sweep(
     plots: bool = True,
     on_row: Callable[[dict[str, Any]], None] | None = None,
     range_analysis: bool = False,
+    own_dir: bool = False,
 ) -> SweepReport:
     """Run every (setting, seed) of the grid not yet in `out`, writing each row as it
     finishes; then the CSVs and the plots. Ctrl-C (or SIGTERM): the finished rows stay, the
     CSVs are rewritten and the report says `interrupted`. `out` is locked first: a second
-    sweep into it is refused (SweepRefused) before it reads or writes anything there."""
+    sweep into it is refused (SweepRefused) before it reads or writes anything there.
+    `own_dir`: `out` is a name the caller derived (compare's runs/<scenario>): a symbolic
+    link there is refused, never followed."""
     out = Path(out)
     manifest = spec.manifest()  # ScenarioError here: nothing runs
+    if own_dir and out.is_symlink():
+        raise SweepRefused(_link_refused(out))
     if out.exists() and not out.is_dir():
         raise SweepRefused(f"--out {out} is a file; give a directory")
     try:  # an --out that cannot be made is refused (exit 2) before anything runs
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise SweepRefused(f"--out {out} cannot be made: {exc.strerror or exc}") from None
-    lock = DirLock(out)
+    lock = DirLock(out, follow=not own_dir)
     try:
         report = _run_locked(
             spec, out, manifest, backend, workers, address, progress, plots, on_row,

@@ -248,51 +248,101 @@ def open_study(
     directions: Sequence[str],
     attr: str,
     identity: Mapping[str, Any],
+    metric_names: Sequence[str] | None = None,
 ):
     """The study in SQLite `storage` (created, or loaded to resume; in memory when None),
-    holding `identity` under the user attribute `attr`; SweepRefused if it was made by a
-    different command. Returns (study, storage URL)."""
+    holding `identity` under the user attribute `attr` (and `metric_names`, the objectives'
+    names); SweepRefused if it was made by a different command, or if the file is not a
+    sound SQLite database (SQLite's integrity check, before anything is written to it: a
+    damaged page anywhere is refused, not found out by a read or a write of the study).
+    Returns (study, storage URL)."""
     if storage is None:
-        url = "in memory"
         study = optuna.create_study(study_name=study_name, directions=list(directions))
-    else:
-        storage = Path(storage)
-        if storage.exists() and not storage.is_file():
-            raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
-        if storage.is_file() and storage.stat().st_size > 0:
-            with storage.open("rb") as handle:
-                if handle.read(len(SQLITE_HEADER)) != SQLITE_HEADER:
-                    raise SweepRefused(
-                        f"--storage {storage} is not a SQLite database (an Optuna study's "
-                        "file); give a new .db path or the study's own file"
-                    )
+        _hold(optuna, study, study_name, storage, attr, identity, metric_names)
+        return study, "in memory"
+    storage = Path(storage)
+    if storage.exists() and not storage.is_file():
+        raise SweepRefused(f"--storage {storage} is not a file; give a .db file's path")
+    if storage.is_file() and storage.stat().st_size > 0:
         try:
-            storage.parent.mkdir(parents=True, exist_ok=True)
-            url = f"sqlite:///{storage.resolve()}"
-            study = optuna.create_study(
-                study_name=study_name,
-                storage=url,
-                directions=list(directions),
-                load_if_exists=True,
-            )
-        except Exception as exc:  # SQLAlchemy's and OSError's: the file cannot hold a study
-            if isinstance(exc, SweepRefused):
-                raise
-            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            with storage.open("rb") as handle:
+                header = handle.read(len(SQLITE_HEADER))
+        except OSError as exc:
             raise SweepRefused(
-                f"--storage {storage} cannot hold the study ({reason}); give a writable .db path"
+                f"--storage {storage} cannot be read ({exc.strerror or exc}); give a .db path "
+                "this user can read and write"
             ) from None
+        if header != SQLITE_HEADER:
+            raise SweepRefused(
+                f"--storage {storage} is not a SQLite database (an Optuna study's "
+                "file); give a new .db path or the study's own file"
+            )
+        _check_intact(storage)
+    try:
+        storage.parent.mkdir(parents=True, exist_ok=True)
+        url = f"sqlite:///{storage.resolve()}"
+        study = optuna.create_study(
+            study_name=study_name,
+            storage=url,
+            directions=list(directions),
+            load_if_exists=True,
+        )
+        # the study's own rows are read and written here too, inside the refusal below
+        _hold(optuna, study, study_name, storage, attr, identity, metric_names)
+    except Exception as exc:  # SQLAlchemy's and OSError's: the file cannot hold a study
+        if isinstance(exc, SweepRefused):
+            raise
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise SweepRefused(
+            f"--storage {storage} cannot hold the study ({reason}); give a writable .db path"
+        ) from None
+    return study, url
+
+
+def _check_intact(storage: Path) -> None:
+    """SweepRefused naming `storage` unless SQLite's integrity check finds every page of it
+    sound (a page damaged by a disk or a copy cut short)."""
+    import sqlite3
+
+    try:
+        con = sqlite3.connect(storage)
+        try:
+            found = [row[0] for row in con.execute("PRAGMA integrity_check")]
+        finally:
+            con.close()
+    except sqlite3.OperationalError as exc:  # locked, unreadable: not known to be damaged
+        raise SweepRefused(
+            f"--storage {storage} cannot be read ({exc}); give a .db path this user can read "
+            "and write, or wait for the command using it to end"
+        ) from None
+    except sqlite3.DatabaseError as exc:  # "database disk image is malformed"
+        found = [str(exc)]
+    if found != ["ok"]:
+        more = f" and {len(found) - 1} more" if len(found) > 1 else ""
+        first = " ".join(found[0].split())
+        raise SweepRefused(
+            f"--storage {storage} is damaged (SQLite: {first}{more}); restore it from a copy "
+            "or give a new .db path"
+        )
+
+
+def _hold(optuna, study, study_name, storage, attr, identity, metric_names) -> None:
+    """The study's identity under `attr` (set when new, compared when resumed) and its
+    objectives' names."""
     held = study.user_attrs.get(attr)
     plain = json.loads(json.dumps(identity))
     if held is None:
         study.set_user_attr(attr, plain)
     elif held != plain:
-        differs = [k for k in plain if held.get(k) != plain[k]]
+        differs = [k for k in plain if not isinstance(held, dict) or held.get(k) != plain[k]]
         raise SweepRefused(
             f"study {study_name!r} in {storage} was made by a different command (it differs "
             f"in: {', '.join(differs)}); use another --study or --storage"
         )
-    return study, url
+    if metric_names is not None:
+        with warnings.catch_warnings():  # "experimental" since Optuna 3.2, and stable in use
+            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+            study.set_metric_names(list(metric_names))  # optuna-dashboard's and plots' axes
 
 
 def drive_study(
@@ -311,7 +361,9 @@ def drive_study(
     point is judged with `evaluate` on every seed on the backend, its results kept as the
     trial's user attributes, and `objective(scored)` told (None: the trial FAILs). The
     sampler is a TPESampler seeded `spec.sampler_seed + trial number`. Returns (finished,
-    ran now, interrupted by Ctrl-C)."""
+    ran now, interrupted by Ctrl-C). No trial is left RUNNING in the study: asking (the
+    sampler's work) and telling run with stop signals held, and a trial stopped while its
+    runs ran is told FAIL (without results: it does not count, a rerun asks again)."""
     dists = {p.key: p.distribution() for p in spec.params}
     finished = sum(_counts(t, optuna) for t in study.get_trials(deepcopy=False))
     ran, interrupted = 0, False
@@ -327,25 +379,30 @@ def drive_study(
             while finished < trials:
                 number = len(study.get_trials(deepcopy=False))
                 study.sampler = optuna.samplers.TPESampler(seed=spec.sampler_seed + number)
-                trial = study.ask(dists)
+                with interrupts.held():  # a trial asked is a trial told
+                    trial = study.ask(dists)
                 try:
+                    interrupts.raise_pending()  # a stop held while asking: told FAIL below
                     scored = evaluate(runner, spec, trial.params)
-                except KeyboardInterrupt:
-                    study.tell(trial, state=optuna.trial.TrialState.FAIL)
+                except BaseException:  # Ctrl-C, SIGTERM, a broken pool: never left RUNNING
+                    with interrupts.held():
+                        study.tell(trial, state=optuna.trial.TrialState.FAIL)
                     raise
-                for k, v in scored.items():
-                    trial.set_user_attr(k, v)
-                values = objective(scored)
-                if values is None:
-                    study.tell(trial, state=optuna.trial.TrialState.FAIL)
-                else:
-                    study.tell(trial, values)
+                with interrupts.held():  # its results and its state, whole
+                    for k, v in scored.items():
+                        trial.set_user_attr(k, v)
+                    values = objective(scored)
+                    if values is None:
+                        study.tell(trial, state=optuna.trial.TrialState.FAIL)
+                    else:
+                        study.tell(trial, values)
                 finished += 1
                 ran += 1
                 if bar is not None:
                     if describe is not None:
                         bar.set_postfix_str(describe(study), refresh=False)
                     bar.update(1)
+                interrupts.raise_pending()  # a stop held while telling: this trial is kept
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -379,11 +436,9 @@ def run_tune(
     out.mkdir(parents=True, exist_ok=True)
     check_out_files(out, OUT_FILES, spec.scenario)  # not found out after every trial ran
     study, url = open_study(
-        optuna, storage, study_name, ["maximize", "minimize"], "tune", spec.identity(digest)
-    )
-    with warnings.catch_warnings():  # "experimental" since Optuna 3.2, and stable in use
-        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        study.set_metric_names(list(TUNE_METRICS))  # optuna-dashboard's and the plots' axes
+        optuna, storage, study_name, ["maximize", "minimize"], "tune", spec.identity(digest),
+        TUNE_METRICS,
+    )  # fmt: skip
 
     def objective(scored):
         if scored["ci95_low"] is None or scored["cycle_time_s"] is None:
