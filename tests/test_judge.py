@@ -31,7 +31,9 @@ def test_a_pickup_aimed_at_no_cell_is_no_pot(tmp_path):
             "grip_mm = [-90.0, 215.0]": "grip_mm = [-130.0, 215.0]",
         },
     )
-    result = run_trial(assemble(load_scenario(path, {"scenario.seedlings": 2})))
+    # the preflight refuses a pickup off its cell (test_preflight); the judge must still name it
+    config = assemble(load_scenario(path, {"scenario.seedlings": 2}), preflight=False)
+    result = run_trial(config)
     first, second = result.per_seedling
     assert first.outcome == Outcome.NO_POT and first.pot is None
     assert first.peak_grip_force_n == 0.0  # the jaws closed on air

@@ -111,3 +111,23 @@ def test_a_program_that_passed_is_not_checked_again_in_the_process(monkeypatch, 
         with pytest.raises(ScenarioError, match=r"taught.pickup\[4\].grip_mm"):
             assemble(load_scenario(path))
     assert len(calls) == 4
+
+
+def test_the_pickups_must_be_the_pickup_rows_cells(tmp_path):
+    """A conveyor of 6 columns under the paper's 5 pickups used to pass every check and then
+    knock pots over; a pickup taught beside its cell, or two on one cell, likewise."""
+    from transplanter.scenario.assemble import assemble
+
+    assemble(load_scenario("paper"))  # the paper's five pickups over its five cells
+    with pytest.raises(ScenarioError, match=r"5 pickups are taught .* for the pickup row's 6 "
+                       r"cells at x = -112.5, -67.5, -22.5, 22.5, 67.5, 112.5 mm"):  # fmt: skip
+        assemble(load_scenario("paper", {"conveyor.cols": 6}))
+    off = variant(tmp_path, {"grip_mm = [-45.0, 215.0]": "grip_mm = [-39.0, 215.0]"}, "off.toml")
+    with pytest.raises(ScenarioError, match=r"taught.pickup\[1\].grip_mm = \[-39, 215\] is 6.0 mm"
+                       r" from the nearest cell's centre, more than the 5.0 mm"):  # fmt: skip
+        assemble(load_scenario(off))
+    near = variant(tmp_path, {"grip_mm = [-45.0, 215.0]": "grip_mm = [-42.0, 216.0]"}, "n.toml")
+    assemble(load_scenario(near))  # 3.2 mm off: within the pot's play
+    two = variant(tmp_path, {"grip_mm = [-45.0, 215.0]": "grip_mm = [-90.0, 215.0]"}, "two.toml")
+    with pytest.raises(ScenarioError, match=r"pickup\[0\] and taught.pickup\[1\] both grip"):
+        assemble(load_scenario(two))

@@ -115,9 +115,10 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
     faults = fault_config(s, machine)
     scene = scene_config(s, machine)
     if preflight:
-        from transplanter.scenario.preflight import check_timestep
+        from transplanter.scenario.preflight import check_pickups_on_cells, check_timestep
 
         check_timestep(scene)
+        check_pickups_on_cells(machine, scene)
     return TwinConfig(
         name=s.meta.name,
         seed=s.meta.seed,

@@ -18,6 +18,7 @@ from transplanter.units import M_PER_MM
 __all__ = [
     "check_program",
     "check_machine",
+    "check_pickups_on_cells",
     "check_taught_speeds",
     "check_reply_timeout",
     "check_timestep",
@@ -164,6 +165,52 @@ def _check_transfers(machine: Machine) -> None:
             "grip point, or use motion.planner = 'lines'.",
             f"taught.pickup[{i}]", i, None, refusals,
         )  # fmt: skip
+
+
+def check_pickups_on_cells(machine: Machine, scene_config) -> None:
+    """The taught pickups are the pickup row's cells: one pickup per cell of the row
+    (conveyor.cols of them), each grip point over its own cell's centre to within half the
+    play a pot has between its cell's walls (beyond it the jaws come down on the cell's rib
+    or a neighbour's wall, not around the pot). A conveyor of 6 columns under the paper's 5
+    pickups passed every other check and then knocked pots over; ScenarioError naming the
+    keys otherwise."""
+    from transplanter.scene.geometry import cell_columns_x
+
+    pickups = machine.eeprom.pickups
+    cols = int(scene_config.cols)
+    xs = cell_columns_x(scene_config)
+    y_row = float(scene_config.pickup_row_y_m)
+    tol = max((scene_config.cell_pitch_m - scene_config.pot_diameter_m) / 2, 1e-3)
+    cells = ", ".join(f"{x / M_PER_MM:g}" for x in xs)
+    where = (
+        f"the pickup row's {cols} cells at x = {cells} mm, y = {y_row / M_PER_MM:g} mm "
+        "(conveyor.cols, cell_pitch_mm, pickup_row_y_mm)"
+    )
+    if len(pickups) != cols:
+        raise ScenarioError(
+            f"{len(pickups)} pickups are taught ([[taught.pickup]]) for {where}: the PGF picks "
+            "its pickups in turn, one per cell of the row, so a cell without a pickup is "
+            "never picked and a pickup without a cell closes on air or on the ribs; teach "
+            f"one pickup per cell or set conveyor.cols = {len(pickups)}"
+        )
+    used: dict[int, int] = {}
+    for k, pickup in enumerate(pickups):
+        x, y = pickup.grip_xy_m
+        col = int(np.argmin(np.abs(xs - x)))
+        off = float(np.hypot(xs[col] - x, y_row - y))
+        if off > tol:
+            raise ScenarioError(
+                f"taught.pickup[{k}].grip_mm = [{x / M_PER_MM:g}, {y / M_PER_MM:g}] is "
+                f"{off / M_PER_MM:.1f} mm from the nearest cell's centre, more than the "
+                f"{tol / M_PER_MM:.1f} mm a pot has to its cell's walls ({where}): the jaws "
+                "would come down beside the pot; teach it over its cell"
+            )
+        if col in used:
+            raise ScenarioError(
+                f"taught.pickup[{used[col]}] and taught.pickup[{k}] both grip at the cell "
+                f"x = {xs[col] / M_PER_MM:g} mm ({where}): each pickup its own cell"
+            )
+        used[col] = k
 
 
 def check_taught_speeds(machine: Machine) -> None:
