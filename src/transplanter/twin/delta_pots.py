@@ -54,6 +54,7 @@ from transplanter.machine.bus import ComBus
 from transplanter.machine.delta_drives import DeltaController, PulseServos
 from transplanter.machine.fuzzy_gripper import NO_ECHO, UltrasonicSensor
 from transplanter.machine.gcode import format_number
+from transplanter.machine.host import Call, HostProgram, Wait
 from transplanter.machine.kinematics.delta import DeltaKinematics
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.servo import ServoMount, servo_class
@@ -61,8 +62,9 @@ from transplanter.machine.servo_drives import ServoBank, frame_steps
 from transplanter.scenario.assemble import delta_sgf_config, require_awake
 from transplanter.scene.effectors import fuzzy_gripper
 from transplanter.scene.robots import delta as delta_robot
+from transplanter.twin.loop import StepLoop
 from transplanter.twin.motors import MotorMeter
-from transplanter.twin.serial_arm import SENSE_CYCLE_S, _Call, _Host, _Ranger, _Squeeze, _Wait
+from transplanter.twin.serial_arm import SENSE_CYCLE_S, _Ranger, _Squeeze
 from transplanter.twin.serial_pots import (
     DETECTED_CM,
     PotBook,
@@ -410,13 +412,13 @@ def run_delta_pots(sc, seed: int | None = None, progress=None) -> DeltaPotsResul
                 if i >= n:
                     break
                 yield "M400"
-                yield _Wait(2 * SENSE_CYCLE_S)
-                reading = yield _Call(station(col))
+                yield Wait(2 * SENSE_CYCLE_S)
+                reading = yield Call(station(col))
                 if reading == NO_ECHO or reading > DETECTED_CM:
                     records[i].outcome = "no pot"
                     continue
                 grasp = np.array([xs[col], line.pickup_row_y_m, job.grasp_z_m])
-                yield _Call(mark(i, "start_s"))
+                yield Call(mark(i, "start_s"))
                 for attempt in range(1, job.attempts + 1):
                     records[i].attempts = attempt
                     yield from onto(grasp)
@@ -424,17 +426,17 @@ def run_delta_pots(sc, seed: int | None = None, progress=None) -> DeltaPotsResul
                     yield grip_line
                     yield f"G4 P{_ms(job.grip_settle_s)}"
                     yield "M400"
-                    yield _Call(took(records[i]))
+                    yield Call(took(records[i]))
                     yield g1(grasp + up, v_app)
                     yield "M400"
-                    yield _Wait(2 * SENSE_CYCLE_S)
-                    reading = yield _Call(station(col))
+                    yield Wait(2 * SENSE_CYCLE_S)
+                    reading = yield Call(station(col))
                     if reading > DETECTED_CM:  # the cell is empty: the pot is up
                         break
                     yield open_line  # sensor 1 still hears the pot in its cell: missed
                     yield f"G4 P{_ms(job.release_settle_s)}"
                 else:
-                    yield _Call(mark(i, "end_s"))
+                    yield Call(mark(i, "end_s"))
                     continue
                 yield from onto(release)
                 yield open_line
@@ -442,7 +444,7 @@ def run_delta_pots(sc, seed: int | None = None, progress=None) -> DeltaPotsResul
                 if not spline:  # a spline leaves the release upwards itself
                     yield g1(release + up, v_app)
                 yield "M400"
-                yield _Call(mark(i, "end_s"))
+                yield Call(mark(i, "end_s"))
             if (row + 1) * line.cols >= n:
                 break
             yield g1(park, v_travel)
@@ -451,59 +453,69 @@ def run_delta_pots(sc, seed: int | None = None, progress=None) -> DeltaPotsResul
         yield g1(park, v_travel)
         yield "M400"
 
-    host = _Host(program(), bus, lambda: {})
+    host = HostProgram(program(), bus)
+    loop = StepLoop(
+        model, data, host, bus, controller, endstops, controller.sgf.drain_machine_events
+    )
     arms = [model.jnt_qposadr[model.joint(name).id] for name in delta_robot.ARMS]
     gear = d.gear_ratio
-    fault = None
     limit_s = 60.0 + 20.0 * n
     pending: list[tuple[float, int, float]] = []
-    raw = np.zeros(3, dtype=np.int64)
-    t_end = None
-    k = 0
-    while True:
-        t = k * dt
-        host.tick(t)
-        for text in bus.device_receive(t):
-            controller.receive(text, t)
-        for reply in controller.poll(t, endstops.read(raw)):
-            bus.device_send(reply, t)
-        for t_event, name in controller.sgf.drain_machine_events():
-            if name == "conveyor_index":
-                drive.start(data, t_event, sgf_cfg.conveyor_index_s)
-        raw = controller.pulses_at(t)[0]
-        pending.extend(controller.drain_servo_commands())
+    state: dict[str, Any] = {"fault": None, "t_end": None}
+
+    def index_conveyor(t_event: float, name: str) -> None:
+        if name == "conveyor_index":
+            drive.start(data, t_event, sgf_cfg.conveyor_index_s)
+
+    def servo(t: float, commands: list) -> None:
+        pending.extend(commands)
         while pending and pending[0][0] <= t:
             _, index, value = pending.pop(0)
             if index == 0:
                 gripper_rad[0] = min(max(math.radians(float(value)), 0.0), travel)
+
+    def commands(t: float) -> None:
+        k = loop.k
         if k % per_frame == 0:
             bank.command([int(gripper_mount.pulse_us(gripper_rad[0]))])
         if k % sense_every == 0:
             for ranger in rangers:
                 ranger.measure(data)
-        command = drives.command(raw)
+        command = drives.command(loop.raw)
         measured = data.qpos[arms]
-        if drives.watch(t, command, measured) is not None and fault is None:
-            fault = drives.alarm.text()
-            t_end = t + 1.0
-        data.ctrl[arm_acts] = gear * (measured if fault else command)
+        if drives.watch(t, command, measured) is not None and state["fault"] is None:
+            state["fault"] = drives.alarm.text()
+            state["t_end"] = t + 1.0
+        data.ctrl[arm_acts] = gear * (measured if state["fault"] else command)
         data.ctrl[grip_act] = bank.step(dt, [-data.actuator_force[grip_act]])[0]
         if drive.armed(data):
             drive.apply(data, t)
-        mujoco.mj_step(model, data)
+
+    def watch(_t: float) -> None:
         meter.record(data)
         if holding:
             squeeze.after_step(data)
         if report is not None:
-            report((k + 1) * dt)
-        k += 1
-        if t_end is None and (host.done or host.error is not None):
-            t_end = t + 1.0
-        if t_end is not None and t >= t_end:
-            break
+            report(loop.time)
+
+    def end(t: float) -> bool:
+        if state["t_end"] is None and (host.done or host.error is not None):
+            state["t_end"] = t + 1.0
+        if state["t_end"] is not None and t >= state["t_end"]:
+            return True
         if t > limit_s:
-            fault = fault or f"the program did not finish in {limit_s:g} s of simulated time"
-            break
+            state["fault"] = state["fault"] or (
+                f"the program did not finish in {limit_s:g} s of simulated time"
+            )
+            return True
+        return False
+
+    loop.on_event.append(index_conveyor)
+    loop.on_servo.append(servo)
+    loop.before_step.append(commands)
+    loop.after_step.append(watch)
+    loop.run(end)
+    fault, t, k = state["fault"], loop.last_t, loop.k
     if fault is None and host.error is not None:
         fault = host.error
     plant()

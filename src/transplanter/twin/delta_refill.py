@@ -37,6 +37,7 @@ import numpy as np
 from transplanter.machine.bus import ComBus
 from transplanter.machine.delta_drives import DeltaController, PulseServos
 from transplanter.machine.gcode import format_number
+from transplanter.machine.host import HostProgram, Mark, Wait, WaitSince
 from transplanter.machine.kinematics.delta import DeltaKinematics
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.scenario.assemble import delta_sgf_config, require_awake, require_kinds
@@ -60,6 +61,7 @@ from transplanter.twin.delta_grading import (
     grading_map,
     truth_grades,
 )
+from transplanter.twin.loop import StepLoop
 from transplanter.twin.motors import MotorMeter
 from transplanter.vision.grading import EMPTY, HEALTHY, HEALTHY_LR, HEALTHY_UD, INFERIOR
 
@@ -386,43 +388,6 @@ def _scene_config(sc, kin: DeltaKinematics) -> DeltaSceneConfig:
     )
 
 
-class _Host:
-    """Sends the program one line at a time, waiting for each reply; host-side waits are
-    ("wait", seconds) and ("wait_since", mark, seconds) items (the PLC's timers: until that
-    long after the mark). Records when each cell's work starts and ends."""
-
-    def __init__(self, items: list, bus: ComBus):
-        self.items, self.bus = items, bus
-        self.k, self.waiting, self.resume_at = 0, False, 0.0
-        self.error: str | None = None
-        self.marks: dict[str, float] = {}
-
-    @property
-    def done(self) -> bool:
-        return self.k >= len(self.items) and not self.waiting
-
-    def tick(self, t: float) -> None:
-        for reply in self.bus.host_receive(t):
-            if reply.startswith("error"):
-                self.error = reply
-            if reply.startswith(("ok", "error")):
-                self.waiting = False
-        if self.error is not None:
-            return
-        while not self.waiting and self.k < len(self.items) and t >= self.resume_at:
-            item = self.items[self.k]
-            self.k += 1
-            if isinstance(item, tuple) and item[0] == "wait":
-                self.resume_at = t + item[1]
-            elif isinstance(item, tuple) and item[0] == "mark":
-                self.marks[item[1]] = t
-            elif isinstance(item, tuple) and item[0] == "wait_since":
-                self.resume_at = max(t, self.marks[item[1]] + item[2])
-            else:
-                self.bus.host_send(item, t)
-                self.waiting = True
-
-
 def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]]:
     """The host's items and, in order, the plug each claws extension grips.
 
@@ -438,7 +403,7 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
     work = cfg.work_z_m
     up = work + job.lift_m
     v_travel, v_app = job.travel_speed_m_s * 1e3, job.approach_speed_m_s * 1e3
-    items: list = [("mark", "image"), ("wait", job.image_delay_s), ("mark", "start")]
+    items: list = [Mark("image"), Wait(job.image_delay_s), Mark("start")]
     grips: list[str] = []
     rotary = 0.0
     culls = 0
@@ -456,7 +421,7 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             items.extend([f"G1 X{mm(x)} Y{mm(y)} Z{mm(up)} S{num(v_travel)}",
                           f"G1 Z{mm(z)} S{num(v_app)}"])  # fmt: skip
         if first[0]:
-            items.append(("mark", "work_start"))  # the reply to the approach's last line
+            items.append(Mark("work_start"))  # the reply to the approach's last line
         first[0] = False
 
     def leave() -> None:
@@ -468,7 +433,7 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
     def pick(x: float, y: float, plug: str) -> None:
         go(x, y, work)
         if swing_wait:
-            items.append(("wait_since", "rotary", swing_wait.pop()))
+            items.append(WaitSince("rotary", swing_wait.pop()))
         items.extend(["M280 P0 S1", f"G4 P{num(stroke_ms)}"])
         leave()
         grips.append(plug)
@@ -479,7 +444,7 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
         leave()
 
     for op in ops:
-        items.append(("mark", f"cell{op.cell}_start"))
+        items.append(Mark(f"cell{op.cell}_start"))
         x, y = cfg.cell_xy("planting", op.cell)
         if op.rotary_deg != rotary:
             swing = abs(op.rotary_deg - rotary) / 90.0 * claws.rotary_stroke_ms
@@ -487,7 +452,7 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             if not spline or first[0]:
                 items.append(f"G4 P{num(swing + claws.settle_ms)}")
             else:
-                items.append(("mark", "rotary"))
+                items.append(Mark("rotary"))
                 swing_wait[:] = [(swing + claws.settle_ms) * 1e-3]
             rotary = op.rotary_deg
         if op.truth == INFERIOR:
@@ -498,11 +463,11 @@ def _program(sc, cfg: DeltaSceneConfig, ops: list[_Op]) -> tuple[list, list[str]
             sx, sy = cfg.cell_xy("supply", op.supply)
             pick(sx, sy, plug_name("supply", op.supply))
             place(x, y, job.release_above_m)
-        items.append(("mark", f"cell{op.cell}_end"))
-    items.append(("mark", "work_end"))
+        items.append(Mark(f"cell{op.cell}_end"))
+    items.append(Mark("work_end"))
     if spline and not first[0]:
         items.append(f"G1 Z{mm(up)} S{num(v_travel)}")
-    items += [("mark", "end"), "G28"]
+    items += [Mark("end"), "G28"]
     return items, grips
 
 
@@ -554,7 +519,8 @@ def run_delta_refill(
     drives = PulseServos(kin, q0, job.following_error_limit_rad)
     bus = ComBus(baud_bps=sc.bus.baud_bps)
     items, grips = _program(sc, cfg, ops)
-    host = _Host(["G28", "G90", *items], bus)
+    host = HostProgram(["G28", "G90", *items], bus)
+    loop = StepLoop(model, data, host, bus, controller, endstops)
     cycle = ClawCycle(cfg.claws)
     arms = [model.jnt_qposadr[model.joint(n).id] for n in delta_robot.ARMS]
     arm_dofs = [model.jnt_dofadr[model.joint(n).id] for n in delta_robot.ARMS]
@@ -563,25 +529,17 @@ def run_delta_refill(
     gear = cfg.gear_ratio
     stroke = cfg.claws.cylinder_stroke_ms * 1e-3
     carried: dict[str, list[float]] = {}  # plug -> [from, until]
-    holding: str | None = None
     dt = model.opt.timestep
-    fault = None
     limit_s = 120.0 + 30.0 * max(len(ops), 1)
-    valid: bool | None = None  # False at once when a step went unstable
-    t_end = None
-    k = 0
-    raw = np.zeros(3, dtype=np.int64)
+    # valid: False at once when a step went unstable; command: the drives' last joint command
+    state: dict[str, Any] = {"fault": None, "t_end": None, "valid": None, "holding": None,
+                             "command": q0}  # fmt: skip
     view = DeltaView(model, data, cfg, ops, host, cycle, physics, leaves, q0) if observers else None
-    next_look = view.attach(observers) if view is not None else math.inf
-    while True:
-        t = k * dt
-        host.tick(t)
-        for line in bus.device_receive(t):
-            controller.receive(line, t)
-        for reply in controller.poll(t, endstops.read(raw)):  # the switches of the last step
-            bus.device_send(reply, t)
-        raw = controller.pulses_at(t)[0]
-        for t_cmd, index, value in controller.drain_servo_commands():
+    look = [view.attach(observers) if view is not None else math.inf]  # the next look's time
+
+    def claws(_t: float, commands: list) -> None:
+        for t_cmd, index, value in commands:
+            holding = state["holding"]
             if index == 0 and value > 0:
                 cycle.extend(t_cmd)
                 holding = grips.pop(0) if grips else None
@@ -594,20 +552,26 @@ def run_delta_refill(
                 holding = None
             else:
                 cycle.rotate(t_cmd, float(value))
-        command = drives.command(raw)
+            state["holding"] = holding
+
+    def commands(t: float) -> None:
+        command = state["command"] = drives.command(loop.raw)
         measured = data.qpos[arms]
-        if drives.watch(t, command, measured) is not None and fault is None:
-            fault = drives.alarm.text()
-            t_end = t + job.settle_after_s
-        data.ctrl[:3] = gear * (measured if fault else command)
+        if drives.watch(t, command, measured) is not None and state["fault"] is None:
+            state["fault"] = drives.alarm.text()
+            state["t_end"] = t + job.settle_after_s
+        data.ctrl[:3] = gear * (measured if state["fault"] else command)
         data.ctrl[eff] = cycle.ctrl(t)
         for p in physics.values():
             p.before_step(data)
-        mujoco.mj_step(model, data)
+
+    def stable(t: float) -> str | None:
         if data.time + dt < t:  # MuJoCo found a bad value and reset the state to the model's
-            fault = _instability(model, data, t, physics)
-            valid = False
-            break
+            state["valid"] = False
+            return _instability(model, data, t, physics)
+        return None
+
+    def watch(t: float) -> None:
         meter.record(data)
         np.maximum(peaks[0], np.abs(data.qvel[arm_dofs]), out=peaks[0])
         np.maximum(peaks[1], np.abs(data.qfrc_actuator[arm_dofs]), out=peaks[1])
@@ -615,16 +579,29 @@ def run_delta_refill(
             span = carried.get(name)
             p.after_step(data, t, carried=span is not None and span[0] <= t < span[1])
         leaves.after_step(data, t)
-        k += 1
-        if k * dt >= next_look:  # observers only at their frame times (math.inf without)
-            next_look = view.look(k * dt, command)
-        if t_end is None and (host.done or host.error is not None):
-            t_end = t + job.settle_after_s
-        if t_end is not None and t >= t_end:
-            break
+        if loop.time >= look[0]:  # observers only at their frame times (math.inf without)
+            look[0] = view.look(loop.time, state["command"])
+
+    def end(t: float) -> bool:
+        if state["t_end"] is None and (host.done or host.error is not None):
+            state["t_end"] = t + job.settle_after_s
+        if state["t_end"] is not None and t >= state["t_end"]:
+            return True
         if t > limit_s:
-            fault = fault or f"the job did not finish in its {limit_s:g} s of simulated time"
-            break
+            state["fault"] = state["fault"] or (
+                f"the job did not finish in its {limit_s:g} s of simulated time"
+            )
+            return True
+        return False
+
+    loop.on_servo.append(claws)
+    loop.before_step.append(commands)
+    loop.guard = stable
+    loop.after_step.append(watch)
+    loop.run(end)
+    fault, valid, t, k = state["fault"], state["valid"], loop.last_t, loop.k
+    if loop.stopped is not None:
+        fault = loop.stopped
     if valid is None:
         valid = t <= limit_s and not any(int(w.number) for w in data.warning)
     if fault is None and host.error is not None:
@@ -665,7 +642,7 @@ class DeltaView:
     data: mujoco.MjData
     cfg: DeltaSceneConfig
     ops: list
-    host: _Host
+    host: HostProgram
     cycle: ClawCycle
     physics: dict[str, PlugPhysics]
     leaves: LeafWatch

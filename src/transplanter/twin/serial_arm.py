@@ -52,6 +52,7 @@ from transplanter.machine.fuzzy_gripper import (
     UltrasonicSensor,
 )
 from transplanter.machine.gcode import format_number
+from transplanter.machine.host import Call, HostProgram, Wait
 from transplanter.machine.kinematics.serial4 import Serial4Kinematics
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.rig import SimulatedEndstops
@@ -61,6 +62,7 @@ from transplanter.machine.sgf import SGF, SGFConfig
 from transplanter.scenario.assemble import require_awake
 from transplanter.scene.effectors import fuzzy_gripper
 from transplanter.scene.robots import serial4 as serial_robot
+from transplanter.twin.loop import StepLoop
 from transplanter.twin.motors import MotorMeter
 
 __all__ = [
@@ -186,59 +188,7 @@ class _Ranger:
         return self.last_cm
 
 
-# -- the host --------------------------------------------------------------------------
-@dataclass
-class _Sense:
-    """A host item: the latest sensor readings, sent back into the program."""
-
-
-@dataclass
-class _Wait:
-    seconds: float
-
-
-@dataclass
-class _Call:
-    """A host item: the twin does something the operator does (measure, set a bench up)."""
-
-    fn: Callable[[float], Any]
-
-
-class _Host:
-    """Runs a host program (a generator of G-code lines and host items) over the bus, one
-    line at a time, waiting for each reply."""
-
-    def __init__(self, program: Generator, bus: ComBus, sense: Callable[[], dict]):
-        self.program, self.bus, self.sense = program, bus, sense
-        self.waiting, self.resume_at, self.done = False, 0.0, False
-        self.error: str | None = None
-        self._send: Any = None
-
-    def tick(self, t: float) -> None:
-        for reply in self.bus.host_receive(t):
-            if reply.startswith("error"):
-                self.error = reply
-            if reply.startswith(("ok", "error")):
-                self.waiting = False
-        if self.error is not None:
-            self.done = True
-            return
-        while not self.done and not self.waiting and t >= self.resume_at:
-            try:
-                item = self.program.send(self._send)
-            except StopIteration:
-                self.done = True
-                return
-            self._send = None
-            if isinstance(item, _Wait):
-                self.resume_at = t + item.seconds
-            elif isinstance(item, _Sense):
-                self._send = self.sense()
-            elif isinstance(item, _Call):
-                self._send = item.fn(t)
-            else:
-                self.bus.host_send(item, t)
-                self.waiting = True
+# -- the host: machine.host.HostProgram runs the program (lines, waits, calls) -------------
 
 
 # -- the rig: controller, servos and physics stepped together ----------------------------
@@ -300,15 +250,18 @@ class _Rig:
         }
         if _has_site(model, "station_sensor"):
             self.rangers["station"] = _Ranger(model, "station_sensor", noise, streams[1])
-        self.k = 0
-        self.raw = np.zeros(3, dtype=np.int64)
-        self.last_pulses = self.outputs.frame(self.raw)
+        self.loop: StepLoop | None = None  # made with the host's program (start)
+        self.last_pulses = self.outputs.frame(np.zeros(3, dtype=np.int64))
         self.pending: list[tuple[float, int, float]] = []
-        self.host: _Host | None = None
+        self.host: HostProgram | None = None
         self.gripper_log: list[tuple[float, float]] = []  # (t, commanded theta4 deg)
         self.on_step: list[Callable[[float], None]] = []
         self.before_step: list[Callable[[float], None]] = []
         self.on_machine_event: list[Callable[[float, str], None]] = []
+
+    def sense(self, _t: float) -> dict:
+        """The host reads its sensors (a `Call`): `readings()`."""
+        return self.readings()
 
     # the readings the host gets: the last completed measurement of each sensor
     def readings(self) -> dict:
@@ -327,45 +280,62 @@ class _Rig:
         return math.degrees(float(self.kin.mounts[0].horn(theta1_rad)))
 
     def start(self, program: Generator) -> None:
-        self.host = _Host(program, self.bus, self.readings)
+        """The host's program over the bus and the loop that steps it with the physics
+        (`twin.loop.StepLoop`): the servo board's commands and frames, the sensors, the
+        servos' and the job's hooks before each step, the meter and the job's after it."""
+        self.host = HostProgram(program, self.bus)
+        loop = self.loop = StepLoop(
+            self.model, self.data, self.host, self.bus, self.sgf, self.endstops,
+            self.sgf.drain_machine_events,
+        )  # fmt: skip
+        loop.on_event = self.on_machine_event  # the job's hooks, as it adds them
+        loop.on_servo.append(self._servo)
+        loop.before_step.append(self._commands)
+        loop.after_step.append(self._after)
+
+    @property
+    def k(self) -> int:
+        """Physics steps taken."""
+        return 0 if self.loop is None else self.loop.k
+
+    @property
+    def raw(self) -> np.ndarray:
+        """The SGF's raw pulse counts at the last step's start."""
+        return np.zeros(3, dtype=np.int64) if self.loop is None else self.loop.raw
 
     @property
     def t(self) -> float:
         return self.k * self.dt
 
-    def step(self) -> None:
-        model, data, sgf = self.model, self.data, self.sgf
-        t = self.k * self.dt
-        self.host.tick(t)
-        for line in self.bus.device_receive(t):
-            sgf.receive(line, t)
-        for reply in sgf.poll(t, self.endstops.read(self.raw)):
-            self.bus.device_send(reply, t)
-        if self.on_machine_event:
-            for t_event, name in sgf.drain_machine_events():
-                for fn in self.on_machine_event:
-                    fn(t_event, name)
-        self.raw = sgf.pulses_at(t)[0]
-        self.pending.extend(sgf.drain_servo_commands())
+    def _servo(self, t: float, commands: list) -> None:
+        self.pending.extend(commands)
         while self.pending and self.pending[0][0] <= t:
             _, index, value = self.pending.pop(0)
             if index == 0:
                 self.outputs.set_gripper(value)
                 self.gripper_log.append((t, float(value)))
-        if self.k % self.per_frame == 0:
+
+    def _commands(self, _t: float) -> None:
+        """The board's 50 Hz frame, the sensors' measurements, the servos' commands, then the
+        job's hooks."""
+        data, k = self.data, self.loop.k
+        if k % self.per_frame == 0:
             self.last_pulses = self.outputs.frame(self.raw)
             self.bank.command(self.last_pulses)
-        if self.k % self.sense_every == 0:
+        if k % self.sense_every == 0:
             for ranger in self.rangers.values():
                 ranger.measure(data)
         data.ctrl[self.acts] = self.bank.step(self.dt, -data.actuator_force[self.acts])
-        for fn in self.before_step:
-            fn(t)
-        mujoco.mj_step(model, data)
-        self.motors.record(data)
-        self.k += 1
+        for fn in self.before_step:  # the job's (its conveyor's drive)
+            fn(_t)
+
+    def _after(self, _t: float) -> None:
+        self.motors.record(self.data)
         for fn in self.on_step:
             fn(self.k * self.dt)
+
+    def step(self) -> None:
+        self.loop.step()
 
     def run(self, limit_s: float, settle_s: float = 0.0) -> str | None:
         """Step until the host's program ends (then ``settle_s`` more) or ``limit_s``;
@@ -429,7 +399,7 @@ def grasp_items(rig: _Rig, rec, grasp, sense, on_grip=None):
     yield _g1(grasp + up, job.travel_speed_m_s)
     yield _g1(grasp, job.approach_speed_m_s)
     yield "M400"
-    yield _Wait(2 * SENSE_CYCLE_S)
+    yield Wait(2 * SENSE_CYCLE_S)
     readings = yield sense
     angle = rig.flc.control(readings["station"], readings["gripper"], readings["base_horn_deg"])
 
@@ -438,11 +408,11 @@ def grasp_items(rig: _Rig, rec, grasp, sense, on_grip=None):
         if on_grip is not None:
             on_grip(t, readings, angle)
 
-    yield _Call(took)
+    yield Call(took)
     yield f"M280 P0 S{format_number(round(angle, 2))}"
     yield f"G4 P{_ms(job.grip_settle_s)}"
     yield "M400"
-    yield _Call(lambda _t: setattr(rec, "gripper_reached_deg", rig.gripper_deg()))
+    yield Call(lambda _t: setattr(rec, "gripper_reached_deg", rig.gripper_deg()))
     yield _g1(grasp + up, job.approach_speed_m_s)
 
 
@@ -561,8 +531,8 @@ def run_targets(sc, seed: int | None = None) -> tuple[list[TargetRow], str | Non
         for i, (target, _) in enumerate(PAPER_TARGETS):
             yield _g1(np.array(target, dtype=np.float64) / 100.0, job.target_speed_m_s)
             yield "M400"
-            yield _Wait(job.target_settle_s)
-            yield _Call(measure(i))
+            yield Wait(job.target_settle_s)
+            yield Call(measure(i))
             yield _g1(park, job.target_speed_m_s)
         yield "M400"
 
@@ -721,18 +691,18 @@ def run_gripper_cases(sc, seed: int | None = None) -> tuple[list[GripperCase], s
                 yield _g1(pose_point(float(a)), job.travel_speed_m_s)
             here = horn
             yield "M400"
-            yield _Wait(job.target_settle_s)
-            yield _Call(set_bench(i))
-            yield _Wait(3 * SENSE_CYCLE_S)  # two whole measurements of each sensor
-            readings = yield _Sense()
+            yield Wait(job.target_settle_s)
+            yield Call(set_bench(i))
+            yield Wait(3 * SENSE_CYCLE_S)  # two whole measurements of each sensor
+            readings = yield Call(rig.sense)
             angle = rig.flc.control(
                 readings["station"], readings["gripper"], readings["base_horn_deg"]
             )
             yield f"M280 P0 S{format_number(round(angle, 2))}"
             yield "M400"
-            yield _Wait(job.grip_settle_s)
-            yield _Call(record(i, readings, angle))
-            yield _Call(lambda _t: data.mocap_pos.__setitem__(slice(None), CASE_STAND_AWAY_M))
+            yield Wait(job.grip_settle_s)
+            yield Call(record(i, readings, angle))
+            yield Call(lambda _t: data.mocap_pos.__setitem__(slice(None), CASE_STAND_AWAY_M))
         yield "M400"
 
     rig.start(program())
@@ -919,16 +889,16 @@ def run_pick_place(
         yield rig.standby_line
         for i in range(len(drawn)):
             yield "M400"
-            yield _Wait(2 * SENSE_CYCLE_S)
-            readings = yield _Sense()
+            yield Wait(2 * SENSE_CYCLE_S)
+            readings = yield Call(rig.sense)
             if readings["station"] == NO_ECHO:  # the pool is empty: standby
                 break
-            yield _Call(mark(i, "start_s"))
-            yield from grasp_items(rig, records[i], grasp, _Sense(), controller_event(i))
+            yield Call(mark(i, "start_s"))
+            yield from grasp_items(rig, records[i], grasp, Call(rig.sense), controller_event(i))
             yield from release_items(rig, release)
             yield _g1(park, job.travel_speed_m_s)
             yield "M400"
-            yield _Call(mark(i, "end_s"))
+            yield Call(mark(i, "end_s"))
         yield "M400"
 
     rig.start(program())

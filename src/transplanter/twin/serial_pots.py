@@ -33,11 +33,11 @@ import mujoco
 import numpy as np
 
 from transplanter.machine.fuzzy_gripper import NO_ECHO
+from transplanter.machine.host import Call, Wait
 from transplanter.scenario.assemble import require_awake
 from transplanter.twin.serial_arm import (
     SENSE_CYCLE_S,
     GripRecord,
-    _Call,
     _compile,
     _g1,
     _ms,
@@ -45,7 +45,6 @@ from transplanter.twin.serial_arm import (
     _Ranger,
     _Rig,
     _Squeeze,
-    _Wait,
     grasp_items,
     release_items,
     require_own_motion,
@@ -440,31 +439,31 @@ def run_serial_pots(sc, seed: int | None = None, progress=None) -> SerialPotsRes
                 if i >= n:
                     break
                 yield "M400"
-                yield _Wait(2 * SENSE_CYCLE_S)
-                readings = yield _Call(sense(col))
+                yield Wait(2 * SENSE_CYCLE_S)
+                readings = yield Call(sense(col))
                 if readings["station"] == NO_ECHO or readings["station"] > DETECTED_CM:
                     records[i].outcome = "no pot"
                     continue
                 grasp = paper(xs[col], line.pickup_row_y_m, job.grasp_z_m)
                 low = float(paper(0.0, 0.0, lowest)[1])
                 tube = pitch_release(rig.kin, grasp, over_tube, low, job.release_tilt_rad)
-                yield _Call(mark(i, "start_s"))
+                yield Call(mark(i, "start_s"))
                 for attempt in range(1, job.attempts + 1):
                     records[i].attempts = attempt
-                    yield from grasp_items(rig, records[i], grasp, _Call(sense(col)))
+                    yield from grasp_items(rig, records[i], grasp, Call(sense(col)))
                     yield "M400"
-                    yield _Wait(2 * SENSE_CYCLE_S)
-                    readings = yield _Call(sense(col))
+                    yield Wait(2 * SENSE_CYCLE_S)
+                    readings = yield Call(sense(col))
                     if readings["station"] > DETECTED_CM:  # the cell is empty: the pot is up
                         break
                     yield rig.standby_line  # sensor 1 still hears the pot in its cell: missed
                     yield f"G4 P{_ms(arm.release_settle_s)}"
                 else:
-                    yield _Call(mark(i, "end_s"))
+                    yield Call(mark(i, "end_s"))
                     continue
                 yield from release_items(rig, tube)
                 yield "M400"
-                yield _Call(mark(i, "end_s"))
+                yield Call(mark(i, "end_s"))
             if (row + 1) * line.cols >= n:
                 break
             yield _g1(park, arm.travel_speed_m_s)
