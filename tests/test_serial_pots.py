@@ -88,7 +88,6 @@ def test_the_command_writes_the_pot_job(tmp_path, capsys):
     d = json.loads(out.read_text())
     assert d["seedlings"] == 2 and len(d["pots"]) == 2
     assert d["successes"] == d["outcomes"].get("success", 0) >= 1
-    assert cli.main(["trial", "serial_arm_pots", "--record", str(tmp_path / "x.rrd")]) == 2
 
 
 def test_a_placement_the_arm_cannot_work_from_is_refused_naming_the_keys(capsys):
@@ -107,3 +106,25 @@ def test_a_placement_the_arm_cannot_work_from_is_refused_naming_the_keys(capsys)
                        "--set", "serial_pots.base_y_mm=-300"])  # fmt: skip
     assert status == 2
     assert "scenario refused" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_pot_job_is_recorded_without_changing_it(tmp_path, capsys):
+    """`trial serial_arm_pots --record F.rrd` (it was refused): the loop's bodies, every
+    actuator's force and each pot's verdict go to the recording; the results are the same as
+    without it, bit for bit."""
+    import rerun as rr
+
+    plain, recorded, rrd = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "pots.rrd"
+    base = ["trial", "serial_arm_pots", "--seedlings", "1", "--seed", "3", "--quiet"]
+    assert cli.main([*base, "--json", str(plain)]) == 0
+    assert cli.main([*base, "--json", str(recorded), "--record", str(rrd)]) == 0
+    assert "recording written to" in capsys.readouterr().out
+    a, b = (json.loads(p.read_text()) for p in (plain, recorded))
+    a.pop("wall_time_s"), b.pop("wall_time_s")
+    assert a == b
+    store = rr.chunk.RrdReader(rrd).store()
+    entities = {c.entity_path for c in store.stream()}
+    assert "/world/bodies/pot_0_0" in entities  # the picked pot's body
+    assert {"/scalars/actuators/base", "/scalars/actuators/gripper", "/events"} <= entities
+    assert not list(tmp_path.glob("*.tmp"))

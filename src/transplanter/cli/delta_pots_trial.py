@@ -14,8 +14,9 @@ from transplanter.cli.common import EXIT_REFUSED, _err, _seeds
 __all__ = ["NOT_FILMED", "pots_line", "run_trial"]
 
 NOT_FILMED = (
-    "the delta's pot job (robot delta in the conveyor_tube workcell) runs headless only: "
-    "transplanter trial, sweep and compare (render, view and export do not build its scene yet)"
+    "the delta's pot job (robot delta in the conveyor_tube workcell) is not filmed yet: "
+    "transplanter trial (with --record for rerun), sweep and compare run it (render, view and "
+    "export do not build its scene yet)"
 )
 
 
@@ -54,13 +55,15 @@ def run_trial(
     for option, value in (
         ("--clips-of-failures", args.clips_of_failures),
         ("--eeprom", args.eeprom),
-        ("--record", record_path),
     ):
         if value is not None:
             _err(f"{option}: not available for the delta's pot job (docs/compare.md)")
             return EXIT_REFUSED
     if args.seeds is not None and args.seed is not None:
         _err("--seeds runs one trial per seed: drop --seed")
+        return EXIT_REFUSED
+    if args.seeds is not None and record_path is not None:
+        _err("--seeds runs one trial per seed: drop --record (record one --seed)")
         return EXIT_REFUSED
     seeds = _seeds(args) if args.seeds is not None else [None]
     if seeds is None:
@@ -76,4 +79,6 @@ def run_trial(
         return EXIT_REFUSED
     from transplanter.cli.serial_trial import run_pot_seeds
 
-    return run_pot_seeds(args, scenario, seeds, json_path, run_delta_pots, pots_line, DEFINITIONS)
+    return run_pot_seeds(
+        args, scenario, seeds, json_path, run_delta_pots, pots_line, DEFINITIONS, record_path
+    )

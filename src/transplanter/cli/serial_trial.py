@@ -121,9 +121,6 @@ def run_trial(
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
     if scenario.workcell.kind == "conveyor_tube":
-        if record_path is not None:
-            _err("--record: not available for the serial arm's pot job (docs/serial_arm.md)")
-            return EXIT_REFUSED
         from transplanter.twin.serial_pots import check_placement
 
         try:
@@ -131,7 +128,7 @@ def run_trial(
         except ScenarioError as exc:
             _err(f"scenario refused: {exc}")
             return EXIT_REFUSED
-        return _run_pots(args, scenario, seeds, json_path)
+        return _run_pots(args, scenario, seeds, json_path, record_path)
     from transplanter.twin.report import progress_bar
 
     results, outputs = [], []
@@ -252,29 +249,52 @@ def pots_line(r) -> str:
     )
 
 
-def _run_pots(args: argparse.Namespace, scenario, seeds, json_path: Path | None) -> int:
+def _run_pots(
+    args: argparse.Namespace, scenario, seeds, json_path: Path | None, record_path=None
+) -> int:
     from transplanter.twin.serial_pots import DEFINITIONS, run_serial_pots
 
-    return run_pot_seeds(args, scenario, seeds, json_path, run_serial_pots, pots_line, DEFINITIONS)
+    return run_pot_seeds(
+        args, scenario, seeds, json_path, run_serial_pots, pots_line, DEFINITIONS, record_path
+    )
 
 
 def run_pot_seeds(
-    args: argparse.Namespace, scenario, seeds, json_path: Path | None, run, line, definitions
+    args: argparse.Namespace,
+    scenario,
+    seeds,
+    json_path: Path | None,
+    run,
+    line,
+    definitions,
+    record_path: Path | None = None,
 ) -> int:
     """A pot job's trials (the serial arm's or the delta's on the five-bar's line): `run`
     per seed, a `line` each, the pooled rate and mean cycle over --seeds, the JSON and the
-    definitions."""
+    definitions; with `record_path` (one seed) a rerun recording of the loop
+    (`viewing.loop_recording.LoopRecording`)."""
     from transplanter.studies.stats import pooled_rate
     from transplanter.twin.report import progress_bar
 
-    results = []
+    results, outputs = [], []
     for seed in seeds:
         bar, update = progress_bar(scenario.meta.seedlings, _progress(args), "seedling")
+        observers = []
+        if record_path is not None:
+            from transplanter.viewing.loop_recording import LoopRecording
+
+            observers.append(LoopRecording(record_path, args.record_rate))
         try:
-            result = run(scenario, seed, progress=update)
+            result = run(scenario, seed, progress=update, observers=observers)
         finally:
             if bar is not None:
                 bar.close()
+        if record_path is not None and result.recording_error is None:
+            shown = _show(record_path)
+            outputs.append(
+                (f"recording written to {shown} (view it with: transplanter replay {shown})",
+                 None)
+            )  # fmt: skip
         results.append(result)
         print(line(result))
     if args.seeds is None:
@@ -291,4 +311,4 @@ def run_pot_seeds(
             f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
         )
     summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in definitions.items())
-    return _finish(args, results, summary, payload, json_path)
+    return _finish(args, results, summary, payload, json_path, outputs=outputs)

@@ -71,6 +71,7 @@ from transplanter.twin.serial_pots import (
     PotRecord,
     SerialPotsResult,
     _reporter,
+    finish_observers,
     line_config,
 )
 
@@ -291,10 +292,11 @@ def require_delta_gripper(sc) -> None:
     )
 
 
-def run_delta_pots(sc, seed: int | None = None, progress=None) -> DeltaPotsResult:
+def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> DeltaPotsResult:
     """`scenario.seedlings` pots of the scenario's pot line (seed `seed`, default the
     scenario's), picked row by row into the drop tube by the delta (module docstring).
-    `progress(done, sim_t)`: called once a simulated second with the pots done."""
+    `progress(done, sim_t)`: called once a simulated second with the pots done; `observers`
+    (`viewing.loop_recording.LoopRecording`) watch the loop without changing it."""
     require_awake(sc, "the delta's pot job")
     from transplanter.scene.conveyor import ConveyorDrive
     from transplanter.scene.geometry import cell_columns_x
@@ -514,7 +516,14 @@ def run_delta_pots(sc, seed: int | None = None, progress=None) -> DeltaPotsResul
     loop.on_servo.append(servo)
     loop.before_step.append(commands)
     loop.after_step.append(watch)
-    loop.run(end)
+    for observer in observers:
+        observer.attach(loop)
+    try:
+        loop.run(end)
+    except BaseException:
+        for observer in observers:
+            observer.abort()
+        raise
     fault, t, k = state["fault"], loop.last_t, loop.k
     if fault is None and host.error is not None:
         fault = host.error
@@ -530,6 +539,7 @@ def run_delta_pots(sc, seed: int | None = None, progress=None) -> DeltaPotsResul
         else:
             rec.outcome = "dropped"
     result = DeltaPotsResult(sc.meta.name, seed, records, planner=sc.motion.planner)
+    result.recording_error = finish_observers(observers, records, k * dt)
     result.sim_time_s = k * dt
     result.fault = fault
     result.valid = t <= limit_s and not any(int(w.number) for w in data.warning)

@@ -53,6 +53,7 @@ from transplanter.twin.serial_arm import (
 
 __all__ = [
     "PotRecord",
+    "finish_observers",
     "SerialPotsResult",
     "line_config",
     "pitch_release",
@@ -88,6 +89,19 @@ def line_config(sc):
     )
     line = scene_config(five, machine_config(five))
     return replace(line, live_rows=line.rows)  # every row's pots are bodies: no window
+
+
+def finish_observers(observers, records, t: float) -> str | None:
+    """Each pot's verdict as an event at the end of its pick, the observers closed; the first
+    one's error (None: written)."""
+    for observer in observers:
+        for rec in records:
+            if rec.start_s is not None:
+                kind = "seedling" if rec.outcome == "success" else "failure"
+                at = rec.end_s if rec.end_s is not None else t
+                observer.event(at, kind, f"pot {rec.index} ({rec.pot}): {rec.outcome}", rec.index)
+        observer.finish(t)
+    return next((o.error for o in observers if getattr(o, "error", None)), None)
 
 
 def _reporter(progress, records, dt: float):
@@ -363,10 +377,11 @@ class SerialPotsResult:
         }
 
 
-def run_serial_pots(sc, seed: int | None = None, progress=None) -> SerialPotsResult:
+def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) -> SerialPotsResult:
     """`scenario.seedlings` pots of the scenario's pot line (seed `seed`, default the
     scenario's), picked row by row into the drop tube (module docstring). `progress(done,
-    sim_t)`: called once a simulated second with the pots whose pick has ended."""
+    sim_t)`: called once a simulated second with the pots whose pick has ended; `observers`
+    (`viewing.loop_recording.LoopRecording`) watch the loop without changing it."""
     require_awake(sc, "the serial arm's pot job")
     require_own_motion(sc, "the serial arm's pot job")
     from transplanter.scene.conveyor import ConveyorDrive
@@ -473,7 +488,14 @@ def run_serial_pots(sc, seed: int | None = None, progress=None) -> SerialPotsRes
         yield "M400"
 
     rig.start(program())
-    fault = rig.run(limit_s=60.0 + 20.0 * n, settle_s=1.0)
+    for observer in observers:
+        observer.attach(rig.loop)
+    try:
+        fault = rig.run(limit_s=60.0 + 20.0 * n, settle_s=1.0)
+    except BaseException:
+        for observer in observers:
+            observer.abort()
+        raise
     plant()
     half_w = line.cols * line.cell_pitch_m / 2 + line.table_side_margin_m
     for rec in records:
@@ -486,6 +508,7 @@ def run_serial_pots(sc, seed: int | None = None, progress=None) -> SerialPotsRes
         else:
             rec.outcome = "dropped"
     result = SerialPotsResult(sc.meta.name, seed, records)
+    result.recording_error = finish_observers(observers, records, rig.t)
     result.sim_time_s = rig.t
     result.fault = fault
     result.valid = rig.valid
