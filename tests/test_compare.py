@@ -194,3 +194,22 @@ def test_compare_help_names_every_exit_status(capsys):
     epilog = text[text.index("exit status:") :]
     for status in ("0 done", "2 refused", "5 a result file", "130 interrupted", "143 the same"):
         assert status in epilog, status
+
+
+def test_no_help_shows_a_doubled_percent_sign(capsys):
+    """compare's and tune's --help read '95 %%': argparse %-formats a help string, not a
+    description. Every command's help is read."""
+    from transplanter.cli import build_parser
+
+    parser = build_parser()
+    commands = next(a for a in parser._actions if a.dest == "command").choices
+    for command in commands:
+        with pytest.raises(SystemExit) as info:
+            main([command, "--help"])
+        assert info.value.code == 0
+        text = " ".join(capsys.readouterr().out.split())
+        assert "%%" not in text, command
+    for command, said in (("compare", "success with its 95 % interval"), ("tune", "95 % interval")):
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        assert said in " ".join(capsys.readouterr().out.split()), command

@@ -1,5 +1,7 @@
 """Presentation: the summary table and text safe for a terminal."""
 
+import re
+
 from transplanter.twin.report import format_summary, printable
 from transplanter.twin.results import Outcome, SeedlingRecord, TrialResult
 
@@ -25,12 +27,51 @@ def test_long_work_is_estimated_from_the_pots_on_the_belt():
     from transplanter.twin.report import SEEDLING_WALL_S, estimate_line
 
     assert estimate_line(40) is None  # the paper trial: seconds
-    line = estimate_line(1000)  # 1000 seedlings of the paper's belt: ~3 min
+    line = estimate_line(1000)  # 1000 seedlings of the paper's belt: ~4 min
     assert line.startswith(f"about {1000 * SEEDLING_WALL_S / 60:.0f} min of work")
-    # 100 rows (500 pots): each seedling costs (500/40)^1.65 = 64 times as much
-    assert "1.8 h" in estimate_line(500, pots=500) and "~13 s each" in estimate_line(500, 500)
+    # a body per pot on 100 rows (500 pots): 2.2 s a seedling measured, (500/40)^0.93 x 0.25 s
+    assert "22 min" in estimate_line(500, pots=500) and "~2.6 s each" in estimate_line(500, 500)
     assert "on 2 cores" in estimate_line(10_000, workers=2)
     assert "days" in estimate_line(2_000_000)
+
+
+def _announced(line: str) -> tuple[float, float]:
+    """The seconds of work and the seconds a seedling an estimate line announces."""
+    amount, unit = re.search(r"about ([\d.]+) (min|h|days) of work", line).groups()
+    seconds = float(amount) * {"min": 60, "h": 3600, "days": 86400}[unit]
+    return seconds, float(re.search(r"~([\d.]+) s each", line).group(1))
+
+
+def test_the_estimate_counts_the_window_of_live_rows(monkeypatch, capsys, tmp_path):
+    """The README's soak (100 rows, live_rows 12: 60 pots are bodies) was announced as 1.8 h
+    at 13 s a seedling; it measures 0.25-0.49 s a seedling (benchmarks/bench_belt.py). The
+    announcements of `trial`, `trial --seeds` and `sweep` are within 2x of that."""
+    from transplanter.cli import main, trials
+    from transplanter.studies import sweep
+    from transplanter.twin.report import estimate_line
+
+    def stop(*args, **kwargs):
+        raise KeyboardInterrupt  # the estimate is printed before this: nothing runs
+
+    monkeypatch.setattr(trials, "_run", stop)
+    monkeypatch.setattr(sweep, "run_sweep", stop)
+    soak = ["paper", "--set", "conveyor.rows=100"]
+    for argv, seedlings in (
+        (["trial", *soak, "--seedlings", "500"], 500),
+        (["trial", *soak, "--seeds", "1-5", "--seedlings", "100"], 500),
+        (["sweep", *soak, "--vary", "taught.z_low_mm=20,22", "--seeds", "1-5",
+          "--seedlings", "50", "--out", str(tmp_path / "s")], 500),
+    ):  # fmt: skip
+        assert main(argv) == 130
+        line = next(x for x in capsys.readouterr().err.splitlines() if "of work" in x)
+        seconds, each = _announced(line)
+        assert 0.49 / 2 <= each <= 2 * 0.25, line
+        assert seedlings * 0.49 / 2 <= seconds <= seedlings * 0.25 * 2, line
+    # the 40-seedling paper trial (8 rows, every pot a body: 0.21-0.25 s a seedling measured)
+    assert main(["trial", "paper"]) == 130
+    assert "of work" not in capsys.readouterr().err  # seconds of work: not announced
+    seconds, each = _announced(estimate_line(1000, 40))
+    assert 0.25 / 2 <= each <= 2 * 0.21 and 1000 * 0.25 / 2 <= seconds <= 1000 * 0.21 * 2
 
 
 def test_one_bar_runs_over_the_seedlings_of_every_seed(capsys):

@@ -46,3 +46,31 @@ def test_parse_seeds():
     ]:
         with pytest.raises(ValueError, match=needle):
             parse_seeds(bad)
+
+
+def test_the_interval_carries_no_floating_point_noise_into_settings_csv(tmp_path):
+    """settings.csv wrote ci95_low as 2.7755575615628914e-17 for 0 of 6 (Wilson's centre
+    minus its half width) and 10 of 10 has an upper end of 0.9999999999999999: the ends are
+    clipped to [0, 1] and rounded where the interval is computed."""
+    import csv
+
+    from transplanter.studies.stats import SETTING_FIELDS, aggregate
+    from transplanter.studies.sweep import write_csv_atomic
+
+    assert wilson_interval(0, 6)[0] == pytest.approx(2.7755575615628914e-17, abs=0)
+    assert wilson_interval(10, 10)[1] == 0.9999999999999999
+    assert pooled_rate([0, 0, 0], [2, 2, 2]).ci95[0] == 0.0
+    assert pooled_rate([5, 5], [5, 5]).ci95[1] == 1.0
+    lo, hi = pooled_rate([39, 38, 8, 40, 37], [40] * 5).ci95
+    assert 0.0 < lo < hi <= 1.0 and round(lo, 12) == lo and round(hi, 12) == hi
+    run = {"error": None, "cycles": 1, "cycle_time_s": 3.5}
+    rows = [{**run, "z": 20.0, "seed": s, "successes": 0, "seedlings": 2} for s in (1, 2, 3)]
+    rows += [{**run, "z": 30.0, "seed": s, "successes": 5, "seedlings": 5} for s in (1, 2)]
+    write_csv_atomic(tmp_path / "settings.csv", ("z", *SETTING_FIELDS), aggregate(rows, ["z"]))
+    text = (tmp_path / "settings.csv").read_text()
+    assert "e-" not in text and "0.99999" not in text
+    table = list(csv.DictReader(text.splitlines()))
+    assert [(r["ci95_low"], r["ci95_high"]) for r in table] == [
+        ("0.0", "0.390334287902"),
+        ("0.722467200137", "1.0"),
+    ]

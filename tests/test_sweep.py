@@ -371,6 +371,31 @@ def test_an_out_that_cannot_be_made_is_refused_with_exit_2(tmp_path, capsys):
     assert len(err) == 1 and "cannot be made" in err[0]
 
 
+def test_an_out_in_a_missing_folder_is_refused_as_json_is(tmp_path, capsys, monkeypatch):
+    """`sweep --out /missing/x/y` made the whole path, where --json refuses a file in a
+    missing folder: sweep, compare, tune and calibrate refuse it in one line, exit 2, before
+    anything runs, and create nothing (tune's and calibrate's default --out under results/
+    is made as before)."""
+    work = tmp_path / "work"  # the current folder: tune's default --storage lives there
+    work.mkdir()
+    monkeypatch.chdir(work)
+    out = tmp_path / "missing" / "x" / "y"
+    one = ["--seeds", "1", "--seedlings", "1"]
+    fit = ["taught.z_low_mm=30..34", "--trials", "1", *one]
+    for argv in (
+        ["sweep", "paper", "--vary", "taught.z_low_mm=30,32", *one],
+        ["compare", "paper", *one],
+        ["tune", "paper", "--param", *fit],
+        ["calibrate", "paper", "--observed", "38/40", "--fit", *fit],
+    ):
+        assert main([*argv, "--out", str(out)]) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [
+            f"{argv[0]} refused: --out {out}: {out.parent} does not exist; create it first"
+        ]
+    assert [p.name for p in tmp_path.iterdir()] == ["work"] and not any(work.iterdir())
+
+
 @pytest.mark.parametrize(
     ("text", "kind"), [("null", "null"), ("[]", "a list"), ('"x"', "a string"), ("3", "a number")]
 )

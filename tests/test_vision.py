@@ -288,6 +288,36 @@ def test_grade_refuses_a_bad_seed_or_an_out_it_cannot_write_before_drawing(
     assert list(out.iterdir()) == [] and blocker.read_text() == ""
 
 
+def test_grade_looks_at_the_tray_trial_plants_by_default(tmp_path, capsys, monkeypatch):
+    """grade's default seed was 0 and trial's the scenario's (1 in delta_refill): by default
+    they looked at different trays. grade now takes scenario.seed as trial does."""
+    from transplanter.scenario.schema import load_scenario
+    from transplanter.scene.tray_camera import RenderFailed
+    from transplanter.studies import vision as studies_vision
+
+    seeds = []
+
+    def noted(seed, *args, **kwargs):  # the seed it would draw; no picture needed
+        seeds.append(seed)
+        raise RenderFailed("no picture in this test")
+
+    monkeypatch.setattr(studies_vision, "grade_seed", noted)
+    own = tmp_path / "own.toml"
+    own.write_text('[scenario]\nbase = "delta_refill"\nname = "own"\nseed = 7\n')
+    out = str(tmp_path / "g")
+    for argv in (
+        [],
+        [str(own)],
+        ["--set", "scenario.seed=3"],
+        ["--seed", "5"],
+        [str(own), "--seed", "0"],
+    ):
+        assert cli.main(["grade", *argv, "--out", out]) == 2
+    capsys.readouterr()
+    assert load_scenario("delta_refill").seed == 1
+    assert seeds == [1, 7, 3, 5, 0]
+
+
 def test_grade_takes_the_draws_and_picture_from_a_scenario(tmp_path):
     from transplanter.scene.plug_tray import SeedlingDraw, draw_tray
 

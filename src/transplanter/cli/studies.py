@@ -56,6 +56,22 @@ STUDY_OPTIONS: dict[str, dict[str, Any]] = {
     "--sampler-seed": {"type": ascii_int, "default": 0, "help": "seed of the TPE sampler (0)"},
 }
 _add = functools.partial(add_options, table=STUDY_OPTIONS)
+TUNE_OUT, CALIBRATE_OUT = Path("results/tune"), Path("results/calibrate")  # made when missing
+
+
+def _check_out_parent(out: Path, made: Path | None = None) -> None:
+    """SweepRefused when the folder --out would be made in does not exist, as --json refuses
+    a file in a missing folder (sweep made the whole of `--out /missing/x/y`); checked before
+    anything runs or is created. `made`: the command's default --out, made as before."""
+    from transplanter.studies.sweep import SweepRefused
+
+    out = Path(out)
+    try:
+        if out == made or out.exists() or out.is_symlink() or os.path.lexists(out.parent):
+            return  # what is there is judged when the study opens or makes --out
+    except OSError:
+        return  # a parent that cannot be searched: refused when --out is made
+    raise SweepRefused(f"--out {_show(out)}: {_show(out.parent)} does not exist; create it first")
 
 
 def register(sub) -> None:
@@ -151,6 +167,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         spec = SweepSpec(args.scenario, axes, tuple(seeds), seedlings, overrides, args.design)
         job = job_of(spec.check())  # the delta's tray or the claws' bench; None: the five-bar
         check_backend(args.backend, args.workers, args.address)
+        _check_out_parent(args.out)
     except (ScenarioError, SweepRefused) as exc:
         _err(f"sweep refused: {exc}")
         return EXIT_REFUSED
@@ -160,7 +177,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         f"{each} each, {args.workers} {args.backend} worker(s)"
     )
     base = load_scenario(args.scenario, spec.base_overrides())
-    pots = base.conveyor.rows * base.conveyor.cols
+    # the pots that are bodies: the window of live rows, not the belt's length
+    pots = min(base.conveyor.rows, base.conveyor.live_rows) * base.conveyor.cols
     estimate = estimate_line(spec.runs_total * seedlings, pots, args.workers)
     if estimate is not None and not args.quiet and job is None:  # the five-bar's estimate
         print(f"{estimate}; a rerun resumes", file=sys.stderr)
@@ -267,7 +285,7 @@ def _compare_parser(sub) -> None:
         help="machines on their jobs side by side: success, cycle, plants/h, damage, drives",
         description="Each scenario (a robot, its effector and a job) runs over the same seeds "
         "as `transplanter trial` judges it (through the sweep machinery: parallel, resumable, "
-        "Ray when asked); its runs are pooled into one row: pooled success with its 95 %% "
+        "Ray when asked); its runs are pooled into one row: pooled success with its 95 % "
         "interval, the cycle or time per operation, plants per hour, damage, failures by "
         "kind, the robot's peak motor torque, the drives' energy per seedling and mean "
         "power, and what the drives cost ([costs] drives_usd). Rows are ranked by plants per "
@@ -317,6 +335,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
             tuple(args.scenarios), tuple(seeds), args.seedlings, overrides, args.success_floor
         )
         check_backend(args.backend, args.workers, args.address)
+        _check_out_parent(args.out)
     except (ScenarioError, SweepRefused) as exc:
         _err(f"compare refused: {exc}")
         return EXIT_REFUSED
@@ -354,7 +373,7 @@ def _tune_parser(sub) -> None:
     p = sub.add_parser(
         "tune",
         help="search scenario keys with Optuna for high success and short cycles",
-        description="Optuna study with two objectives: maximise the lower end of the 95 %% "
+        description="Optuna study with two objectives: maximise the lower end of the 95 % "
         "interval of the success rate pooled over --seeds, minimise the mean cycle time. The "
         "study is kept in SQLite (--storage): the same command resumes it, and "
         "`optuna-dashboard sqlite:///results/tune.db` opens it in a browser. Writes "
@@ -381,7 +400,7 @@ def _tune_parser(sub) -> None:
         "--storage", type=Path, default=Path("results/tune.db"), help="SQLite file of the study"
     )
     p.add_argument("--study", default="tune", help="study name in the storage (tune)")
-    _add(p, "--out", default=Path("results/tune"))
+    _add(p, "--out", default=TUNE_OUT)
     _add(p, "--workers", "--sampler-seed", "--quiet", "--set")
     p.set_defaults(func=cmd_tune)
 
@@ -399,6 +418,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     try:
         spec = _search_spec(args, seeds, args.param, "--param")
+        _check_out_parent(args.out, made=TUNE_OUT)
         report = run_tune(
             spec, args.trials, args.storage, args.study, args.out, workers=args.workers,
             progress=_progress(args),
@@ -483,7 +503,7 @@ def _calibrate_parser(sub) -> None:
         help="SQLite file to keep the study in (the same command resumes it); default: memory",
     )
     p.add_argument("--study", default="calibrate", help="study name in the storage (calibrate)")
-    _add(p, "--out", default=Path("results/calibrate"))
+    _add(p, "--out", default=CALIBRATE_OUT)
     _add(p, "--workers")
     p.add_argument(
         "--backend",
@@ -518,6 +538,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         search = _search_spec(args, seeds, args.fit, "--fit")
         check_backend(args.backend, args.workers, args.address)
         spec = CalibrationSpec(search, observed)
+        _check_out_parent(args.out, made=CALIBRATE_OUT)
         report = run_calibrate(
             spec, args.trials, args.out, storage=args.storage, study_name=args.study,
             workers=args.workers, backend=args.backend, address=args.address,

@@ -135,7 +135,7 @@ def cmd_trial(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     if clips is not None and not _clip_dir_ready(Path(args.clips_of_failures)):
         return EXIT_REFUSED
-    estimate = estimate_line(config.seedlings, config.scene.rows * config.scene.cols)
+    estimate = estimate_line(config.seedlings, config.scene.body_rows * config.scene.cols)
     if estimate is not None and not args.quiet:
         print(estimate, file=sys.stderr)
     try:
@@ -306,7 +306,7 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
     except ScenarioError as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
-    pots = first.scene.rows * first.scene.cols
+    pots = first.scene.body_rows * first.scene.cols  # the window of live rows
     estimate = estimate_line(first.seedlings * len(seeds), pots)
     if estimate is not None and not args.quiet:
         print(estimate, file=sys.stderr)

@@ -43,7 +43,13 @@ def register(sub) -> None:
     )
     p.add_argument("--scenario", dest="scenario_option", default=None, help="the same")
     p.add_argument("--set", **OPTIONS["--set"])
-    p.add_argument("--seed", type=ascii_int, default=0, help="the tray's seed (default: 0)")
+    p.add_argument(
+        "--seed",
+        type=ascii_int,
+        default=None,
+        help="the tray's seed (default: the scenario's scenario.seed, as `transplanter trial` "
+        "takes it: the tray its job plants)",
+    )
     p.add_argument("--out", type=Path, required=True, help="folder for the three files")
     p.add_argument(
         "--size",
@@ -164,10 +170,12 @@ def cmd_grade(args: argparse.Namespace) -> int:
         _err(f"grade refused: {exc}")
         return EXIT_REFUSED
     try:
-        check_value("scenario.seed", args.seed)  # the seeds trial takes (-1 was a traceback)
+        if args.seed is not None:  # the seeds trial takes (-1 was a traceback)
+            check_value("scenario.seed", args.seed)
     except ScenarioError as exc:
         _err(f"grade refused: --seed: {exc}")
         return EXIT_REFUSED
+    seed = scenario.seed if args.seed is None else args.seed  # trial's tray by default
     vc = vision_config(scenario)
     size = (vc.width_px, vc.height_px)
     out: Path = args.out
@@ -177,7 +185,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     try:
         graded = grade_seed(
-            args.seed,
+            seed,
             size[0],
             size[1],
             seedlings=vc.seedlings,
@@ -193,7 +201,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
         return EXIT_REFUSED
     s = graded.score
     payload = {
-        "seed": args.seed,
+        "seed": seed,
         "scenario": scenario.name,
         "size": list(size),
         "lighting": args.lighting or "scenario",
@@ -225,7 +233,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
         return EXIT_OUTPUT_FAILED
     lo, hi = s.interval
     print(
-        f"seed {args.seed}: {s.correct}/{s.cells} cells graded as their truth "
+        f"seed {seed}: {s.correct}/{s.cells} cells graded as their truth "
         f"({s.accuracy:.1%}, 95 % Wilson {lo:.1%}-{hi:.1%}); leaf area error "
         f"{s.area_error_mean_mm2:+.1f} mm^2 mean, {s.area_error_abs_mm2:.1f} mm^2 mean absolute; "
         f"{graded.grading.seconds * 1000:.0f} ms to grade the picture"

@@ -21,6 +21,10 @@ __all__ = ["PooledRate", "SETTING_FIELDS", "aggregate", "pool_runs", "pooled_rat
 
 BOOTSTRAP_RESAMPLES = 9999
 BOOTSTRAP_SEED = 20201  # fixed: the same trials give the same interval
+CI_DIGITS = 12
+"""Decimals an interval's ends are rounded to, after clipping to [0, 1]: the floating-point
+noise around 0 and 1 (Wilson's 0 of 6 has a lower end of 2.8e-17, 10 of 10 an upper one of
+0.9999999999999999) never reaches settings.csv, compare.csv or a JSON."""
 
 
 @dataclass(frozen=True)
@@ -70,6 +74,7 @@ def pooled_rate(successes: Sequence[int], seedlings: Sequence[int]) -> PooledRat
         if b_lo < lo or b_hi > hi:
             method = "cluster bootstrap over trials (at least the Wilson interval)"
         lo, hi = min(lo, b_lo), max(hi, b_hi)
+    lo, hi = (round(min(1.0, max(0.0, end)), CI_DIGITS) for end in (lo, hi))
     return PooledRate(total_k, total_n, int(k.size), rate, (lo, hi), method)
 
 

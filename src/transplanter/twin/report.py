@@ -13,26 +13,41 @@ __all__ = [
     "printable",
     "progress_bar",
     "seed_row_header",
+    "seedling_wall_s",
     "seeds_bar",
 ]
 
-SEEDLING_WALL_S = 0.2
-"""Wall time of one seedling of the paper trial (40 pots on the belt) on one core of the 2-core
-reference machine (benchmarks/bench_trial.py: 40 seedlings in 5.2-7.0 s, docs/performance.md),
-rounded up: what the estimates before long work are made of. A faster machine finishes sooner."""
+SEEDLING_WALL_S = 0.25
+"""Wall time of one seedling of the paper trial (8 rows of 5 pots, every pot a body) on one
+core of the 2-core reference machine, start-up included: `python benchmarks/bench_belt.py
+--rows 8,24,100 --seedlings 30` (and 40) measured 0.23-0.25 s a seedling, rounded up. What the
+estimates before long work are made of; a faster machine finishes sooner."""
 REFERENCE_POTS = 40
-POTS_EXPONENT = 1.65
-"""How the cost of a seedling grows with the pots on the belt (every pot is a live body and
-each index pushes every row): 0.15 s a seedling with 40 pots, 9.6 s with 500 (100 rows, the
-measurement of docs/performance.md), a power law through the two: (500/40)^1.65 = 64."""
+POTS_EXPONENT = 0.93
+"""How the cost of a seedling grows with the pots that are *bodies* in the physics (the window
+of live rows: min(conveyor.rows, conveyor.live_rows) x cols; the pots beyond it cost nothing).
+Measured on the reference machine with benchmarks/bench_belt.py (`--one ROWS,LIVE,N,1`: the
+trial's wall time per seedling, one run at a time, each twice, the lower kept): 40
+bodies (8 rows) 0.21 s, 60 (24 or 100 rows, live_rows 12: the same) 0.28 s, 120 (24 rows,
+live_rows 24) 0.45 s, 240 (48 rows) 0.95 s, 500 (100 rows, a body per pot) 2.2 s: a power
+law through 40 and 500, (500/40)^0.93 = 10.5, which with the 0.25 s above lies 1.2-1.5x above
+every one of them. The README's soak (100 rows, live_rows 12, 500 seedlings) measured 188 s,
+0.38 s a seedling, twice (more than its first 40 seedlings cost): estimated 0.36 s."""
 ESTIMATE_ABOVE_S = 60.0
 """Work estimated to take longer than this is announced before it starts."""
 
 
+def seedling_wall_s(pots: int = REFERENCE_POTS) -> float:
+    """The estimated wall time of one seedling (s) with ``pots`` pots as bodies in the physics
+    (min(rows, live_rows) x cols) on one core of the reference machine."""
+    return SEEDLING_WALL_S * max(1.0, pots / REFERENCE_POTS) ** POTS_EXPONENT
+
+
 def estimate_line(seedlings: int, pots: int = REFERENCE_POTS, workers: int = 1) -> str | None:
     """'about 12 min of work (...)' for ``seedlings`` seedlings of trials with ``pots`` pots
-    on the belt, on ``workers`` cores; None when it is estimated under a minute."""
-    each = SEEDLING_WALL_S * max(1.0, pots / REFERENCE_POTS) ** POTS_EXPONENT
+    as bodies in the physics (the window of live rows: min(rows, live_rows) x cols, not the
+    belt's length), on ``workers`` cores; None when it is estimated under a minute."""
+    each = seedling_wall_s(pots)
     seconds = seedlings * each / max(1, workers)
     if seconds <= ESTIMATE_ABOVE_S:
         return None
@@ -45,7 +60,8 @@ def estimate_line(seedlings: int, pots: int = REFERENCE_POTS, workers: int = 1) 
     cores = f" on {workers} cores" if workers > 1 else " on one core"
     return (
         f"about {shown} of work: {seedlings} seedlings{cores} at ~{each:.2g} s each with "
-        f"{pots} pots on the belt (the reference machine's cost; Ctrl-C keeps what finished)"
+        f"{pots} pots as bodies on the belt (the reference machine's cost; Ctrl-C keeps what "
+        "finished)"
     )
 
 
