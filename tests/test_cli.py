@@ -528,3 +528,127 @@ def test_trial_seeds_assembles_each_seed_when_its_turn_comes(monkeypatch, capsys
     assert main(["trial", "paper", "--seeds", "0-9999", "--seedlings", "2", "--quiet"]) == 130
     assert len(made) == 1
     capsys.readouterr()
+
+
+def test_every_command_refuses_a_deeply_nested_scenario_or_a_nul_in_base_in_one_line(
+    tmp_path, capsys
+):
+    """5,000 or 100,000 nested '[' were a RecursionError in trial and export (the check that
+    no output replaces an input read the file again without the loader's guard), a NUL byte
+    in `base` a ValueError traceback in trial, ik and export."""
+    files = []
+    for depth in (5000, 100_000):
+        deep = tmp_path / f"deep{depth}.toml"
+        deep.write_text('[scenario]\nbase = "paper"\n[pots]\nmass_g = ' + "[" * depth + "]" * depth)
+        files.append((deep, "nested too deeply for a scenario"))
+    nul = tmp_path / "nul.toml"
+    nul.write_text('[scenario]\nbase = "pa\\u0000per"\n')
+    files.append((nul, "holds a NUL byte"))
+    child = tmp_path / "child.toml"  # the deep file as another scenario's base
+    child.write_text('[scenario]\nbase = "deep5000.toml"\n')
+    files.append((child, "nested too deeply for a scenario"))
+    out = tmp_path / "out"
+    out.mkdir()
+    for path, why in files:
+        for argv in (
+            ["trial", str(path), "--quiet", "--json", str(out / "r.json")],
+            ["export", str(path), str(out / "scene.xml")],
+            ["ik", "0", "0", "-800", "--scenario", str(path)],
+        ):
+            assert main(argv) == 2, argv
+            err = capsys.readouterr().err
+            assert err.count("\n") == 1 and why in err, (argv, err)
+    assert not list(out.iterdir())
+
+
+def test_a_mistyped_name_is_refused_naming_the_nearest_and_whole_bounds(capsys):
+    """`trial papr`, a mistyped key or section named no near one; --seed -1 printed the
+    bound as 9.22337e+18."""
+    quick = ["--seedlings", "1", "--quiet"]
+    for argv, hint in (
+        (["trial", "papr", *quick], "no packaged scenario of that name; did you mean paper?"),
+        (["trial", "paper", "--set", "taught.z_lwo_mm=30", *quick],
+         "taught.z_lwo_mm: unknown key; did you mean taught.z_low_mm?"),
+        (["trial", "paper", "--set", "taugth.z_low_mm=30", *quick],
+         "unknown section [taugth]; did you mean [taught]?"),
+        (["trial", "paper", "--seed", "-1", *quick],
+         "scenario.seed: -1 is outside the allowed range [0, 9223372036854775807]."),
+    ):  # fmt: skip
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and hint in err, err
+
+
+def test_trial_record_on_a_full_disk_still_prints_and_writes_the_results(
+    tmp_path, capsys, monkeypatch
+):
+    """A disk full when the recording started was a RuntimeError traceback from rerun's
+    save, no summary, no JSON, and a .rrd.*.tmp file left; now the trial runs without a
+    recording, the JSON holds the recording's error, one line says so, exit 5."""
+    import rerun as rr
+
+    def full_disk(self, path, *args, **kwargs):  # what rerun raises when it cannot write
+        raise RuntimeError("Failed to encode LogMsg: Failed to write: No space left on device")
+
+    monkeypatch.setattr(rr.RecordingStream, "save", full_disk)
+    rrd, out = tmp_path / "r.rrd", tmp_path / "r.json"
+    args = ["trial", "paper", "--seedlings", "1", "--quiet", "--record", str(rrd)]
+    assert main([*args, "--json", str(out)]) == 5
+    captured = capsys.readouterr()
+    assert "success rate               100.0 % (1/1)" in captured.out
+    assert f"results written to {out}" in captured.out
+    assert captured.err.count("\n") == 1 and "--record: " in captured.err
+    assert "No space left on device" in captured.err
+    result = json.loads(out.read_text())
+    assert result["successes"] == 1 and "No space left on device" in result["recording_error"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]  # no recording, no temp
+
+
+@pytest.mark.parametrize("point", ["scenario", "twin"])
+def test_a_stop_while_the_trial_is_set_up_writes_the_json_interrupted(
+    tmp_path, capsys, monkeypatch, point
+):
+    """SIGTERM while the trial was still being set up (its scenario assembled, its twin
+    built: before the loop) exited 143 without --json, though `trial --help` promises the
+    JSON says interrupted. Now the trial stops as its loop starts: nothing judged."""
+    from transplanter.scenario import assemble as assembly
+    from transplanter.twin.sim import Twin
+
+    where, name = {"scenario": (assembly, "assemble"), "twin": (Twin, "__post_init__")}[point]
+    original, sent = getattr(where, name), []
+
+    def stopped(*args, **kwargs):  # SIGTERM once, at exactly this point
+        if not sent:
+            sent.append(name)
+            os.kill(os.getpid(), signal.SIGTERM)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(where, name, stopped)
+    out = tmp_path / "r.json"
+    args = ["trial", "paper", "--set", "conveyor.rows=400", "--quiet", "--json", str(out)]
+    assert main(args) == 143
+    assert sent == [name]
+    captured = capsys.readouterr()
+    assert "interrupted after 0 seedlings" in captured.err and "Traceback" not in captured.err
+    result = json.loads(out.read_text())
+    assert result["interrupted"] is True and result["seedlings"] == 40
+    assert {s["outcome"] for s in result["per_seedling"]} == {"not_run"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
+
+
+def test_trial_records_a_windowed_conveyor_with_a_body_per_pot(tmp_path, capsys):
+    """With more rows than live ones (conveyor.rows = 20, live_rows = 12) the recording was
+    given the drawn model (a body per pot) and the physics' data: an IndexError traceback at
+    its first frame, and a .rrd.*.tmp file left. Each pot is recorded where the window puts
+    it (Scene.render_data)."""
+    from transplanter.viewing.playback import read_summary
+
+    rrd = tmp_path / "r.rrd"
+    args = ["trial", "paper", "--set", "conveyor.rows=20", "--seedlings", "1", "--quiet"]
+    assert main([*args, "--record", str(rrd)]) == 0
+    assert "recording written to" in capsys.readouterr().out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.rrd"]
+    rows = read_summary(rrd)["rows_on_sim_time"]
+    pots = {e: n for e, n in rows.items() if re.fullmatch(r"world/bodies/pot_\d+_\d", e)}
+    assert len(pots) == 20 * 5  # every pot of the 20 rows, not only the 12 live ones
+    assert set(pots.values()) == {rows["world/bodies/conveyor"]}  # a pose every frame

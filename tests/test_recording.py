@@ -280,6 +280,41 @@ def test_disabled_rerun_is_an_error_not_an_empty_file(model, tmp_path, monkeypat
     assert not list(tmp_path.iterdir())
 
 
+# Starts a recorder with no byte left to write (a file-size limit of 0 on this child process:
+# a full disk, as the write calls see it) and prints what it raised.
+_FULL_DISK = (
+    "import resource, signal, sys\n"
+    "import mujoco\n"
+    "from transplanter.viewing.recording import RecordingError, TrialRecorder\n"
+    "model = mujoco.MjModel.from_xml_string(sys.argv[1])\n"
+    "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+    "resource.setrlimit(resource.RLIMIT_FSIZE, (0, resource.RLIM_INFINITY))\n"
+    "try:\n"
+    "    TrialRecorder(model, sys.argv[2])\n"
+    "except RecordingError as exc:\n"
+    "    print(exc)\n"
+)
+
+
+def test_a_recording_that_cannot_be_started_says_why_and_leaves_no_file(tmp_path):
+    """On a full disk rerun's save raised a RuntimeError out of TrialRecorder (a traceback
+    from `trial --record`) and left its .rrd.*.tmp file; now a RecordingError, nothing left."""
+    import subprocess
+    import sys
+
+    rrd = tmp_path / "full.rrd"
+    run = subprocess.run(
+        [sys.executable, "-c", _FULL_DISK, MJCF, str(rrd)],
+        capture_output=True,
+        text=True,
+        timeout=120,  # a bound, not a clock: it ends in about a second
+    )
+    assert run.returncode == 0, run.stderr
+    assert f"the recording {str(rrd)!r} could not be written" in run.stdout
+    assert "File too large" in run.stdout  # the write's own error, as rerun reports it
+    assert not list(tmp_path.iterdir())
+
+
 def test_replay_without_display_explains_how_to_view(trial, monkeypatch, capsys):
     path = trial[0]
     monkeypatch.setattr("sys.platform", "linux")

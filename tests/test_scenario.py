@@ -293,6 +293,69 @@ def test_a_scenario_nested_beyond_any_use_is_refused_in_one_line(tmp_path):
         load_scenario("paper", {"pots.mass_g": [[[[[[[[1]]]]]]]]})
 
 
+def test_the_files_of_a_nested_or_nul_scenario_are_listed_quietly_and_it_is_refused(tmp_path):
+    """scenario_files (the inputs no output may replace) read the TOML without the loader's
+    guard: 5,000 nested '[' were a RecursionError; a NUL byte in `base` was a ValueError
+    traceback from the loader and from scenario_files."""
+    from transplanter.scenario.schema import resolve_scenario_path, scenario_files
+
+    deep = tmp_path / "deep.toml"
+    deep.write_text('[scenario]\nbase = "paper"\n[pots]\nmass_g = ' + "[" * 5000 + "]" * 5000)
+    child = tmp_path / "child.toml"
+    child.write_text('[scenario]\nbase = "deep.toml"\n')
+    nul = tmp_path / "nul.toml"
+    nul.write_text('[scenario]\nbase = "pa\\u0000per"\n')
+    assert scenario_files(deep) == [deep.resolve()]  # load_scenario says why it stops
+    assert scenario_files(child) == [child.resolve(), deep.resolve()]
+    assert scenario_files(nul) == [nul.resolve()]
+    for path in (deep, child):
+        with pytest.raises(ScenarioError, match="nested too deeply for a scenario"):
+            load_scenario(path)
+    with pytest.raises(ScenarioError, match=r"scenario.base = 'pa\\x00per' holds a NUL byte"):
+        load_scenario(nul)
+    with pytest.raises(ScenarioError, match="holds a NUL byte"):
+        resolve_scenario_path("pa\0per")
+
+
+def test_a_range_prints_its_integer_bounds_whole():
+    """--seed -1 was refused with the bound printed as 9.22337e+18."""
+    from transplanter.scenario.schema import check_value
+
+    for dotted, value, allowed in (
+        ("scenario.seed", -1, "[0, 9223372036854775807]"),
+        ("faults.lost_reply_line", 10**10, "[0, 1000000000]"),  # %g said 1e+09
+        ("delta.max_condition", 1e7, "[1, 1e+06]"),  # a float bound: %g as before
+    ):
+        with pytest.raises(ScenarioError) as refused:
+            check_value(dotted, value)
+        assert str(refused.value) == f"{dotted}: {value!r} is outside the allowed range {allowed}."
+
+
+def test_a_mistyped_name_is_refused_naming_the_nearest_known_one(tmp_path):
+    """A scenario name, a key or a section one letter off named no near one."""
+    from transplanter.scenario.schema import key_spec
+
+    for name, overrides, hint in (
+        ("papr", None, "no packaged scenario of that name; did you mean paper? (packaged: "),
+        ("paper", {"taught.z_lwo_mm": 30}, "unknown key; did you mean taught.z_low_mm? Known"),
+        ("paper", {"taugth.z_low_mm": 30}, "unknown section [taugth]; did you mean [taught]? K"),
+    ):
+        with pytest.raises(ScenarioError) as refused:
+            load_scenario(name, overrides)
+        assert hint in str(refused.value)
+    with pytest.raises(ScenarioError, match=r"did you mean \[taught\]\?"):
+        key_spec("taugth.z_low_mm")
+    typo = tmp_path / "typo.toml"
+    typo.write_text('[scenario]\nbase = "paper"\n[conveyer]\nrows = 8\n')
+    with pytest.raises(ScenarioError, match=r"unknown section \[conveyer\]; did you mean \[conv"):
+        load_scenario(typo)
+    # nothing near: the list alone, as before
+    with pytest.raises(ScenarioError, match=r"taught.qqqq: unknown key\. Known keys in \[taught\]"):
+        load_scenario("paper", {"taught.qqqq": 30})
+    with pytest.raises(ScenarioError, match=r"no packaged scenario of that name \(packaged: "):
+        load_scenario("xqzv")
+
+
 # --- [plugs], [plug_claws] and [plug_bench]: the delta's jobs ----------------------------
 
 

@@ -175,6 +175,51 @@ def test_every_damaged_page_of_a_storage_is_refused_in_one_line(tmp_path, capsys
     assert not out.exists() or not any(out.iterdir())
 
 
+def test_a_study_stopped_and_resumed_takes_the_points_of_an_uninterrupted_one(
+    tmp_path, capsys, monkeypatch
+):
+    """The sampler was seeded by Optuna's trial number, and a trial stopped by Ctrl-C (told
+    FAIL: it does not count) takes one: the resumed study drew other points from then on
+    than the same study run without a stop. Now seeded by the trials that count."""
+    import os
+    import signal
+
+    from transplanter.studies import backends
+
+    runs = {"left": -1}  # runs before the Ctrl-C, -1: none
+
+    def stopped_once(task):  # Ctrl-C during the 4th trial's run, sent from inside it
+        runs["left"] -= 1
+        if runs["left"] == 0:
+            os.kill(os.getpid(), signal.SIGINT)
+        return _fake_run_one(task)
+
+    monkeypatch.setattr(backends, "run_one", stopped_once)
+    monkeypatch.setattr(backends, "ProcessBackend", lambda workers: backends.InlineBackend())
+
+    def tune(name, trials):
+        out, db = tmp_path / name, tmp_path / f"{name}.db"
+        args = ["tune", "paper", "--param", "taught.z_low_mm=28..40", "--param",
+                "taught.s_high_mm_s=120..220", "--seeds", "1", "--seedlings", "2", "--quiet",
+                "--storage", str(db), "--out", str(out)]  # fmt: skip
+        status = main([*args, "--trials", str(trials)])
+        capsys.readouterr()
+        return status, list(csv.DictReader((out / "trials.csv").open()))
+
+    assert tune("whole", 12)[0] == 0  # past the sampler's 10 random startup trials
+    runs["left"] = 4
+    status, before = tune("stopped", 12)
+    assert status == 130 and len(before) == 3  # trial 3 stopped: told FAIL, not counted
+    assert tune("stopped", 12)[0] == 0  # resumed
+    whole, resumed = tune("whole", 12)[1], tune("stopped", 12)[1]
+
+    def points(rows):  # every column but Optuna's number: the stopped trial took number 3
+        return [{k: v for k, v in row.items() if k != "trial"} for row in rows]
+
+    assert points(resumed) == points(whole)
+    assert [r["trial"] for r in resumed] == ["0", "1", "2", *map(str, range(4, 13))]
+
+
 def _scored(trial, k, n=40, cycle=3.2):
     return {"trial": trial, "successes": k, "seedlings": n, "cycle_time_s": cycle}
 

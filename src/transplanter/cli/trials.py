@@ -91,6 +91,7 @@ def _trial_parser(sub) -> None:
 
 
 def cmd_trial(args: argparse.Namespace) -> int:
+    from transplanter import interrupts
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError
     from transplanter.twin.report import estimate_line, format_summary
@@ -110,15 +111,31 @@ def cmd_trial(args: argparse.Namespace) -> int:
     targets = _output_targets(args)
     if targets is None:
         return EXIT_REFUSED
-    if not _read_eeprom(args):
-        return EXIT_REFUSED
-    try:
-        overrides = _trial_overrides(args)
-    except ScenarioError as exc:
-        _err(f"scenario refused: {exc}")
-        return EXIT_REFUSED
-    job_cli = _job_cli(args, overrides)  # a job with its own trial (transplanter.kinds)
+    # the trial's set-up, with stop signals held: one that comes here stops the trial as its
+    # loop starts (nothing judged, "interrupted": true in --json, a partial recording)
+    with interrupts.held():
+        if not _read_eeprom(args):
+            return EXIT_REFUSED
+        try:
+            overrides = _trial_overrides(args)
+        except ScenarioError as exc:
+            _err(f"scenario refused: {exc}")
+            return EXIT_REFUSED
+        job_cli = _job_cli(args, overrides)  # a job with its own trial (transplanter.kinds)
+        if job_cli is None and args.seeds is None:
+            try:
+                scenario = _trial_scenario(args, overrides)
+                config = assemble(scenario, preflight=not args.no_preflight)
+            except ScenarioError as exc:
+                _err(f"scenario refused: {exc}")
+                return EXIT_REFUSED
+            if clips is not None and not _clip_dir_ready(Path(args.clips_of_failures)):
+                return EXIT_REFUSED
+            estimate = estimate_line(config.seedlings, config.scene.body_rows * config.scene.cols)
+            if estimate is not None and not args.quiet:
+                print(estimate, file=sys.stderr)
     if job_cli is not None:
+        interrupts.raise_pending()  # a stop while its scenario was read stops it at once
         return job_cli.run_trial(args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
@@ -127,17 +144,8 @@ def cmd_trial(args: argparse.Namespace) -> int:
         seeds = _seeds(args)
         if seeds is None:
             return EXIT_REFUSED
+        interrupts.raise_pending()  # a stop while the scenario was read stops it at once
         return _pooled_trials(args, overrides, seeds, targets["--json"])
-    try:
-        config = assemble(_trial_scenario(args, overrides), preflight=not args.no_preflight)
-    except ScenarioError as exc:
-        _err(f"scenario refused: {exc}")
-        return EXIT_REFUSED
-    if clips is not None and not _clip_dir_ready(Path(args.clips_of_failures)):
-        return EXIT_REFUSED
-    estimate = estimate_line(config.seedlings, config.scene.body_rows * config.scene.cols)
-    if estimate is not None and not args.quiet:
-        print(estimate, file=sys.stderr)
     try:
         result, interrupted = _run(
             config, _progress(args), record_path=targets["--record"],
@@ -152,6 +160,8 @@ def cmd_trial(args: argparse.Namespace) -> int:
         summary += "\n" + _clips_listing(clips, args.clips_of_failures)
         if clips.error is not None:
             outputs.append((None, f"--clips-of-failures: {clips.error}"))
+    if args.record is not None:  # None, or why the recording could not be written
+        payload["recording_error"] = result.recording_error
     if args.record is not None and result.recording_error is None:
         outputs.append(_recording_written(Path(args.record), interrupted))
     return _finish(

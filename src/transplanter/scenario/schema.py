@@ -13,6 +13,7 @@ the configs of the firmware, the scene, the servos and the judge.
 
 from __future__ import annotations
 
+import difflib
 import importlib.resources
 import math
 import reprlib
@@ -1352,8 +1353,23 @@ def _unknown_key_error(where: str, key: str, known: Mapping[str, Key]) -> Scenar
             f"(unit {_unit_of(same_stem[0]) or 'none'}). Rename the key and convert the value."
         )
     return ScenarioError(
-        f"{where}.{key}: unknown key. Known keys in [{where.split('.')[0]}]: "
-        f"{', '.join(sorted(known))}."
+        f"{where}.{key}: unknown key{_did_you_mean(key, known, where.split('.')[0] + '.') or '.'}"
+        f" Known keys in [{where.split('.')[0]}]: {', '.join(sorted(known))}."
+    )
+
+
+def _did_you_mean(name: Any, known: Any, prefix: str = "", suffix: str = "") -> str:
+    """'; did you mean NEAREST?' for the known name nearest a mistyped one (difflib's
+    closest match, as Python's own messages pick it), '' when none is near."""
+    near = difflib.get_close_matches(str(name), [str(k) for k in known], n=1)
+    return f"; did you mean {prefix}{near[0]}{suffix}?" if near else ""
+
+
+def _unknown_section_error(source: str, section: Any) -> ScenarioError:
+    """The refusal of a section the schema does not have, with the nearest known one."""
+    return ScenarioError(
+        f"{source}: unknown section [{section}]{_did_you_mean(section, SCHEMA, '[', ']') or '.'}"
+        f" Known sections: {', '.join(SCHEMA)}."
     )
 
 
@@ -1401,13 +1417,22 @@ def _number(name: str, spec: Key, raw: Any) -> float:
 
 def _check_range(name: str, spec: Key, value: float) -> None:
     if spec.lo is not None and value < spec.lo or spec.hi is not None and value > spec.hi:
+        lo, hi = _bound(spec, spec.lo), _bound(spec, spec.hi)
         if spec.hi is None:
-            allowed = f"must be at least {spec.lo:g}"
+            allowed = f"must be at least {lo}"
         elif spec.lo is None:
-            allowed = f"must be at most {spec.hi:g}"
+            allowed = f"must be at most {hi}"
         else:
-            allowed = f"is outside the allowed range [{spec.lo:g}, {spec.hi:g}]"
+            allowed = f"is outside the allowed range [{lo}, {hi}]"
         raise ScenarioError(f"{name}: {_shown(value)} {allowed}.")
+
+
+def _bound(spec: Key, bound: float | None) -> str:
+    """A bound of a key's range as a message shows it: an integer with all its digits
+    (scenario.seed's 9223372036854775807, not 9.22337e+18), other numbers as %g."""
+    if isinstance(bound, int) or (spec.kind == "int" and bound is not None):
+        return str(int(bound))
+    return f"{bound:g}"
 
 
 def _merge(base: dict, over: Mapping) -> dict:
@@ -1424,13 +1449,13 @@ def _merge(base: dict, over: Mapping) -> dict:
 MAX_SCENARIO_BYTES = 1 << 20
 
 
-def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
-    path = path.resolve()
-    if path in seen:
-        raise ScenarioError(f"{path}: 'base' files form a cycle: {' -> '.join(map(str, seen))}.")
+def _read_toml(path: Path) -> dict:
+    """A scenario file's TOML, read as an input (bounded, a regular file); ScenarioError for
+    a file refused, not TOML, or nested beyond Python's recursion limit. Every reading of a
+    scenario's text goes through here (load_scenario's and scenario_files')."""
     try:
         text = fileio.read_text_input(path, MAX_SCENARIO_BYTES, "scenario")
-        raw = tomllib.loads(text)
+        return tomllib.loads(text)
     except fileio.FileRefused as exc:
         raise ScenarioError(str(exc)) from None
     except tomllib.TOMLDecodeError as exc:
@@ -1440,6 +1465,13 @@ def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
             f"{path}: nested too deeply for a scenario (arrays or tables within each other "
             "beyond Python's recursion limit); a scenario holds numbers, pairs and tables."
         ) from None
+
+
+def _read_raw(path: Path, seen: tuple[Path, ...] = ()) -> dict:
+    path = path.resolve()
+    if path in seen:
+        raise ScenarioError(f"{path}: 'base' files form a cycle: {' -> '.join(map(str, seen))}.")
+    raw = _read_toml(path)
     for section, table in raw.items():
         if not isinstance(table, dict):
             raise ScenarioError(
@@ -1474,6 +1506,11 @@ def _base_path(path: Path, base: Any) -> Path:
     directory ('../x.toml')."""
     if not isinstance(base, str) or not base:
         raise ScenarioError(f"{path}: scenario.base must be a file name, got {_shown(base)}.")
+    if "\0" in base:
+        raise ScenarioError(
+            f"{path}: scenario.base = {_shown(base)} holds a NUL byte, which no file name "
+            "can; name a file beside the scenario, an absolute path or a packaged scenario."
+        )
     if Path(base).is_absolute():
         return Path(base)
     candidate = (path.parent / base).resolve()
@@ -1524,9 +1561,7 @@ def key_spec(dotted: str) -> Key:
     if not name:
         raise ScenarioError(f"{dotted!r}: write SECTION.KEY (e.g. taught.z_low_mm).")
     if section not in SCHEMA:
-        raise ScenarioError(
-            f"{dotted}: unknown section [{section}]. Known sections: {', '.join(SCHEMA)}."
-        )
+        raise _unknown_section_error(dotted, section)
     if name not in SCHEMA[section]:
         raise _unknown_key_error(section, name, SCHEMA[section])
     return SCHEMA[section][name]
@@ -1548,9 +1583,7 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
     values: dict[str, dict[str, Any]] = {}
     for section in raw:
         if section not in SCHEMA:
-            raise ScenarioError(
-                f"{source}: unknown section [{section}]. Known sections: {', '.join(SCHEMA)}."
-            )
+            raise _unknown_section_error(source, section)
     for section, keys in SCHEMA.items():
         table = raw.get(section)
         if section in DEFAULT_SECTIONS and (table is None or isinstance(table, dict)):
@@ -1826,6 +1859,11 @@ def packaged_scenarios() -> list[str]:
 def resolve_scenario_path(name: str | Path) -> Path:
     """A scenario file: the path as given if it exists, else a packaged scenario by name
     (`paper` or `paper.toml`)."""
+    if "\0" in str(name):
+        raise ScenarioError(
+            f"{_shown(str(name))}: a scenario's name holds a NUL byte, which no file name "
+            "can; give a scenario file or a packaged scenario's name (transplanter scenarios)."
+        )
     path = Path(name)
     if path.exists() or len(path.parts) != 1:
         return path
@@ -1833,9 +1871,10 @@ def resolve_scenario_path(name: str | Path) -> Path:
     packaged = importlib.resources.files("transplanter.scenarios") / f"{stem}.toml"
     if packaged.is_file():
         return Path(str(packaged))
+    known = packaged_scenarios()
     raise ScenarioError(
-        f"{name}: no such scenario file, and no packaged scenario of that name "
-        f"(packaged: {', '.join(packaged_scenarios())})."
+        f"{name}: no such scenario file, and no packaged scenario of that name"
+        f"{_did_you_mean(stem, known)} (packaged: {', '.join(known)})."
     )
 
 
@@ -1848,12 +1887,11 @@ def scenario_files(name: str | Path) -> list[Path]:
         path = resolve_scenario_path(name)
         while path.resolve() not in files:
             files.append(path.resolve())
-            text = fileio.read_text_input(path, MAX_SCENARIO_BYTES, "scenario")
-            base = tomllib.loads(text).get("scenario", {}).get("base")
+            base = _read_toml(path).get("scenario", {}).get("base")  # load_scenario's guards
             if base is None:
                 break
             path = _base_path(path.resolve(), base)
-    except (ScenarioError, fileio.FileRefused, tomllib.TOMLDecodeError, AttributeError):
+    except (ScenarioError, AttributeError):
         pass
     return files
 
@@ -1889,9 +1927,7 @@ def _refuse_unread(
     with their own messages."""
     for section, table in raw.items():
         if section not in SCHEMA:
-            raise ScenarioError(
-                f"{source}: unknown section [{section}]. Known sections: {', '.join(SCHEMA)}."
-            )
+            raise _unknown_section_error(source, section)
         if isinstance(table, dict):
             for key_name in table:
                 if key_name not in SCHEMA[section]:

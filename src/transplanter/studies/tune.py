@@ -5,8 +5,9 @@ the seeds (`stats.pooled_rate`, so a lucky seed does not win) and minimise the m
 time. Each Optuna trial runs one `sweep_backends.run_one` per seed (the same judging as
 `transplanter trial`), on the sweep's backends. The study lives in SQLite, so rerunning the
 same command resumes it: finished trials count toward `--trials`. The sampler is seeded per
-trial number (`sampler_seed + number`), so the same command gives the same study, resumed or
-not.
+trial that counts (`sampler_seed + trials counted before it`; a trial stopped by Ctrl-C takes
+an Optuna number but does not count), so the same command gives the same points, resumed or
+not, however often it was stopped.
 
 Files in the output directory: `trials.csv` (every finished trial), `pareto.csv` (the Pareto
 front), `pareto.png` (Optuna's Pareto-front plot) and `tuned.toml`: the chosen point (highest
@@ -360,7 +361,8 @@ def drive_study(
     """Ask, evaluate and tell until `trials` trials count (finished ones included): each
     point is judged with `evaluate` on every seed on the backend, its results kept as the
     trial's user attributes, and `objective(scored)` told (None: the trial FAILs). The
-    sampler is a TPESampler seeded `spec.sampler_seed + trial number`. Returns (finished,
+    sampler is a TPESampler seeded `spec.sampler_seed + the trials counted so far` (a
+    stopped trial does not shift the points of a resumed study). Returns (finished,
     ran now, interrupted by Ctrl-C). No trial is left RUNNING in the study: asking (the
     sampler's work) and telling run with stop signals held, and a trial stopped while its
     runs ran is told FAIL (without results: it does not count, a rerun asks again)."""
@@ -377,8 +379,10 @@ def drive_study(
     try:
         with backend_of(backend, workers, address) as runner:
             while finished < trials:
-                number = len(study.get_trials(deepcopy=False))
-                study.sampler = optuna.samplers.TPESampler(seed=spec.sampler_seed + number)
+                # seeded by the trials that count, not by Optuna's trial number: a trial
+                # stopped (told FAIL, not counted) takes a number, and a resumed study must
+                # go on with the points the uninterrupted one takes
+                study.sampler = optuna.samplers.TPESampler(seed=spec.sampler_seed + finished)
                 with interrupts.held():  # a trial asked is a trial told
                     trial = study.ask(dists)
                 try:

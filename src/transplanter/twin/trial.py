@@ -87,32 +87,42 @@ def run_trial(
     `horizon_s` replaces the simulated time the program must finish in (FIRMWARE_HORIZON_S;
     `math.inf` for a remote host's session).
 
-    Stop signals (interrupts.held) are held from the moment files are created until the
-    loop runs, and from the end of the loop until the result is built: a Ctrl-C there never
-    leaves a temporary file or loses a finished trial."""
+    Stop signals (interrupts.held) are held while the trial is set up (the twin built, the
+    files created) until the loop runs, and from the end of the loop until the result is
+    built: a Ctrl-C there never leaves a temporary file or loses a finished trial, and one
+    during the set-up stops the trial as its loop starts (nothing judged, `TrialInterrupted`
+    with the whole result). A recording that cannot be started (a full disk) records
+    nothing: the trial runs, its result's `recording_error` says why."""
     t_wall = time.perf_counter()
-    twin = twin_factory(config)
-    m_pp = twin.machine.eeprom.m_pp
-    records = [SeedlingRecord(index=i, pickup=i % m_pp) for i in range(config.seedlings)]
-    recorder = None
+    recorder, recording_error = None, None
     with interrupts.held():
+        twin = twin_factory(config)
+        m_pp = twin.machine.eeprom.m_pp
+        records = [SeedlingRecord(index=i, pickup=i % m_pp) for i in range(config.seedlings)]
         if record_path is not None:
-            from transplanter.viewing.recording import TrialRecorder
+            from transplanter.viewing.recording import RecordingError, TrialRecorder
 
-            recorder = TrialRecorder(
-                twin.scene.render_model,
-                record_path,
-                rate_hz=record_rate_hz,
-                scalar_names=channels.channel_names(),
-            )
-        judge_cls = scene_kinds.judge_class(config.scene.workcell_kind)  # the workcell's job
-        event = recorder.event if recorder is not None else None
-        judge = judge_cls(twin, config.judge, records, event)
-        twin.line_listeners.append(judge.on_line)
-        monitor: Any = judge.monitor if recorder is None else _RecordingMonitor(judge, recorder)
-        every = 1  # the judge keeps its own periods in simulated time
-        if recorder is not None:
-            monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state at t = 0
+            try:
+                recorder = TrialRecorder(
+                    twin.scene.render_model,
+                    record_path,
+                    rate_hz=record_rate_hz,
+                    scalar_names=channels.channel_names(),
+                )
+            except RecordingError as exc:  # nothing was left; the results still stand
+                recording_error = str(exc)
+        try:
+            judge_cls = scene_kinds.judge_class(config.scene.workcell_kind)  # the job's judge
+            event = recorder.event if recorder is not None else None
+            judge = judge_cls(twin, config.judge, records, event)
+            twin.line_listeners.append(judge.on_line)
+            monitor: Any = judge.monitor if recorder is None else _RecordingMonitor(judge, recorder)
+            every = 1  # the judge keeps its own periods in simulated time
+            if recorder is not None:
+                monitor.record(twin, np.zeros(3, dtype=np.int64))  # the power-on state, t = 0
+        except BaseException:
+            _abort((), recorder)  # an unexpected error leaves no temporary file behind
+            raise
         recording_monitor = monitor
         if observers:
             _attach(observers, twin, records, recorder)
@@ -148,7 +158,7 @@ def run_trial(
     with interrupts.held():
         result = _finish_trial(
             config, twin, judge, records, observers, recorder, recording_monitor, t_wall,
-            valid, reason, interrupted,
+            valid, reason, interrupted, recording_error,
         )  # fmt: skip
     if interrupted:
         raise TrialInterrupted(result)
@@ -169,8 +179,10 @@ def _finish_trial(
     valid: bool,
     reason: str | None,
     interrupted: bool,
+    recording_error: str | None = None,
 ) -> TrialResult:
-    """The last verdicts, the observers finished, the recording closed and the result."""
+    """The last verdicts, the observers finished, the recording closed and the result
+    (`recording_error`: why a recording that could not be started was not made)."""
     judge.finish(twin.time, valid and not interrupted)
     try:
         for observer in observers:
@@ -178,7 +190,6 @@ def _finish_trial(
     except BaseException:
         _abort(observers, recorder)
         raise
-    recording_error = None
     if recorder is not None:
         recording_error = _finish_recording(recorder, recording_monitor, twin, interrupted)
     return TrialResult(
@@ -279,4 +290,8 @@ class _RecordingMonitor:
         dt = t - self.t_pulses
         rates = np.abs(pulses - self.pulses) / dt if dt > 0 else np.zeros(3)
         self.pulses, self.t_pulses = pulses.copy(), t
-        self.recorder.frame(t, twin.data, channels.sample(twin, rates), force=force)
+        # the recording draws the render model: a windowed scene's has a body per pot, placed
+        # where the window says (Scene.render_data); otherwise it has the physics' bodies
+        scene = twin.scene
+        data = twin.data if scene.window is None else scene.render_data(twin.data)
+        self.recorder.frame(t, data, channels.sample(twin, rates), force=force)

@@ -177,7 +177,9 @@ class TrialRecorder:
     Call ``frame(t, data, scalars)`` at every physics step: it records only on the
     ``1/rate_hz`` grid (``rate_hz`` None takes ``config.rate_hz``, 60 Hz by default).
     Call ``event(...)`` when something happens and ``close()`` at the end (or use it as a
-    context manager). The file appears at ``path`` only once it is complete.
+    context manager). The file appears at ``path`` only once it is complete; one that cannot
+    even be started (a full disk, a directory it may not write) raises RecordingError and
+    leaves no temporary file.
     """
 
     def __init__(
@@ -206,7 +208,10 @@ class TrialRecorder:
         # The recording grows in an exclusively created temporary file beside its target (a
         # symlink's target) and replaces it only once complete.
         self._target = Path(os.path.realpath(self.path)) if self.path.is_symlink() else self.path
-        self._tmp_path = fileio.temp_beside(self._target)
+        try:
+            self._tmp_path = fileio.temp_beside(self._target)
+        except OSError as exc:  # a full disk (no room for the name), a read-only directory
+            raise RecordingError(self._cannot_write(exc)) from exc
 
         body_names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b, "body") for b in range(model.nbody)]
         self.body_entities = [f"{BODIES_ROOT}/{name}" for name in body_names]
@@ -239,7 +244,12 @@ class TrialRecorder:
                 "rerun logging is disabled (environment variable RERUN="
                 f"{os.environ.get('RERUN')!r}): unset RERUN to record {str(self.path)!r}"
             )
-        self._stream.save(self._tmp_path)
+        try:
+            self._stream.save(self._tmp_path)  # writes the file's header: a full disk fails here
+        except Exception as exc:
+            self._stream.disconnect()
+            fileio.discard(self._tmp_path)
+            raise RecordingError(self._cannot_write(exc)) from exc
         try:
             self._log_static_scene(model)
         except BaseException:
@@ -447,10 +457,11 @@ class TrialRecorder:
         except BaseException as exc:
             fileio.discard(self._tmp_path)
             if isinstance(exc, Exception):
-                raise RecordingError(
-                    f"the recording {str(self.path)!r} could not be written: {exc}"
-                ) from exc
+                raise RecordingError(self._cannot_write(exc)) from exc
             raise
+
+    def _cannot_write(self, exc: BaseException) -> str:
+        return f"the recording {str(self.path)!r} could not be written: {exc}"
 
     def abort(self) -> None:
         """Stop recording and remove the unfinished file; an older file at the path stays."""
