@@ -2,8 +2,8 @@
 
 The user counts K successes in N seedlings on their own machine (`--observed K/N`) and may
 time the mean cycle (`--cycle-s`). An Optuna study (the machinery of `tune`: TPESampler
-seeded per trial number, the study optionally in SQLite so the same command resumes it)
-searches the `--fit KEY=LO..HI` keys; every point is run on every seed with
+seeded by the trials that count before each, the study optionally in SQLite so the same
+command resumes it) searches the `--fit KEY=LO..HI` keys; every point is run on every seed with
 `sweep_backends.run_one` (on the sweep's backends) and the seeds pooled (`sweep.pool_runs`).
 
 The loss of a point is the binomial deviance (likelihood-ratio G^2) of the 2x2 table
