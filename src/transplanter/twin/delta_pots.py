@@ -463,7 +463,7 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     gear = d.gear_ratio
     limit_s = 60.0 + 20.0 * n
     pending: list[tuple[float, int, float]] = []
-    state: dict[str, Any] = {"fault": None, "t_end": None}
+    state: dict[str, Any] = {"fault": None}
 
     def index_conveyor(t_event: float, name: str) -> None:
         if name == "conveyor_index":
@@ -487,7 +487,7 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
         measured = data.qpos[arms]
         if drives.watch(t, command, measured) is not None and state["fault"] is None:
             state["fault"] = drives.alarm.text()
-            state["t_end"] = t + 1.0
+            loop.settle_until(t + 1.0)
         data.ctrl[arm_acts] = gear * (measured if state["fault"] else command)
         data.ctrl[grip_act] = bank.step(dt, [-data.actuator_force[grip_act]])[0]
         if drive.armed(data):
@@ -500,18 +500,6 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
         if report is not None:
             report(loop.time)
 
-    def end(t: float) -> bool:
-        if state["t_end"] is None and (host.done or host.error is not None):
-            state["t_end"] = t + 1.0
-        if state["t_end"] is not None and t >= state["t_end"]:
-            return True
-        if t > limit_s:
-            state["fault"] = state["fault"] or (
-                f"the program did not finish in {limit_s:g} s of simulated time"
-            )
-            return True
-        return False
-
     loop.on_event.append(index_conveyor)
     loop.on_servo.append(servo)
     loop.before_step.append(commands)
@@ -519,12 +507,12 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     for observer in observers:
         observer.attach(loop)
     try:
-        loop.run(end)
+        timed_out = loop.run_program(limit_s, settle_s=1.0)
     except BaseException:
         for observer in observers:
             observer.abort()
         raise
-    fault, t, k = state["fault"], loop.last_t, loop.k
+    fault, t, k = state["fault"] or timed_out, loop.last_t, loop.k
     if fault is None and host.error is not None:
         fault = host.error
     plant()

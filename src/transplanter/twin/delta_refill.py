@@ -532,7 +532,7 @@ def run_delta_refill(
     dt = model.opt.timestep
     limit_s = 120.0 + 30.0 * max(len(ops), 1)
     # valid: False at once when a step went unstable; command: the drives' last joint command
-    state: dict[str, Any] = {"fault": None, "t_end": None, "valid": None, "holding": None,
+    state: dict[str, Any] = {"fault": None, "valid": None, "holding": None,
                              "command": q0}  # fmt: skip
     view = DeltaView(model, data, cfg, ops, host, cycle, physics, leaves, q0) if observers else None
     look = [view.attach(observers) if view is not None else math.inf]  # the next look's time
@@ -559,7 +559,7 @@ def run_delta_refill(
         measured = data.qpos[arms]
         if drives.watch(t, command, measured) is not None and state["fault"] is None:
             state["fault"] = drives.alarm.text()
-            state["t_end"] = t + job.settle_after_s
+            loop.settle_until(t + job.settle_after_s)
         data.ctrl[:3] = gear * (measured if state["fault"] else command)
         data.ctrl[eff] = cycle.ctrl(t)
         for p in physics.values():
@@ -582,24 +582,12 @@ def run_delta_refill(
         if loop.time >= look[0]:  # observers only at their frame times (math.inf without)
             look[0] = view.look(loop.time, state["command"])
 
-    def end(t: float) -> bool:
-        if state["t_end"] is None and (host.done or host.error is not None):
-            state["t_end"] = t + job.settle_after_s
-        if state["t_end"] is not None and t >= state["t_end"]:
-            return True
-        if t > limit_s:
-            state["fault"] = state["fault"] or (
-                f"the job did not finish in its {limit_s:g} s of simulated time"
-            )
-            return True
-        return False
-
     loop.on_servo.append(claws)
     loop.before_step.append(commands)
     loop.guard = stable
     loop.after_step.append(watch)
-    loop.run(end)
-    fault, valid, t, k = state["fault"], state["valid"], loop.last_t, loop.k
+    timed_out = loop.run_program(limit_s, job.settle_after_s, what="the job")
+    fault, valid, t, k = state["fault"] or timed_out, state["valid"], loop.last_t, loop.k
     if loop.stopped is not None:
         fault = loop.stopped
     if valid is None:

@@ -18,7 +18,10 @@ physics step, at its start time t = k * dt:
    observers (at (k + 1) * dt, `StepLoop.time`).
 
 A hook may `stop(reason)` the run: it ends after that step. `run(end)` steps until `end(t)`
-says so after a step (t: the step's start) or a hook stopped it.
+says so after a step (t: the step's start) or a hook stopped it; `run_program(limit_s,
+settle_s)` until the host's program has ended (or failed) and settled, with a time-out, the
+end every job's run shares. A hook may `settle_until(t)` to end the run at t (a drive's alarm:
+the machine is let come to rest, then the run ends).
 """
 
 from __future__ import annotations
@@ -58,6 +61,7 @@ class StepLoop:
         self.guard: Callable[[float], str | None] | None = None
         self.stopped: str | None = None
         self.last_t = 0.0
+        self.t_end: float | None = None  # run_program ends the run after the step at t_end
 
     @property
     def time(self) -> float:
@@ -99,6 +103,29 @@ class StepLoop:
         for fn in self.after_step:
             fn(t)
         return True
+
+    def settle_until(self, t: float) -> None:
+        """`run_program` ends the run after the step that starts at `t` (replacing the end
+        the host's finish set)."""
+        self.t_end = t
+
+    def run_program(self, limit_s: float, settle_s: float = 0.0, what: str = "the program"
+                    ) -> str | None:  # fmt: skip
+        """Step until the host's program has ended or failed and `settle_s` more have passed
+        (or until a hook's `settle_until`), or a hook stopped the run; the time-out's message
+        when a step starts after `limit_s` (s of simulated time), else None."""
+        host = self.host
+        while self.stopped is None:
+            t = self.k * self.dt
+            if not self.step():
+                return None
+            if self.t_end is None and (host.done or host.error is not None):
+                self.t_end = t + settle_s
+            if self.t_end is not None and t >= self.t_end:
+                return None
+            if t > limit_s:
+                return f"{what} did not finish in {limit_s:g} s of simulated time"
+        return None
 
     def run(self, end: Callable[[float], bool]) -> None:
         """Step until `end(t)` after a step (t: its start time) or a hook stopped the run."""
