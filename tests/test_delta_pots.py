@@ -23,20 +23,30 @@ def two():
     return sc, run_delta_pots(sc, 1)
 
 
-def test_the_pots_go_into_the_tube(two):
+def test_the_pots_go_into_the_tube_judged_by_the_pot_lines_judge(two):
+    """The delta's pots are judged by the five-bar's judge: the seedlings' shoots are
+    followed; the fuzzy gripper's palm (the bridge between its fingers) comes down on them."""
     sc, r = two
-    assert r.fault is None and r.valid and r.refused == []
-    assert [p.pot for p in r.records] == ["pot_0_0", "pot_0_1"]
-    assert r.outcomes == {"success": 2}  # measured: seed 1, both pots in the tube
+    assert r.fault is None and r.valid and r.extra["refused"] == []
+    assert [p.pot for p in r.pots] == ["pot_0_0", "pot_0_1"]
+    # measured: seed 1, both pots in the tube, their shoots bent over by the palm, which
+    # stands 11 mm over a 52 mm pot gripped 30 mm up: a 38-48 mm shoot cannot stand under it
+    assert r.outcomes == {"shoot_crushed": 2}
+    for rec in r.per_seedling:
+        assert rec.lifted and rec.in_gripper_at_drop and rec.shoot_touched_by == "bridge"
+        assert rec.shoot_pressed_deg > 70 and rec.peak_grip_force_n > 5  # held by the pads
     d = r.to_dict()
+    assert set(d["failures"]) >= {"shoot_crushed", "knocked_over", "slipped", "not_gripped"}
+    assert d["max_stem_bend_deg"] == 0.0  # no pot in the tube undamaged
     assert d["planner"] == "bspline5"  # the delta's splines, as delta_refill
-    assert d["cycle_time_s"] == pytest.approx(2.492, abs=0.01)  # measured (G1 lines: 3.089)
+    # approach to the release's end, the index aside (measured; before the judge, start to
+    # start with the index: 2.492)
+    assert d["cycle_time_s"] == pytest.approx(2.3065, abs=0.01)
     assert d["seedlings_per_hour"] == pytest.approx(3600 / d["cycle_time_s"], abs=0.1)
-    for p in r.records:
+    for p in r.pots:
         assert p.attempts == 1 and p.grip_deg == 22.5
         # the fingers stopped on the 35 mm pot, short of the 22.5 deg they were sent to
         assert 35 < p.gripper_reached_deg < 45
-        assert p.peak_squeeze_n > 5  # the pads pressed on it: it was held by them
     motors = {m["name"]: m for m in d["motors"]["drives"]}
     assert set(motors) == {"q1", "q2", "q3", "gripper"}
     assert all(m["work_j"] > 0 for m in motors.values())
@@ -49,17 +59,21 @@ def test_the_same_seed_gives_the_same_json(two, tmp_path, capsys):
     status = cli.main(["trial", "delta_pots", "--seedlings", "2", "--seed", "1",
                        "--json", str(out)])  # fmt: skip
     assert status == 0
-    assert "2/2 seedlings into the tube" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "0/2 seedlings into the tube" in printed and "shoot_crushed 2" in printed
+    assert "failures: shoot_crushed    2" in printed  # the five-bar's summary
     got = json.loads(out.read_text())
     want = json.loads(json.dumps(r.to_dict()))
+    assert got.pop("overrides") == {"scenario.seed": 1, "scenario.seedlings": 2}  # as set
     for d in (got, want):
-        d.pop("wall_time_s")
+        d.pop("wall_time_s"), d.pop("real_time_factor")
+    want.pop("overrides")
     assert got == want
 
 
 def test_the_pot_is_held_by_contact_only():
     sc = load_scenario("delta_pots")
-    spec, _, _ = scene_spec(sc, 1)
+    spec, _, _, _ = scene_spec(sc, 1)
     with quiet_prefix_note():
         model = spec.compile()
     kinds = [mujoco.mjtEq(int(t)) for t in model.eq_type]
@@ -118,7 +132,8 @@ def test_a_study_run_is_a_row_of_pots():
 
     row = run_one(task("delta_pots", {}, {"delta_pots.grip_deg": 22.5}, 1, 1))
     assert row["error"] is None, row["error"]
-    assert (row["successes"], row["seedlings"], row["cycles"]) == (1, 1, 0)
-    assert row["cycle_time_s"] is None  # one pick: no cycle between two
-    assert row["fail_dropped"] == row["fail_missed"] == row["fail_no_pot"] == 0
+    # the five-bar's row: its failure kinds (the palm crushed the shoot), a cycle per pick
+    assert (row["successes"], row["seedlings"], row["cycles"]) == (0, 1, 1)
+    assert row["fail_shoot_crushed"] == 1 and row["fail_no_pot"] == 0
+    assert row["cycle_time_s"] == pytest.approx(2.372, abs=0.01)  # measured
     assert row["valid"] is True and row["peak_squeeze_n"] > 5

@@ -120,8 +120,8 @@ def test_every_packaged_scenario_refuses_a_key_its_kinds_do_not_read(name):
         ("delta_refill", "taught.z_low_mm", 22.0, "the conveyor_tube job with the fivebar robot"),
         ("delta_refill", "scenario.seedlings", 3, "the conveyor_tube job, the plug_bench job"),
         ("delta_refill", "motion.resolution_mm", 0.05, "the fivebar robot"),
-        ("serial_arm_pots", "metrics.knocked_offset_mm", 9.0, "the conveyor_tube job with"),
-        ("delta_pots", "pots.stem_sway_hz", 5.0, "the conveyor_tube job with the fivebar robot"),
+        ("serial_arm_pots", "taught.z_low_mm", 30.0, "the conveyor_tube job with"),
+        ("delta_pots", "conveyor.live_rows", 5, "the conveyor_tube job with the fivebar robot"),
         ("plug_bench", "physics.timestep_ms", 0.5, "the conveyor_tube job, the plug_trays job"),
     ],
 )

@@ -5,35 +5,18 @@ per seed, a line each; with --seeds the pooled success rate over the pots."""
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _seeds
 
-__all__ = ["NOT_FILMED", "pots_line", "run_trial"]
+__all__ = ["NOT_FILMED", "run_trial"]
 
 NOT_FILMED = (
     "the delta's pot job (robot delta in the conveyor_tube workcell) is not filmed yet: "
     "transplanter trial (with --record for rerun), sweep and compare run it (render, view and "
     "export do not build its scene yet)"
 )
-
-
-def pots_line(r) -> str:
-    """One run's result in a line."""
-    d = r.to_dict()
-    kinds = ", ".join(f"{k} {v}" for k, v in d["outcomes"].items())
-    cycle = "-" if not math.isfinite(r.cycle_time_s) else f"{r.cycle_time_s:.3f} s"
-    line = (
-        f"delta on the pot line (seed {r.seed}, {r.planner}): {r.successes}/{r.seedlings} "
-        f"seedlings into the tube ({100 * d['success_rate']:.1f} %; {kinds}); cycle {cycle}, "
-        f"{d['seedlings_per_hour']} seedlings/h; peak squeeze {d['peak_squeeze_n']:.2f} N; "
-        f"{r.sim_time_s:.1f} s simulated in {r.wall_s:.1f} s"
-    )
-    if r.fault:
-        line += f"\n  fault: {r.fault}"
-    return line
 
 
 def run_trial(
@@ -77,7 +60,7 @@ def run_trial(
     except (ScenarioError, ValueError) as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
-    from transplanter.cli.serial_trial import run_pot_seeds
+    from transplanter.cli.serial_trial import pots_line, run_pot_seeds
 
     return run_pot_seeds(
         args, scenario, seeds, json_path, run_delta_pots, pots_line, DEFINITIONS, record_path

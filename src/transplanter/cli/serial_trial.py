@@ -238,15 +238,21 @@ def render(
 
 
 def pots_line(r) -> str:
-    """One pot job's result in a line."""
+    """One pot job's result in a line (`twin.pot_job.PotJobResult`, any robot's)."""
     d = r.to_dict()
     kinds = ", ".join(f"{k} {v}" for k, v in d["outcomes"].items())
-    return (
-        f"serial arm on the pot line (seed {r.seed}): {r.successes}/{r.seedlings} seedlings "
-        f"into the tube ({100 * d['success_rate']:.1f} %; {kinds}); cycle "
-        f"{d['cycle_time_s']:.3f} s, {d['seedlings_per_hour']} seedlings/h; peak squeeze "
-        f"{d['peak_squeeze_n']:.2f} N; {r.sim_time_s:.1f} s simulated in {r.wall_s:.1f} s"
+    cycle = "-" if not math.isfinite(r.cycle_time_s) else f"{r.cycle_time_s:.3f} s"
+    planner = f", {d['planner']}" if "planner" in d else ""
+    line = (
+        f"{r.trial} (seed {r.seed}{planner}): {r.successes}/{r.seedlings} seedlings into the "
+        f"tube ({100 * d['success_rate']:.1f} %; {kinds}); cycle {cycle}, "
+        f"{d['seedlings_per_hour']} seedlings/h; largest shoot bend "
+        f"{d['max_stem_bend_deg']:.1f} deg; peak squeeze {d['peak_squeeze_n']:.2f} N; "
+        f"{r.sim_time_s:.1f} s simulated in {r.wall_s:.1f} s"
     )
+    if r.fault:
+        line += f"\n  fault: {r.fault}"
+    return line
 
 
 def _run_pots(
@@ -296,6 +302,10 @@ def run_pot_seeds(
                  None)
             )  # fmt: skip
         results.append(result)
+        if args.seeds is None:  # the pot line's summary, as the five-bar's
+            from transplanter.twin.report import format_summary
+
+            print(format_summary(result))
         print(line(result))
     if args.seeds is None:
         payload: dict[str, Any] = results[0].to_dict()

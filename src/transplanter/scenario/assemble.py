@@ -42,6 +42,7 @@ __all__ = [
     "assemble",
     "claws_config",
     "fault_config",
+    "judge_config",
     "machine_config",
     "plugs_config",
     "scene_config",
@@ -94,6 +95,22 @@ class TwinConfig:
     faults: FaultConfig = FaultConfig()  # scenario [faults]: none by default
 
 
+def judge_config(s: Scenario) -> JudgeConfig:
+    """The pot line's judge for a scenario ([metrics], the pots' height, the cells' pitches),
+    whatever robot works the line."""
+    return JudgeConfig(
+        knocked_offset_m=s.metrics.knocked_offset_m,
+        knocked_tilt_rad=s.metrics.knocked_tilt_rad,
+        lifted_fraction=s.metrics.lifted_fraction,
+        between_jaws_m=s.metrics.between_jaws_m,
+        settle_s=s.metrics.settle_s,
+        damage_bend_rad=s.metrics.damage_bend_rad,
+        pot_height_m=s.pots.height_m,
+        cell_pitch_m=s.conveyor.cell_pitch_m,
+        row_pitch_m=s.conveyor.row_pitch_m,
+    )
+
+
 def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
     """The twin's configs for a scenario; with preflight, every taught point and move is
     checked first (ScenarioError naming the key)."""
@@ -131,17 +148,7 @@ def assemble(scenario: Scenario, preflight: bool = True) -> TwinConfig:
             max_opening_m=s.gripper.max_opening_m,
         ),
         wrist_servo=ServoConfig(speed_deg_s=60.0 / s.gripper.wrist_servo_s_per_60deg),
-        judge=JudgeConfig(
-            knocked_offset_m=s.metrics.knocked_offset_m,
-            knocked_tilt_rad=s.metrics.knocked_tilt_rad,
-            lifted_fraction=s.metrics.lifted_fraction,
-            between_jaws_m=s.metrics.between_jaws_m,
-            settle_s=s.metrics.settle_s,
-            damage_bend_rad=s.metrics.damage_bend_rad,
-            pot_height_m=s.pots.height_m,
-            cell_pitch_m=s.conveyor.cell_pitch_m,
-            row_pitch_m=s.conveyor.row_pitch_m,
-        ),
+        judge=judge_config(s),
         faults=faults,
     )
 

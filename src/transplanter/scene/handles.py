@@ -44,8 +44,23 @@ class LeafProxies:
     half_length: float
 
 
-class Scene:
-    """A compiled scene with precomputed index arrays and per-step helpers."""
+@dataclass(frozen=True)
+class GripperParts:
+    """The names of an effector's parts the pot line's handles need: its root body (the
+    gripper's boxes under it and its direct children are what leaves can touch), the geoms
+    that grip a pot (jaws, pads), its grip-centre site and the bridge over the grip (the geom a
+    shoot under the gripper meets first)."""
+
+    root: str
+    pads: tuple[str, ...]
+    site: str
+    bridge: str
+
+
+class PotLine:
+    """The pot line's handles on a compiled scene, whatever robot works it: the pots (bodies,
+    addresses, the tube, the window of live rows), the conveyor's slide, the seedlings' leaves
+    and the effector's contacts with them (`gripper`: its parts' names)."""
 
     def __init__(
         self,
@@ -53,6 +68,7 @@ class Scene:
         config: SceneConfig,
         pots: PotBatch,
         leaves: LeafProxies,
+        gripper: GripperParts,
         decorated: Callable[[], mujoco.MjModel] | None = None,
     ):
         self.model = model
@@ -64,31 +80,10 @@ class Scene:
         self._render_data: mujoco.MjData | None = None
         m = model
         name = lambda kind, n: mujoco.mj_name2id(m, kind, n)  # noqa: E731
-        self.motor_actuators = np.array(
-            [name(mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in ("theta1", "theta2", "z")]
-        )
-        self.motor_gears = m.actuator_gear[self.motor_actuators, 0].copy()
-        motor_joints = [name(mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("theta1", "theta2", "z")]
-        self.motor_qpos_adr = m.jnt_qposadr[motor_joints].copy()
-        # the steppers' torque laws; the detent's zero where they were energised at power-on
-        self.drives = StepperDrives(
-            list(config.stepper_params()),
-            self.motor_actuators,
-            self.motor_qpos_adr,
-            self.motor_gears,
-            [config.power_on_theta1_rad, config.power_on_theta2_rad, config.power_on_z_m],
-        )
-        self.gripper_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "gripper")
-        self.wrist_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "wrist")
-        self.wrist_qpos_adr = m.jnt_qposadr[name(mujoco.mjtObj.mjOBJ_JOINT, "wrist")]
-        self.jaw_tendon = name(mujoco.mjtObj.mjOBJ_TENDON, "jaw_opening")
-        self.grip_site = name(mujoco.mjtObj.mjOBJ_SITE, "grip_center")
-        self.c1_site = name(mujoco.mjtObj.mjOBJ_SITE, "c1")
-        self.c2_site = name(mujoco.mjtObj.mjOBJ_SITE, "c2")
+        self.grip_site = name(mujoco.mjtObj.mjOBJ_SITE, gripper.site)
         conveyor_joint = name(mujoco.mjtObj.mjOBJ_JOINT, "conveyor")
         self.conveyor_qpos_adr = int(m.jnt_qposadr[conveyor_joint])
         self.conveyor_dof_adr = int(m.jnt_dofadr[conveyor_joint])
-        self.home_key = name(mujoco.mjtObj.mjOBJ_KEY, "home")
         # bonded pots' adhesion (build._add_bond): actuator ids and their pots' flat indices
         bonds = [a for a in range(m.nu) if (m.actuator(a).name or "").startswith("bond_")]
         self.bond_actuators = np.array(bonds, dtype=int)
@@ -99,13 +94,6 @@ class Scene:
             ],
             dtype=int,
         )
-
-        trip_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_trip")]
-        sense_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_sense")]
-        self.switch_trip = m.numeric_data[trip_adr : trip_adr + 4].copy()
-        self.switch_sense = m.numeric_data[sense_adr : sense_adr + 4].copy()
-        self.switch_qpos_adr = self.motor_qpos_adr[[0, 1, 2, 2]]
-
         rows, cols = config.rows, config.cols
         # a pot's body, geom and addresses; -1 for a pot that is not a body now (a windowed
         # scene, config.live_rows < rows: scene.live_rows moves pots in and out)
@@ -131,10 +119,8 @@ class Scene:
         self.pot_dof_adr[live] = m.jnt_dofadr[m.body_jntadr[flat[live]]]
 
         ngeom = m.ngeom
-        self.palm_geom = name(mujoco.mjtObj.mjOBJ_GEOM, "palm")  # the bridge over the jaws
-        self.jaw_geoms = np.array(
-            [name(mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("jaw_left", "jaw_right")]
-        )
+        self.palm_geom = name(mujoco.mjtObj.mjOBJ_GEOM, gripper.bridge)  # over the grip
+        self.jaw_geoms = np.array([name(mujoco.mjtObj.mjOBJ_GEOM, n) for n in gripper.pads])
         self._is_jaw = np.zeros(ngeom, bool)
         self._is_jaw[self.jaw_geoms] = True
         self._pot_of_geom = np.full(ngeom, -1)
@@ -154,7 +140,7 @@ class Scene:
         self.has_canopy_contact = bool((leaf_pot >= 0).any())
         self._leaf_pot_of_geom_list = leaf_pot.tolist()
         self._is_jaw_list = self._is_jaw.tolist()
-        gripper_body = name(mujoco.mjtObj.mjOBJ_BODY, "gripper")
+        gripper_body = name(mujoco.mjtObj.mjOBJ_BODY, gripper.root)
         gripper_bodies = {gripper_body} | {
             b for b in range(m.nbody) if m.body_parentid[b] == gripper_body
         }
@@ -198,14 +184,6 @@ class Scene:
         if geom >= 0:
             self._pot_of_geom_list[geom] = pot
 
-    # ----- state -----
-    def make_data(self) -> mujoco.MjData:
-        """New MjData at the home keyframe, forward-ed."""
-        data = mujoco.MjData(self.model)
-        mujoco.mj_resetDataKeyframe(self.model, data, self.home_key)
-        mujoco.mj_forward(self.model, data)
-        return data
-
     # ----- drawing -----
     @property
     def render_model(self) -> mujoco.MjModel:
@@ -241,35 +219,6 @@ class Scene:
         mujoco.mj_comPos(model, mirror)
         mujoco.mj_camlight(model, mirror)
         return mirror
-
-    # ----- drives -----
-    def hold_motors(self, data: mujoco.MjData, joint_positions, joint_speeds=None) -> None:
-        """The steppers' torques for the next physics step with their fields at theta1,
-        theta2 (rad) and Z (m), moving at joint_speeds (default: at rest): call it before
-        every step (transplanter.scene.stepper)."""
-        self.drives.hold(data, joint_positions, joint_speeds)
-
-    def joint_positions(self, data: mujoco.MjData) -> np.ndarray:
-        """Actual theta1, theta2 (rad), Z (m)."""
-        return data.qpos[self.motor_qpos_adr].copy()
-
-    def set_gripper_opening(self, data: mujoco.MjData, opening_m: float) -> None:
-        """Servo target for the jaw opening (m), clipped to [0, gripper_max_opening_m]."""
-        data.ctrl[self.gripper_actuator] = min(
-            max(opening_m, 0.0), self.config.gripper_max_opening_m
-        )
-
-    def gripper_opening(self, data: mujoco.MjData) -> float:
-        return float(data.ten_length[self.jaw_tendon])
-
-    def set_wrist_angle(self, data: mujoco.MjData, angle_rad: float) -> None:
-        """Wrist servo target (rad); gripper approach axis in the world = psi1 + wrist."""
-        data.ctrl[self.wrist_actuator] = angle_rad
-
-    def limit_switches(self, data: mujoco.MjData) -> np.ndarray:
-        """Switches 1-4 (bool): theta1 >= trip1, theta2 <= trip2, z >= trip3, z <= trip4."""
-        q = data.qpos[self.switch_qpos_adr]
-        return self.switch_sense * (q - self.switch_trip) >= 0
 
     # ----- pots -----
     def pot_positions(self, data: mujoco.MjData) -> np.ndarray:
@@ -399,3 +348,88 @@ class Scene:
     def conveyor_armed(self, data: mujoco.MjData) -> bool:
         """True while a ConveyorDrive index is armed in this MjData (until it is released)."""
         return conveyor_armed(data)
+
+
+JAW_PARTS = GripperParts(root="gripper", pads=("jaw_left", "jaw_right"), site="grip_center",
+                         bridge="palm")  # fmt: skip
+"""The parallel jaws' parts (models/effectors/parallel_jaw) as the five-bar's scene names them."""
+
+
+class Scene(PotLine):
+    """The five-bar's scene on the pot line: the line's handles (`PotLine`), the steppers'
+    drives, the gripper's and wrist's servos, the limit switches and the home keyframe."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        config: SceneConfig,
+        pots: PotBatch,
+        leaves: LeafProxies,
+        decorated: Callable[[], mujoco.MjModel] | None = None,
+    ):
+        super().__init__(model, config, pots, leaves, JAW_PARTS, decorated)
+        m = model
+        name = lambda kind, n: mujoco.mj_name2id(m, kind, n)  # noqa: E731
+        self.motor_actuators = np.array(
+            [name(mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in ("theta1", "theta2", "z")]
+        )
+        self.motor_gears = m.actuator_gear[self.motor_actuators, 0].copy()
+        motor_joints = [name(mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("theta1", "theta2", "z")]
+        self.motor_qpos_adr = m.jnt_qposadr[motor_joints].copy()
+        # the steppers' torque laws; the detent's zero where they were energised at power-on
+        self.drives = StepperDrives(
+            list(config.stepper_params()),
+            self.motor_actuators,
+            self.motor_qpos_adr,
+            self.motor_gears,
+            [config.power_on_theta1_rad, config.power_on_theta2_rad, config.power_on_z_m],
+        )
+        self.gripper_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "gripper")
+        self.wrist_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "wrist")
+        self.wrist_qpos_adr = m.jnt_qposadr[name(mujoco.mjtObj.mjOBJ_JOINT, "wrist")]
+        self.jaw_tendon = name(mujoco.mjtObj.mjOBJ_TENDON, "jaw_opening")
+        self.c1_site = name(mujoco.mjtObj.mjOBJ_SITE, "c1")
+        self.c2_site = name(mujoco.mjtObj.mjOBJ_SITE, "c2")
+        self.home_key = name(mujoco.mjtObj.mjOBJ_KEY, "home")
+        trip_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_trip")]
+        sense_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_sense")]
+        self.switch_trip = m.numeric_data[trip_adr : trip_adr + 4].copy()
+        self.switch_sense = m.numeric_data[sense_adr : sense_adr + 4].copy()
+        self.switch_qpos_adr = self.motor_qpos_adr[[0, 1, 2, 2]]
+
+    # ----- state -----
+    def make_data(self) -> mujoco.MjData:
+        """New MjData at the home keyframe, forward-ed."""
+        data = mujoco.MjData(self.model)
+        mujoco.mj_resetDataKeyframe(self.model, data, self.home_key)
+        mujoco.mj_forward(self.model, data)
+        return data
+
+    # ----- drives -----
+    def hold_motors(self, data: mujoco.MjData, joint_positions, joint_speeds=None) -> None:
+        """The steppers' torques for the next physics step with their fields at theta1,
+        theta2 (rad) and Z (m), moving at joint_speeds (default: at rest): call it before
+        every step (transplanter.scene.stepper)."""
+        self.drives.hold(data, joint_positions, joint_speeds)
+
+    def joint_positions(self, data: mujoco.MjData) -> np.ndarray:
+        """Actual theta1, theta2 (rad), Z (m)."""
+        return data.qpos[self.motor_qpos_adr].copy()
+
+    def set_gripper_opening(self, data: mujoco.MjData, opening_m: float) -> None:
+        """Servo target for the jaw opening (m), clipped to [0, gripper_max_opening_m]."""
+        data.ctrl[self.gripper_actuator] = min(
+            max(opening_m, 0.0), self.config.gripper_max_opening_m
+        )
+
+    def gripper_opening(self, data: mujoco.MjData) -> float:
+        return float(data.ten_length[self.jaw_tendon])
+
+    def set_wrist_angle(self, data: mujoco.MjData, angle_rad: float) -> None:
+        """Wrist servo target (rad); gripper approach axis in the world = psi1 + wrist."""
+        data.ctrl[self.wrist_actuator] = angle_rad
+
+    def limit_switches(self, data: mujoco.MjData) -> np.ndarray:
+        """Switches 1-4 (bool): theta1 >= trip1, theta2 <= trip2, z >= trip3, z <= trip4."""
+        q = data.qpos[self.switch_qpos_adr]
+        return self.switch_sense * (q - self.switch_trip) >= 0

@@ -13,7 +13,7 @@ from typing import Any
 
 from transplanter.scenario.schema import ScenarioError, load_scenario, with_units
 from transplanter.studies.grid import SweepRefused
-from transplanter.twin.motors import motor_columns
+from transplanter.studies.jobs import WARNING_SEPARATOR, trial_row  # noqa: F401 (re-exported)
 from transplanter.twin.results import FAILURE_KINDS
 
 BACKENDS = ("process", "ray", "inline")
@@ -41,10 +41,6 @@ RESULT_FIELDS = (
     "warnings",
     "error",
 )
-
-
-# The trial's warnings in one cell of a row (none: an empty string).
-WARNING_SEPARATOR = " | "
 
 
 class BackendMissing(SweepRefused):
@@ -86,33 +82,7 @@ def run_one(task: Mapping[str, Any]) -> dict[str, Any]:
         row["error"] = f"{type(exc).__name__}: {exc}"
         row["wall_time_s"] = time.perf_counter() - t0
         return row
-    d = result.to_dict()
-    row.update(
-        successes=d["successes"],
-        seedlings=d["seedlings"],
-        success_rate=d["success_rate"],
-        cycle_time_s=d["cycle_time_s"],
-        cycle_time_sd_s=d["cycle_time_sd_s"],
-        cycles=int(result.cycle_times.size),
-        plants_per_hour=d["plants_per_hour"],
-        lost_step_events=len(d["lost_step_events"]),
-        max_stem_bend_deg=d["max_stem_bend_deg"],
-        valid=d["valid"],
-        fault=d["fault"],
-        fault_kind=d["fault_kind"],  # why the firmware stopped, by kind (FaultKind)
-        sim_time_s=d["sim_time_s"],
-        wall_time_s=d["wall_time_s"],
-        # what the trial summary warns of (speeds the drives could not reach, ...), one cell
-        warnings=WARNING_SEPARATOR.join(d["warnings"]),
-        **motor_columns(d["motors"]),
-    )
-    for kind, count in d["failures"].items():
-        row[f"fail_{kind}"] = count
-    if not d["valid"]:
-        row["error"] = f"trial not valid: {d['invalid_reason']}"
-    elif d["fault"]:
-        row["error"] = f"firmware fault: {d['fault']}"
-    return row
+    return trial_row(result, row)
 
 
 class InlineBackend:

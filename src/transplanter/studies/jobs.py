@@ -40,9 +40,9 @@ SERIAL_ONLY_SECTIONS = ("fuzzy_gripper", "pool_to_belt", "serial_arm", "serial_p
 """The scenario sections only the serial arm's jobs read (added after the five-bar's sweeps
 had their digests: left out of them, as the plug sections are)."""
 
-POT_FIELDS = ("peak_squeeze_n", "fail_dropped", "fail_missed", "fail_no_pot")
-"""The pot jobs' own columns (the serial arm's and the delta's on the five-bar's line:
-`_pot_row`)."""
+POT_FIELDS = ("peak_squeeze_n",)
+"""The pot jobs' own column beside the five-bar's (the serial arm's and the delta's on the
+pot line, judged alike: `_pot_row`)."""
 
 DELTA_FAILURES = (
     "cull_dropped",
@@ -202,31 +202,48 @@ def _delta_pots(scenario, seed: int, row: dict[str, Any]) -> None:
     _pot_row(run_delta_pots(scenario, seed), row)
 
 
-def _pot_row(r, row: dict[str, Any]) -> None:
-    """A pot job's result (the serial arm's or the delta's on the five-bar's line) as a row."""
-    d = r.to_dict()
+WARNING_SEPARATOR = " | "
+"""The trial's warnings in one cell of a row (none: an empty string)."""
+
+
+def trial_row(result, row: dict[str, Any]) -> dict[str, Any]:
+    """A pot-line trial's result (`twin.results.TrialResult`, whatever robot worked the line)
+    in `row`: the counts, times, the judge's failure kinds and damage, the motors; the
+    error of an invalid or faulted trial."""
+    d = result.to_dict()
     row.update(
-        successes=r.successes,
-        seedlings=r.seedlings,
+        successes=d["successes"],
+        seedlings=d["seedlings"],
         success_rate=d["success_rate"],
-        cycle_time_s=_finite(r.cycle_time_s),
-        cycle_time_sd_s=None,
-        cycles=max(len(r.picked) - 1, 0),
-        valid=r.valid,
-        fault=r.fault,
-        sim_time_s=r.sim_time_s,
-        wall_time_s=r.wall_s,
-        warnings="",
-        plants_per_hour=d["seedlings_per_hour"],
-        peak_squeeze_n=d["peak_squeeze_n"],
-        **motor_columns(r.motors),
-        **{f"fail_{k.replace(' ', '_')}": r.outcomes.get(k, 0)
-           for k in ("dropped", "missed", "no pot")},
-    )  # fmt: skip
-    if not r.valid:
-        row["error"] = "trial not valid: MuJoCo warned or the job ran out of simulated time"
-    elif r.fault:
-        row["error"] = f"fault: {r.fault}"
+        cycle_time_s=d["cycle_time_s"],
+        cycle_time_sd_s=d["cycle_time_sd_s"],
+        cycles=int(result.cycle_times.size),
+        plants_per_hour=d["plants_per_hour"],
+        lost_step_events=len(d["lost_step_events"]),
+        max_stem_bend_deg=d["max_stem_bend_deg"],
+        valid=d["valid"],
+        fault=d["fault"],
+        fault_kind=d["fault_kind"],  # why the firmware stopped, by kind (FaultKind)
+        sim_time_s=d["sim_time_s"],
+        wall_time_s=d["wall_time_s"],
+        # what the trial summary warns of (speeds the drives could not reach, ...), one cell
+        warnings=WARNING_SEPARATOR.join(d["warnings"]),
+        **motor_columns(d["motors"]),
+    )
+    for kind, count in d["failures"].items():
+        row[f"fail_{kind}"] = count
+    if not d["valid"]:
+        row["error"] = f"trial not valid: {d['invalid_reason']}"
+    elif d["fault"]:
+        row["error"] = f"firmware fault: {d['fault']}"
+    return row
+
+
+def _pot_row(r, row: dict[str, Any]) -> None:
+    """A pot job's result (any robot's on the pot line, judged by the pot line's judge) as
+    the five-bar's trial row, with the gripper's peak squeeze."""
+    trial_row(r, row)
+    row["peak_squeeze_n"] = round(r.peak_squeeze_n, 4)
 
 
 def _sd(values) -> float:
@@ -297,7 +314,7 @@ JOBS: dict[str, Job] = {
         "serial4:conveyor_tube",
         fields=POT_FIELDS,
         means=("plants_per_hour", "peak_squeeze_n"),
-        sections=(*SERIAL_SECTIONS, "serial_pots", "conveyor", "pots", "drop_tube"),
+        sections=(*SERIAL_SECTIONS, "serial_pots", "conveyor", "pots", "drop_tube", "metrics"),
         run=_serial_pots,
     ),
     "delta:conveyor_tube": Job(
@@ -316,6 +333,7 @@ JOBS: dict[str, Job] = {
             "conveyor",
             "pots",
             "drop_tube",
+            "metrics",
         ),
         run=_delta_pots,
     ),

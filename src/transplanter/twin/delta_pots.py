@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import Any
 
@@ -56,41 +55,35 @@ from transplanter.machine.fuzzy_gripper import NO_ECHO, UltrasonicSensor
 from transplanter.machine.gcode import format_number
 from transplanter.machine.host import Call, HostProgram, Wait
 from transplanter.machine.kinematics.delta import DeltaKinematics
+from transplanter.machine.pgf import LinePhase
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.servo import ServoMount, servo_class
 from transplanter.machine.servo_drives import ServoBank, frame_steps
-from transplanter.scenario.assemble import delta_sgf_config, require_awake
+from transplanter.scenario.assemble import delta_sgf_config, judge_config, require_awake
 from transplanter.scene.effectors import fuzzy_gripper
 from transplanter.scene.robots import delta as delta_robot
 from transplanter.twin.loop import StepLoop
 from transplanter.twin.motors import MotorMeter
-from transplanter.twin.serial_arm import SENSE_CYCLE_S, _Ranger, _Squeeze
-from transplanter.twin.serial_pots import (
-    DETECTED_CM,
-    PotBook,
-    PotRecord,
-    SerialPotsResult,
-    _reporter,
-    finish_observers,
-    line_config,
+from transplanter.twin.pot_job import (
+    DEFINITIONS,
+    INVALID,
+    PotJob,
+    PotJobResult,
+    close_observers,
+    event_sink,
+    pot_line,
+    reporter,
 )
+from transplanter.twin.serial_arm import SENSE_CYCLE_S, _Ranger
+from transplanter.twin.serial_pots import DETECTED_CM, PotRecord, line_config
 
 __all__ = [
     "DEFINITIONS",
-    "DeltaPotsResult",
     "check_placement",
     "run_delta_pots",
     "scene_spec",
 ]
 
-DEFINITIONS = {
-    "success": "the pot fell into the drop tube below the funnel's throat (then planted)",
-    "missed": "the pot still on the belt (not lifted, or slipped back)",
-    "dropped": "the pot neither in the tube nor on the belt",
-    "no pot": "sensor 1 of the cell read no pot: the host skipped it",
-    "cycle_time_s": "mean time from one pot's pick to the next's (indexes included)",
-    "seedlings_per_hour": "3600 / cycle_time_s",
-}
 PLACEMENT_KEYS = "delta_pots.base_x_mm, base_y_mm, base_z_mm"
 POWER_ON_M = np.array([0.0, 0.0, -0.8])
 """The platform centre at power-on, in the delta's frame: the pose models/delta is drawn in
@@ -200,7 +193,8 @@ def _subtree_mass(body) -> float:
 
 def scene_spec(sc, seed: int):
     """The job's scene: the delta over the pot line with the fuzzy gripper under its
-    platform and each pickup cell's sensor 1. Returns (spec, line config, gripper config)."""
+    platform and each pickup cell's sensor 1. Returns (spec, line config, gripper config, the
+    pots drawn: a PotBatch)."""
     from transplanter.scenario.assemble import fuzzy_gripper_config
     from transplanter.scene import kinds
     from transplanter.scene.build import merge_models, workcell_xml
@@ -239,33 +233,14 @@ def scene_spec(sc, seed: int):
     spec.option.timestep = sc.physics.timestep_s
     cell = kinds.workcell("conveyor_tube")
     cell.apply(spec, line)
-    cell.populate(spec, line, seed, decor=False)
+    pots = cell.populate(spec, line, seed, decor=False)
     y = line.pickup_row_y_m - line.pot_diameter_m / 2 - job.sensor_gap_m
     for c, x in enumerate(cell_columns_x(line)):
         body = spec.worldbody.add_body(name=f"station_sensor_c{c}", pos=[x, y, job.sensor_z_m])
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.0225, 0.001, 0.01], contype=0,
                       conaffinity=0, group=2, rgba=[0.1, 0.45, 0.2, 1])  # fmt: skip
         body.add_site(name=f"station_sensor_c{c}", zaxis=[0, 1, 0], size=[0.002, 0, 0])
-    return spec, line, grip
-
-
-@dataclass
-class DeltaPotsResult(SerialPotsResult):
-    """The serial arm's pot-job result (the same records, counts and cycle) with the delta's
-    planner, its drives' refusals and their peak following error."""
-
-    planner: str = "lines"
-    refused: list[str] = field(default_factory=list)
-    peak_following_error_deg: list[float] = field(default_factory=list)
-
-    def to_dict(self) -> dict[str, Any]:
-        return super().to_dict() | {
-            "trial": "delta_pots",
-            "planner": self.planner,
-            "refused": self.refused,
-            "peak_following_error_deg": self.peak_following_error_deg,
-            "definitions": DEFINITIONS,
-        }
+    return spec, line, grip, pots
 
 
 def _mm(v: float) -> str:
@@ -292,13 +267,12 @@ def require_delta_gripper(sc) -> None:
     )
 
 
-def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> DeltaPotsResult:
+def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> PotJobResult:
     """`scenario.seedlings` pots of the scenario's pot line (seed `seed`, default the
     scenario's), picked row by row into the drop tube by the delta (module docstring).
     `progress(done, sim_t)`: called once a simulated second with the pots done; `observers`
     (`viewing.loop_recording.LoopRecording`) watch the loop without changing it."""
     require_awake(sc, "the delta's pot job")
-    from transplanter.scene.conveyor import ConveyorDrive
     from transplanter.scene.geometry import cell_columns_x
 
     require_delta_gripper(sc)
@@ -308,7 +282,7 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     job, d = sc.delta_pots, sc.delta
     dt = sc.physics.timestep_s
     per_frame = frame_steps(dt)  # ValueError: the servos' PWM frame needs a dividing step
-    spec, line, grip = scene_spec(sc, seed)
+    spec, line, grip, pots = scene_spec(sc, seed)
     with delta_robot.quiet_prefix_note():
         model = spec.compile()
     data = mujoco.MjData(model)
@@ -354,20 +328,9 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     rangers = [_Ranger(model, f"station_sensor_c{c}", sensor, streams[c]) for c in range(line.cols)]
     sense_every = max(1, round(SENSE_CYCLE_S / dt))
 
-    conveyor_qpos = model.jnt_qposadr[model.joint("conveyor").id]
-    conveyor_dof = model.jnt_dofadr[model.joint("conveyor").id]
-    drive = ConveyorDrive(
-        SimpleNamespace(
-            model=model, config=line, conveyor_qpos_adr=conveyor_qpos, conveyor_dof_adr=conveyor_dof
-        )
-    )
     n = min(sc.meta.seedlings, line.rows * line.cols)
-    book = PotBook(line, model, data, n)
-    records, body_ids, holding, plant, mark = (
-        book.records, book.body_ids, book.holding, book.plant, book.mark
-    )  # fmt: skip
-    squeeze = _Squeeze(model, body_ids)
-    report = _reporter(progress, records, dt) if progress is not None else None
+    grips = [PotRecord(i, f"pot_{i // line.cols}_{i % line.cols}", *divmod(i, line.cols))
+             for i in range(n)]  # fmt: skip
     finger_adr = [model.jnt_qposadr[model.joint(f).id] for f in fuzzy_gripper.FINGERS]
 
     def station(col: int):
@@ -396,6 +359,12 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
             yield g1(grip_world + up, v_travel)
             yield g1(grip_world, v_app)
 
+    def mark(i: int, key: str):
+        def fn(t: float) -> None:
+            setattr(grips[i], key, t)
+
+        return fn
+
     def took(rec: PotRecord):
         def fn(_t: float) -> None:
             rec.grip_deg = math.degrees(job.grip_rad)
@@ -417,20 +386,25 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
                 yield Wait(2 * SENSE_CYCLE_S)
                 reading = yield Call(station(col))
                 if reading == NO_ECHO or reading > DETECTED_CM:
-                    records[i].outcome = "no pot"
+                    grips[i].outcome = "no pot"
+                    yield pot_job.skipped(i)
                     continue
                 grasp = np.array([xs[col], line.pickup_row_y_m, job.grasp_z_m])
                 yield Call(mark(i, "start_s"))
+                yield pot_job.sent(LinePhase.APPROACH, i)
                 for attempt in range(1, job.attempts + 1):
-                    records[i].attempts = attempt
+                    grips[i].attempts = attempt
                     yield from onto(grasp)
                     yield "M400"
+                    yield pot_job.done(LinePhase.APPROACH, i)
                     yield grip_line
+                    yield pot_job.done(LinePhase.CLOSE, i)
                     yield f"G4 P{_ms(job.grip_settle_s)}"
                     yield "M400"
-                    yield Call(took(records[i]))
+                    yield Call(took(grips[i]))
                     yield g1(grasp + up, v_app)
                     yield "M400"
+                    yield pot_job.done(LinePhase.LIFT, i)
                     yield Wait(2 * SENSE_CYCLE_S)
                     reading = yield Call(station(col))
                     if reading > DETECTED_CM:  # the cell is empty: the pot is up
@@ -439,19 +413,26 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
                     yield f"G4 P{_ms(job.release_settle_s)}"
                 else:
                     yield Call(mark(i, "end_s"))
+                    yield pot_job.give_up(i, f"sensor 1 still heard it after {job.attempts} "
+                                          "grasps")  # fmt: skip
                     continue
                 yield from onto(release)
+                yield "M400"
+                yield pot_job.done(LinePhase.TO_DROP, i)
                 yield open_line
+                yield pot_job.done(LinePhase.RELEASE, i)
                 yield f"G4 P{_ms(job.release_settle_s)}"
                 if not spline:  # a spline leaves the release upwards itself
                     yield g1(release + up, v_app)
                 yield "M400"
                 yield Call(mark(i, "end_s"))
+                yield pot_job.done(LinePhase.RELEASE_WAIT, i)
             if (row + 1) * line.cols >= n:
                 break
             yield g1(park, v_travel)
             yield "M710"
             yield "M400"
+            yield pot_job.done(LinePhase.INDEX, min(n, (row + 1) * line.cols) - 1)
         yield g1(park, v_travel)
         yield "M400"
 
@@ -459,6 +440,11 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     loop = StepLoop(
         model, data, host, bus, controller, endstops, controller.sgf.drain_machine_events
     )
+    scene = pot_line(model, line, pots, fuzzy_gripper.PARTS)
+    pickups = [(x, line.pickup_row_y_m) for x in xs]
+    pot_job = PotJob(loop, scene, judge_config(sc), pickups, job.hover_m, n,
+                     event_sink(observers))  # fmt: skip
+    drive = pot_job.conveyor
     arms = [model.jnt_qposadr[model.joint(name).id] for name in delta_robot.ARMS]
     gear = d.gear_ratio
     limit_s = 60.0 + 20.0 * n
@@ -493,10 +479,10 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
         if drive.armed(data):
             drive.apply(data, t)
 
+    report = reporter(progress, pot_job, dt) if progress is not None else None
+
     def watch(_t: float) -> None:
         meter.record(data)
-        if holding:
-            squeeze.after_step(data)
         if report is not None:
             report(loop.time)
 
@@ -515,24 +501,30 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     fault, t, k = state["fault"] or timed_out, loop.last_t, loop.k
     if fault is None and host.error is not None:
         fault = host.error
-    plant()
-    half_w = line.cols * line.cell_pitch_m / 2 + line.table_side_margin_m
-    for rec in records:
-        rec.peak_squeeze_n = squeeze.peak[rec.pot]
-        if rec.start_s is None or rec.outcome == "success":
-            continue
-        x, y, z = (float(v) for v in data.xpos[body_ids[rec.pot]])
-        if abs(x) <= half_w and y >= line.pickup_row_y_m - line.row_pitch_m and 0 <= z < 0.1:
-            rec.outcome = "missed"
-        else:
-            rec.outcome = "dropped"
-    result = DeltaPotsResult(sc.meta.name, seed, records, planner=sc.motion.planner)
-    result.recording_error = finish_observers(observers, records, k * dt)
-    result.sim_time_s = k * dt
-    result.fault = fault
-    result.valid = t <= limit_s and not any(int(w.number) for w in data.warning)
-    result.refused = list(controller.refused)
-    result.peak_following_error_deg = [round(math.degrees(v), 6) for v in drives.peak_error_rad]
-    result.motors = meter.report().to_dict()
-    result.wall_s = time.perf_counter() - wall0
+    valid = t <= limit_s and not any(int(w.number) for w in data.warning)
+    pot_job.finish(k * dt, valid)
+    for grip_rec, rec in zip(grips, pot_job.records, strict=True):
+        grip_rec.outcome = str(rec.outcome)
+    result = PotJobResult(
+        scenario=sc.meta.name,
+        seed=seed,
+        per_seedling=pot_job.records,
+        sim_time_s=k * dt,
+        wall_time_s=0.0,
+        valid=valid,
+        invalid_reason=None if valid else INVALID,
+        fault=fault,
+        overrides=dict(sc.overrides),
+        motors=meter.report().to_dict(),
+        trial="delta_pots",
+        pots=grips,
+        extra={
+            "planner": sc.motion.planner,
+            "refused": list(controller.refused),
+            "peak_following_error_deg": [round(math.degrees(v), 6) for v in drives.peak_error_rad],
+        },
+        definitions=DEFINITIONS,
+    )
+    result.recording_error = close_observers(observers, k * dt)
+    result.wall_time_s = time.perf_counter() - wall0
     return result

@@ -1,16 +1,26 @@
-"""The trial's judge: follows the PGF's lines and the physics and fills the seedling records.
+"""The pot line's judge: follows the pick cycle and the physics and fills the seedling records,
+whatever robot works the line.
 
 It samples the physics at the moments that decide a seedling's fate: the approach (is there
-a pot in the cell, still standing?), the lift (did the pot come up with the jaws?), the
-arrival over the drop tube (is it still between the jaws?) and the next cycle (is it in the
+a pot in the cell, still standing?), the lift (did the pot come up with the gripper?), the
+arrival over the drop tube (is it still in the gripper?) and the next cycle (is it in the
 tube?). Nothing is assumed: a pot that is not in the tube is a failure, named by the first
-check it failed (`Judge.failure_kind`).
+check it failed (`Judge.failure_kind`). Between those moments it follows each shoot's sway
+from its pot's motion and the gripper's bridge over it (damage), the grip force, the leaves
+the gripper strikes and the belt.
+
+The cycle comes to it as phases (`machine.pgf.LinePhase`): `sent(phase, seedling, t)` when
+the host starts one (its line goes on the bus), `done(phase, seedling, t)` when the machine
+has finished it. The five-bar's PGF reports its lines (`on_line`: a line's phase, sent and
+acknowledged); another robot's host program reports the same phases from its own lines
+(`twin.pot_job`). What the judge reads of the machine is a `PotRig`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -18,12 +28,33 @@ import numpy as np
 from transplanter.machine.pgf import LinePhase
 from transplanter.scenario.assemble import JudgeConfig
 from transplanter.scene.config import SHOOT_COM_SHARE, SHOOT_SPREAD
+from transplanter.scene.conveyor import ConveyorDrive
+from transplanter.scene.handles import PotLine
 from transplanter.twin.results import EventKind, Outcome, SeedlingRecord
 from transplanter.twin.shoot import ShootSway, shoot_params
-from transplanter.twin.sim import LineEvent, LineEventKind, Twin
+from transplanter.twin.sim import LineEvent, LineEventKind
 from transplanter.units import M_PER_MM
 
-__all__ = ["Judge", "EventSink"]
+__all__ = ["Judge", "EventSink", "PotRig"]
+
+
+class PotRig(Protocol):
+    """What the pot line's judge reads of the machine that works it (`twin.sim.Twin`, the
+    five-bar's; `twin.pot_job.PotJobRig`, any other robot's)."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    scene: PotLine  # the line's handles: pots, tube, leaves, the gripper's contacts
+    conveyor: ConveyorDrive
+    k: int  # physics steps done
+    pickups_xy: Sequence[Any]  # each pickup's grip point on the belt (x, y), m
+    lift_m: float  # how far the gripper lifts a pot off the belt, m
+    microsteps_lost: np.ndarray  # per drive since power-on (zeros: drives that cannot slip)
+    lost_step_events: list  # twin.sim.LostStepEvent, in time order
+    stem_bend_deg: float  # the judge writes the largest bend of the shoots it follows
+
+    def max_motor_lag_full_steps(self) -> float: ...
+
 
 _HOMING = (LinePhase.HOME, LinePhase.REHOME, LinePhase.STALL_REHOME)
 # A pot that rose less than this at the lift still stands on the belt (m).
@@ -42,12 +73,30 @@ SAMPLE_PERIOD_S = 0.01
 EventSink = Callable[[float, EventKind, str, "int | None"], None]
 
 
+def _upright(mat: list[float], half: list[float]) -> tuple[list[float], list[float]]:
+    """A box's frame (rotation as 9 floats row-major, half sizes) with its axes renamed so
+    that its z axis is the one nearest the world's vertical, pointing up (a right-handed
+    frame, the same box): the shoot's press (`ShootSway.press_out_of_box`) bends a stem from
+    the box's z axis. The parallel jaws' bridge lies flat (unchanged); the fuzzy gripper's
+    palm stands on its edge under a delta's platform or at the end of a serial arm."""
+    j = max(range(3), key=lambda c: abs(mat[6 + c]))
+    sign = 1.0 if mat[6 + j] > 0 else -1.0
+    if j == 2 and sign > 0:
+        return mat, half
+    col = [(mat[c], mat[3 + c], mat[6 + c]) for c in range(3)]
+    z = tuple(sign * v for v in col[j])
+    x = col[(j + 1) % 3]
+    y = (z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0])
+    rows = [[x[i], y[i], z[i]] for i in range(3)]
+    return [v for r in rows for v in r], [half[(j + 1) % 3], half[(j + 2) % 3], half[j]]
+
+
 class Judge:
     """Fills one SeedlingRecord per seedling from the twin's line events and physics."""
 
     def __init__(
         self,
-        twin: Twin,
+        twin: PotRig,
         config: JudgeConfig,
         records: list[SeedlingRecord],
         on_event: EventSink | None = None,
@@ -59,7 +108,7 @@ class Judge:
         self.parked = 0
         self.indexes_done = 0  # conveyor indexes acknowledged so far
         scene, model = twin.scene, twin.model
-        self.taught = twin.machine.eeprom
+        self.pickups_xy = [np.asarray(p, dtype=float)[:2] for p in twin.pickups_xy]
         self.pot_bodies = np.asarray(scene.pot_bodies).ravel()
         self.active = np.ones(self.pot_bodies.size, dtype=bool)
         self.pot_cells = np.asarray(scene.pots.cell_xy, dtype=float)
@@ -78,18 +127,17 @@ class Judge:
         self.bridge_half = model.geom_size[self.bridge].tolist()
         self.stem_radius = scene.config.stem_radius_m
         # a stem reaches no further than its length (xy) from its pot's axis, the bridge's
-        # box no further than its half diagonal from its centre
-        self.bridge_reach = math.hypot(self.bridge_half[0], self.bridge_half[1]) + (
-            self.stem_radius
-        )
+        # box no further than its half diagonal from its centre (however the gripper turns it)
+        self.bridge_reach = math.sqrt(sum(h * h for h in self.bridge_half)) + self.stem_radius
         planes = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)
         self.floor_z = float(model.geom_pos[planes, 2].min()) if planes.size else -1.0
-        self.lift_m = self.taught.z_up_m - self.taught.z_low_m
+        self.lift_m = float(twin.lift_m)
         self.half_cell = 0.5 * config.cell_pitch_m
         self.gripping = False  # between the close and release lines
-        self.microsteps_lost0 = np.zeros(3, dtype=np.int64)
+        drives = np.asarray(twin.microsteps_lost).size
+        self.microsteps_lost0 = np.zeros(drives, dtype=np.int64)
         # what the motors had lost when the machine last homed, and the events until then
-        self.lost_at_homing = np.zeros(3, dtype=np.int64)
+        self.lost_at_homing = np.zeros(drives, dtype=np.int64)
         self.events_at_homing = 0
         self.events_reported = 0
         self.z0 = 0.0
@@ -100,18 +148,15 @@ class Judge:
         if self.on_event is not None:
             self.on_event(t, kind, text, seedling)
 
-    # -- line events ---------------------------------------------------------------------
+    # -- the pick cycle ------------------------------------------------------------------
     def on_line(self, event: LineEvent) -> None:
-        """Follow the PGF: a seedling's cycle starts when its approach line is sent."""
+        """Follow the five-bar's PGF: each line's phase as it is sent and acknowledged; a
+        refused line (a stall the PGF recovers from, or a move the SGF rejected)."""
         line, t = event.line, event.t
-        rec = self.records[line.seedling] if line.seedling is not None else None
         if event.kind == LineEventKind.SENT:
-            self._emit(t, EventKind.SENT, f"{line.phase}: {line.text}", line.seedling)
-            if rec is not None and rec.t_start_s is None:
-                rec.t_start_s = t  # the cycle starts with its first line (a re-home, if any)
-            if rec is not None and line.phase == LinePhase.APPROACH:
-                self._start(rec, t)
+            self.sent(line.phase, line.seedling, t, f"{line.phase}: {line.text}")
             return
+        rec = self.records[line.seedling] if line.seedling is not None else None
         if line.reply is not None and line.reply.startswith("error"):
             if line.phase == LinePhase.HOST:  # a remote host's own line: no seedling's
                 self._emit(t, EventKind.FAILURE, f"refused {line.text}: {line.reply}", None)
@@ -134,36 +179,79 @@ class Judge:
                 self.current = None
             self._emit(t, EventKind.FAILURE, f"rejected {line.text}: {line.reply}", line.seedling)
             return
-        self._emit(t, EventKind.ACK, f"{line.phase}: {line.reply}", line.seedling)
-        if line.phase in _HOMING:  # homing re-references the motors
+        self.done(line.phase, line.seedling, t, f"{line.phase}: {line.reply}")
+
+    def sent(self, phase: LinePhase, seedling: int | None, t: float, text: str = "") -> None:
+        """The host starts `phase` of seedling `seedling`'s cycle (None: no seedling's): its
+        cycle starts with its first phase, the approach is where the judge looks at its cell."""
+        rec = self.records[seedling] if seedling is not None else None
+        self._emit(t, EventKind.SENT, text or str(phase), seedling)
+        if rec is not None and rec.t_start_s is None:
+            rec.t_start_s = t  # the cycle starts with its first line (a re-home, if any)
+        if rec is not None and phase == LinePhase.APPROACH:
+            self._start(rec, t)
+
+    def done(self, phase: LinePhase, seedling: int | None, t: float, text: str = "") -> None:
+        """The machine has finished `phase` of seedling `seedling`'s cycle: the judge looks at
+        the physics the phase decides (the lift, the arrival over the tube, the release)."""
+        self._emit(t, EventKind.ACK, text or str(phase), seedling)
+        if phase in _HOMING:  # homing re-references the motors
             self.lost_at_homing = self.twin.microsteps_lost.copy()
             self.events_at_homing = len(self.twin.lost_step_events)
+        rec = self.records[seedling] if seedling is not None else None
         if rec is None:
             return
         d = self.twin.data
-        if line.phase == LinePhase.APPROACH:
+        if phase == LinePhase.APPROACH:
             self._resolve_pending(t)  # the previous pot has had a whole move to land
-        elif line.phase == LinePhase.CLOSE:
+        elif phase == LinePhase.CLOSE:
             self._emit(t, EventKind.GRASP, f"seedling {rec.index} gripper closing", rec.index)
             self.gripping = True
-        elif line.phase == LinePhase.LIFT and rec.pot is not None:
+        elif phase == LinePhase.LIFT and rec.pot is not None:
             z = float(d.xpos[self.pot_bodies[rec.pot], 2])
             rec.lifted = z - self.z0 > self.config.lifted_fraction * self.lift_m
             # a bonded pot still down on the belt: its bond held it against the jaws' grip
             rec.stuck_to_belt = not rec.lifted and rec.bond_force_n > 0 and z - self.z0 < _ON_BELT_M
-        elif line.phase == LinePhase.TO_DROP and rec.pot is not None:
+        elif phase == LinePhase.TO_DROP and rec.pot is not None:
             rec.in_gripper_at_drop = self._between_jaws(rec.pot)
-        elif line.phase == LinePhase.RELEASE:
+        elif phase == LinePhase.RELEASE:
             self.gripping = False
             self._emit(t, EventKind.RELEASE, f"seedling {rec.index} released", rec.index)
-        elif line.phase == LinePhase.RELEASE_WAIT:
+        elif phase == LinePhase.RELEASE_WAIT:
             rec.t_release_s = t
             rec.cycle_time_s = t - rec.t_start_s
             self._update_microsteps_lost(rec)
             self.pending_outcome.append(rec)
             self.current = None
-        elif line.phase == LinePhase.INDEX:
+        elif phase == LinePhase.INDEX:
             self.indexes_done += 1
+
+    def give_up(self, seedling: int, t: float, why: str) -> None:
+        """The host gave seedling `seedling` up before releasing it (`why`: for the event
+        log): a failure named by the first check it failed."""
+        rec = self.records[seedling]
+        self.gripping = False
+        if rec.outcome == Outcome.PENDING:
+            self._update_microsteps_lost(rec)
+            rec.outcome = self.failure_kind(rec)
+        self._emit(t, EventKind.FAILURE, f"seedling {rec.index}: {rec.outcome} ({why})", rec.index)
+        self.current = None
+        self.shoot_watch = [w for w in self.shoot_watch if w[0] is not rec]
+
+    def skipped(self, seedling: int, t: float) -> None:
+        """The host's sensor read no pot in seedling `seedling`'s cell and it went on: no_pot
+        where the cell held none; where it held one (knocked over, out of the sensor's view),
+        the failure it is (the cell is looked at as at an approach)."""
+        rec = self.records[seedling]
+        if rec.t_start_s is None:
+            rec.t_start_s = t
+        self._start(rec, t)
+        if rec.outcome == Outcome.PENDING:
+            rec.lifted = False
+            self.give_up(seedling, t, "the host read no pot in its cell")
+        else:
+            self.current = None
+            self._emit(t, EventKind.FAILURE, f"seedling {rec.index}: {rec.outcome}", rec.index)
 
     def _start(self, rec: SeedlingRecord, t: float) -> None:
         self.current = rec
@@ -172,7 +260,7 @@ class Judge:
         rec.position_error_microsteps = off
         if off:
             rec.lost_step_event = self.events_at_homing  # the first strike since homing
-        grip_xy = np.asarray(self.taught.pickups[rec.pickup].grip_xy_m)
+        grip_xy = self.pickups_xy[rec.pickup]
         if not self._cell_had_a_pot(grip_xy):
             rec.outcome = Outcome.NO_POT
             return
@@ -327,7 +415,7 @@ class Judge:
             self.twin.scene.window.release(d, pot)
 
     # -- physics samples -----------------------------------------------------------------
-    def monitor(self, twin: Twin, i: int) -> None:
+    def monitor(self, twin: PotRig, i: int) -> None:
         """Called after every physics step: follow the watched shoots every SHOOT_PERIOD_S of
         simulated time, and every SAMPLE_PERIOD_S sample the lost-step events, grip force,
         leaf hits, belt and motor lag of the seedling in progress (periods in time, not in
@@ -338,7 +426,7 @@ class Judge:
         if k % self._sample_every == 0:
             self._sample(twin)
 
-    def _sample(self, twin: Twin) -> None:
+    def _sample(self, twin: PotRig) -> None:
         events = twin.lost_step_events
         while self.events_reported < len(events):
             e = events[self.events_reported]
@@ -370,13 +458,14 @@ class Judge:
         if lag > rec.max_lag_full_steps:
             rec.max_lag_full_steps = lag
 
-    def _follow_shoots(self, twin: Twin) -> None:
+    def _follow_shoots(self, twin: PotRig) -> None:
         """Advance the watched shoots' sway to now from their pots' motion (and the bridge
         over them)."""
         d = twin.data
         qpos, qvel, t = d.qpos, d.qvel, d.time
         bend = 0.0
         bridge_xyz = d.geom_xpos[self.bridge].tolist()
+        bridge_mat, bridge_half = _upright(d.geom_xmat[self.bridge].tolist(), self.bridge_half)
         for watched, sway, a, v, body, length in self.shoot_watch:
             vel = qvel[v : v + 6].tolist()  # floats: numpy scalars are slow in scalar math
             sway.update(t, qpos[a + 3 : a + 7].tolist(), vel[:3], vel[3:])
@@ -387,7 +476,7 @@ class Judge:
             ):  # the bridge may be over this shoot: it pushes the stem out of its way
                 pressed = sway.press_out_of_box(
                     pot_xyz, d.xmat[body].tolist(), length, self.stem_radius,
-                    bridge_xyz, d.geom_xmat[self.bridge].tolist(), self.bridge_half,
+                    bridge_xyz, bridge_mat, bridge_half,
                 )  # fmt: skip
                 if pressed > 0.0:  # the bend it forced, from the pot's axis
                     watched.shoot_pressed_deg = max(

@@ -55,6 +55,7 @@ from transplanter.machine.gcode import format_number
 from transplanter.machine.host import Call, HostProgram, Wait
 from transplanter.machine.kinematics.serial4 import Serial4Kinematics
 from transplanter.machine.motion import MotionConfig
+from transplanter.machine.pgf import LinePhase
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.servo import ServoMount
 from transplanter.machine.servo_drives import ServoBank, ServoOutputs, frame_steps
@@ -388,17 +389,20 @@ def _ms(seconds: float) -> str:
     return format_number(round(seconds * 1e3, 3))
 
 
-def grasp_items(rig: _Rig, rec, grasp, sense, on_grip=None):
+def grasp_items(rig: _Rig, rec, grasp, sense, on_grip=None, phase=None):
     """Host items of one grasp (a generator for ``yield from``): over ``grasp`` (paper
     frame, m) at the hover height, down, both sensors read (``sense``: the host item that
     answers them), the fuzzy controller's angle sent and dwelt on, where the fingers stopped
     noted in ``rec`` (a GripRecord), back up. ``on_grip(t, readings, angle)``: called once
-    the record has taken the grip."""
+    the record has taken the grip. ``phase(LinePhase)``: the host item that reports a phase
+    of the pick cycle done (`twin.pot_job`): the approach, the close."""
     job = rig.sc.serial_arm
     up = np.array([0.0, job.hover_m, 0.0])
     yield _g1(grasp + up, job.travel_speed_m_s)
     yield _g1(grasp, job.approach_speed_m_s)
     yield "M400"
+    if phase is not None:
+        yield phase(LinePhase.APPROACH)
     yield Wait(2 * SENSE_CYCLE_S)
     readings = yield sense
     angle = rig.flc.control(readings["station"], readings["gripper"], readings["base_horn_deg"])
@@ -410,20 +414,28 @@ def grasp_items(rig: _Rig, rec, grasp, sense, on_grip=None):
 
     yield Call(took)
     yield f"M280 P0 S{format_number(round(angle, 2))}"
+    if phase is not None:
+        yield phase(LinePhase.CLOSE)
     yield f"G4 P{_ms(job.grip_settle_s)}"
     yield "M400"
     yield Call(lambda _t: setattr(rec, "gripper_reached_deg", rig.gripper_deg()))
     yield _g1(grasp + up, job.approach_speed_m_s)
 
 
-def release_items(rig: _Rig, point):
+def release_items(rig: _Rig, point, phase=None):
     """Host items of one release: over ``point`` at the hover height, down, the gripper
-    opened to standby and dwelt on, back up."""
+    opened to standby and dwelt on, back up. ``phase(LinePhase)``: as `grasp_items`'s (the
+    arrival over the point, once the moves have ended, and the open)."""
     job = rig.sc.serial_arm
     up = np.array([0.0, job.hover_m, 0.0])
     yield _g1(point + up, job.travel_speed_m_s)
     yield _g1(point, job.approach_speed_m_s)
+    if phase is not None:
+        yield "M400"
+        yield phase(LinePhase.TO_DROP)
     yield rig.standby_line
+    if phase is not None:
+        yield phase(LinePhase.RELEASE)
     yield f"G4 P{_ms(job.release_settle_s)}"
     yield _g1(point + up, job.approach_speed_m_s)
 

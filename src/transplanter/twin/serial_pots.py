@@ -25,8 +25,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
-from types import SimpleNamespace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import mujoco
@@ -34,7 +33,19 @@ import numpy as np
 
 from transplanter.machine.fuzzy_gripper import NO_ECHO
 from transplanter.machine.host import Call, Wait
-from transplanter.scenario.assemble import require_awake
+from transplanter.machine.pgf import LinePhase
+from transplanter.scenario.assemble import judge_config, require_awake
+from transplanter.scene.effectors import fuzzy_gripper
+from transplanter.twin.pot_job import (
+    DEFINITIONS,
+    INVALID,
+    PotJob,
+    PotJobResult,
+    close_observers,
+    event_sink,
+    pot_line,
+    reporter,
+)
 from transplanter.twin.serial_arm import (
     SENSE_CYCLE_S,
     GripRecord,
@@ -44,7 +55,6 @@ from transplanter.twin.serial_arm import (
     _park_point,
     _Ranger,
     _Rig,
-    _Squeeze,
     grasp_items,
     release_items,
     require_own_motion,
@@ -52,12 +62,10 @@ from transplanter.twin.serial_arm import (
 )
 
 __all__ = [
+    "DEFINITIONS",
     "PotRecord",
-    "finish_observers",
-    "SerialPotsResult",
     "line_config",
     "pitch_release",
-    "PotBook",
     "run_serial_pots",
 ]
 
@@ -65,15 +73,6 @@ DETECTED_CM = 5.0
 """Sensor 1 reads a pot in its cell when nearer than this (the controller's Near core)."""
 PEDESTAL_HALF_M = 0.045
 """The pedestal under the arm's base plate: 90 mm square (estimate)."""
-
-DEFINITIONS = {
-    "success": "the pot fell into the drop tube below the funnel's throat (then planted)",
-    "missed": "the pot still on the belt (not lifted, or slipped back)",
-    "dropped": "the pot neither in the tube nor on the belt",
-    "no pot": "sensor 1 of the cell read no pot: the host skipped it",
-    "cycle_time_s": "mean time from one pot's pick to the next's (indexes included)",
-    "seedlings_per_hour": "3600 / cycle_time_s",
-}
 
 
 def line_config(sc):
@@ -89,87 +88,6 @@ def line_config(sc):
     )
     line = scene_config(five, machine_config(five))
     return replace(line, live_rows=line.rows)  # every row's pots are bodies: no window
-
-
-def finish_observers(observers, records, t: float) -> str | None:
-    """Each pot's verdict as an event at the end of its pick, the observers closed; the first
-    one's error (None: written)."""
-    for observer in observers:
-        for rec in records:
-            if rec.start_s is not None:
-                kind = "seedling" if rec.outcome == "success" else "failure"
-                at = rec.end_s if rec.end_s is not None else t
-                observer.event(at, kind, f"pot {rec.index} ({rec.pot}): {rec.outcome}", rec.index)
-        observer.finish(t)
-    return next((o.error for o in observers if getattr(o, "error", None)), None)
-
-
-def _reporter(progress, records, dt: float):
-    """A per-step hook calling `progress(done, sim_t)` once a simulated second: the records
-    whose pick has ended (or that the host skipped)."""
-    every = max(1, round(1.0 / dt))
-    k = [0]
-
-    def fn(t: float) -> None:
-        k[0] += 1
-        if k[0] % every == 0:
-            done = sum(r.end_s is not None or r.outcome == "no pot" for r in records)
-            progress(done, t)
-
-    return fn
-
-
-class PotBook:
-    """The pots a pot job on the five-bar's line (`line`: its scene config) picks: a record
-    and a body id for each of the first `n` cells, the one in the gripper (`holding`), the
-    planting unit and the host's marks."""
-
-    def __init__(self, line, model: mujoco.MjModel, data: mujoco.MjData, n: int):
-        self.records = [
-            PotRecord(i, f"pot_{i // line.cols}_{i % line.cols}", *divmod(i, line.cols))
-            for i in range(n)
-        ]
-        self.body_ids = {r.pot: model.body(r.pot).id for r in self.records}
-        self.holding: list[int] = []
-        self.model, self.data = model, data
-        self._throat_r = line.funnel_throat_diameter_m / 2
-        self._throat_z = line.funnel_top_z_m - line.funnel_height_m
-        self._tube_xy = line.drop_tube_xy_m
-        self._planted: list[int] = []
-
-    def _in_tube(self, rec) -> bool:
-        x, y, z = (float(v) for v in self.data.xpos[self.body_ids[rec.pot]])
-        tx, ty = self._tube_xy
-        return math.hypot(x - tx, y - ty) < self._throat_r and z < self._throat_z
-
-    def plant(self) -> None:
-        """The planting unit takes every picked pot below the funnel's throat away, marking
-        its record a success, and rests it far from the machine (as the five-bar's judge
-        parks them)."""
-        model, data = self.model, self.data
-        for rec in self.records:
-            if rec.start_s is None or rec.outcome == "success" or not self._in_tube(rec):
-                continue
-            rec.outcome = "success"
-            adr = model.jnt_qposadr[model.body_jntadr[self.body_ids[rec.pot]]]
-            dof = model.jnt_dofadr[model.body_jntadr[self.body_ids[rec.pot]]]
-            k = len(self._planted)
-            data.qpos[adr : adr + 3] = (1.0 + 0.1 * (k % 10), -1.0 - 0.1 * (k // 10), -0.13)
-            data.qpos[adr + 3 : adr + 7] = (1.0, 0.0, 0.0, 0.0)
-            data.qvel[dof : dof + 6] = 0.0
-            self._planted.append(rec.index)
-
-    def mark(self, i: int, key: str):
-        """The host's mark of pot i's `key` ("start_s", "end_s"): its time in the record,
-        the pot in the gripper from its start, the planting unit at its end."""
-
-        def fn(t: float) -> None:
-            setattr(self.records[i], key, t)
-            self.holding[:] = [i] if key == "start_s" else []
-            if key == "end_s":
-                self.plant()
-
-        return fn
 
 
 def pitch_release(kin, grasp, over, lowest_y: float, max_tilt_rad: float) -> np.ndarray:
@@ -317,75 +235,16 @@ class PotRecord(GripRecord):
         }
 
 
-@dataclass
-class SerialPotsResult:
-    scenario: str
-    seed: int
-    records: list[PotRecord] = field(default_factory=list)
-    sim_time_s: float = 0.0
-    wall_s: float = 0.0
-    fault: str | None = None
-    valid: bool = True
-    recording_error: str | None = None
-    motors: dict | None = None
-    """The drives' peak torque and mechanical work (transplanter.twin.motors)."""
-
-    @property
-    def picked(self) -> list[PotRecord]:
-        return [r for r in self.records if r.start_s is not None]
-
-    @property
-    def successes(self) -> int:
-        return sum(r.outcome == "success" for r in self.records)
-
-    @property
-    def seedlings(self) -> int:
-        return len(self.records)
-
-    @property
-    def outcomes(self) -> dict[str, int]:
-        out: dict[str, int] = {}
-        for r in self.records:
-            out[r.outcome] = out.get(r.outcome, 0) + 1
-        return dict(sorted(out.items()))
-
-    @property
-    def cycle_time_s(self) -> float:
-        starts = [r.start_s for r in self.picked]
-        return float(np.diff(starts).mean()) if len(starts) > 1 else math.nan
-
-    def to_dict(self) -> dict[str, Any]:
-        cycle = self.cycle_time_s
-        rate = self.successes / self.seedlings if self.seedlings else math.nan
-        return {
-            "scenario": self.scenario,
-            "seed": self.seed,
-            "seedlings": self.seedlings,
-            "successes": self.successes,
-            "success_rate": rate,
-            "outcomes": self.outcomes,
-            "cycle_time_s": round(cycle, 4),
-            "seedlings_per_hour": round(3600.0 / cycle, 1) if math.isfinite(cycle) else None,
-            "peak_squeeze_n": round(max((r.peak_squeeze_n for r in self.records), default=0), 4),
-            "pots": [r.as_dict() for r in self.records],
-            "sim_time_s": round(self.sim_time_s, 4),
-            "motors": self.motors,
-            "fault": self.fault,
-            "valid": self.valid,
-            "definitions": DEFINITIONS,
-            "wall_time_s": round(self.wall_s, 3),
-        }
-
-
-def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) -> SerialPotsResult:
+def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) -> PotJobResult:
     """`scenario.seedlings` pots of the scenario's pot line (seed `seed`, default the
-    scenario's), picked row by row into the drop tube (module docstring). `progress(done,
-    sim_t)`: called once a simulated second with the pots whose pick has ended; `observers`
-    (`viewing.loop_recording.LoopRecording`) watch the loop without changing it."""
+    scenario's), picked row by row into the drop tube and judged by the pot line's judge
+    (module docstring). `progress(done, sim_t)`: called once a simulated second with the pots
+    whose pick has ended; `observers` (`viewing.loop_recording.LoopRecording`) watch the loop
+    without changing it."""
     require_awake(sc, "the serial arm's pot job")
     require_own_motion(sc, "the serial arm's pot job")
-    from transplanter.scene.conveyor import ConveyorDrive
     from transplanter.scene.geometry import cell_columns_x
+    from transplanter.scene.pots import PotBatch
 
     check_placement(sc)
     wall0 = time.perf_counter()
@@ -398,33 +257,9 @@ def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) ->
     sensor = rig.rangers["gripper"].sensor
     for c in range(line.cols):
         rig.rangers[f"station_c{c}"] = _Ranger(model, f"station_sensor_c{c}", sensor, streams[c])
-    conveyor_qpos = model.jnt_qposadr[model.joint("conveyor").id]
-    conveyor_dof = model.jnt_dofadr[model.joint("conveyor").id]
-    drive = ConveyorDrive(
-        SimpleNamespace(
-            model=model, config=line, conveyor_qpos_adr=conveyor_qpos, conveyor_dof_adr=conveyor_dof
-        )
-    )
-
-    def on_event(t_event: float, name: str) -> None:
-        if name == "conveyor_index":
-            drive.start(data, t_event, rig.sgf_cfg.conveyor_index_s)
-
-    def before(t: float) -> None:
-        if drive.armed(data):
-            drive.apply(data, t)
-
-    rig.on_machine_event.append(on_event)
-    rig.before_step.append(before)
     n = min(sc.meta.seedlings, line.rows * line.cols)
-    book = PotBook(line, model, data, n)
-    records, body_ids, holding, plant, mark = (
-        book.records, book.body_ids, book.holding, book.plant, book.mark
-    )  # fmt: skip
-    squeeze = _Squeeze(model, body_ids)
-    rig.on_step.append(lambda _t: squeeze.after_step(data) if holding else None)
-    if progress is not None:
-        rig.on_step.append(_reporter(progress, records, rig.dt))
+    grips = [PotRecord(i, f"pot_{i // line.cols}_{i % line.cols}", *divmod(i, line.cols))
+             for i in range(n)]  # fmt: skip
     xs = cell_columns_x(line)
     base, yaw = cfg.base_pos_m, cfg.base_yaw_rad
     z_top = line.funnel_top_z_m
@@ -435,6 +270,7 @@ def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) ->
     over_tube = paper(*line.drop_tube_xy_m, z_top)
     lowest = z_top + job.release_gap_m + job.grasp_z_m  # the pot's bottom release_gap up
     park = _park_point(rig.kin)
+    box: dict[str, Any] = {}  # the pot job, once the loop exists (rig.start)
 
     def sense(col: int):
         def fn(_t: float) -> dict:
@@ -444,7 +280,11 @@ def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) ->
 
         return fn
 
+    def mark(i: int, key: str):
+        return Call(lambda t: setattr(grips[i], key, t))
+
     def program():
+        pj = box["job"]
         yield "G28"
         yield "G90"
         yield rig.standby_line
@@ -457,16 +297,20 @@ def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) ->
                 yield Wait(2 * SENSE_CYCLE_S)
                 readings = yield Call(sense(col))
                 if readings["station"] == NO_ECHO or readings["station"] > DETECTED_CM:
-                    records[i].outcome = "no pot"
+                    grips[i].outcome = "no pot"
+                    yield pj.skipped(i)
                     continue
                 grasp = paper(xs[col], line.pickup_row_y_m, job.grasp_z_m)
                 low = float(paper(0.0, 0.0, lowest)[1])
                 tube = pitch_release(rig.kin, grasp, over_tube, low, job.release_tilt_rad)
-                yield Call(mark(i, "start_s"))
+                yield mark(i, "start_s")
+                yield pj.sent(LinePhase.APPROACH, i)
                 for attempt in range(1, job.attempts + 1):
-                    records[i].attempts = attempt
-                    yield from grasp_items(rig, records[i], grasp, Call(sense(col)))
+                    grips[i].attempts = attempt
+                    yield from grasp_items(rig, grips[i], grasp, Call(sense(col)),
+                                           phase=lambda p, i=i: pj.done(p, i))  # fmt: skip
                     yield "M400"
+                    yield pj.done(LinePhase.LIFT, i)
                     yield Wait(2 * SENSE_CYCLE_S)
                     readings = yield Call(sense(col))
                     if readings["station"] > DETECTED_CM:  # the cell is empty: the pot is up
@@ -474,20 +318,42 @@ def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) ->
                     yield rig.standby_line  # sensor 1 still hears the pot in its cell: missed
                     yield f"G4 P{_ms(arm.release_settle_s)}"
                 else:
-                    yield Call(mark(i, "end_s"))
+                    yield mark(i, "end_s")
+                    yield pj.give_up(i, f"sensor 1 still heard it after {job.attempts} grasps")
                     continue
-                yield from release_items(rig, tube)
+                yield from release_items(rig, tube, phase=lambda p, i=i: pj.done(p, i))
                 yield "M400"
-                yield Call(mark(i, "end_s"))
+                yield mark(i, "end_s")
+                yield pj.done(LinePhase.RELEASE_WAIT, i)
             if (row + 1) * line.cols >= n:
                 break
             yield _g1(park, arm.travel_speed_m_s)
             yield "M710"
             yield "M400"
+            yield pj.done(LinePhase.INDEX, min(n, (row + 1) * line.cols) - 1)
         yield _g1(park, arm.travel_speed_m_s)
         yield "M400"
 
     rig.start(program())
+    pots = PotBatch.draw(line, seed)  # the pots the workcell's populate drew for this seed
+    scene = pot_line(model, line, pots, fuzzy_gripper.PARTS)
+    pickups = [(x, line.pickup_row_y_m) for x in xs]
+    pot_job = box["job"] = PotJob(rig.loop, scene, judge_config(sc), pickups, arm.hover_m, n,
+                                  event_sink(observers))  # fmt: skip
+    drive = pot_job.conveyor
+
+    def on_event(t_event: float, name: str) -> None:
+        if name == "conveyor_index":
+            drive.start(data, t_event, rig.sgf_cfg.conveyor_index_s)
+
+    def before(t: float) -> None:
+        if drive.armed(data):
+            drive.apply(data, t)
+
+    rig.on_machine_event.append(on_event)
+    rig.before_step.append(before)
+    if progress is not None:
+        rig.on_step.append(reporter(progress, pot_job, rig.dt))
     for observer in observers:
         observer.attach(rig.loop)
     try:
@@ -496,22 +362,24 @@ def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) ->
         for observer in observers:
             observer.abort()
         raise
-    plant()
-    half_w = line.cols * line.cell_pitch_m / 2 + line.table_side_margin_m
-    for rec in records:
-        rec.peak_squeeze_n = squeeze.peak[rec.pot]
-        if rec.start_s is None or rec.outcome == "success":
-            continue
-        x, y, z = (float(v) for v in data.xpos[body_ids[rec.pot]])
-        if abs(x) <= half_w and y >= line.pickup_row_y_m - line.row_pitch_m and 0 <= z < 0.1:
-            rec.outcome = "missed"
-        else:
-            rec.outcome = "dropped"
-    result = SerialPotsResult(sc.meta.name, seed, records)
-    result.recording_error = finish_observers(observers, records, rig.t)
-    result.sim_time_s = rig.t
-    result.fault = fault
-    result.valid = rig.valid
-    result.motors = rig.motors.report().to_dict()
-    result.wall_s = time.perf_counter() - wall0
+    pot_job.finish(rig.t, rig.valid)
+    for grip_rec, rec in zip(grips, pot_job.records, strict=True):
+        grip_rec.outcome = str(rec.outcome)
+    result = PotJobResult(
+        scenario=sc.meta.name,
+        seed=seed,
+        per_seedling=pot_job.records,
+        sim_time_s=rig.t,
+        wall_time_s=0.0,
+        valid=rig.valid,
+        invalid_reason=None if rig.valid else INVALID,
+        fault=fault,
+        overrides=dict(sc.overrides),
+        motors=rig.motors.report().to_dict(),
+        trial="serial_arm_pots",
+        pots=grips,
+        definitions=DEFINITIONS,
+    )
+    result.recording_error = close_observers(observers, rig.t)
+    result.wall_time_s = time.perf_counter() - wall0
     return result

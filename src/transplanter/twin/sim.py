@@ -245,6 +245,17 @@ class Twin:
     def time(self) -> float:
         return self.k * self.dt
 
+    @property
+    def pickups_xy(self) -> list[tuple[float, float]]:
+        """Each taught pickup's grip point on the belt (x, y; m): what the judge looks at."""
+        return [p.grip_xy_m for p in self.machine.eeprom.pickups]
+
+    @property
+    def lift_m(self) -> float:
+        """How far the jaws lift a pot: the taught Z up less the taught Z low (m)."""
+        taught = self.machine.eeprom
+        return taught.z_up_m - taught.z_low_m
+
     def _warning_counts(self) -> np.ndarray:
         return np.array(self.data.warning.number, dtype=np.int64)
 

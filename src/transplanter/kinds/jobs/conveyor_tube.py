@@ -1,8 +1,8 @@
 """The pot line of seed 000: paper-pot seedlings in rows on a feeding conveyor, each picked
-into a drop tube. The five-bar does it through its PGF (the taught EEPROM image) and is
-judged seedling by seedling (`transplanter.twin.judge`); the delta and the serial arm do it
-through generated host programs with their own judges (`twin.delta_pots`,
-`twin.serial_pots`) until the one twin loop takes them over."""
+into a drop tube. The five-bar does it through its PGF (the taught EEPROM image), the delta
+and the serial arm through generated host programs (`twin.delta_pots`, `twin.serial_pots`);
+every robot on it is judged seedling by seedling by the one judge (`transplanter.twin.judge`:
+the shoots, every failure kind, damage)."""
 
 from __future__ import annotations
 
@@ -20,16 +20,6 @@ _RUNNER = {
     "delta": "transplanter.twin.delta_pots:run_delta_pots",
     "serial4": "transplanter.twin.serial_pots:run_serial_pots",
 }
-_SHOOTS = ("shoot_mass_g", "stem_sway_hz", "stem_sway_sd_hz", "stem_damping_ratio")
-"""The seedlings' shoots, which only the five-bar's judge follows."""
-_POTS = (
-    "diameter_mm", "diameter_sd_mm", "height_mm", "height_sd_mm", "mass_g", "mass_sd_g",
-    "friction", "friction_sd", "placement_sd_mm", "placement_max_mm", "mass_min_g",
-    "mass_max_g", "bond_share", "bond_force_n", "bond_force_sd_log", "soft_share",
-    "soft_wall_mm", "crooked_share", "crooked_max_deg", "fill_gap_mm", "fill_gap_sd_mm",
-    "canopy_contact", "feet", "canopy_timeconst_ms", "canopy_friction",
-)  # fmt: skip
-"""The pots' keys every robot's scene on the line reads (the shoots aside)."""
 _LINE = {
     "scenario": ("seedlings",),
     "drop_tube": ALL,
@@ -67,7 +57,8 @@ def reads(robot: str, effector: str) -> dict:
             "rows", "cols", "cell_pitch_mm", "row_pitch_mm", "pickup_row_y_mm",
             "index_time_s", "index_drive",
         ),
-        "pots": _POTS,
+        "pots": ALL,
+        "metrics": ALL,
         "bus": ("baud_bps",),
     }  # fmt: skip
     if robot == "delta":

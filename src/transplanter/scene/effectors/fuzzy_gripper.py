@@ -28,6 +28,7 @@ import mujoco
 
 from transplanter.errors import TransplanterError
 from transplanter.machine.servo import ServoClass, servo_class
+from transplanter.scene.handles import GripperParts
 from transplanter.scene.hobby_servo import apply_servo
 
 __all__ = [
@@ -36,6 +37,7 @@ __all__ = [
     "FINGERS",
     "MOUNT",
     "PADS",
+    "PARTS",
     "FuzzyGripperConfig",
     "GripperNotInScene",
     "add_canopy_contact",
@@ -52,6 +54,9 @@ FINGERS = ("finger_left", "finger_right")
 PADS = ("finger_left_pad", "finger_right_pad")
 ACTUATOR = "gripper"
 ACTUATORS = (ACTUATOR,)
+PARTS = GripperParts(root=MOUNT, pads=PADS, site="grip_center", bridge="palm")
+"""Its parts as the pot line's handles name them (`scene.handles.PotLine`): the palm is the
+bridge over the grip, the pads what grips."""
 
 
 @dataclass(frozen=True)
