@@ -25,32 +25,46 @@ def two():
 
 def test_the_pots_go_into_the_tube_judged_by_the_pot_lines_judge(two):
     """The delta's pots are judged by the five-bar's judge: the seedlings' shoots are
-    followed; the fuzzy gripper's palm (the bridge between its fingers) comes down on them."""
+    followed; with the 90 mm fingers the palm stays over them."""
     sc, r = two
     assert r.fault is None and r.valid and r.extra["refused"] == []
     assert [p.pot for p in r.pots] == ["pot_0_0", "pot_0_1"]
-    # measured: seed 1, both pots in the tube, their shoots bent over by the palm, which
-    # stands 11 mm over a 52 mm pot gripped 30 mm up: a 38-48 mm shoot cannot stand under it
-    assert r.outcomes == {"shoot_crushed": 2}
+    assert r.outcomes == {"success": 2}  # measured: seed 1
     for rec in r.per_seedling:
-        assert rec.lifted and rec.in_gripper_at_drop and rec.shoot_touched_by == "bridge"
-        assert rec.shoot_pressed_deg > 70 and rec.peak_grip_force_n > 5  # held by the pads
+        assert rec.lifted and rec.in_gripper_at_drop
+        assert rec.shoot_touched_by == "" and rec.shoot_pressed_deg == 0.0  # the palm clears
+        assert rec.peak_grip_force_n > 1  # held by the pads (3.8 and 2.2 N measured)
     d = r.to_dict()
     assert set(d["failures"]) >= {"shoot_crushed", "knocked_over", "slipped", "not_gripped"}
-    assert d["max_stem_bend_deg"] == 0.0  # no pot in the tube undamaged
+    assert 5 < d["max_stem_bend_deg"] < 45  # swayed on the way, not damaged (16.4 measured)
     assert d["planner"] == "bspline5"  # the delta's splines, as delta_refill
-    # approach to the release's end, the index aside (measured; before the judge, start to
-    # start with the index: 2.492)
-    assert d["cycle_time_s"] == pytest.approx(2.3065, abs=0.01)
+    # approach to the release's end, the index aside (measured)
+    assert d["cycle_time_s"] == pytest.approx(2.305, abs=0.01)
     assert d["seedlings_per_hour"] == pytest.approx(3600 / d["cycle_time_s"], abs=0.1)
     for p in r.pots:
-        assert p.attempts == 1 and p.grip_deg == 22.5
-        # the fingers stopped on the 35 mm pot, short of the 22.5 deg they were sent to
-        assert 35 < p.gripper_reached_deg < 45
+        assert p.attempts == 1 and p.grip_deg == pytest.approx(12.0)
+        # the fingers stopped on the 35 mm pot, short of the 12 deg they were sent to
+        assert 14 < p.gripper_reached_deg < 20
     motors = {m["name"]: m for m in d["motors"]["drives"]}
     assert set(motors) == {"q1", "q2", "q3", "gripper"}
     assert all(m["work_j"] > 0 for m in motors.values())
     assert max(d["peak_following_error_deg"]) < 2.0  # under the drives' alarm
+
+
+def test_short_fingers_crush_the_shoots_under_the_palm():
+    """The serial arm's 40 mm fingers (its pot job's) under the delta: the palm stands 11 mm
+    over a 52 mm pot gripped 30 mm up, and a 35-45 mm shoot cannot stand under it: both pots
+    land in the tube with their shoots bent over by the palm (shoot_crushed)."""
+    sc = load_scenario("delta_pots", {
+        "scenario.seedlings": 2, "fuzzy_gripper.finger_length_mm": 40.0,
+        "fuzzy_gripper.open_angle_deg": 48.0, "fuzzy_gripper.grip_angle_deg": 22.5,
+        "delta_pots.grip_deg": 22.5, "delta_pots.base_z_mm": 960.0,
+    })  # fmt: skip
+    r = run_delta_pots(sc, 1)
+    assert r.outcomes == {"shoot_crushed": 2}
+    for rec in r.per_seedling:
+        assert rec.lifted and rec.in_gripper_at_drop and rec.shoot_touched_by == "bridge"
+        assert rec.shoot_pressed_deg > 70 and rec.peak_grip_force_n > 5
 
 
 def test_the_same_seed_gives_the_same_json(two, tmp_path, capsys):
@@ -60,8 +74,8 @@ def test_the_same_seed_gives_the_same_json(two, tmp_path, capsys):
                        "--json", str(out)])  # fmt: skip
     assert status == 0
     printed = capsys.readouterr().out
-    assert "0/2 seedlings into the tube" in printed and "shoot_crushed 2" in printed
-    assert "failures: shoot_crushed    2" in printed  # the five-bar's summary
+    assert "2/2 seedlings into the tube" in printed
+    assert "failures: shoot_crushed    0" in printed  # the five-bar's summary
     got = json.loads(out.read_text())
     want = json.loads(json.dumps(r.to_dict()))
     assert got.pop("overrides") == {"scenario.seed": 1, "scenario.seedlings": 2}  # as set
@@ -130,10 +144,11 @@ def test_a_study_run_is_a_row_of_pots():
     from transplanter.studies.backends import run_one
     from transplanter.studies.grid import task
 
-    row = run_one(task("delta_pots", {}, {"delta_pots.grip_deg": 22.5}, 1, 1))
+    row = run_one(task("delta_pots", {}, {"delta_pots.grip_deg": 14.0}, 1, 1))
     assert row["error"] is None, row["error"]
-    # the five-bar's row: its failure kinds (the palm crushed the shoot), a cycle per pick
-    assert (row["successes"], row["seedlings"], row["cycles"]) == (0, 1, 1)
-    assert row["fail_shoot_crushed"] == 1 and row["fail_no_pot"] == 0
-    assert row["cycle_time_s"] == pytest.approx(2.372, abs=0.01)  # measured
-    assert row["valid"] is True and row["peak_squeeze_n"] > 5
+    # the five-bar's row: its failure kinds, a cycle per pick (the pads sent 2 deg less
+    # closed than packaged still hold the pot: 1.98 N measured)
+    assert (row["successes"], row["seedlings"], row["cycles"]) == (1, 1, 1)
+    assert row["fail_shoot_crushed"] == 0 and row["fail_no_pot"] == 0
+    assert row["cycle_time_s"] == pytest.approx(2.37, abs=0.01)  # measured
+    assert row["valid"] is True and 1 < row["peak_squeeze_n"] < 3

@@ -121,7 +121,7 @@ def test_every_packaged_scenario_refuses_a_key_its_kinds_do_not_read(name):
         ("delta_refill", "scenario.seedlings", 3, "the conveyor_tube job, the plug_bench job"),
         ("delta_refill", "motion.resolution_mm", 0.05, "the fivebar robot"),
         ("serial_arm_pots", "taught.z_low_mm", 30.0, "the conveyor_tube job with"),
-        ("delta_pots", "conveyor.live_rows", 5, "the conveyor_tube job with the fivebar robot"),
+        ("delta_pots", "recovery.stall_detection", True, "the fivebar robot"),
         ("plug_bench", "physics.timestep_ms", 0.5, "the conveyor_tube job, the plug_trays job"),
     ],
 )

@@ -96,3 +96,43 @@ def test_a_hook_stops_the_run_after_its_step():
     loop.after_step.append(lambda t: loop.stop("enough") if loop.k == 3 else None)
     loop.run(lambda t: False)
     assert (loop.stopped, loop.k) == ("enough", 3)
+
+
+class _VersionedController(_Controller):
+    """Its motion changes (a new version) when a line arrives; counts pulses_at's calls."""
+
+    def __init__(self, log):
+        super().__init__(log)
+        self.motion_version, self.asked = 0, []
+
+    def receive(self, line, t):
+        super().receive(line, t)
+        self.motion_version += 1
+
+    def pulses_at(self, times):
+        times = np.atleast_1d(times)
+        self.asked.append(times.size)
+        return np.array([[int(1000 * t) + 7 * self.motion_version, 0] for t in times])
+
+
+def test_the_pulses_are_read_from_a_block_while_the_motion_stays_the_same():
+    """A controller with `motion_version` is asked for the next BLOCK_STEPS steps' counts at
+    once and asked again when its motion changes: every step sees what a per-step ask gives."""
+    from transplanter.twin.loop import BLOCK_STEPS
+
+    model = mujoco.MjModel.from_xml_string(XML)
+    data = mujoco.MjData(model)
+    bus = ComBus()
+    controller = _VersionedController([])
+    host = HostProgram(["M3", "G4 P1"], bus)
+    loop = StepLoop(model, data, host, bus, controller, _Endstops())
+    seen = []
+    loop.before_step.append(lambda t: seen.append((loop.k, controller.motion_version,
+                                                   int(loop.raw[0]))))  # fmt: skip
+    loop.run(lambda t: loop.k >= 3 * BLOCK_STEPS)
+    for k, version, raw in seen:  # what the controller answers for that step's time
+        assert raw == int(1000 * (k * loop.dt)) + 7 * version
+    versions = {v for _, v, _ in seen}
+    assert versions == {0, 1, 2}  # the two lines changed it: asked anew each time
+    assert all(n == BLOCK_STEPS for n in controller.asked)
+    assert len(controller.asked) < len(seen) / 10  # a block, not a step, per ask

@@ -75,12 +75,15 @@ def test_the_release_leans_the_pot_no_more_than_allowed():
         pitch_release(kin, grasp, np.array([0.30, 0.0, 0.0]), -0.05, 0.1)
 
 
-def test_the_line_is_the_scenarios_without_a_window():
+def test_the_line_is_the_scenarios_with_its_window():
+    """The line is the pot line's as the five-bar meets it: its window of live rows too
+    (12 rows, wider than the 8-row belt: every pot a body)."""
     sc = load_scenario("serial_arm_pots", {"pots.feet": 0})
     line = line_config(sc)
-    assert (line.rows, line.cols, line.live_rows) == (8, 5, 8)
-    with pytest.raises(ScenarioError, match=r"\[conveyor\] live_rows \(read by the "):
-        load_scenario("serial_arm_pots", {"conveyor.live_rows": 6})  # no window: refused
+    assert (line.rows, line.cols, line.live_rows) == (8, 5, 12) and not line.windowed
+    with pytest.raises(ScenarioError, match=r"conveyor.live_rows = 6 is below the minimum"):
+        load_scenario("serial_arm_pots", {"conveyor.live_rows": 6})
+    assert line_config(load_scenario("serial_arm_pots", {"conveyor.rows": 20})).windowed
     assert line.drop_tube_xy_m == pytest.approx((0.0, 0.14))
 
 

@@ -778,3 +778,33 @@ def test_m112_while_idle_or_framed_and_in_band_after_a_comment(homed):
     assert [r.split(" ")[0] for r in replies] == ["ok", "error:71", "error:71", "error:71"]
     assert replies[1].startswith(KILLED)
     assert sgf.drain_servo_commands() == []
+
+
+def test_the_motion_version_changes_with_the_motion_and_is_none_while_homing():
+    """`motion_version` (what `twin.loop.StepLoop` keeps a block of pulses by): None during a
+    G28, whose legs change as switches trip; then a move changes it, a dwell does not (its
+    pulses are the last move's end), and answers kept under one version stay true."""
+    config = SGFConfig()
+    sgf = SGF(config)
+    endstops = SimulatedEndstops(config, START)
+    sgf.receive("G28", 0.0)
+    t, replies, during = 0.0, [], set()
+    while not replies:
+        replies = sgf.poll(t, endstops.read(sgf.pulses_at(t)[0]))
+        if not replies:
+            during.add(sgf.motion_version)
+        t += 1e-3
+    assert replies == ["ok"] and during == {None}
+    v0 = sgf.motion_version
+    assert v0 is not None
+    _, t = run_line(sgf, "G4 P100", t)
+    assert sgf.motion_version == v0
+    sgf.receive("G1 X10 Y200 Z100 S50", t)
+    sgf.poll(t)
+    v1 = sgf.motion_version
+    assert v1 != v0
+    times = t + np.arange(200) * 1e-3
+    kept = sgf.pulses_at(times)
+    _, t_done = run_line(sgf, "G4 P10", t)
+    assert sgf.motion_version == v1
+    np.testing.assert_array_equal(sgf.pulses_at(times), kept)

@@ -147,3 +147,20 @@ def test_bspline5_is_refused_for_an_arm_without_joint_limits():
     with pytest.raises(ValueError, match="planner"):
         MotionConfig(planner="spline")
     assert math.isclose(MotionConfig().ee_accel_limit_m_s2, 8.83)
+
+
+def test_a_transfer_planned_before_is_not_planned_again(move, monkeypatch):
+    """A job's transfers repeat (each pickup column's, every row): the plan of the same
+    points, path, limits and kinematics is kept, the same bits; another end is planned."""
+    import transplanter.machine.spline_motion as sm
+
+    calls = []
+    real = sm.plan_move
+    monkeypatch.setattr(sm, "plan_move", lambda *a, **k: calls.append(1) or real(*a, **k))
+    again = plan_spline_move(KIN.steps_of_point(A), A, B, KIN, SPLINE)
+    assert calls == []  # kept from the fixture's
+    for got, want in zip(again.step_times, move.step_times, strict=True):
+        np.testing.assert_array_equal(got, want)
+    assert again.duration_s == move.duration_s
+    other = plan_spline_move(KIN.steps_of_point(A), A, B + [0.01, 0.0, 0.0], KIN, SPLINE)
+    assert calls == [1] and other.duration_s != move.duration_s

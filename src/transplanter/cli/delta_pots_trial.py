@@ -26,7 +26,6 @@ def run_trial(
     record_path: Path | None = None,
 ) -> int:
     from transplanter.machine.servo_drives import frame_steps
-    from transplanter.scenario.assemble import require_awake
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.twin.delta_pots import (
         DEFINITIONS,
@@ -54,7 +53,6 @@ def run_trial(
     try:
         scenario = load_scenario(args.scenario, overrides)
         frame_steps(scenario.physics.timestep_s)
-        require_awake(scenario, "the delta's pot job")
         require_delta_gripper(scenario)
         check_placement(scenario)
     except (ScenarioError, ValueError) as exc:

@@ -140,6 +140,10 @@ class DeltaController:
     def pulses_at(self, times) -> np.ndarray:
         return self.sgf.pulses_at(times)
 
+    @property
+    def motion_version(self) -> int | None:
+        return self.sgf.motion_version
+
     def drain_servo_commands(self) -> list[tuple[float, int, float]]:
         return self.sgf.drain_servo_commands()
 

@@ -62,6 +62,8 @@ class SimulatedEndstops:
         ]
         if z_down_trip_m is not None and self.hard_limits:
             self.hard_limits[0] = (self.hard_limits[0][0], float(z_down_trip_m))
+        self._trip: list[int] | None = None  # trip_pulses(), once read() needs it
+        self._dirs: list[int] = []
         beyond = (self.initial - self.trip) * self.dirs > 0
         if beyond.any():
             raise ValueError(
@@ -84,12 +86,16 @@ class SimulatedEndstops:
 
     def read(self, raw_pulses) -> tuple[bool, ...]:
         """Switch states (the homing switches, then the hard limits) at raw pulse counts."""
+        if self._trip is None:  # fixed by the config: worked out once (read every step)
+            self._trip = self.trip_pulses().tolist()
+            self._dirs = self.dirs.astype(np.int64).tolist()
         raw = np.asarray(raw_pulses, dtype=np.int64)
-        closed = (raw - self.trip_pulses()) * self.dirs.astype(np.int64) >= 0
-        joints = self.joint_positions(raw)
-        states = tuple(bool(c) for c in closed) + tuple(
-            bool(joints[axis] <= trip) for axis, trip in self.hard_limits
-        )
+        closed = [(r - t) * d >= 0 for r, t, d in zip(raw.tolist(), self._trip, self._dirs,
+                                                      strict=True)]  # fmt: skip
+        if self.hard_limits:
+            joints = self.joint_positions(raw)
+            closed += [bool(joints[axis] <= trip) for axis, trip in self.hard_limits]
+        states = tuple(closed)
         return states if self.faults is None else self.faults.switches(states)
 
 

@@ -241,6 +241,7 @@ class SGF:
         # motion history for pulses_at: segment start times and evaluators
         self._segment_starts: list[float] = []
         self._segments: list = []
+        self._segments_added = 0  # motion_version
         self._pending_stall: str | None = None  # a stall reply for the next line
         # bspline5 via transfers (M720): the via points (m) waiting for their G0, and the
         # servo commands (via index, servo, deg) that act when the spline passes that via
@@ -260,6 +261,15 @@ class SGF:
     @property
     def busy(self) -> bool:
         return self._current is not None or bool(self._queue)
+
+    @property
+    def motion_version(self) -> int | None:
+        """A number that changes whenever `pulses_at` may answer a time differently than
+        before (a move, a dwell's hold, a stall or a stop added to the motion history); None
+        while a G28 runs (its legs change as the switches trip). A caller may keep
+        `pulses_at`'s answers for a block of future times while it stays the same
+        (`twin.loop.StepLoop`)."""
+        return None if self.homing else self._segments_added
 
     @property
     def homing(self) -> bool:
@@ -551,6 +561,7 @@ class SGF:
     def _add_segment(self, t0: float, evaluator) -> None:
         self._segment_starts.append(t0)
         self._segments.append(evaluator)
+        self._segments_added += 1
 
     def _start(self, job: _Job, t0: float) -> None:
         job.t_start = t0

@@ -122,7 +122,8 @@ def plan_spline_move(
     config: MotionConfig,
 ) -> PlannedMove:
     """Plan the spline transfer from ``start_xyz`` to ``end_xyz`` (m) and sample it into step
-    events (module docstring). Raises ``planner_bspline.MoveRefused`` (its ``limit`` named)
+    events (module docstring; the plan kept: `_kept_plan`). Raises
+    ``planner_bspline.MoveRefused`` (its ``limit`` named)
     when no timing meets a limit or a key point is out of reach, UnreachableError naming the
     first sampled point the arm's check refuses, ValueError for a move with too many steps.
     Steps needed to go from ``start_steps`` to the first sample are part of the first
@@ -133,12 +134,30 @@ def plan_spline_move(
     path = PickPath(
         lift_m=config.pick_lift_m, radius_m=config.pick_arc_m, exit_m=config.pick_exit_m
     )
-    plan = plan_move(kinematics, start, end, limits, path=path, ftol=PLAN_TOLERANCE_S)
+    key = ("pick", start.tobytes(), end.tobytes(), repr(path), repr(limits), repr(kinematics))
+    plan = _kept_plan(
+        key, lambda: plan_move(kinematics, start, end, limits, path=path, ftol=PLAN_TOLERANCE_S)
+    )
     return sample_plan(plan, start_steps, start, end, kinematics, config)
 
 
-_VIA_PLANS: dict[tuple, MovePlan] = {}
-_VIA_CACHE_SIZE = 256
+_PLANS: dict[tuple, MovePlan] = {}
+_CACHE_SIZE = 256
+
+
+def _kept_plan(key: tuple, make) -> MovePlan:
+    """The plan of `key` (every input of a plan: its points, path, limits and kinematics)
+    made by `make()` once and kept, the last 256 distinct keys: a plan is a pure function of
+    them, so a kept one is the same bits. The moves of a job repeat (the five-bar's taught
+    transfers every cycle, the delta's pick-to-tube transfer of each pickup column every
+    row), and a time-optimal plan costs about 0.3 s of SLSQP."""
+    plan = _PLANS.get(key)
+    if plan is None:
+        plan = make()
+        if len(_PLANS) >= _CACHE_SIZE:
+            _PLANS.pop(next(iter(_PLANS)))
+        _PLANS[key] = plan
+    return plan
 
 
 def plan_via_transfer(
@@ -146,18 +165,12 @@ def plan_via_transfer(
 ) -> PlannedMove:
     """The spline through the (k, 3) ``points`` (m: where the arm is, the via points, the
     target), timed by :func:`planner_via.plan_via_move` under the arm's per-joint limits and
-    the end effector's, sampled as :func:`plan_spline_move` samples. The plans of the last
-    256 distinct point sets and limits are kept (the taught moves repeat every cycle): a
-    plan is a pure function of them, so a kept one is the same bits."""
+    the end effector's, sampled as :func:`plan_spline_move` samples (the plan kept:
+    `_kept_plan`)."""
     limits = spline_limits(kinematics, config)
     pts = np.asarray(points, dtype=np.float64)
-    key = (pts.tobytes(), pts.shape, repr(limits), repr(kinematics))
-    plan = _VIA_PLANS.get(key)
-    if plan is None:
-        plan = plan_via_move(kinematics, pts, limits)
-        if len(_VIA_PLANS) >= _VIA_CACHE_SIZE:
-            _VIA_PLANS.pop(next(iter(_VIA_PLANS)))
-        _VIA_PLANS[key] = plan
+    key = ("via", pts.tobytes(), pts.shape, repr(limits), repr(kinematics))
+    plan = _kept_plan(key, lambda: plan_via_move(kinematics, pts, limits))
     return sample_plan(plan, start_steps, pts[0], pts[-1], kinematics, config)
 
 

@@ -323,6 +323,14 @@ def apply_options(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         "dense": mujoco.mjtJacobian.mjJAC_DENSE,
         "sparse": mujoco.mjtJacobian.mjJAC_SPARSE,
     }[cfg.jacobian]
+    apply_sleep(spec, cfg)
+
+
+def apply_sleep(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
+    """Whether resting bodies sleep (`cfg.sleep`, scenario `physics.sleep`) and below what
+    speed (`cfg.sleep_tolerance_m_s`): the pot line's workcell applies it for whatever robot
+    works the line (`workcells.conveyor_tube.apply`), the five-bar's scene with its solver."""
+    opt = spec.option
     opt.sleep_tolerance = cfg.sleep_tolerance_m_s
     bit = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
     opt.enableflags = (opt.enableflags | bit) if cfg.sleep else (opt.enableflags & ~bit)

@@ -61,6 +61,9 @@ class ConveyorHandles(Protocol):
 
 
 USERDATA_CONVEYOR = 6
+INDEX_ERROR_STREAM = 0x1DE7
+"""The random stream of the index's drawn error (`conveyor.index_error_sd_mm`), with the
+trial's seed: the same errors whatever robot works the line."""
 _U_ACTIVE, _U_T0, _U_PROFILE, _U_END, _U_Q0, _U_ERR = range(USERDATA_CONVEYOR)
 
 

@@ -59,7 +59,7 @@ from transplanter.machine.pgf import LinePhase
 from transplanter.machine.rig import SimulatedEndstops
 from transplanter.machine.servo import ServoMount, servo_class
 from transplanter.machine.servo_drives import ServoBank, frame_steps
-from transplanter.scenario.assemble import delta_sgf_config, judge_config, require_awake
+from transplanter.scenario.assemble import delta_sgf_config, judge_config
 from transplanter.scene.effectors import fuzzy_gripper
 from transplanter.scene.robots import delta as delta_robot
 from transplanter.twin.loop import StepLoop
@@ -243,6 +243,22 @@ def scene_spec(sc, seed: int):
     return spec, line, grip, pots
 
 
+def power_on(sc, model: mujoco.MjModel, data: mujoco.MjData, grip) -> np.ndarray:
+    """The scene's power-on state in `data`: the delta as drawn (its closed chains' rods
+    consistent, as delta_refill's), its drives holding it, the gripper open at its standby;
+    returns the arm angles (rad)."""
+    d = sc.delta
+    q0 = DeltaKinematics.from_scenario(sc).joints(POWER_ON_M)
+    cfg = SimpleNamespace(gear_ratio=d.gear_ratio, home_q_rad=tuple(float(v) for v in q0))
+    data.qpos[:] = delta_robot.home_qpos(model, cfg, _base(sc) + POWER_ON_M)
+    for name, q in fuzzy_gripper.home_joints(grip).items():
+        data.qpos[model.jnt_qposadr[model.joint(name).id]] = q
+    data.ctrl[[model.actuator(n).id for n in delta_robot.ACTUATORS]] = delta_robot.home_ctrl(cfg)
+    data.ctrl[model.actuator(fuzzy_gripper.ACTUATOR).id] = fuzzy_gripper.home_ctrl(grip)[0]
+    mujoco.mj_forward(model, data)
+    return q0
+
+
 def _mm(v: float) -> str:
     """Metres (or m/s) as a G-code word's mm (mm/s), to the micrometre."""
     return format_number(round(float(v) * 1e3, 3))
@@ -272,7 +288,6 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     scenario's), picked row by row into the drop tube by the delta (module docstring).
     `progress(done, sim_t)`: called once a simulated second with the pots done; `observers`
     (`viewing.loop_recording.LoopRecording`) watch the loop without changing it."""
-    require_awake(sc, "the delta's pot job")
     from transplanter.scene.geometry import cell_columns_x
 
     require_delta_gripper(sc)
@@ -296,18 +311,9 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     def plat(grip_world) -> np.ndarray:
         return platform_point(sc, grip_world)
 
-    # power-on: the delta as drawn (its closed chains' rods consistent), as delta_refill's
-    q0 = kin.joints(POWER_ON_M)
-    base = _base(sc)
-    cfg = SimpleNamespace(gear_ratio=d.gear_ratio, home_q_rad=tuple(float(v) for v in q0))
-    data.qpos[:] = delta_robot.home_qpos(model, cfg, base + POWER_ON_M)
-    for name, q in fuzzy_gripper.home_joints(grip).items():
-        data.qpos[model.jnt_qposadr[model.joint(name).id]] = q
+    q0 = power_on(sc, model, data, grip)
     arm_acts = [model.actuator(n).id for n in delta_robot.ACTUATORS]
     grip_act = model.actuator(fuzzy_gripper.ACTUATOR).id
-    data.ctrl[arm_acts] = delta_robot.home_ctrl(cfg)
-    data.ctrl[grip_act] = fuzzy_gripper.home_ctrl(grip)[0]
-    mujoco.mj_forward(model, data)
     meter = MotorMeter(model, delta_robot.ACTUATORS, fuzzy_gripper.ACTUATORS)
 
     sgf_cfg = delta_sgf_config(sc, job, kin, conveyor_index_s=sc.conveyor.index_time_s)
@@ -416,8 +422,7 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
                     yield pot_job.give_up(i, f"sensor 1 still heard it after {job.attempts} "
                                           "grasps")  # fmt: skip
                     continue
-                yield from onto(release)
-                yield "M400"
+                yield from onto(release)  # its ok: the move's last step is out
                 yield pot_job.done(LinePhase.TO_DROP, i)
                 yield open_line
                 yield pot_job.done(LinePhase.RELEASE, i)
@@ -443,7 +448,7 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
     scene = pot_line(model, line, pots, fuzzy_gripper.PARTS)
     pickups = [(x, line.pickup_row_y_m) for x in xs]
     pot_job = PotJob(loop, scene, judge_config(sc), pickups, job.hover_m, n,
-                     event_sink(observers))  # fmt: skip
+                     event_sink(observers), seed)  # fmt: skip
     drive = pot_job.conveyor
     arms = [model.jnt_qposadr[model.joint(name).id] for name in delta_robot.ARMS]
     gear = d.gear_ratio
@@ -453,7 +458,7 @@ def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> 
 
     def index_conveyor(t_event: float, name: str) -> None:
         if name == "conveyor_index":
-            drive.start(data, t_event, sgf_cfg.conveyor_index_s)
+            pot_job.index(t_event, sgf_cfg.conveyor_index_s)
 
     def servo(t: float, commands: list) -> None:
         pending.extend(commands)

@@ -15,6 +15,11 @@ them (`PotJob.sent`, `PotJob.done`: items the program yields, `machine.host.Call
 - `RELEASE` done: the open is sent; `RELEASE_WAIT` done: the pick has ended (its cycle time);
 - `INDEX` done: the conveyor has indexed (the cells the judge looks at move one row).
 
+The phases add no line to the program: a move's `ok` comes once its last step is out (the
+SGF's FIFO), so the item after a move line reports its end, and the machine runs as it would
+unjudged (an `M400` added to report a phase shifted the serial arm's timeline by a round trip
+a pot, enough to change which of its marginal second grasps held).
+
 A pot the host gives up on (its grasps all missed) or skips (its sensor read no pot) is judged
 at once (`PotJob.give_up`, `PotJob.skipped`). The robot's own record of each pick (the
 controller's inputs, the grip angle, the grasps tried) stays the job's (`PotJobResult.pots`).
@@ -32,7 +37,7 @@ import numpy as np
 
 from transplanter.machine.host import Call
 from transplanter.machine.pgf import LinePhase
-from transplanter.scene.conveyor import ConveyorDrive
+from transplanter.scene.conveyor import INDEX_ERROR_STREAM, ConveyorDrive
 from transplanter.scene.handles import GripperParts, PotLine
 from transplanter.twin.judge import Judge
 from transplanter.twin.results import EventKind, Outcome, SeedlingRecord, TrialResult
@@ -103,13 +108,26 @@ class PotJob:
     seedling)`: the judge's event log (observers)."""
 
     def __init__(self, loop, scene: PotLine, config, pickups_xy, lift_m: float, n: int,
-                 on_event=None):  # fmt: skip
+                 on_event=None, seed: int = 0):  # fmt: skip
         self.rig = PotJobRig(loop, scene, pickups_xy, lift_m)
+        self._index_error_sd = scene.config.conveyor_index_error_sd_m
+        self._index_rng = np.random.default_rng((seed, INDEX_ERROR_STREAM))
         cols = len(self.rig.pickups_xy)
         self.records = [SeedlingRecord(index=i, pickup=i % cols) for i in range(n)]
         self.judge = Judge(self.rig, config, self.records, on_event)
         self.conveyor = self.rig.conveyor
         loop.after_step.append(self._monitor)
+
+    def index(self, t_event: float, total_s: float) -> None:
+        """The controller started an index (M710) at `t_event`, lasting `total_s`: the rows
+        that fit enter the physics (the window of live rows, `scene.live_rows`) and the drive
+        moves the carriage one row pitch, off by the drawn index error
+        (`conveyor.index_error_sd_mm`), as under the five-bar."""
+        data = self.rig.data
+        if self.rig.scene.window is not None:
+            self.rig.scene.window.on_index(data)
+        error = self._index_error_sd * self._index_rng.standard_normal()
+        self.conveyor.start(data, t_event, total_s, error_m=error)
 
     def _monitor(self, _t: float) -> None:
         self.judge.monitor(self.rig, self.rig.loop.k)

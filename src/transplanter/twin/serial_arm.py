@@ -425,13 +425,13 @@ def grasp_items(rig: _Rig, rec, grasp, sense, on_grip=None, phase=None):
 def release_items(rig: _Rig, point, phase=None):
     """Host items of one release: over ``point`` at the hover height, down, the gripper
     opened to standby and dwelt on, back up. ``phase(LinePhase)``: as `grasp_items`'s (the
-    arrival over the point, once the moves have ended, and the open)."""
+    arrival over the point, when the move down has answered ok: its last step is out, and
+    the open); the phases add no line, so the machine runs as without them."""
     job = rig.sc.serial_arm
     up = np.array([0.0, job.hover_m, 0.0])
     yield _g1(point + up, job.travel_speed_m_s)
     yield _g1(point, job.approach_speed_m_s)
-    if phase is not None:
-        yield "M400"
+    if phase is not None:  # the move's ok came once its last step was out: over the point
         yield phase(LinePhase.TO_DROP)
     yield rig.standby_line
     if phase is not None:

@@ -34,7 +34,7 @@ import numpy as np
 from transplanter.machine.fuzzy_gripper import NO_ECHO
 from transplanter.machine.host import Call, Wait
 from transplanter.machine.pgf import LinePhase
-from transplanter.scenario.assemble import judge_config, require_awake
+from transplanter.scenario.assemble import judge_config
 from transplanter.scene.effectors import fuzzy_gripper
 from transplanter.twin.pot_job import (
     DEFINITIONS,
@@ -86,8 +86,7 @@ def line_config(sc):
         robot=replace(sc.robot, kind="fivebar"),
         effector=replace(sc.effector, kind="parallel_jaw"),
     )
-    line = scene_config(five, machine_config(five))
-    return replace(line, live_rows=line.rows)  # every row's pots are bodies: no window
+    return scene_config(five, machine_config(five))
 
 
 def pitch_release(kin, grasp, over, lowest_y: float, max_tilt_rad: float) -> np.ndarray:
@@ -241,7 +240,6 @@ def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) ->
     (module docstring). `progress(done, sim_t)`: called once a simulated second with the pots
     whose pick has ended; `observers` (`viewing.loop_recording.LoopRecording`) watch the loop
     without changing it."""
-    require_awake(sc, "the serial arm's pot job")
     require_own_motion(sc, "the serial arm's pot job")
     from transplanter.scene.geometry import cell_columns_x
     from transplanter.scene.pots import PotBatch
@@ -339,12 +337,12 @@ def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) ->
     scene = pot_line(model, line, pots, fuzzy_gripper.PARTS)
     pickups = [(x, line.pickup_row_y_m) for x in xs]
     pot_job = box["job"] = PotJob(rig.loop, scene, judge_config(sc), pickups, arm.hover_m, n,
-                                  event_sink(observers))  # fmt: skip
+                                  event_sink(observers), seed)  # fmt: skip
     drive = pot_job.conveyor
 
     def on_event(t_event: float, name: str) -> None:
         if name == "conveyor_index":
-            drive.start(data, t_event, rig.sgf_cfg.conveyor_index_s)
+            pot_job.index(t_event, rig.sgf_cfg.conveyor_index_s)
 
     def before(t: float) -> None:
         if drive.armed(data):

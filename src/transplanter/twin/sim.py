@@ -33,6 +33,7 @@ from transplanter.machine.rig import FirmwareLink
 from transplanter.machine.sgf import SGF
 from transplanter.scenario.assemble import TwinConfig
 from transplanter.scene import ConveyorDrive, Scene, build_scene
+from transplanter.scene.conveyor import INDEX_ERROR_STREAM
 from transplanter.twin.motors import MotorMeter, drive_actuators
 
 __all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepEvent"]
@@ -48,8 +49,6 @@ FIELD_SPEED_WINDOW_S = 0.002
 # A motor counts as being stepped (its driver can sense a stall) when it got a pulse in this
 # long (s): about 3 full steps/s at 16 microsteps, StallGuard's lower speed range.
 STALL_WINDOW_S = 0.02
-# The random stream of the conveyor's index errors (with the trial's seed).
-_INDEX_ERROR_STREAM = 0x1DE7
 # Wrist servo angle at which the jaws point along passive link 1 (the wrist joint's zero).
 WRIST_SERVO_ZERO_DEG = 90.0
 
@@ -171,7 +170,7 @@ class Twin:
         self.conveyor = ConveyorDrive(self.scene)  # its state lives in self.data.userdata
         # where each index leaves the row (belt stretch, rib play): its own seeded stream
         self._index_error_sd = cfg.scene.conveyor_index_error_sd_m
-        self._index_rng = np.random.default_rng((cfg.seed, _INDEX_ERROR_STREAM))
+        self._index_rng = np.random.default_rng((cfg.seed, INDEX_ERROR_STREAM))
         # Stepper positions are relative to where each motor was at power-on: the SGF's raw
         # pulse counters start at zero there, and homing only changes its logical counters.
         self.q_power_on = self.scene.joint_positions(self.data).copy()

@@ -50,17 +50,8 @@ def reads(robot: str, effector: str) -> dict:
             "taught": ALL,
             "bus": ALL,
         }
-    # every pot a body (no window of live rows), the index without its drawn error
-    line = {
-        **_LINE,
-        "conveyor": (
-            "rows", "cols", "cell_pitch_mm", "row_pitch_mm", "pickup_row_y_mm",
-            "index_time_s", "index_drive",
-        ),
-        "pots": ALL,
-        "metrics": ALL,
-        "bus": ("baud_bps",),
-    }  # fmt: skip
+    # the same line (its window of live rows, its index error) and judge for every robot
+    line = {**_LINE, "conveyor": ALL, "pots": ALL, "metrics": ALL, "bus": ("baud_bps",)}
     if robot == "delta":
         return {**line, "delta_pots": ALL, "serial_arm": ("sensor_resolution_mm",)}
     return {**line, "serial_pots": ALL}

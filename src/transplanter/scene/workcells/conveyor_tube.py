@@ -55,9 +55,13 @@ _CAPSULE_Z_TO_X = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
 
 
 def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
-    """The drop tube and the conveyor layout from the config."""
+    """The drop tube and the conveyor layout from the config, and the line's sleep (resting
+    pots and the idle carriage sleep with `cfg.sleep`), whatever robot works the line."""
+    from transplanter.scene.build import apply_sleep
+
     apply_drop_tube(spec, cfg)
     apply_conveyor_layout(spec, cfg)
+    apply_sleep(spec, cfg)
 
 
 def populate(spec: mujoco.MjSpec, cfg: SceneConfig, seed: int, decor: bool) -> PotBatch:

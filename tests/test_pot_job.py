@@ -1,0 +1,121 @@
+"""The pot line's economies for every robot on it (transplanter.twin.pot_job and the
+conveyor_tube workcell): resting pots sleep with `physics.sleep`, a long belt is a window of
+live rows whose rows enter at each index, and the index's drawn error is the five-bar's, so
+that the delta's and the serial arm's scenes cost what the five-bar's does."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import mujoco
+import numpy as np
+import pytest
+
+from transplanter.scenario.assemble import fuzzy_gripper_config, judge_config
+from transplanter.scenario.schema import load_scenario
+from transplanter.scene.effectors import fuzzy_gripper
+from transplanter.scene.robots.delta import quiet_prefix_note
+from transplanter.twin import delta_pots, serial_pots
+from transplanter.twin.pot_job import PotJob, pot_line
+
+SLEEP = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+
+
+def _delta_scene(overrides: dict, seed: int = 1):
+    sc = load_scenario("delta_pots", overrides)
+    spec, line, _, pots = delta_pots.scene_spec(sc, seed)
+    with quiet_prefix_note():
+        model = spec.compile()
+    return sc, model, line, pots
+
+
+def _serial_scene(overrides: dict, seed: int = 1):
+    sc = load_scenario("serial_arm_pots", overrides)
+    spec, _, line = serial_pots._scene(sc, seed)
+    with quiet_prefix_note():
+        model = spec.compile()
+    return sc, model, line
+
+
+@pytest.mark.parametrize("sleep", [True, False])
+def test_the_line_sleeps_its_resting_pots_under_every_robot(sleep):
+    """`physics.sleep` is what the scene does under the delta and the serial arm, as under
+    the five-bar (the workcell applies it, not the robot)."""
+    _, model, _, _ = _delta_scene({"physics.sleep": sleep})
+    assert bool(model.opt.enableflags & SLEEP) is sleep
+    _, model, _ = _serial_scene({"physics.sleep": sleep})
+    assert bool(model.opt.enableflags & SLEEP) is sleep
+
+
+def test_resting_pots_fall_asleep_in_the_deltas_scene():
+    """With sleep on, the 40 pots standing on the belt fall asleep within a second while the
+    delta hangs at its power-on pose (their trees leave the solver); with it off none does."""
+    for sleep, asleep in ((True, 40), (False, 0)):
+        sc, model, line, _ = _delta_scene({"physics.sleep": sleep})
+        data = mujoco.MjData(model)
+        delta_pots.power_on(sc, model, data, fuzzy_gripper_config(sc))
+        bodies = [model.body(f"pot_{r}_{c}").id for r in range(line.rows)
+                  for c in range(line.cols)]  # fmt: skip
+        trees = model.body_treeid[bodies]
+        for _ in range(1000):
+            mujoco.mj_step(model, data)
+        assert int((data.tree_asleep[trees] >= 0).sum()) == asleep
+
+
+def test_a_long_belt_is_a_window_of_live_rows_whose_rows_enter_at_each_index():
+    """32 rows with `conveyor.live_rows = 12`: the delta's scene holds 12 rows of pot bodies
+    (a body per pot would be 160); the job's index (`PotJob.index`) lets the rows that fit
+    enter, as the five-bar's twin does, and starts the drive."""
+    sc, model, line, pots = _delta_scene({"conveyor.rows": 32, "scenario.seedlings": 5})
+    assert line.windowed and line.body_rows == 12
+    names = {model.body(b).name for b in range(model.nbody)}
+    assert sum(n.startswith("pot_") for n in names) == 12 * 5
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    scene = pot_line(model, line, pots, fuzzy_gripper.PARTS)
+    loop = SimpleNamespace(model=model, data=data, after_step=[], k=0)
+    job = PotJob(loop, scene, judge_config(sc), [(0.0, line.pickup_row_y_m)], 0.06, 5)
+    window = scene.window
+    assert window is not None and window.next_row == 12
+    # the pickup row's pots parked (the judge's, on landing) free a row of slots
+    for pot in range(5):
+        window.release(data, pot)
+    assert window.next_row == 13 and window.live().size == 60
+    job.index(0.0, 0.6)
+    assert window.indexes == 1 and job.conveyor.armed(data)
+
+
+def test_the_index_error_is_the_five_bars_stream():
+    """`conveyor.index_error_sd_mm` is read under every robot, drawn from the trial's seed
+    on the stream the five-bar's twin draws it from: the same errors, index by index."""
+    from transplanter.scene.conveyor import INDEX_ERROR_STREAM
+
+    sc, model, line, pots = _delta_scene({"conveyor.index_error_sd_mm": 0.5})
+    assert line.conveyor_index_error_sd_m == pytest.approx(0.0005)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    scene = pot_line(model, line, pots, fuzzy_gripper.PARTS)
+    loop = SimpleNamespace(model=model, data=data, after_step=[], k=0)
+    job = PotJob(loop, scene, judge_config(sc), [(0.0, line.pickup_row_y_m)], 0.06, 5, seed=7)
+    drawn = []
+    job.conveyor.start = lambda d, t, total, error_m=0.0: drawn.append(error_m)
+    for _ in range(3):
+        job.index(0.0, 0.6)
+    expected = 0.0005 * np.random.default_rng((7, INDEX_ERROR_STREAM)).standard_normal(3)
+    assert drawn == pytest.approx(expected.tolist(), abs=0.0)
+
+
+@pytest.mark.parametrize("name", ["delta_pots", "serial_arm_pots"])
+def test_the_trial_command_runs_the_line_asleep(name, tmp_path):
+    """`trial --set physics.sleep=true` runs the delta's and the serial arm's pot jobs (it
+    was refused while their scenes kept every body awake); the first pot lands."""
+    import json
+
+    from transplanter import cli
+
+    out = tmp_path / "one.json"
+    status = cli.main(["trial", name, "--seedlings", "1", "--quiet", "--set",
+                       "physics.sleep=true", "--json", str(out)])  # fmt: skip
+    assert status == 0
+    d = json.loads(out.read_text())
+    assert d["overrides"]["physics.sleep"] is True and d["outcomes"] == {"success": 1}
