@@ -52,26 +52,111 @@ def test_a_row_pools_the_runs_of_a_scenario():
     assert compare_row("paper", sc, rows, floor=0.98)["meets_floor"] is False
 
 
-def test_a_job_without_a_damage_judge_has_no_damage_rate():
-    sc = load_scenario("serial_arm_pots")
-    r = compare_row("pots", sc, [_row(1, 3, 4, 8.0, 3, plants_per_hour=450.0)], floor=0.5)
-    assert r["damage_rate"] is None and r["unit"] == "seedlings"
-    assert r["job"] == "serial4:conveyor_tube" and r["drives_usd"] == 27.0
+def test_every_robot_on_the_pot_line_has_the_pot_lines_damage_rate():
+    """The pot line's judge counts a bent or crushed shoot as damage whatever robot works
+    the line; a job that judges no damage (the claws' bench) has none."""
+    for name, job in (("serial_arm_pots", "serial4:conveyor_tube"),
+                      ("delta_pots", "delta:conveyor_tube")):  # fmt: skip
+        rows = [_row(1, 2, 4, 8.0, 3, plants_per_hour=450.0, fail_shoot_crushed=1,
+                     fail_not_gripped=1)]  # fmt: skip
+        r = compare_row("pots", load_scenario(name), rows, floor=0.5)
+        assert r["damage_rate"] == pytest.approx(1 / 4) and r["unit"] == "seedlings"
+        assert r["job"] == job
+    r = compare_row("pots", load_scenario("serial_arm_pots"), [], floor=0.5)
+    assert r["drives_usd"] == 27.0
+    bench = compare_row("b", load_scenario("plug_bench"), rows, floor=0.5)
+    assert bench["damage_rate"] is None and bench["trials"] == 1
     delta = compare_row("d", load_scenario("delta_refill"), [], floor=0.5)
     assert delta["cycle"] == "time per operation" and delta["unit"] == "serviced cells"
     assert delta["success_rate"] is None and delta["trials"] == 0
 
 
-def test_rows_rank_by_plants_per_hour_above_the_floor_first():
+def _ranked(name, job, verdict, pph, band=None, ci=(0.95, 1.0), **more):
+    return {"scenario": name, "workcell": job, "verdict": verdict, "plants_per_hour": pph,
+            "plants_per_hour_ci95": band, "ci95": list(ci), **more}  # fmt: skip
+
+
+def test_rows_rank_within_their_job_decided_first_then_undecided_then_below():
+    """A row ranks among the rows of its own job only; those whose interval lies above the
+    floor by plants per hour, then the undecided, then those below, however fast."""
     rows = [
-        {"scenario": "fast_bad", "meets_floor": False, "plants_per_hour": 2000.0},
-        {"scenario": "slow_good", "meets_floor": True, "plants_per_hour": 400.0},
-        {"scenario": "fast_good", "meets_floor": True, "plants_per_hour": 1000.0},
-        {"scenario": "none", "meets_floor": False, "plants_per_hour": None},
+        _ranked("fast_below", "line", "below", 2000.0),
+        _ranked("slow_good", "line", "above", 400.0),
+        _ranked("tray", "trays", "above", 5000.0),
+        _ranked("fast_open", "line", "undecided", 1500.0),
+        _ranked("fast_good", "line", "above", 1000.0),
+        _ranked("none", "line", "below", None),
     ]
     ranked = rank_rows(rows)
-    assert [r["scenario"] for r in ranked] == ["fast_good", "slow_good", "fast_bad", "none"]
-    assert [r["rank"] for r in ranked] == [1, 2, 3, 4]
+    assert [(r["workcell"], r["scenario"], r["rank"]) for r in ranked] == [
+        ("line", "fast_good", 1), ("line", "slow_good", 2), ("line", "fast_open", 3),
+        ("line", "fast_below", 4), ("line", "none", 5), ("trays", "tray", 1),
+    ]  # fmt: skip
+    # rows of the old layout (meets_floor, no verdict, no job) still rank
+    old = rank_rows([{"scenario": "a", "meets_floor": False, "plants_per_hour": 9.0},
+                     {"scenario": "b", "meets_floor": True, "plants_per_hour": 1.0}])  # fmt: skip
+    assert [r["scenario"] for r in old] == ["b", "a"]
+
+
+def test_ranked_rows_whose_plants_per_hour_intervals_overlap_tie():
+    rows = [
+        _ranked("a", "line", "above", 1945.0, band=(1900.0, 1990.0)),
+        _ranked("b", "line", "above", 1894.0, band=(1850.0, 1920.0)),
+        _ranked("c", "line", "above", 1581.0, band=(1581.0, 1581.0)),  # a planned cycle
+        _ranked("d", "line", "undecided", 1570.0, band=(1560.0, 1590.0)),
+    ]
+    ranked = rank_rows(rows)
+    assert [(r["scenario"], r["rank"], r["tie"]) for r in ranked] == [
+        ("a", 1, 1), ("b", 2, 1), ("c", 3, None), ("d", 4, None),
+    ]  # fmt: skip
+
+
+def test_a_row_is_decided_only_by_its_interval_against_the_floor():
+    from transplanter.studies.compare import ABOVE, BELOW, UNDECIDED, verdict
+
+    assert verdict((0.929, 0.991), 0.9) == ABOVE
+    assert verdict((0.80, 0.95), 0.9) == UNDECIDED
+    assert verdict((0.50, 0.706), 0.9) == BELOW
+    sc = load_scenario("serial_arm_pots")
+    # 35/40 and 36/40: 88.75 %, its interval holds the 90 % floor
+    rows = [_row(1, 35, 40, 7.9, 40, plants_per_hour=455.0),
+            _row(2, 36, 40, 7.9, 40, plants_per_hour=450.0)]  # fmt: skip
+    r = compare_row("pots", sc, rows, floor=0.9)
+    assert r["verdict"] == UNDECIDED and r["meets_floor"] is False
+    assert r["decide_seedlings"] > 1000  # at 88.75 %, 1.25 points from the floor
+    assert r["plants_per_hour_ci95"][0] < 452.5 < r["plants_per_hour_ci95"][1]
+    perfect = compare_row("pots", sc, [_row(1, 40, 40, 7.9, 40)], floor=0.9)
+    assert perfect["verdict"] == ABOVE and perfect["decide_seedlings"] is None
+
+
+def test_the_table_is_one_per_job_and_says_what_the_data_cannot_decide():
+    from transplanter.studies.compare import format_table
+
+    rows = rank_rows([
+        _ranked("a", "line", "above", 1945.0, band=(1900.0, 1990.0), ci=(0.929, 0.991)),
+        _ranked("b", "line", "above", 1894.0, band=(1850.0, 1920.0), ci=(0.954, 1.0)),
+        _ranked("c", "line", "undecided", 453.0, ci=(0.80, 0.95), decide_seedlings=1282,
+                unit="seedlings", more="--seedlings x seeds"),
+        _ranked("t", "trays", "below", 1650.0, ci=(0.5, 0.7), unit="serviced cells"),
+    ])  # fmt: skip
+    for r in rows:
+        r.update(robot="r", effector="e", success_rate=0.9, successes=9, seedlings=10,
+                 cycle_time_s=1.0, damage_rate=None, peak_motor_torque_nm=None,
+                 energy_per_seedling_j=None, mean_power_w=None, drives_usd=None,
+                 usd_per_plant_per_hour=None, failures={}, errors=0, trials=3)  # fmt: skip
+    text = format_table(rows, 0.9)
+    assert "job line (seedlings), ranked within the job:" in text
+    assert "job trays (serviced cells), ranked within the job:" in text
+    lines = text.splitlines()
+    a, b, c, t = (next(x for x in lines if x[5:].startswith(n + " ")) for n in "abct")
+    assert a.startswith(" 1=") and b.startswith(" 1=")  # tied on plants per hour
+    assert c.startswith("  3") and c.endswith(" ?") and t.startswith("  1") and t.endswith(" *")
+    assert "tie: a and b on plants per hour" in text
+    assert (
+        "undecided: c: its 95 % interval (80.0-95.0 %) holds the 90 % floor; at its rate "
+        "about 1282 seedlings would decide it (--seedlings x seeds)" in text
+    )
+    assert "note: the success intervals of a (92.9-99.1 %) and b (95.4-100.0 %) overlap" in text
 
 
 def test_the_spec_refuses_what_it_cannot_compare():

@@ -186,14 +186,13 @@ def test_ik_answers_in_the_papers_frame_or_says_why_not(capsys):
     "scenario, extra",
     [
         ("serial_arm", []),
-        ("serial_arm_pots", []),
         ("plug_bench", []),
         ("delta_refill", ["--set", "delta_refill.vision=truth"]),
     ],  # fmt: skip
 )
 def test_a_job_that_keeps_its_bodies_awake_refuses_sleep(scenario, extra, capsys):
     """These jobs' scenes never sleep: `physics.sleep = true` is refused, not ignored (their
-    scenario files say false)."""
+    scenario files say false). The pot line sleeps under every robot (tests/test_pot_job.py)."""
     assert load_scenario(scenario).physics.sleep is False
     status = cli.main(["trial", scenario, "--set", "physics.sleep=true", *extra])
     assert status == 2

@@ -74,3 +74,30 @@ def test_the_interval_carries_no_floating_point_noise_into_settings_csv(tmp_path
         ("0.0", "0.390334287902"),
         ("0.722467200137", "1.0"),
     ]
+
+
+def test_the_seedlings_that_would_decide_a_rate_against_its_floor():
+    """The smallest n whose Wilson interval at the rate clears the floor: 35 perfect picks
+    rule out 10 % failures (35/38.8 > 0.9: the rule of three's 30, Wilson's a few more)."""
+    from transplanter.studies.stats import seedlings_to_decide
+    from transplanter.twin.results import wilson_interval
+
+    n = seedlings_to_decide(1.0, 0.9)
+    assert n == 35 and wilson_interval(35, 35)[0] >= 0.9 > wilson_interval(34, 34)[0]
+    below = seedlings_to_decide(0.625, 0.9)
+    assert wilson_interval(round(0.625 * below), below)[1] < 0.9
+    near = seedlings_to_decide(0.883, 0.9)
+    assert near > 1000 and wilson_interval(round(0.883 * near), near)[1] < 0.9
+    assert seedlings_to_decide(0.9, 0.9) is None  # at the floor no number decides
+
+
+def test_the_interval_of_a_mean_over_trials():
+    """Student's t over the trials' values (454, 450, 454 plants/h: 452.7 +- 5.7); a
+    planned cycle, the same every trial, gives a zero-width interval; one trial none."""
+    from transplanter.studies.stats import mean_interval
+
+    lo, hi = mean_interval([454.0, 450.0, 454.0])
+    assert (lo + hi) / 2 == pytest.approx(452.667, abs=1e-3)
+    assert hi - lo == pytest.approx(2 * 4.303 * (2.3094 / 3**0.5), rel=1e-3)
+    assert mean_interval([1581.0, 1581.0, 1581.0]) == (1581.0, 1581.0)
+    assert mean_interval([1581.0]) is None

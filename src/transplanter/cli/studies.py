@@ -288,9 +288,12 @@ def _compare_parser(sub) -> None:
         "Ray when asked); its runs are pooled into one row: pooled success with its 95 % "
         "interval, the cycle or time per operation, plants per hour, damage, failures by "
         "kind, the robot's peak motor torque, the drives' energy per seedling and mean "
-        "power, and what the drives cost ([costs] drives_usd). Rows are ranked by plants per "
-        "hour among those at or above --success-floor. In --out: compare.json (the rows), "
-        "compare.csv, compare.txt, compare.png and runs/<scenario>/ (each scenario's sweep); "
+        "power, and what the drives cost ([costs] drives_usd). Rows are ranked within their "
+        "job by plants per hour among those whose success interval lies at or above "
+        "--success-floor, then the undecided (with the seedlings that would decide them), "
+        "then those below; overlapping plants-per-hour intervals tie. In --out: "
+        "compare.json (the rows), compare.csv, compare.txt (a table per job), compare.png "
+        "(and compare_JOB.png per job) and runs/<scenario>/ (each scenario's sweep); "
         "rerunning the same command resumes.",
         epilog="exit status: 0 done, 2 refused before any run, 5 a result file could not be "
         "written, 130 interrupted (Ctrl-C: finished runs are kept; rerun to finish), 143 the "
@@ -311,7 +314,8 @@ def _compare_parser(sub) -> None:
         type=_share,
         default=0.9,
         metavar="SHARE",
-        help="rows whose pooled success is below this (0.9 or 90%%) rank after the others; 0.9",
+        help="rows whose pooled success's 95 %% interval lies at or above this (0.9 or 90%%) "
+        "rank first within their job, those it holds next (undecided), those below it last; 0.9",
     )
     _add(p, "--workers", help="parallel trials: a number or auto (every CPU); default 1")
     _add(p, "--out", required=True, help="directory for the results")
@@ -361,8 +365,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print(f"{report.skipped} runs were already in {_show(args.out)} (skipped)")
     if report.plot_error:
         print(f"the plot could not be drawn: {report.plot_error}", file=sys.stderr)
+    from transplanter.studies.compare import job_png, jobs_of
+
+    jobs = jobs_of(report.rows)
+    pictures = ["compare.png", *(job_png(j) for j in jobs)] if len(jobs) > 1 else ["compare.png"]
     print(f"results in {_show(args.out)}: compare.json, compare.csv, compare.txt"
-          + (", compare.png" if report.plot else ""))  # fmt: skip
+          + ("".join(f", {p}" for p in pictures) if report.plot else ""))  # fmt: skip
     if report.interrupted:
         print("interrupted: rerun the same command to finish", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -7,22 +7,27 @@ of the comparison:
 
 - ``successes`` / ``seedlings`` / ``success_rate`` with the 95 % interval from the spread
   between trials (`stats.pooled_rate`, as `transplanter trial --seeds` pools);
-- ``cycle_time_s``: the job's cycle (the five-bar's and the serial arm's pick to pick, the
-  delta's time per operation), pooled over every timed cycle;
-- ``plants_per_hour``: the mean over the seeds of each trial's own figure (the five-bar and
-  the serial arm: 3600 / cycle, a seedling placed each cycle; the delta: cells culled or
-  refilled per hour of trays, tray changes included);
-- ``damage_rate``: damaged / seedlings where the job judges damage (the five-bar's bent or
-  crushed shoots, the delta's torn leaves of a refill, the tomatoes' bruises), else None;
+- ``cycle_time_s``: the job's cycle (on the pot line, whatever robot: a pot's approach to the
+  end of its release, the row's index left out; the delta's trays: its time per operation),
+  pooled over every timed cycle;
+- ``plants_per_hour``: the mean over the seeds of each trial's own figure (the pot line:
+  3600 / cycle, a seedling placed each cycle; the delta's trays: cells culled or refilled per
+  hour of trays, tray changes included);
+- ``damage_rate``: damaged / seedlings where the job judges damage (the pot line's bent or
+  crushed shoots under every robot, the delta's torn leaves of a refill, the tomatoes'
+  bruises), else None;
 - failures by kind, summed;
 - the drives (`transplanter.twin.motors`): the robot's peak motor torque (N m at the shaft,
   the largest over the seeds), the mechanical energy per seedling and the mean power;
 - ``drives_usd`` (the scenario's `[costs] drives_usd`, not physics) and the drives' price per
   plant per hour of capacity.
 
-Rows are ranked by plants per hour among those whose pooled success reaches the floor
-(`--success-floor`), then the rest. Files in OUT: ``compare.json`` (the manifest and the
-rows), ``compare.csv``, ``compare.txt`` (the table as printed) and ``compare.png``.
+Rows are ranked within their job (`rank_rows`): by plants per hour among those whose pooled
+success interval lies at or above the floor (`--success-floor`), then the undecided (the
+interval holds the floor; with the seedlings that would decide it), then those below; ranked
+rows whose plants-per-hour intervals overlap tie. Files in OUT: ``compare.json`` (the
+manifest and the rows), ``compare.csv``, ``compare.txt`` (a table per job, as printed),
+``compare.png`` and, when the rows span several jobs, ``compare_JOB.png`` for each.
 """
 
 from __future__ import annotations
@@ -45,13 +50,13 @@ from transplanter.scenario.schema import (
     units_of,
 )
 from transplanter.studies.grid import SweepRefused, SweepSpec
-from transplanter.studies.jobs import job_of
-from transplanter.studies.stats import pool_runs
+from transplanter.studies.jobs import POT_LINE_DAMAGE, job_of
+from transplanter.studies.stats import mean_interval, pool_runs, seedlings_to_decide
 
 __all__ = [
     "CompareReport",
     "CompareSpec",
-    "FIVEBAR_DAMAGE",
+    "POT_LINE_DAMAGE",
     "compare_row",
     "format_table",
     "rank_rows",
@@ -65,9 +70,6 @@ COMPARE_JSON, COMPARE_CSV, COMPARE_TXT, COMPARE_PNG = (
     "compare.png",
 )
 RUNS_DIR = "runs"
-
-FIVEBAR_DAMAGE = ("fail_damaged", "fail_shoot_crushed")
-"""The five-bar trial's failures that are a damaged seedling (its shoot bent or crushed)."""
 
 CSV_FIELDS = (
     "rank",
@@ -84,9 +86,14 @@ CSV_FIELDS = (
     "ci95_low",
     "ci95_high",
     "meets_floor",
+    "verdict",
+    "decide_seedlings",
     "cycle_time_s",
     "cycle",
     "plants_per_hour",
+    "plants_per_hour_ci95_low",
+    "plants_per_hour_ci95_high",
+    "tie",
     "damage_rate",
     "peak_motor_torque_nm",
     "energy_per_seedling_j",
@@ -210,6 +217,10 @@ def compare_row(
         "drives_usd": scenario.costs.drives_usd or None,
         "usd_per_plant_per_hour": None,
         "meets_floor": False,
+        "verdict": None,
+        "decide_seedlings": None,
+        "more": job.more if job is not None else "--seedlings x seeds",
+        "plants_per_hour_ci95": None,
     }
     if not counted:
         return out
@@ -222,12 +233,17 @@ def compare_row(
         ci95=list(pooled.ci95),
         ci_method=pooled.method,
         cycle_time_s=cycle,
-        meets_floor=pooled.success_rate >= floor,
+        verdict=verdict(pooled.ci95, floor),
     )
+    out["meets_floor"] = out["verdict"] == ABOVE
+    if out["verdict"] == UNDECIDED:
+        out["decide_seedlings"] = seedlings_to_decide(pooled.success_rate, floor)
     rates = [r["plants_per_hour"] for r in counted if r.get("plants_per_hour") is not None]
     if rates:
         out["plants_per_hour"] = sum(rates) / len(rates)
-    damage = FIVEBAR_DAMAGE if job is None else job.damage
+        band = mean_interval(rates)
+        out["plants_per_hour_ci95"] = None if band is None else list(band)
+    damage = POT_LINE_DAMAGE if job is None else job.damage
     if damage is not None:
         out["damage_rate"] = sum(r.get(f) or 0 for r in counted for f in damage) / n
     kinds = sorted({k for r in counted for k in r if k.startswith("fail_")})
@@ -250,18 +266,105 @@ def compare_row(
     return out
 
 
+ABOVE, UNDECIDED, BELOW = "above", "undecided", "below"
+"""A row's verdict against the success floor: its pooled 95 % interval lies at or above it
+(ranked), holds it (undecided: the trials cannot tell) or lies below it."""
+
+
+def verdict(ci95: Sequence[float], floor: float) -> str:
+    """ABOVE, UNDECIDED or BELOW: where a pooled success interval lies against `floor`."""
+    lo, hi = ci95
+    return ABOVE if lo >= floor else (BELOW if hi < floor else UNDECIDED)
+
+
+def _verdict_of(r: Mapping[str, Any]) -> str:
+    return r.get("verdict") or (ABOVE if r.get("meets_floor") else BELOW)
+
+
+def _overlap(a: Sequence[float] | None, b: Sequence[float] | None) -> bool:
+    return a is not None and b is not None and a[0] <= b[1] and b[0] <= a[1]
+
+
+def jobs_of(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The rows' jobs (their workcells), in the order they first appear."""
+    return list(dict.fromkeys(r.get("workcell") or "" for r in rows))
+
+
 def rank_rows(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Rows meeting the success floor by plants per hour (most first), then the others
-    the same way; each with its `rank` (1 first)."""
+    """Rows ranked within their job (the workcell: a pot-line row never ranks against a
+    tray's): those whose success interval lies at or above the floor by plants per hour (most
+    first), then the undecided, then those below, each the same way. Each gets its `rank`
+    (1 first within its job) and `tie`: for a ranked row whose plants-per-hour interval over
+    the trials overlaps the one ranked just above it, the first rank of that run of ties
+    (None otherwise); the rows come grouped by job."""
+    order_of = {ABOVE: 0, UNDECIDED: 1, BELOW: 2}
 
     def order(r: Mapping[str, Any]):
         pph = r.get("plants_per_hour")
-        return (not r.get("meets_floor"), -(pph if pph is not None else -math.inf), r["scenario"])
+        return (order_of[_verdict_of(r)], -(pph if pph is not None else -math.inf), r["scenario"])
 
-    ranked = [dict(r) for r in sorted(rows, key=order)]
-    for i, r in enumerate(ranked, 1):
-        r["rank"] = i
-    return ranked
+    out: list[dict[str, Any]] = []
+    for job in jobs_of(rows):
+        ranked = [dict(r) for r in sorted((r for r in rows if (r.get("workcell") or "") == job),
+                                          key=order)]  # fmt: skip
+        for i, r in enumerate(ranked, 1):
+            r["rank"], r["tie"] = i, None
+        for above, r in zip(ranked, ranked[1:], strict=False):
+            if _verdict_of(above) == _verdict_of(r) == ABOVE and _overlap(
+                above.get("plants_per_hour_ci95"), r.get("plants_per_hour_ci95")
+            ):
+                r["tie"] = above["tie"] or above["rank"]
+                above["tie"] = above["tie"] or above["rank"]
+        out.extend(ranked)
+    return out
+
+
+def _pct(ci: Sequence[float]) -> str:
+    return f"{100 * ci[0]:.1f}-{100 * ci[1]:.1f} %"
+
+
+def job_notes(rows: Sequence[Mapping[str, Any]], floor: float) -> list[str]:
+    """What the data cannot decide among one job's ranked rows: ties on plants per hour,
+    undecided rows with the seedlings that would decide them, and leaders whose success
+    intervals overlap."""
+    notes = []
+    ties: dict[int, list[str]] = {}
+    for r in rows:
+        if r.get("tie") is not None:
+            ties.setdefault(r["tie"], []).append(r["scenario"])
+    for names in ties.values():
+        bands = ", ".join(
+            f"{r['plants_per_hour_ci95'][0]:.0f}-{r['plants_per_hour_ci95'][1]:.0f}"
+            for r in rows
+            if r["scenario"] in names
+        )
+        notes.append(
+            f"  tie: {' and '.join(names)} on plants per hour (their 95 % intervals over the "
+            f"trials overlap: {bands})"
+        )
+    for r in rows:
+        if _verdict_of(r) == UNDECIDED and r.get("ci95"):
+            n = r.get("decide_seedlings")
+            need = (
+                f"at its rate about {n} {r.get('unit', 'seedlings')} would decide it "
+                f"({r.get('more', '--seedlings x seeds')})"
+                if n is not None
+                else "its rate is the floor: no number of trials decides it"
+            )
+            notes.append(
+                f"  undecided: {r['scenario']}: its 95 % interval ({_pct(r['ci95'])}) holds the "
+                f"{100 * floor:g} % floor; {need}"
+            )
+    leaders = [r for r in rows if _verdict_of(r) == ABOVE]
+    if len(leaders) >= 2 and _overlap(leaders[0].get("ci95"), leaders[1].get("ci95")):
+        a, b = leaders[0], leaders[1]
+        notes.append(
+            f"  note: the success intervals of {a['scenario']} ({_pct(a['ci95'])}) and "
+            f"{b['scenario']} ({_pct(b['ci95'])}) overlap: these {a['trials']} and "
+            f"{b['trials']} trials cannot tell which succeeds more; they rank by plants per "
+            "hour alone"
+        )
+    return notes
 
 
 def _fmt(v: Any, spec: str) -> str:
@@ -269,42 +372,60 @@ def _fmt(v: Any, spec: str) -> str:
 
 
 def format_table(rows: Sequence[Mapping[str, Any]], floor: float) -> str:
-    """The comparison as text (what `compare` prints and writes to compare.txt)."""
+    """The comparison as text (what `compare` prints and writes to compare.txt): a table per
+    job, its rows ranked within it (`rank_rows`), what its data cannot decide, its failures."""
     head = (
-        f"{'#':>2}  {'scenario':<22} {'robot':<8} {'effector':<13} {'job':<13} "
+        f"{'#':>3}  {'scenario':<22} {'robot':<8} {'effector':<13} {'job':<13} "
         f"{'success':>13} {'95 % CI':>13} "
         f"{'cycle s':>7} {'plants/h':>8} {'damage':>7} {'torque':>7} {'J/seedl.':>8} "
         f"{'W':>6} {'drives $':>8} {'$/(pl/h)':>8}"
     )
-    lines = [head]
-    for r in rows:
-        ok = "" if r["meets_floor"] else " *"
-        success = (
-            "-"
-            if r["success_rate"] is None
-            else f"{100 * r['success_rate']:.1f} % {r['successes']}/{r['seedlings']}"
-        )
-        ci = "-" if r["ci95"] is None else f"{100 * r['ci95'][0]:.1f}-{100 * r['ci95'][1]:.1f} %"
-        damage = "-" if r["damage_rate"] is None else f"{100 * r['damage_rate']:.1f} %"
-        lines.append(
-            f"{r['rank']:>2}  {r['scenario'][:22]:<22} {r['robot']:<8} {r['effector'][:13]:<13} "
-            f"{r['workcell'][:13]:<13} {success:>13} {ci:>13} "
-            f"{_fmt(r['cycle_time_s'], '.3f'):>7} {_fmt(r['plants_per_hour'], '.0f'):>8} "
-            f"{damage:>7} {_fmt(r['peak_motor_torque_nm'], '.3f'):>7} "
-            f"{_fmt(r['energy_per_seedling_j'], '.2f'):>8} {_fmt(r['mean_power_w'], '.2f'):>6} "
-            f"{_fmt(r['drives_usd'], '.0f'):>8} {_fmt(r['usd_per_plant_per_hour'], '.3f'):>8}{ok}"
-        )
+    mark = {ABOVE: "", UNDECIDED: " ?", BELOW: " *"}
+    lines: list[str] = []
+    for job in jobs_of(rows):
+        these = [r for r in rows if (r.get("workcell") or "") == job]
+        unit = these[0].get("unit", "seedlings")
+        if lines:
+            lines.append("")
+        lines.append(f"job {job} ({unit}), ranked within the job:")
+        lines.append(head)
+        for r in these:
+            success = (
+                "-"
+                if r["success_rate"] is None
+                else f"{100 * r['success_rate']:.1f} % {r['successes']}/{r['seedlings']}"
+            )
+            ci = "-" if r["ci95"] is None else _pct(r["ci95"])
+            damage = "-" if r["damage_rate"] is None else f"{100 * r['damage_rate']:.1f} %"
+            rank = f"{r['tie']}=" if r.get("tie") is not None else str(r["rank"])
+            lines.append(
+                f"{rank:>3}  {r['scenario'][:22]:<22} {r['robot']:<8} {r['effector'][:13]:<13} "
+                f"{r['workcell'][:13]:<13} {success:>13} {ci:>13} "
+                f"{_fmt(r['cycle_time_s'], '.3f'):>7} {_fmt(r['plants_per_hour'], '.0f'):>8} "
+                f"{damage:>7} {_fmt(r['peak_motor_torque_nm'], '.3f'):>7} "
+                f"{_fmt(r['energy_per_seedling_j'], '.2f'):>8} "
+                f"{_fmt(r['mean_power_w'], '.2f'):>6} {_fmt(r['drives_usd'], '.0f'):>8} "
+                f"{_fmt(r['usd_per_plant_per_hour'], '.3f'):>8}{mark[_verdict_of(r)]}"
+            )
+        lines.extend(job_notes(these, floor))
+        for r in these:
+            if r["failures"] or r["errors"]:
+                kinds = ", ".join(f"{k} {v}" for k, v in r["failures"].items()) or "none"
+                errs = f"; {r['errors']} run(s) with an error: {'; '.join(r['error_messages'])}"
+                lines.append(f"  {r['scenario']}: failures {kinds}{errs if r['errors'] else ''}")
     lines.append(
-        f"ranked by plants per hour among rows with pooled success >= {100 * floor:g} %; "
-        "* below the floor. torque: the robot's peak motor torque (N m at the shaft); "
-        "J/seedl.: the drives' mechanical work per seedling; W: their mean power"
+        f"ranked within each job by plants per hour among rows whose pooled success's 95 % "
+        f"interval lies at or above the {100 * floor:g} % floor, then the undecided (?: the "
+        "interval holds the floor), then those below it (*); N=: tied with rank N on plants "
+        "per hour. torque: the robot's peak motor torque (N m at the shaft); J/seedl.: the "
+        "drives' mechanical work per seedling; W: their mean power"
     )
-    for r in rows:
-        if r["failures"] or r["errors"]:
-            kinds = ", ".join(f"{k} {v}" for k, v in r["failures"].items()) or "none"
-            errs = f"; {r['errors']} run(s) with an error: {'; '.join(r['error_messages'])}"
-            lines.append(f"  {r['scenario']}: failures {kinds}{errs if r['errors'] else ''}")
     return "\n".join(lines) + "\n"
+
+
+def job_png(job: str) -> str:
+    """The picture of one job's rows when a comparison spans several jobs."""
+    return f"compare_{job}.png"
 
 
 @dataclass
@@ -345,8 +466,10 @@ def run_compare(
         raise SweepRefused(f"--out {out} cannot be made: {exc.strerror or exc}") from None
     lock = DirLock(out)
     try:
+        jobs = list(dict.fromkeys(sweep.check().workcell.kind for sweep in sweeps))
+        pictures = (COMPARE_PNG, *(job_png(j) for j in jobs)) if len(jobs) > 1 else (COMPARE_PNG,)
         for s in spec.scenarios:
-            check_out_files(out, (COMPARE_JSON, COMPARE_CSV, COMPARE_TXT, COMPARE_PNG), s)
+            check_out_files(out, (COMPARE_JSON, COMPARE_CSV, COMPARE_TXT, *pictures), s)
         _check_same(out, manifest)
         runs = out / RUNS_DIR
         for path in (runs, *(runs / label for label in spec.labels())):
@@ -378,6 +501,10 @@ def run_compare(
         if plots and rows and not interrupted:
             try:
                 result.plot = plot_compare(rows, spec.success_floor, out / COMPARE_PNG)
+                if len(jobs_of(rows)) > 1:  # and a picture per job
+                    for job in jobs_of(rows):
+                        these = [r for r in rows if r["workcell"] == job]
+                        plot_compare(these, spec.success_floor, out / job_png(job))
             except (OSError, ValueError) as exc:
                 result.plot_error = str(exc)
         return result
@@ -439,21 +566,30 @@ def _write_csv(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
     for r in rows:
         f = dict(r)
         f["ci95_low"], f["ci95_high"] = r["ci95"] if r["ci95"] else (None, None)
+        band = r.get("plants_per_hour_ci95")
+        f["plants_per_hour_ci95_low"], f["plants_per_hour_ci95_high"] = band or (None, None)
         f["failures"] = " ".join(f"{k}={v}" for k, v in r["failures"].items())
         flat.append(f)
     write_csv_atomic(path, CSV_FIELDS, flat)
 
 
 def plot_compare(rows: Sequence[Mapping[str, Any]], floor: float, path: Path) -> Path:
-    """compare.png: plants per hour, pooled success with its interval and the floor, cycle,
-    and the drives' energy per seedling, one bar per scenario in rank order (hatched: below
-    the floor). Written atomically."""
+    """compare.png (and compare_JOB.png, one job's rows): plants per hour, pooled success
+    with its interval and the floor, cycle, and the drives' energy per seedling, one bar per
+    scenario in rank order within each job (hatched: its interval below the floor; dotted:
+    it holds the floor). Written atomically."""
     from transplanter.studies.plots import _pyplot, _save
 
     plt = _pyplot()
 
-    names = [f"{r['rank']}. {r['scenario']}" for r in rows]
-    hatch = ["" if r["meets_floor"] else "//" for r in rows]
+    several = len(jobs_of(rows)) > 1
+    names = [
+        (f"{r['workcell']}: " if several else "")
+        + (f"{r['tie']}= " if r.get("tie") is not None else f"{r['rank']}. ")
+        + r["scenario"]
+        for r in rows
+    ]
+    hatch = [{ABOVE: "", UNDECIDED: ".."}.get(_verdict_of(r), "//") for r in rows]
     colors = [f"C{i % 10}" for i in range(len(rows))]
 
     def values(key: str, scale: float = 1.0) -> list[float]:
@@ -492,8 +628,10 @@ def plot_compare(rows: Sequence[Mapping[str, Any]], floor: float, path: Path) ->
     which = (
         f"seed {seeds[0]}" if len(seeds) == 1 else f"{len(seeds)} seeds ({seeds[0]}-{seeds[-1]})"
     )
+    jobs = jobs_of(rows)
     fig.suptitle(
-        f"{len(rows)} machine(s) on their jobs, {which} each; hatched: pooled success below "
-        f"the {100 * floor:g} % floor"
+        f"{len(rows)} machine(s) on {'their jobs' if several else 'the job ' + jobs[0]}, "
+        f"{which} each, ranked within each job; hatched //: pooled success interval below the "
+        f"{100 * floor:g} % floor, dotted: it holds the floor (undecided)"
     )
     return _save(fig, path)

@@ -59,6 +59,11 @@ DELTA_FAILURES = (
 )
 
 
+POT_LINE_DAMAGE = ("fail_damaged", "fail_shoot_crushed")
+"""The pot line judge's failures that are a damaged seedling (its shoot bent past
+`metrics.damage_bend_deg` or crushed by the gripper's bridge), whatever robot works it."""
+
+
 @dataclass(frozen=True)
 class Job:
     """A job kind: its own row columns, those averaged per setting, the scenario sections it
@@ -316,6 +321,7 @@ JOBS: dict[str, Job] = {
         means=("plants_per_hour", "peak_squeeze_n"),
         sections=(*SERIAL_SECTIONS, "serial_pots", "conveyor", "pots", "drop_tube", "metrics"),
         run=_serial_pots,
+        damage=POT_LINE_DAMAGE,
     ),
     "delta:conveyor_tube": Job(
         "delta:conveyor_tube",
@@ -336,6 +342,7 @@ JOBS: dict[str, Job] = {
             "metrics",
         ),
         run=_delta_pots,
+        damage=POT_LINE_DAMAGE,
     ),
 }
 """The jobs by workcell kind, or by "robot:workcell" where the workcell's own job is another

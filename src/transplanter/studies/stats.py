@@ -17,7 +17,16 @@ import numpy as np
 
 from transplanter.twin.results import wilson_interval
 
-__all__ = ["PooledRate", "SETTING_FIELDS", "aggregate", "pool_runs", "pooled_rate", "parse_seeds"]
+__all__ = [
+    "PooledRate",
+    "SETTING_FIELDS",
+    "aggregate",
+    "mean_interval",
+    "parse_seeds",
+    "pool_runs",
+    "pooled_rate",
+    "seedlings_to_decide",
+]
 
 BOOTSTRAP_RESAMPLES = 9999
 BOOTSTRAP_SEED = 20201  # fixed: the same trials give the same interval
@@ -76,6 +85,50 @@ def pooled_rate(successes: Sequence[int], seedlings: Sequence[int]) -> PooledRat
         lo, hi = min(lo, b_lo), max(hi, b_hi)
     lo, hi = (round(min(1.0, max(0.0, end)), CI_DIGITS) for end in (lo, hi))
     return PooledRate(total_k, total_n, int(k.size), rate, (lo, hi), method)
+
+
+def seedlings_to_decide(rate: float, floor: float, limit: int = 10**7) -> int | None:
+    """Seedlings (picks) that would put the 95 % Wilson interval of a success rate `rate`
+    wholly on one side of `floor`, were the rate what it is now (the smallest such n); None
+    when no number would (the rate is the floor) or more than `limit` would. What
+    `transplanter compare` prints for a row whose interval holds its floor; the cluster
+    bootstrap over trials can widen an interval past Wilson's, so it is a lower bound."""
+    if not 0.0 <= rate <= 1.0 or rate == floor:
+        return None
+
+    def decided(n: int) -> bool:
+        lo, hi = wilson_interval(round(rate * n), n)
+        return lo >= floor if rate > floor else hi < floor
+
+    hi = 1
+    while not decided(hi):
+        hi *= 2
+        if hi > limit:
+            return None
+    lo = hi // 2
+    while hi - lo > 1:  # decided(hi), not decided(lo) (rounding aside: the first n found)
+        mid = (lo + hi) // 2
+        if decided(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def mean_interval(values: Sequence[float]) -> tuple[float, float] | None:
+    """The 95 % Student-t interval of the mean of per-trial values (`scipy.stats`); None for
+    fewer than two. The same value in every trial (a planned cycle) gives a zero-width one."""
+    v = np.asarray([float(x) for x in values], dtype=np.float64)
+    if v.size < 2:
+        return None
+    mean = float(v.mean())
+    sd = float(v.std(ddof=1))
+    if sd == 0.0:
+        return mean, mean
+    from scipy import stats
+
+    half = float(stats.t.ppf(0.975, v.size - 1)) * sd / float(np.sqrt(v.size))
+    return mean - half, mean + half
 
 
 def parse_seeds(text: str) -> list[int]:
