@@ -164,7 +164,7 @@ class MetaSection:
 class RobotSection:
     """[robot]: which arm (its kinematics, model and drives); optional, default the five-bar."""
 
-    kind: str = key("str", doc="the arm's kind: fivebar, serial4")
+    kind: str = key("str", doc="the robot's kind, one registered in transplanter.kinds")
 
 
 @dataclass(frozen=True)
@@ -172,14 +172,14 @@ class WorkcellSection:
     """[workcell]: the job around the arm; optional, default paper pots on a feeding conveyor
     into a drop tube."""
 
-    kind: str = key("str", doc="the job's kind: conveyor_tube")
+    kind: str = key("str", doc="the job's kind (its workcell), registered in transplanter.kinds")
 
 
 @dataclass(frozen=True)
 class EffectorSection:
     """[effector]: the tool on the arm; optional, default servo parallel jaws with a wrist."""
 
-    kind: str = key("str", doc="the end effector's kind: parallel_jaw")
+    kind: str = key("str", doc="the end effector's kind, one registered in transplanter.kinds")
 
 
 @dataclass(frozen=True)
