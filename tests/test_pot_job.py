@@ -5,6 +5,7 @@ that the delta's and the serial arm's scenes cost what the five-bar's does."""
 
 from __future__ import annotations
 
+import math
 from types import SimpleNamespace
 
 import mujoco
@@ -119,3 +120,60 @@ def test_the_trial_command_runs_the_line_asleep(name, tmp_path):
     assert status == 0
     d = json.loads(out.read_text())
     assert d["overrides"]["physics.sleep"] is True and d["outcomes"] == {"success": 1}
+
+
+@pytest.mark.parametrize(("name", "camera"), [("delta_pots", "overview"),
+                                              ("serial_arm_pots", "overview")])  # fmt: skip
+def test_render_films_the_pot_job_and_writes_the_trials_json(name, camera, tmp_path):
+    """`render delta_pots` and `render serial_arm_pots` run the pot job as `trial` does (the
+    same JSON but wall time) and film it: a frame every 1/fps s of simulated time from the
+    power-on state (viewing.loop_video.LoopVideo, an observer that changes nothing)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    iio = pytest.importorskip("imageio.v2")
+    pytest.importorskip("imageio_ffmpeg")
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["MUJOCO_GL"] = "egl"
+    out, filmed, plain = tmp_path / "pot.mp4", tmp_path / "filmed.json", tmp_path / "plain.json"
+
+    def run(*args):
+        return subprocess.run([sys.executable, "-m", "transplanter.cli", *args], env=env,
+                              capture_output=True, text=True, timeout=600)  # fmt: skip
+
+    made = run(
+        "render",
+        name,
+        "--seedlings",
+        "1",
+        "--out",
+        str(out),
+        "--json",
+        str(filmed),
+        "--width",
+        "96",
+        "--height",
+        "72",
+        "--fps",
+        "2",
+        "--camera",
+        camera,
+        "--quiet",
+    )
+    assert made.returncode == 0, made.stderr
+    assert "video of the pot job written to" in made.stdout
+    assert run("trial", name, "--seedlings", "1", "--json", str(plain),
+               "--quiet").returncode == 0  # fmt: skip
+    a, b = (json.loads(p.read_text()) for p in (filmed, plain))
+    for d in (a, b):
+        d.pop("wall_time_s"), d.pop("real_time_factor")
+    assert a == b
+    reader = iio.get_reader(out)
+    try:
+        frames = [f for f in reader]
+    finally:
+        reader.close()
+    assert frames[0].shape == (72, 96, 3)
+    assert abs(len(frames) - (math.floor(a["sim_time_s"] * 2) + 1)) <= 1

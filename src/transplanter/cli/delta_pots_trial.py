@@ -10,13 +10,32 @@ from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _seeds
 
-__all__ = ["NOT_FILMED", "run_trial"]
+__all__ = ["NOT_VIEWED", "render", "run_trial"]
 
-NOT_FILMED = (
-    "the delta's pot job (robot delta in the conveyor_tube workcell) is not filmed yet: "
-    "transplanter trial (with --record for rerun), sweep and compare run it (render, view and "
-    "export do not build its scene yet)"
+NOT_VIEWED = (
+    "the delta's pot job (robot delta in the conveyor_tube workcell) is not in the viewer or "
+    "export yet: transplanter trial (with --record for rerun), render, sweep and compare run it"
 )
+
+
+def render(
+    args: argparse.Namespace, overrides: dict[str, Any], target: Path, json_path: Path | None
+) -> int:
+    """`transplanter render delta_pots`: one trial as `trial` runs it, filmed
+    (`cli.serial_trial.render_pots`)."""
+    from transplanter.cli.serial_trial import render_pots
+    from transplanter.twin.delta_pots import (
+        DEFINITIONS,
+        check_placement,
+        require_delta_gripper,
+        run_delta_pots,
+    )
+
+    def check(scenario) -> None:
+        require_delta_gripper(scenario)
+        check_placement(scenario)
+
+    return render_pots(args, overrides, target, json_path, run_delta_pots, DEFINITIONS, check)
 
 
 def run_trial(

@@ -197,11 +197,34 @@ def render(
     args: argparse.Namespace, overrides: dict[str, Any], target: Path, json_path: Path | None
 ) -> int:
     """`transplanter render` of the serial arm: the trial as `trial` runs it (all three jobs,
-    the same results) with its pick and place filmed by viewing.serial_arm.SerialVideo."""
+    the same results) with its pick and place filmed by viewing.serial_arm.SerialVideo; on
+    the pot line, its pot job filmed by viewing.loop_video.LoopVideo (`render_pots`)."""
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.twin.serial_arm import DEFINITIONS, run_serial_arm
     from transplanter.viewing import video
     from transplanter.viewing.serial_arm import SerialVideo
+
+    try:
+        on_line = load_scenario(args.scenario, overrides).workcell.kind == "conveyor_tube"
+    except ScenarioError as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    if on_line:
+        from transplanter.twin.serial_arm import require_own_motion
+        from transplanter.twin.serial_pots import (
+            DEFINITIONS as POT_DEFINITIONS,
+        )
+        from transplanter.twin.serial_pots import (
+            check_placement,
+            run_serial_pots,
+        )
+
+        def check(scenario) -> None:
+            require_own_motion(scenario, "the serial arm's pot job")
+            check_placement(scenario)
+
+        return render_pots(args, overrides, target, json_path, run_serial_pots, POT_DEFINITIONS,
+                           check)  # fmt: skip
 
     for option, value in (("--seedlings-of", args.seedlings_of), ("--cells-of", args.cells_of)):
         if value is not None:
@@ -264,6 +287,65 @@ def _run_pots(
     return run_pot_seeds(
         args, scenario, seeds, json_path, run_serial_pots, pots_line, DEFINITIONS, record_path
     )
+
+
+def render_pots(
+    args: argparse.Namespace,
+    overrides: dict[str, Any],
+    target: Path,
+    json_path: Path | None,
+    run,
+    definitions,
+    check,
+) -> int:
+    """`transplanter render` of a pot job on `twin.loop.StepLoop` (the serial arm's, the
+    delta's): one trial (`--seed`) as `trial` runs it, the same results, filmed by
+    `viewing.loop_video.LoopVideo`; `check(scenario)` refuses what the job cannot run."""
+    from transplanter.machine.servo_drives import frame_steps
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.twin.report import format_summary, progress_bar
+    from transplanter.viewing import video
+    from transplanter.viewing.loop_video import LoopVideo
+
+    for option, value in (("--seedlings-of", args.seedlings_of), ("--cells-of", args.cells_of)):
+        if value is not None:
+            _err(f"render refused: {option}: a pot job on the pot line is filmed whole; give "
+                 "--seedlings to film fewer")  # fmt: skip
+            return EXIT_REFUSED
+    try:
+        scenario = load_scenario(args.scenario, overrides)
+        frame_steps(scenario.physics.timestep_s)
+        check(scenario)
+        observer = LoopVideo(target, args.width, args.height, args.fps, args.camera, args.shadows)
+    except (ScenarioError, ValueError, video.RenderRefused, video.GLUnavailable) as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    bar, update = progress_bar(scenario.meta.seedlings, _progress(args), "seedling")
+    try:
+        result = run(scenario, None, progress=update, observers=[observer])
+    except (video.GLUnavailable, video.RenderRefused) as exc:
+        observer.abort()
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    finally:
+        if bar is not None:
+            bar.close()
+    result.recording_error = None  # the video's error is reported below, not as --record's
+    print(format_summary(result))
+    print(pots_line(result))
+    if observer.error is not None:
+        written: tuple[str | None, str | None] = (None, f"render: {observer.error}")
+    else:
+        n = observer.frames
+        rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
+        written = (
+            f"video of the pot job written to {_show(target)}: {n} frames at {args.fps:g} fps "
+            f"({n / args.fps:.1f} s), {args.width}x{args.height}, camera {_show(args.camera)}; "
+            f"rendering and encoding took {observer.render_s:.1f} s{rate}",
+            None,
+        )
+    summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in definitions.items())
+    return _finish(args, [result], summary, result.to_dict(), json_path, outputs=[written])
 
 
 def run_pot_seeds(

@@ -109,8 +109,9 @@ class JobKind(Protocol):
 
     def cli(self, robot: str) -> str:
         """The module of ``transplanter.cli`` that runs the job's trial with this robot
-        (its ``run_trial``, and ``render`` and ``export`` where it has them, or
-        ``NOT_FILMED``: why it is not drawn), or '' for the twin's own commands."""
+        (its ``run_trial``, and ``render`` and ``export`` where it has them, and
+        ``NOT_VIEWED``: why the viewer and export do not draw it), or '' for the twin's own
+        commands."""
         ...
 
 
