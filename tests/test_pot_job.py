@@ -177,3 +177,15 @@ def test_render_films_the_pot_job_and_writes_the_trials_json(name, camera, tmp_p
         reader.close()
     assert frames[0].shape == (72, 96, 3)
     assert abs(len(frames) - (math.floor(a["sim_time_s"] * 2) + 1)) <= 1
+
+
+@pytest.mark.parametrize(("name", "robot"), [("delta_pots", "delta"),
+                                             ("serial_arm_pots", "serial4")])  # fmt: skip
+def test_export_says_why_it_does_not_build_the_pot_jobs_scene(name, robot, tmp_path, capsys):
+    """Not the five-bar's parallel-jaw refusal: the job's own reason, naming what runs it."""
+    from transplanter import cli
+
+    assert cli.main(["export", name, str(tmp_path / "scene.xml")]) == 2
+    err = capsys.readouterr().err
+    assert f"robot {robot} in the conveyor_tube workcell) is not in the viewer or export" in err
+    assert "render" in err and not (tmp_path / "scene.xml").exists()

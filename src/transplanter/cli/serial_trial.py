@@ -197,34 +197,12 @@ def render(
     args: argparse.Namespace, overrides: dict[str, Any], target: Path, json_path: Path | None
 ) -> int:
     """`transplanter render` of the serial arm: the trial as `trial` runs it (all three jobs,
-    the same results) with its pick and place filmed by viewing.serial_arm.SerialVideo; on
-    the pot line, its pot job filmed by viewing.loop_video.LoopVideo (`render_pots`)."""
+    the same results) with its pick and place filmed by viewing.serial_arm.SerialVideo (on
+    the pot line: `cli.serial_pots_trial.render`)."""
     from transplanter.scenario.schema import ScenarioError, load_scenario
     from transplanter.twin.serial_arm import DEFINITIONS, run_serial_arm
     from transplanter.viewing import video
     from transplanter.viewing.serial_arm import SerialVideo
-
-    try:
-        on_line = load_scenario(args.scenario, overrides).workcell.kind == "conveyor_tube"
-    except ScenarioError as exc:
-        _err(f"render refused: {exc}")
-        return EXIT_REFUSED
-    if on_line:
-        from transplanter.twin.serial_arm import require_own_motion
-        from transplanter.twin.serial_pots import (
-            DEFINITIONS as POT_DEFINITIONS,
-        )
-        from transplanter.twin.serial_pots import (
-            check_placement,
-            run_serial_pots,
-        )
-
-        def check(scenario) -> None:
-            require_own_motion(scenario, "the serial arm's pot job")
-            check_placement(scenario)
-
-        return render_pots(args, overrides, target, json_path, run_serial_pots, POT_DEFINITIONS,
-                           check)  # fmt: skip
 
     for option, value in (("--seedlings-of", args.seedlings_of), ("--cells-of", args.cells_of)):
         if value is not None:

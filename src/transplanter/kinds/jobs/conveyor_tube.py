@@ -61,7 +61,10 @@ def runner(robot: str) -> str:
     return _RUNNER.get(robot, "")
 
 
-_CLI = {"delta": "transplanter.cli.delta_pots_trial", "serial4": "transplanter.cli.serial_trial"}
+_CLI = {
+    "delta": "transplanter.cli.delta_pots_trial",
+    "serial4": "transplanter.cli.serial_pots_trial",
+}
 
 
 def cli(robot: str) -> str:

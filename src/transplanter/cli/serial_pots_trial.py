@@ -1,0 +1,44 @@
+"""`transplanter trial` and `render` for the serial arm on the five-bar's pot line (`[robot]
+kind = "serial4"` in the `conveyor_tube` workcell; transplanter.twin.serial_pots): the trial
+is `cli.serial_trial`'s (its pot path), the render the pot jobs' (`serial_trial.render_pots`);
+the viewer and export refuse it with the reason."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+__all__ = ["NOT_VIEWED", "render", "run_trial"]
+
+NOT_VIEWED = (
+    "the serial arm's pot job (robot serial4 in the conveyor_tube workcell) is not in the "
+    "viewer or export yet: transplanter trial (with --record for rerun), render, sweep and "
+    "compare run it"
+)
+
+
+def run_trial(
+    args: argparse.Namespace,
+    overrides: dict[str, Any],
+    json_path: Path | None,
+    record_path: Path | None = None,
+) -> int:
+    from transplanter.cli.serial_trial import run_trial as serial_trial
+
+    return serial_trial(args, overrides, json_path, record_path)
+
+
+def render(
+    args: argparse.Namespace, overrides: dict[str, Any], target: Path, json_path: Path | None
+) -> int:
+    """`transplanter render serial_arm_pots`: one trial as `trial` runs it, filmed."""
+    from transplanter.cli.serial_trial import render_pots
+    from transplanter.twin.serial_arm import require_own_motion
+    from transplanter.twin.serial_pots import DEFINITIONS, check_placement, run_serial_pots
+
+    def check(scenario) -> None:
+        require_own_motion(scenario, "the serial arm's pot job")
+        check_placement(scenario)
+
+    return render_pots(args, overrides, target, json_path, run_serial_pots, DEFINITIONS, check)
