@@ -10,12 +10,25 @@ from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _seeds
 
-__all__ = ["NOT_VIEWED", "render", "run_trial"]
+__all__ = ["NOT_IN_VIEWER", "export", "render", "run_trial"]
 
-NOT_VIEWED = (
-    "the delta's pot job (robot delta in the conveyor_tube workcell) is not in the viewer or "
-    "export yet: transplanter trial (with --record for rerun), render, sweep and compare run it"
+NOT_IN_VIEWER = (
+    "the delta's pot job (robot delta in the conveyor_tube workcell) is not in the viewer yet: "
+    "transplanter trial (with --record for rerun), render, export, sweep and compare run it"
 )
+
+
+def export(scenario, target: Path) -> Path:
+    """`transplanter export delta_pots`: the scene its trial builds for the scenario's seed
+    (`twin.delta_pots.scene_spec`) with the pots' decor, meshes in assets/ beside it."""
+    from transplanter.scene.delta_scene import export_spec
+    from transplanter.scene.effectors import fuzzy_gripper
+    from transplanter.twin.delta_pots import check_placement, require_delta_gripper, scene_spec
+
+    require_delta_gripper(scenario)
+    check_placement(scenario)
+    spec = scene_spec(scenario, scenario.seed, decor=True)[0]
+    return export_spec(spec, target, mount=fuzzy_gripper.MOUNT)
 
 
 def render(

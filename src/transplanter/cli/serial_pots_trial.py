@@ -9,9 +9,9 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-__all__ = ["NOT_VIEWED", "render", "run_trial"]
+__all__ = ["NOT_IN_VIEWER", "render", "run_trial"]
 
-NOT_VIEWED = (
+NOT_IN_VIEWER = (
     "the serial arm's pot job (robot serial4 in the conveyor_tube workcell) is not in the "
     "viewer or export yet: transplanter trial (with --record for rerun), render, sweep and "
     "compare run it"

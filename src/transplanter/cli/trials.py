@@ -432,7 +432,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     job_cli = _job_cli(args, overrides)  # a job with its own trial films it itself
     if job_cli is not None:
         if not hasattr(job_cli, "render"):
-            _err(f"render refused: {getattr(job_cli, 'NOT_VIEWED', 'this job is not filmed')}")
+            _err(f"render refused: {getattr(job_cli, 'NOT_IN_VIEWER', 'this job is not filmed')}")
             return EXIT_REFUSED
         return job_cli.render(args, overrides, target, json_target)
     if args.cells_of is not None:
@@ -513,8 +513,8 @@ def cmd_view(args: argparse.Namespace) -> int:
 
     try:
         job_cli = _job_cli(args, _trial_overrides(args))
-        if job_cli is not None and hasattr(job_cli, "NOT_VIEWED"):
-            raise ScenarioError(job_cli.NOT_VIEWED)
+        if job_cli is not None and hasattr(job_cli, "NOT_IN_VIEWER"):
+            raise ScenarioError(job_cli.NOT_IN_VIEWER)
         config = _single_trial_config(args)
     except ScenarioError as exc:
         _err(f"view refused: {exc}")
@@ -560,8 +560,9 @@ def cmd_export(args: argparse.Namespace) -> int:
             raise fileio.FileRefused(clash)
         overrides = _trial_overrides(args)
         job_cli = _job_cli(args, overrides)
-        if job_cli is not None and hasattr(job_cli, "NOT_VIEWED"):
-            raise ScenarioError(job_cli.NOT_VIEWED)
+        if job_cli is not None and not hasattr(job_cli, "export"):
+            if hasattr(job_cli, "NOT_IN_VIEWER"):
+                raise ScenarioError(job_cli.NOT_IN_VIEWER)
         delta = job_cli is not None and hasattr(job_cli, "export")  # a job's own scene
         if delta:
             config = load_scenario(args.scenario, overrides)

@@ -110,8 +110,8 @@ class JobKind(Protocol):
     def cli(self, robot: str) -> str:
         """The module of ``transplanter.cli`` that runs the job's trial with this robot
         (its ``run_trial``, and ``render`` and ``export`` where it has them, and
-        ``NOT_VIEWED``: why the viewer and export do not draw it), or '' for the twin's own
-        commands."""
+        ``NOT_IN_VIEWER``: why the viewer, and export where it has none, do not draw it), or
+        '' for the twin's own commands."""
         ...
 
 

@@ -273,12 +273,20 @@ def compile_scene(spec: mujoco.MjSpec) -> mujoco.MjModel:
         return spec.compile()
 
 
-def export_spec(spec: mujoco.MjSpec, out: str | Path, models: str | Path | None = None) -> Path:
-    """Write a delta scene's spec (`twin.delta_refill.job_spec`) as one MJCF file, with the
-    meshes of the delta and the claws in the `assets/` folder beside it (as the five-bar's
-    `build.export_scene`); returns the XML's path. It loads in MjModel.from_xml_path and
-    `python -m mujoco.viewer --mjcf OUT.xml`. MuJoCo's XML writer keeps 6 significant
-    digits: the file's numbers match the built scene's to about 5e-6 relative."""
+def export_spec(
+    spec: mujoco.MjSpec,
+    out: str | Path,
+    models: str | Path | None = None,
+    mount: str = "claws_mount",
+) -> Path:
+    """Write a delta scene's spec (`twin.delta_refill.job_spec`, `twin.delta_pots.scene_spec`)
+    as one MJCF file, with the meshes it uses (from every model folder's `assets/`: the
+    delta's, its effector's, the workcell's) in the `assets/` folder beside it (as the
+    five-bar's `build.export_scene`); `mount`: the attached effector's root body, whose
+    default classes are renamed where they clash (`_claws_classes_renamed`). Returns the
+    XML's path. It loads in MjModel.from_xml_path and `python -m mujoco.viewer --mjcf
+    OUT.xml`. MuJoCo's XML writer keeps 6 significant digits: the file's numbers match the
+    built scene's to about 5e-6 relative."""
     import shutil
 
     from transplanter import fileio
@@ -286,13 +294,13 @@ def export_spec(spec: mujoco.MjSpec, out: str | Path, models: str | Path | None 
     root = Path(models) if models is not None else models_dir()
     target = fileio.check_output(out, ".xml")
     with kinds.robot("delta").quiet_prefix_note():
-        xml = _claws_classes_renamed(spec.to_xml())
+        xml = _claws_classes_renamed(spec.to_xml(), mount)
     assets = target.parent / spec.meshdir
     assets.mkdir(exist_ok=True)
-    wanted = {m.file for m in spec.meshes if m.file}
-    for folder in (root / "delta" / "assets", root / "effectors" / "plug_claws" / "assets"):
+    wanted = {Path(m.file).name for m in spec.meshes if m.file}
+    for folder in sorted(root.rglob("assets")):
         for mesh in sorted(folder.iterdir()):
-            if mesh.name in wanted:
+            if mesh.name in wanted and not (assets / mesh.name).exists():
                 shutil.copyfile(mesh, assets / mesh.name)
     fileio.write_text_atomic(target, xml)
     return target

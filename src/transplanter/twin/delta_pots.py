@@ -191,10 +191,11 @@ def _subtree_mass(body) -> float:
     return float(body.mass) + sum(_subtree_mass(c) for c in body.bodies)
 
 
-def scene_spec(sc, seed: int):
+def scene_spec(sc, seed: int, decor: bool = False):
     """The job's scene: the delta over the pot line with the fuzzy gripper under its
-    platform and each pickup cell's sensor 1. Returns (spec, line config, gripper config, the
-    pots drawn: a PotBatch)."""
+    platform and each pickup cell's sensor 1 (the pots' decor only with `decor`: a drawing's,
+    never the physics'). Returns (spec, line config, gripper config, the pots drawn: a
+    PotBatch)."""
     from transplanter.scenario.assemble import fuzzy_gripper_config
     from transplanter.scene import kinds
     from transplanter.scene.build import merge_models, workcell_xml
@@ -233,7 +234,7 @@ def scene_spec(sc, seed: int):
     spec.option.timestep = sc.physics.timestep_s
     cell = kinds.workcell("conveyor_tube")
     cell.apply(spec, line)
-    pots = cell.populate(spec, line, seed, decor=False)
+    pots = cell.populate(spec, line, seed, decor=decor)
     y = line.pickup_row_y_m - line.pot_diameter_m / 2 - job.sensor_gap_m
     for c, x in enumerate(cell_columns_x(line)):
         body = spec.worldbody.add_body(name=f"station_sensor_c{c}", pos=[x, y, job.sensor_z_m])
