@@ -212,6 +212,21 @@ class SentLine:
     reply: str | None = None
 
 
+class LineEventKind(StrEnum):
+    SENT = "sent"  # the PGF put the line on the bus
+    DONE = "done"  # its reply reached the PGF
+
+
+@dataclass
+class LineEvent:
+    """A PGF line was sent or its reply arrived: what trials and the pot line's judge watch
+    (`twin.judge.Judge.on_line`)."""
+
+    line: SentLine
+    t: float
+    kind: LineEventKind
+
+
 def _mm(value_m: float) -> float:
     return value_m / M_PER_MM
 

@@ -194,7 +194,7 @@ def compare_row(
         "robot": scenario.robot.kind,
         "effector": scenario.effector.kind,
         "workcell": scenario.workcell.kind,
-        "job": job.kind if job is not None else "fivebar",
+        "job": job.kind if job is not None else f"{scenario.robot.kind}:{scenario.workcell.kind}",
         "seeds": [r["seed"] for r in rows],
         "trials": len(counted),
         "errors": sum(1 for r in rows if r.get("error")),

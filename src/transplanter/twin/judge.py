@@ -25,14 +25,13 @@ from typing import Any, Protocol
 import mujoco
 import numpy as np
 
-from transplanter.machine.pgf import LinePhase
+from transplanter.machine.pgf import LineEvent, LineEventKind, LinePhase
 from transplanter.scenario.assemble import JudgeConfig
 from transplanter.scene.config import SHOOT_COM_SHARE, SHOOT_SPREAD
 from transplanter.scene.conveyor import ConveyorDrive
 from transplanter.scene.handles import PotLine
 from transplanter.twin.results import EventKind, Outcome, SeedlingRecord
 from transplanter.twin.shoot import ShootSway, shoot_params
-from transplanter.twin.sim import LineEvent, LineEventKind
 from transplanter.units import M_PER_MM
 
 __all__ = ["Judge", "EventSink", "PotRig"]

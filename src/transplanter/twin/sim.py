@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from enum import StrEnum
 from typing import Any
 
 import mujoco
@@ -28,7 +27,7 @@ from transplanter.machine.bus import ComBus
 from transplanter.machine.config import GRIPPER_SERVO, Machine
 from transplanter.machine.faults import LostReplyTransport
 from transplanter.machine.gcode import SERVO_MAX_DEG
-from transplanter.machine.pgf import PGF, SentLine
+from transplanter.machine.pgf import PGF, LineEvent, LineEventKind, SentLine  # noqa: F401
 from transplanter.machine.rig import FirmwareLink
 from transplanter.machine.sgf import SGF
 from transplanter.scenario.assemble import TwinConfig
@@ -97,20 +96,6 @@ class _ServoRamp:
         travel = self.target_deg - self.start_deg
         moved = np.minimum(self.speed_deg_s * np.maximum(times - self.t0, 0.0), abs(travel))
         return self.start_deg + math.copysign(1.0, travel) * moved
-
-
-class LineEventKind(StrEnum):
-    SENT = "sent"  # the PGF put the line on the bus
-    DONE = "done"  # its reply reached the PGF
-
-
-@dataclass
-class LineEvent:
-    """A PGF line was sent or its reply arrived: what trials watch."""
-
-    line: SentLine
-    t: float
-    kind: LineEventKind
 
 
 @dataclass
