@@ -230,7 +230,14 @@ def test_the_json_has_the_paper_columns_with_definitions(tmp_path, capsys):
         assert name in d["definitions"]
     assert isinstance(d["dropped"], int) and isinstance(d["failures"], dict)
     assert isinstance(d["cells"], list) and d["cells"][0]["culled"] == "binned"
-    assert "time_per_operation_s" in capsys.readouterr().out
+    out_plain = capsys.readouterr().out  # the summary leads: the meanings under --explain
+    assert "what each number means: --explain" in out_plain
+    assert "time_per_operation_s:" not in out_plain
+    status = cli.main(["trial", "delta_refill", "--seed", str(SEED), "--explain",
+                       "--set", "delta_refill.max_cells=1",
+                       "--set", "delta_refill.image_delay_ms=0",
+                       "--set", "delta_refill.vision=truth"])  # fmt: skip
+    assert status == 0 and "time_per_operation_s" in capsys.readouterr().out
 
 
 def test_the_splines_take_less_time_than_lines_for_the_same_cell(pair):

@@ -6,13 +6,22 @@ from transplanter.twin.report import format_summary, printable
 from transplanter.twin.results import Outcome, SeedlingRecord, TrialResult
 
 
-def test_summary_shows_rate_interval_and_every_failure_kind():
+def test_summary_shows_rate_interval_and_the_failure_kinds_that_occurred():
+    """The answer first, then only the kinds that occurred (the JSON keeps every kind)."""
     records = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS) for i in range(39)]
     records.append(SeedlingRecord(39, 4, outcome=Outcome.NO_POT, cycle_time_s=3.5))
-    text = format_summary(TrialResult("paper", 1, records, sim_time_s=147.0, wall_time_s=7.0))
+    result = TrialResult("paper", 1, records, sim_time_s=147.0, wall_time_s=7.0)
+    text = format_summary(result)
     assert "97.5 % (39/40), 95 % CI 87.1-99.6 %" in text
     assert "failures: no_pot           1" in text
+    assert [x for x in text.splitlines() if x.startswith("failures")] == [
+        "failures: no_pot           1"
+    ]
+    assert result.to_dict()["failures"]["knocked_over"] == 0  # every kind in the JSON
     assert "21.0x" in text.splitlines()[8]
+    clean = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS) for i in range(40)]
+    text = format_summary(TrialResult("paper", 1, clean, sim_time_s=147.0, wall_time_s=7.0))
+    assert "failures:                  none" in text
 
 
 def test_control_characters_are_shown_escaped():

@@ -254,6 +254,11 @@ def _run(config, progress: bool = False, on_progress=None, **kwargs: Any):
 Output = tuple[str | None, str | None]
 
 
+DEFINITIONS_HEAD = "definitions:"
+"""How a job's block of definitions starts (what each number of its summary means)."""
+EXPLAIN_HINT = "what each number means: --explain (and the JSON's definitions)"
+
+
 def _finish(
     args: argparse.Namespace,
     results: Sequence[Any],
@@ -294,7 +299,10 @@ def _finish_held(
     from transplanter import fileio
 
     if summary is not None:
-        print(summary)
+        if summary.startswith(DEFINITIONS_HEAD) and not getattr(args, "explain", True):
+            print(EXPLAIN_HINT)  # `trial` leads with the answer; --explain for the meanings
+        else:
+            print(summary)
     failed = False
     if json_target is not None:
         try:

@@ -55,6 +55,12 @@ def _trial_parser(sub) -> None:
     add_options(p, "scenario", "--set", "--seedlings", "--seed", "--seeds")
     add_options(p, "--json", "--record", "--record-rate", "--quiet")
     p.add_argument(
+        "--explain",
+        action="store_true",
+        help="print what each number of the job's summary means (its definitions: always in "
+        "the JSON and docs/results.md)",
+    )
+    p.add_argument(
         "--no-preflight",
         action="store_true",
         help="skip the check of every taught point and move before the trial: the SGF then "

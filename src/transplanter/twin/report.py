@@ -138,7 +138,9 @@ def format_summary(result: TrialResult) -> str:
         ("wall time", f"{d['wall_time_s']:.1f} s"),
         ("real-time factor", f"{d['real_time_factor']:.1f}x" if d["real_time_factor"] else "n/a"),
     ]
-    rows += [(f"failures: {k}", str(v)) for k, v in d["failures"].items()]
+    # only the failure kinds that occurred (every kind, zeros too, is in the JSON)
+    occurred = [(f"failures: {k}", str(v)) for k, v in d["failures"].items() if v]
+    rows += occurred or [("failures:", "none")]
     realign = max((abs(r["offset_mm"]) for r in d["belt_realignments"]), default=0.0)
     rows.append(
         (
@@ -184,7 +186,9 @@ def format_summary(result: TrialResult) -> str:
     if result.recording_error:
         rows.append(("recording", f"FAILED: {printable(result.recording_error)}"))
     rows += [("warning", printable(w)) for w in d["warnings"]]
-    width = max(len(k) for k, _ in rows)
+    # the labels' column as wide as every failure kind's would make it: the same layout
+    # whichever kinds occurred
+    width = max(max(len(k) for k, _ in rows), *(len(f"failures: {k}") for k in d["failures"]))
     return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
 
 
