@@ -60,8 +60,6 @@ DEBT = {
     "import each pair's runner (issue: one twin for every machine)",
     "studies/backends.py": "a run with no study job registered is the five-bar's trial, run "
     "by the backend itself (twin.trial), not through a registered job",
-    "studies/sweep.py": "the offscreen refusal quotes the delta's grading hint "
-    "(twin.delta_grading.TRUTH_HINT) instead of asking the job for it",
 }
 """Generic modules that still name a kind, and why: the issue's remaining work."""
 

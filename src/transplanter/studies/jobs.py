@@ -86,6 +86,10 @@ class Job:
     pictures: Callable[[Any, Mapping[str, Sequence[Any]]], bool] | None = None
     """Whether a run photographs (needs an offscreen OpenGL context), given the scenario and
     the study's varied values by key; None: never."""
+    pictures_why: str = ""
+    """What photographs, for the refusal when no offscreen OpenGL context can be made."""
+    no_pictures: str = ""
+    """How to run the job without pictures (the same refusal's way out)."""
 
 
 def _delta(scenario, seed: int, row: dict[str, Any]) -> None:
@@ -287,6 +291,8 @@ JOBS: dict[str, Job] = {
         pictures=lambda sc, varied: (
             "pipeline" in (sc.delta_refill.vision, *varied.get("delta_refill.vision", ()))
         ),
+        pictures_why='delta_refill.vision = "pipeline" photographs the trays in every run',
+        no_pictures="or grade from the drawn truth: --set delta_refill.vision=truth",
     ),
     "plug_bench": Job(
         "plug_bench",

@@ -417,13 +417,12 @@ def require_pictures(scenario, varied: Mapping[str, Sequence[Any]] | None = None
     if job is None or job.pictures is None or not job.pictures(scenario, varied or {}):
         return
     from transplanter.scene.offscreen import offscreen_gl_error
-    from transplanter.twin.delta_grading import TRUTH_HINT
 
     why = offscreen_gl_error()
     if why is not None:
         raise SweepRefused(
-            f'delta_refill.vision = "pipeline" photographs the trays in every run: {why}; '
-            f"headless, set MUJOCO_GL=egl (or osmesa) before the command, {TRUTH_HINT}"
+            f"{job.pictures_why}: {why}; headless, set MUJOCO_GL=egl (or osmesa) before the "
+            f"command, {job.no_pictures}"
         )
 
 
