@@ -18,7 +18,10 @@ def test_summary_shows_rate_interval_and_the_failure_kinds_that_occurred():
         "failures: no_pot           1"
     ]
     assert result.to_dict()["failures"]["knocked_over"] == 0  # every kind in the JSON
-    assert "21.0x" in text.splitlines()[8]
+    assert "21.0x" in text.splitlines()[9]
+    # a shift in one number: the whole run's rate (40 attempted in 147 s) beside the cycle's
+    assert "seedlings per hour         980 over the whole run (homing, indexes and " in text
+    assert ", 1029 at the mean cycle" in text
     clean = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS) for i in range(40)]
     text = format_summary(TrialResult("paper", 1, clean, sim_time_s=147.0, wall_time_s=7.0))
     assert "failures:                  none" in text

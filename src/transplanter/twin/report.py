@@ -134,6 +134,12 @@ def format_summary(result: TrialResult) -> str:
             else f"{d['cycle_time_s']:.3f} s mean, sd {d['cycle_time_sd_s'] or 0:.3f} s",
         ),
         ("seedlings per minute", f"{d['seedlings_per_min']:.1f}"),
+        (
+            "seedlings per hour",
+            f"{60 * d['seedlings_per_min']:.0f} over the whole run (homing, indexes and "
+            "recoveries included)"
+            + (f", {3600 / d['cycle_time_s']:.0f} at the mean cycle" if d["cycle_time_s"] else ""),
+        ),
         ("simulated time", f"{d['sim_time_s']:.1f} s"),
         ("wall time", f"{d['wall_time_s']:.1f} s"),
         ("real-time factor", f"{d['real_time_factor']:.1f}x" if d["real_time_factor"] else "n/a"),
