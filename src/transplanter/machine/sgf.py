@@ -92,6 +92,12 @@ _MOTION_COMMANDS = frozenset({"G0", "G1", "M280", "M710", "M720"})
 """What an emergency stop refuses until a G28: moves, the servos and the conveyor."""
 
 _AFTER_VIAS_REFUSED = frozenset({"G1", "G4", "M710", "M400"})
+SLOWED_MEANS = (
+    "Not a fault: the machine's own limit, already in the cycle (in the paper scenario, its Z "
+    "screw at its driver's rate: the paper's machine as built); to model a faster machine, "
+    "change that limit"
+)
+"""What a speed warning means, after it (docs/results.md)."""
 """What may not run while M720 via points wait for their G0 transfer (they would run at the
 wrong place): refused, the via points dropped."""
 
@@ -279,10 +285,12 @@ class SGF:
 
     def speed_warnings(self) -> list[str]:
         """The moves that cruised slower than their F asked (the firmware obeys its limits
-        without a word, as grbl does; a trial reports them): one line per speed and reason."""
+        without a word, as grbl does; a trial reports them): one line per speed and reason,
+        with what it means (`SLOWED_MEANS`): a limit of the machine as configured, which the
+        cycle already pays, never a fault."""
         return [
             f"{count} move{'s' if count > 1 else ''} asked for {asked / M_PER_MM:g} mm/s "
-            f"cruised at {slowest / M_PER_MM:.1f} mm/s or less: {why}"
+            f"cruised at {slowest / M_PER_MM:.1f} mm/s or less: {why}. {SLOWED_MEANS}"
             for (asked, why), (count, slowest) in sorted(self._slowed.items())
         ]
 
