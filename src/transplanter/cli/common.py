@@ -331,6 +331,22 @@ def _finish_held(
     return EXIT_FIRMWARE_FAULT if any(r.fault for r in results) else EXIT_OK
 
 
+def video_written(observer, args: argparse.Namespace, target: Path, what: str = ""):
+    """A render's output line (`_finish`'s (written, error) pair): the video (of `what`), its
+    frames, size, camera and the time rendering took; or the observer's error."""
+    if observer.error is not None:
+        return None, f"render: {observer.error}"
+    n = observer.frames
+    rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
+    of = f" of {what}" if what else ""
+    return (
+        f"video{of} written to {_show(target)}: {n} frames at {args.fps:g} fps "
+        f"({n / args.fps:.1f} s), {args.width}x{args.height}, camera {_show(args.camera)}; "
+        f"rendering and encoding took {observer.render_s:.1f} s{rate}",
+        None,
+    )
+
+
 def _show(path) -> str:
     from transplanter.twin.report import printable
 

@@ -11,7 +11,15 @@ import math
 from pathlib import Path
 from typing import Any
 
-from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _progress, _seeds, _show
+from transplanter.cli.common import (
+    EXIT_REFUSED,
+    _err,
+    _finish,
+    _progress,
+    _seeds,
+    _show,
+    video_written,
+)
 
 __all__ = ["export", "render", "run_trial"]
 
@@ -245,15 +253,5 @@ def render(
         _err(f"render refused: {exc}")
         return EXIT_REFUSED
     print(summary_line(result))
-    if observer.error is not None:
-        written = (None, f"render: {observer.error}")
-    else:
-        n = observer.frames
-        rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
-        written = (
-            f"video written to {_show(target)}: {n} frames at {args.fps:g} fps "
-            f"({n / args.fps:.1f} s), {args.width}x{args.height}, camera "
-            f"{_show(args.camera)}; rendering and encoding took {observer.render_s:.1f} s{rate}",
-            None,
-        )
+    written = video_written(observer, args, target)
     return _finish(args, [result], None, result.to_dict(), json_path, outputs=[written])

@@ -12,7 +12,15 @@ import math
 from pathlib import Path
 from typing import Any
 
-from transplanter.cli.common import EXIT_REFUSED, _err, _finish, _progress, _seeds, _show
+from transplanter.cli.common import (
+    EXIT_REFUSED,
+    _err,
+    _finish,
+    _progress,
+    _seeds,
+    _show,
+    video_written,
+)
 
 __all__ = ["format_tables", "render", "run_trial"]
 
@@ -224,17 +232,7 @@ def render(
         return EXIT_REFUSED
     result.recording_error = None  # the video's error is reported below, not as --record's
     print(format_tables(result))
-    if observer.error is not None:
-        written: tuple[str | None, str | None] = (None, f"render: {observer.error}")
-    else:
-        n = observer.frames
-        rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
-        written = (
-            f"video of the pick and place written to {_show(target)}: {n} frames at "
-            f"{args.fps:g} fps ({n / args.fps:.1f} s), {args.width}x{args.height}, camera "
-            f"{_show(args.camera)}; rendering and encoding took {observer.render_s:.1f} s{rate}",
-            None,
-        )
+    written = video_written(observer, args, target, "the pick and place")
     summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in DEFINITIONS.items())
     return _finish(args, [result], summary, result.to_dict(), json_path, outputs=[written])
 
@@ -311,17 +309,7 @@ def render_pots(
     result.recording_error = None  # the video's error is reported below, not as --record's
     print(format_summary(result))
     print(pots_line(result))
-    if observer.error is not None:
-        written: tuple[str | None, str | None] = (None, f"render: {observer.error}")
-    else:
-        n = observer.frames
-        rate = f", {n / observer.render_s:.1f} frames/s" if observer.render_s > 0 else ""
-        written = (
-            f"video of the pot job written to {_show(target)}: {n} frames at {args.fps:g} fps "
-            f"({n / args.fps:.1f} s), {args.width}x{args.height}, camera {_show(args.camera)}; "
-            f"rendering and encoding took {observer.render_s:.1f} s{rate}",
-            None,
-        )
+    written = video_written(observer, args, target, "the pot job")
     summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in definitions.items())
     return _finish(args, [result], summary, result.to_dict(), json_path, outputs=[written])
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 import time
-from pathlib import Path
 from typing import Any
 
 from transplanter.viewing import video
@@ -30,21 +29,9 @@ class LoopVideo(video.Mp4Output):
         camera: str = video.DEFAULT_CAMERA,
         shadows: bool = False,
     ) -> None:
-        self.ffmpeg = video.require_imageio()
-        self.target, self.size, self.fps = Path(target), (width, height), float(fps)
-        self.camera, self.shadows = camera, shadows
-        self.clock = video._FrameClock(self.fps)
-        self.grabber: Any = None
-        self.writer: Any = None
+        self._setup(target, width, height, fps, camera, shadows)
         self.loop: Any = None
-        self.error: str | None = None
-        self.path: Path | None = None
-        self.render_s = 0.0
         self.verdicts: list[str] = []
-
-    @property
-    def frames(self) -> int:
-        return self.writer.frames if self.writer is not None else 0
 
     def attach(self, loop: Any) -> None:
         """Film the loop from its power-on state (video.RenderRefused: frames the timestep

@@ -132,25 +132,13 @@ class SerialVideo(Mp4Output):
         from transplanter.viewing import video
 
         self.video = video
-        self.ffmpeg = video.require_imageio()
-        self.target, self.size, self.fps = Path(target), (width, height), float(fps)
-        self.camera, self.shadows = camera, shadows
-        self.clock = video._FrameClock(self.fps)
-        self.grabber: Any = None
-        self.writer: Any = None
-        self.error: str | None = None
-        self.path: Path | None = None
-        self.render_s = 0.0
+        self._setup(target, width, height, fps, camera, shadows)
         # what the trial tells its observers (run_pick_place sets these)
         self.fuzzy_deg = math.nan
         self.squeeze_n = 0.0
         self.tomato: int | None = None
         self.decision: str | None = None
         self.outcomes: list[str] = []
-
-    @property
-    def frames(self) -> int:
-        return self.writer.frames if self.writer is not None else 0
 
     def attach(self, rig) -> None:
         video = self.video

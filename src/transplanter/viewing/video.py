@@ -312,6 +312,26 @@ class Mp4Output:
     error: str | None
     path: Path | None
 
+    def _setup(
+        self, target: str | os.PathLike, width: int, height: int, fps: float, camera: str,
+        shadows: bool,
+    ) -> None:  # fmt: skip
+        """The state every video observer starts with: the encoder checked, the frame size,
+        rate and clock, the camera, nothing filmed yet."""
+        self.ffmpeg = require_imageio()
+        self.target, self.size, self.fps = Path(target), (width, height), float(fps)
+        self.camera, self.shadows = camera, shadows
+        self.clock = _FrameClock(self.fps)
+        self.grabber = None
+        self.writer = None
+        self.error = None
+        self.path = None  # the video, once written
+        self.render_s = 0.0  # wall time spent rendering and encoding
+
+    @property
+    def frames(self) -> int:
+        return self.writer.frames if self.writer is not None else 0
+
     def _close(self, interrupted: bool, nothing_filmed: str) -> None:
         """Commit the video, or discard it (interrupted, or no frame: `error` then says
         `nothing_filmed`); a write that fails is the `error`."""
@@ -353,22 +373,11 @@ class VideoObserver(Mp4Output):
         seedlings: set[int] | None = None,
         shadows: bool = False,
     ) -> None:
-        self.ffmpeg = require_imageio()
-        self.target, self.size, self.fps = Path(target), (width, height), fps
-        self.camera, self.seedlings, self.shadows = camera, seedlings, shadows
-        self.clock = _FrameClock(fps)
-        self.grabber: FrameGrabber | None = None
-        self.writer: Mp4Writer | None = None
+        self._setup(target, width, height, fps, camera, shadows)
+        self.seedlings = seedlings
         self.records: list[SeedlingRecord] = []
         self.latest: int | None = None  # the last seedling whose cycle started
         self.judged = 0  # records[:judged] all have a verdict
-        self.error: str | None = None
-        self.path: Path | None = None  # the video, once written
-        self.render_s = 0.0  # wall time spent rendering and encoding
-
-    @property
-    def frames(self) -> int:
-        return self.writer.frames if self.writer is not None else 0
 
     def attach(self, twin: Any, records: list[SeedlingRecord]) -> None:
         check_frames(*self.size, self.fps, twin.dt)
