@@ -36,7 +36,14 @@ from transplanter.cli import (
     trials,
     vision,
 )
-from transplanter.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, _err
+from transplanter.cli.common import (
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_OUTPUT_FAILED,
+    EXIT_REFUSED,
+    EXIT_TERMINATED,
+    _err,
+)
 
 # The command groups in the order `transplanter --help` lists their commands.
 COMMAND_GROUPS = (kinematics, motion, trials, hmi, studies, serial_link, replay, scenarios, vision)
@@ -60,7 +67,16 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     # rerun's own log lines would repeat a failed recording's one-line report on stderr
     os.environ.setdefault("RUST_LOG", "off")
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
+    report = None
+    if getattr(args, "report", None) is not None:  # trial, sweep, compare --report
+        from transplanter.cli.common import StdoutCopy, new_report, report_target
+
+        report = report_target(args)
+        if report is False:
+            return EXIT_REFUSED
+        args.report_data = new_report(args, argv)
     if args.command in ("render", "grade") or getattr(args, "clips_of_failures", None) is not None:
         from transplanter.viewing.video import prepare_gl
 
@@ -68,11 +84,24 @@ def main(argv: list[str] | None = None) -> int:
     from transplanter import interrupts
 
     with interrupts.handling():  # SIGTERM stops a command as Ctrl-C does
+        stdout = sys.stdout
+        if report is not None:
+            sys.stdout = copy = StdoutCopy(stdout)
         try:
             status = int(args.func(args) or 0)
         except KeyboardInterrupt:
             _err("interrupted")
             status = EXIT_INTERRUPTED
+        finally:
+            sys.stdout = stdout
+        if report is not None:
+            from transplanter.cli.common import write_report
+
+            with interrupts.held():
+                error = write_report(args, report, copy.text)
+            if error is not None:
+                _err(error)
+                status = EXIT_OUTPUT_FAILED if status == EXIT_OK else status
         if interrupts.take_pending() is not None and status == 0:
             # held while the work finished and was written: nothing was cut
             _err("interrupted when the work had finished: the results are complete and written")

@@ -83,6 +83,14 @@ OPTIONS: dict[str, dict[str, Any]] = {
     "--record": {"type": Path, "default": None, "help": "write a rerun .rrd recording"},
     "--record-rate": {"type": ascii_float, "default": 60.0, "help": "recording rate in Hz (> 0)"},
     "--quiet": {"action": "store_true", "help": "no progress bar"},
+    "--report": {
+        "type": Path,
+        "default": None,
+        "metavar": "FILE.html",
+        "help": "also write one self-contained HTML file: what was printed, the results as "
+        "tables, the pictures embedded, the scenario files as read, the command, the version "
+        "and the seeds",
+    },
 }
 
 
@@ -298,6 +306,7 @@ def _finish_held(
 ) -> int:
     from transplanter import fileio
 
+    _report_trial(args, results, payload)
     if summary is not None:
         if summary.startswith(DEFINITIONS_HEAD) and not getattr(args, "explain", True):
             print(EXPLAIN_HINT)  # `trial` leads with the answer; --explain for the meanings
@@ -329,6 +338,123 @@ def _finish_held(
     if not all(r.valid for r in results):
         return EXIT_INVALID_PHYSICS
     return EXIT_FIRMWARE_FAULT if any(r.fault for r in results) else EXIT_OK
+
+
+def _report_trial(args: argparse.Namespace, results: Sequence[Any], payload: Any) -> None:
+    """Fill the --report of a trial (where the command has one) from the JSON it writes:
+    its tables, a picture of the units of each records table with outcomes, the seeds."""
+    report = getattr(args, "report_data", None)
+    if report is None or not isinstance(payload, dict):
+        return
+    from transplanter import html_report
+
+    report.tables = html_report.tables_of(payload, "result")
+    report.pictures = [
+        p for p in (html_report.units_picture(t) for t in report.tables) if p is not None
+    ][:MAX_REPORT_PICTURES]
+    seeds = [getattr(r, "seed", None) for r in results]
+    report.seeds = ", ".join(str(s) for s in seeds if s is not None)
+    report.ready = True
+
+
+MAX_REPORT_PICTURES = 12
+"""A trial's report draws the units of at most this many of its records tables."""
+
+
+def report_target(args: argparse.Namespace) -> Path | None | bool:
+    """The checked --report path (None without one), or False after saying why it is
+    refused: a file that cannot be written, or one that names an input or another output."""
+    from transplanter import fileio
+
+    path = getattr(args, "report", None)
+    if path is None:
+        return None
+    try:
+        target = fileio.check_output(path, ".html")
+    except fileio.FileRefused as exc:
+        _err(f"--report: {exc}")
+        return False
+    outputs = [("--report", path)] + [
+        (option, getattr(args, option[2:]))
+        for option in ("--json", "--record")
+        if getattr(args, option[2:], None) is not None
+    ]
+    inputs = _inputs(args) + [
+        ("a scenario file", p)
+        for name in getattr(args, "scenarios", None) or ()
+        for p in _scenario_files(name)
+    ]
+    clash = _clash(outputs, inputs)
+    if clash is not None:
+        _err(clash)
+        return False
+    return target
+
+
+def _scenario_files(name) -> list[Path]:
+    from transplanter.scenario.schema import ScenarioError, scenario_files
+
+    try:
+        return scenario_files(name)
+    except ScenarioError:
+        return []  # refused by the command itself, saying why
+
+
+def new_report(args: argparse.Namespace, argv: Sequence[str]):
+    """The report a command fills (`args.report_data`): its title, the command line, the
+    version, the --set overrides and the scenario files as read."""
+    import shlex
+
+    import transplanter
+    from transplanter import html_report
+
+    names = getattr(args, "scenarios", None) or [getattr(args, "scenario", None)]
+    names = [n for n in names if n is not None]
+    report = html_report.Report(
+        title=f"transplanter {args.command} {' '.join(str(n) for n in names)}".strip(),
+        command=shlex.join(["transplanter", *argv]),
+        version=transplanter.__version__,
+        overrides=[f"--set {item}" for item in getattr(args, "set", None) or ()],
+        scenarios=html_report.scenario_texts(p for n in names for p in _scenario_files(n)),
+    )
+    return report
+
+
+class StdoutCopy:
+    """sys.stdout that keeps a copy of what is written (the report's summary: what the
+    command printed), passing everything on."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+        self._parts: list[str] = []
+
+    def write(self, text: str) -> int:
+        self._parts.append(text)
+        return self._stream.write(text)
+
+    @property
+    def text(self) -> str:
+        return "".join(self._parts)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def write_report(args: argparse.Namespace, target: Path, summary: str) -> str | None:
+    """Write the filled report (with `summary`, what the command printed) atomically; the
+    error's message when it could not be written, None when written (or nothing to write)."""
+    from transplanter import fileio, html_report
+
+    report = args.report_data
+    if not report.ready:
+        return None
+    report.summary = summary
+    try:
+        fileio.write_text_atomic(target, html_report.render(report))
+    except OSError as exc:
+        return f"--report: the report could not be written to {_show(args.report)}: {exc}"
+    print(f"report written to {_show(args.report)}")
+    return None
 
 
 def video_written(observer, args: argparse.Namespace, target: Path, what: str = ""):

@@ -140,7 +140,7 @@ def _sweep_parser(sub) -> None:
         action="store_true",
         help="the range analysis of a full grid too (each key's values are its levels)",
     )
-    _add(p, "--address", "--quiet", "--set")
+    _add(p, "--address", "--quiet", "--set", "--report")
     p.set_defaults(func=cmd_sweep)
 
 
@@ -241,6 +241,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(report.range_text)
     elif report.range_note is not None:
         _err(report.range_note)
+    _report_sweep(args, spec, report)
     ranged = ", range_analysis.txt, range_analysis.csv" if report.range_text else ""
     print(f"results in {_show(args.out)}: runs.jsonl, runs.csv, settings.csv, sweep.json{ranged}")
     if report.plots:
@@ -253,6 +254,53 @@ def cmd_sweep(args: argparse.Namespace) -> int:
              "command to finish (finished runs are kept)")  # fmt: skip
         return EXIT_INTERRUPTED
     return EXIT_OK
+
+
+def _report_sweep(args: argparse.Namespace, spec, report) -> None:
+    """Fill the sweep's --report: the settings and the runs (settings.csv, runs.csv) as
+    tables, its plots embedded."""
+    data = getattr(args, "report_data", None)
+    if data is None:
+        return
+    from transplanter import html_report
+    from transplanter.studies.plots import seed_ranges
+
+    data.seeds = seed_ranges(sorted(spec.seeds))
+    data.tables = [
+        html_report.records_table("settings (seeds pooled)", "settings.csv", report.settings),
+        html_report.records_table("runs", "runs.csv", report.rows),
+    ]
+    data.pictures = [html_report.Picture.of_file(p) for p in report.plots if p.exists()]
+    if report.range_text is not None:
+        data.notes.append("range analysis: range_analysis.txt in --out (also printed above)")
+    data.ready = True
+
+
+def _report_compare(args: argparse.Namespace, seeds, report) -> None:
+    """Fill the comparison's --report: a table of its rows per job (compare.json's rows),
+    its pictures embedded."""
+    data = getattr(args, "report_data", None)
+    if data is None:
+        return
+    from transplanter import html_report
+    from transplanter.studies.compare import COMPARE_PNG, job_png, jobs_of
+    from transplanter.studies.plots import seed_ranges
+
+    data.seeds = seed_ranges(sorted(seeds))
+    jobs = jobs_of(report.rows)
+    data.tables = [
+        html_report.records_table(
+            f"{job}: ranked",
+            f"compare.json#rows?workcell={job}",
+            [r for r in report.rows if r["workcell"] == job],
+        )  # fmt: skip
+        for job in jobs
+    ]
+    names = [COMPARE_PNG, *(job_png(j) for j in jobs)] if len(jobs) > 1 else [COMPARE_PNG]
+    data.pictures = [
+        html_report.Picture.of_file(report.out / n) for n in names if (report.out / n).exists()
+    ] if report.plot is not None else []  # fmt: skip
+    data.ready = True
 
 
 def _search_spec(args: argparse.Namespace, seeds: list[int], ranges: list[str], option: str):
@@ -321,7 +369,7 @@ def _compare_parser(sub) -> None:
     _add(p, "--out", required=True, help="directory for the results")
     p.add_argument("--backend", choices=("process", "ray"), default="process",
                    help="process (default) or ray (pip install 'transplanter[ray]')")  # fmt: skip
-    _add(p, "--address", "--quiet", "--set")
+    _add(p, "--address", "--quiet", "--set", "--report")
     p.set_defaults(func=cmd_compare)
 
 
@@ -361,6 +409,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         _err(f"--out: the results could not be written to {_show(args.out)}: {exc}")
         return EXIT_OUTPUT_FAILED
     print(report.table, end="")
+    _report_compare(args, seeds, report)
     if report.skipped:
         print(f"{report.skipped} runs were already in {_show(args.out)} (skipped)")
     if report.plot_error:

@@ -53,7 +53,7 @@ def _trial_parser(sub) -> None:
         "its results are written, then exits 130/143 with them complete",
     )
     add_options(p, "scenario", "--set", "--seedlings", "--seed", "--seeds")
-    add_options(p, "--json", "--record", "--record-rate", "--quiet")
+    add_options(p, "--json", "--record", "--record-rate", "--quiet", "--report")
     p.add_argument(
         "--explain",
         action="store_true",

@@ -28,7 +28,7 @@ from typing import Any
 from transplanter import fileio
 from transplanter.studies.stats import aggregate
 
-__all__ = ["MAX_LINES", "key_label", "pareto_plot", "sample_text", "sweep_plots"]
+__all__ = ["MAX_LINES", "key_label", "pareto_plot", "sample_text", "seed_ranges", "sweep_plots"]
 
 MAX_LINES = 6  # lines per plot before falling back to the marginal over the other keys
 
@@ -51,7 +51,7 @@ def key_label(key: str) -> str:
     return key
 
 
-def _ranges(seeds: Sequence[int]) -> str:
+def seed_ranges(seeds: Sequence[int]) -> str:
     """Sorted seeds as '1-3, 7'."""
     parts: list[str] = []
     ordered = sorted(set(seeds))
@@ -71,7 +71,7 @@ def sample_text(rows: Sequence[Mapping[str, Any]]) -> str:
     sizes = sorted({r["seedlings"] for r in rows if r.get("seedlings") is not None})
     per = "/".join(map(str, sizes)) if sizes else "?"
     plural = "seed" if len(seeds) == 1 else "seeds"
-    return f"n = {per} seedlings x {len(seeds)} {plural} ({_ranges(seeds) if seeds else '-'})"
+    return f"n = {per} seedlings x {len(seeds)} {plural} ({seed_ranges(seeds) if seeds else '-'})"
 
 
 def _pyplot():
