@@ -46,3 +46,51 @@ def test_the_tray_camera_and_the_video_say_what_to_set(no_gl):
     with pytest.raises(GLUnavailable, match="Headless, use MUJOCO_GL=egl"):
         FrameGrabber(model, 64, 36, "c")
     assert len(no_gl) == 1
+
+
+def _headless_env() -> dict[str, str]:
+    import os
+
+    drop = ("MUJOCO_GL", "DISPLAY", "WAYLAND_DISPLAY", "PYOPENGL_PLATFORM")
+    return {k: v for k, v in os.environ.items() if k not in drop}
+
+
+def test_the_command_line_picks_the_machines_offscreen_backend_when_headless():
+    """Headless with MUJOCO_GL unset, every command runs with the backend this machine has
+    (EGL where libEGL is installed, else OSMesa): `trial delta_refill` photographs its trays
+    on a server as `render` films, with no variable to set first."""
+    import ctypes.util
+    import subprocess
+    import sys
+
+    want = ("egl" if ctypes.util.find_library("EGL") else
+            "osmesa" if ctypes.util.find_library("OSMesa") else "None")  # fmt: skip
+    code = ("import os, sys; from transplanter.cli import main; main(['scenarios']); "
+            "print(os.environ.get('MUJOCO_GL'), 'mujoco' in sys.modules)")  # fmt: skip
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=_headless_env(), timeout=120)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split()[-2] == want
+    mine = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**_headless_env(), "MUJOCO_GL": "osmesa"}, timeout=120)  # fmt: skip
+    assert mine.stdout.split()[-2] == "osmesa"  # a user's choice is kept
+
+
+def test_a_picture_taking_trial_renders_headless_with_nothing_set(tmp_path):
+    """The user's path on a server: `transplanter trial delta_refill` with no MUJOCO_GL
+    grades its trays from the camera's pictures (skipped where the machine has no offscreen
+    GL at all)."""
+    import ctypes.util
+    import json
+    import subprocess
+    import sys
+
+    if not (ctypes.util.find_library("EGL") or ctypes.util.find_library("OSMesa")):
+        pytest.skip("no offscreen GL library on this machine")
+    out = tmp_path / "r.json"
+    cmd = [sys.executable, "-m", "transplanter.cli", "trial", "delta_refill", "--seedlings",
+           "1", "--json", str(out), "--quiet"]  # fmt: skip
+    run = subprocess.run(cmd, capture_output=True, text=True, env=_headless_env(), timeout=900)
+    assert run.returncode == 0, run.stderr[-1500:]
+    result = json.loads(out.read_text())
+    assert result["vision"] == "pipeline" and len(result["cells"]) == 1

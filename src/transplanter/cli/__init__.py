@@ -77,10 +77,10 @@ def main(argv: list[str] | None = None) -> int:
         if report is False:
             return EXIT_REFUSED
         args.report_data = new_report(args, argv)
-    if args.command in ("render", "grade") or getattr(args, "clips_of_failures", None) is not None:
+    if "mujoco" not in sys.modules:  # MuJoCo reads MUJOCO_GL when it is first imported
         from transplanter.viewing.video import prepare_gl
 
-        prepare_gl()  # MuJoCo reads MUJOCO_GL when it is first imported
+        prepare_gl()  # headless: the offscreen backend this machine has
     from transplanter import interrupts
 
     with interrupts.handling():  # SIGTERM stops a command as Ctrl-C does

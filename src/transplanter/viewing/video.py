@@ -82,10 +82,19 @@ def has_display() -> bool:
 
 
 def prepare_gl() -> None:
-    """Choose EGL (headless GPU or Mesa) when MUJOCO_GL is unset and there is no display.
-    MuJoCo reads MUJOCO_GL when it is first imported, so call this before that."""
-    if not os.environ.get("MUJOCO_GL") and not has_display():
-        os.environ["MUJOCO_GL"] = "egl"
+    """Headless (MUJOCO_GL unset, no display), choose the offscreen backend this machine
+    has: EGL (a GPU's or Mesa's) where libEGL is installed, else OSMesa where it is, else
+    leave MuJoCo's default (a picture-taking job then refuses, naming both). MuJoCo reads
+    MUJOCO_GL when it is first imported, so the command line calls this before that, for
+    every command: `trial delta_refill` photographs its trays headless as `render` films."""
+    if os.environ.get("MUJOCO_GL") or has_display():
+        return
+    import ctypes.util
+
+    for backend, library in (("egl", "EGL"), ("osmesa", "OSMesa")):
+        if ctypes.util.find_library(library) is not None:
+            os.environ["MUJOCO_GL"] = backend
+            return
 
 
 def require_imageio() -> Any:
