@@ -311,3 +311,27 @@ def test_a_step_that_goes_unstable_stops_the_trial_and_voids_its_verdicts(monkey
     assert r.sim_time_s == pytest.approx(0.5, abs=1e-9)  # not a step after it
     (cell,) = r.cells
     assert cell.culled == "void" and cell.refilled == "void"
+
+
+def test_a_partial_trays_rates_are_the_whole_trays(pair):
+    """A run of delta_refill.max_cells cells reports the whole tray's plants and trays per
+    hour: the serviced cells' work and plants scaled by the plants the grading asks of the
+    tray over theirs, the tray's own time (image delay, approach, last lift, tray change)
+    counted once, so that the rate does not depend on how many cells the run serviced."""
+    r, _ = pair
+    sc = _scenario()
+    planting, supply = delta_refill._trays(sc, SEED)
+    grades = delta_refill.from_truth(planting, supply)
+    cells, plants = delta_refill.tray_work(grades)
+    assert r.rate_basis == "whole_tray_estimate" and r.cells_to_service == cells > 1
+    inferior = sum(1 for c in grades.planting.cells if c.grade == "inferior")
+    assert plants == 2 * inferior + (cells - inferior)  # a cull and a refill, or a refill
+    (cell,) = r.cells
+    assert cell.grade == "inferior" and cell.culled == "binned" and cell.refilled == "seated"
+    scale = plants / 2  # this cell's two plants
+    change = sc.delta_refill.tray_change_s
+    cycle = r.tray_time_s - r.work_time_s + change + r.work_time_s * scale
+    assert r.trays_per_hour == pytest.approx(3600 / cycle, rel=1e-12)
+    assert r.plants_per_hour == pytest.approx(3600 * 2 * scale / cycle, rel=1e-12)
+    # the tray as run would have spread the tray's own time over one cell: far slower
+    assert r.plants_per_hour > 2 * 3600 * 2 / (r.tray_time_s + change)

@@ -42,9 +42,12 @@ def export(scenario, target: Path) -> Path:
 def summary_line(r) -> str:
     ret = "-" if r.substrate_retention is None else f"{100 * r.substrate_retention:.1f} %"
     fails = ", ".join(f"{k} {v}" for k, v in sorted(r.failures.items())) or "none"
+    est = ""
+    if getattr(r, "rate_basis", "tray") == "whole_tray_estimate":
+        est = f" (the whole tray's {r.cells_to_service} cells, from these {r.operations})"
     line = (
         f"seed {r.seed}: {r.operations} operations, {r.time_per_operation_s:.2f} s per "
-        f"operation, {r.plants_per_hour:.1f} plants/h, {r.trays_per_hour:.2f} trays/h, "
+        f"operation, {r.plants_per_hour:.1f} plants/h, {r.trays_per_hour:.2f} trays/h{est}, "
         f"leaf damage {100 * r.leaf_damage_rate:.2f} % of refills "
         f"({100 * r.tray_leaf_damage_rate:.2f} % of the tray), dropped {r.dropped}, "
         f"substrate retention {ret}; failures: {fails}; wall {r.wall_time_s:.1f} s"

@@ -82,8 +82,17 @@ DEFINITIONS = {
     "tray_time_s": "simulated, from the image to the claws' last lift: the image delay, the "
     "approach from the homed machine, the work time and the last lift",
     "plants_per_hour": "3600 x plants handled (culled to the bin + refills seated) / "
-    "(tray time + tray change)",
-    "trays_per_hour": "3600 / (tray time + tray change), at this tray's share of work",
+    "(tray time + tray change); for a run that serviced only some of the cells the grading "
+    "asked for (delta_refill.max_cells), the whole tray's: the serviced cells' plants and work "
+    "time scaled by the plants the grading asks of the whole tray (an inferior cell's cull and "
+    "refill, an empty cell's refill) over those of the serviced cells, the tray's own time "
+    "(image delay, approach, last lift, tray change) counted once, so that the rate does not "
+    "depend on how many cells the run serviced (rate_basis)",
+    "trays_per_hour": "3600 / (tray time + tray change), the whole tray's as plants_per_hour",
+    "cells_to_service": "the planting tray's cells the grading found inferior or empty: the "
+    "whole tray's work",
+    "rate_basis": "'tray': the rates of the tray as run; 'whole_tray_estimate': a partial run's "
+    "rates scaled to the whole tray (plants_per_hour)",
     "leaf_damage_rate": "refill seedlings with at least one leaf torn by a claw or the "
     "stripper / refill seedlings picked",
     "tray_leaf_damage_rate": "seedlings of the finished planting tray (refills seated and "
@@ -217,6 +226,11 @@ class DeltaRefillResult:
     """Every misgraded cell the job acted on or passed over, with what it cost."""
     motors: dict | None = None
     """The drives' peak torque and mechanical work (transplanter.twin.motors)."""
+    cells_to_service: int = 0
+    """The planting tray's cells the grading found inferior or empty (the whole tray's work;
+    a run of delta_refill.max_cells services the first of them)."""
+    rate_basis: str = "tray"
+    """'tray', or 'whole_tray_estimate' for a partial run's rates (DEFINITIONS)."""
 
     @property
     def successes(self) -> int:
@@ -237,6 +251,8 @@ class DeltaRefillResult:
             "time_per_operation_s": self.time_per_operation_s,
             "plants_per_hour": self.plants_per_hour,
             "trays_per_hour": self.trays_per_hour,
+            "cells_to_service": self.cells_to_service,
+            "rate_basis": self.rate_basis,
             "leaf_damage_rate": self.leaf_damage_rate,
             "tray_leaf_damage_rate": self.tray_leaf_damage_rate,
             "dropped": self.dropped,
@@ -343,6 +359,19 @@ def rotary_for(cell: CellGrading | None, judge: bool, fixed: float) -> float:
     if cell.grade == HEALTHY_UD:
         return 0.0
     return 90.0 if cell.reach_lr_mm > cell.reach_ud_mm else 0.0
+
+
+def _plants_of(grade: str) -> int:
+    """The plants a cell's service handles: an inferior cell's cull and refill, an empty
+    cell's refill."""
+    return 2 if grade == INFERIOR else 1 if grade == EMPTY else 0
+
+
+def tray_work(grades: GradingMap) -> tuple[int, int]:
+    """The whole tray's work as the grading map asks it (whatever delta_refill.max_cells
+    lets a run do): the planting cells to service (inferior or empty) and their plants."""
+    plants = [_plants_of(c.grade) for c in grades.planting.cells]
+    return sum(1 for n in plants if n), sum(plants)
 
 
 def plan_job(
@@ -595,7 +624,8 @@ def run_delta_refill(
     if fault is None and host.error is not None:
         fault = host.error
     result = _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller,
-                    drives, fault, k * dt, time.perf_counter() - wall0, valid)  # fmt: skip
+                    drives, fault, k * dt, time.perf_counter() - wall0, valid,
+                    tray_work(grades))  # fmt: skip
     _grading_costs(sc, result, planting, supply, grades)
     result.peak_joint_speed_deg_s = [round(math.degrees(v), 4) for v in peaks[0]]
     result.peak_joint_torque_nm = [round(float(v), 4) for v in peaks[1]]
@@ -682,7 +712,7 @@ class ProgressObserver:
 
 
 def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller, drives, fault,
-           sim_t, wall, valid) -> DeltaRefillResult:  # fmt: skip
+           sim_t, wall, valid, whole) -> DeltaRefillResult:  # fmt: skip
     job = sc.delta_refill
     judge = DeltaRefillJudge(leaves.model, cfg, (job.bin_x_m, job.bin_y_m), 0.006)
     records: list[CellRecord] = []
@@ -752,6 +782,15 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
     handled = sum(1 for r in records if r.culled == "binned") + sum(
         1 for r in records if r.refilled == "seated"
     )
+    basis, (needed, plants) = "tray", whole
+    if end is not None and fault is None and 0 < ops_done == len(ops) < needed:
+        # a partial run (max_cells): the whole tray's rates, its own time counted once, the
+        # serviced cells' work and plants scaled by the plants the grading asks of the tray
+        # against those of these cells (an inferior cell's two, an empty one's one)
+        scale = plants / sum(_plants_of(op.truth) for op in ops)
+        cycle = (tray_time - work_time) + job.tray_change_s + work_time * scale
+        handled = handled * scale
+        basis = "whole_tray_estimate"
     picked = [r for r in records if r.supply_index is not None and r.refilled != "nothing_picked"]
     damaged = sum(1 for r in picked if r.leaf_damage)
     kept = [r.retention for r in records if r.retention is not None]
@@ -771,6 +810,8 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
         work_time_s=work_time,
         plants_per_hour=3600.0 * handled / cycle if cycle > 0 else math.nan,
         trays_per_hour=3600.0 / cycle if cycle > 0 else math.nan,
+        cells_to_service=whole[0],
+        rate_basis=basis,
         leaf_damage_rate=damaged / len(picked) if picked else 0.0,
         tray_leaf_damage_rate=len(torn_here) / in_tray if in_tray else 0.0,
         dropped=dropped,
