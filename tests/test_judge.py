@@ -91,6 +91,66 @@ def test_failure_kind_takes_the_first_failed_check():
     assert Judge.failure_kind(rec) == Outcome.DROPPED_OUTSIDE
 
 
+def _place_pot(twin, pot: int, xyz, tilt_deg: float = 0.0) -> None:
+    import math
+
+    import mujoco
+
+    a = twin.scene.pot_qpos_adr[pot]
+    half = math.radians(tilt_deg) / 2
+    twin.data.qpos[a : a + 7] = (*xyz, math.cos(half), math.sin(half), 0.0, 0.0)
+    mujoco.mj_forward(twin.model, twin.data)
+
+
+def test_a_pot_caught_in_the_funnel_is_a_jam_and_names_the_failures_while_it_stands():
+    """A pot released over the tube that stays above the throat, inside the funnel's mouth,
+    is a funnel_jam, with where it stuck; a later failure judged while it stands names the
+    jam (after_jam) and is judged as what it is (a pot beside the tube: dropped_outside),
+    never a second jam; once the jam's pot has gone down the tube, a failure stands alone."""
+    from transplanter.twin.report import format_summary
+    from transplanter.twin.results import TrialResult
+
+    twin, judge, records, _ = _judged_twin(paper_config(seedlings=4))
+    cfg = twin.config.scene
+    tube_x, tube_y = cfg.drop_tube_xy_m
+    throat = cfg.funnel_top_z_m - cfg.funnel_height_m
+    for rec in records:
+        rec.pot, rec.lifted, rec.in_gripper_at_drop = rec.index, True, True
+        rec.t_release_s = 1.0 + rec.index
+    # pot 0 wedged in the funnel, tilted 24 deg, 12 mm below its top; pot 1 on the floor
+    _place_pot(twin, 0, (tube_x + 0.004, tube_y, cfg.funnel_top_z_m - 0.012), tilt_deg=24.0)
+    _place_pot(twin, 1, (tube_x + 0.3, tube_y, 0.02))
+    judge.pending_outcome[:] = records[:2]
+    judge._resolve_pending(3.0)
+    jam, beside = records[:2]
+    assert jam.outcome == Outcome.FUNNEL_JAM and jam.after_jam is None
+    assert jam.jam["below_top_mm"] == pytest.approx(12.0, abs=0.05)
+    assert jam.jam["off_axis_mm"] == pytest.approx(4.0, abs=0.05)
+    assert jam.jam["tilt_deg"] == pytest.approx(24.0, abs=0.1) and jam.jam["t_s"] == 3.0
+    assert beside.outcome == Outcome.DROPPED_OUTSIDE and beside.after_jam == 0
+    # pot 2 lands on the jam, in the funnel too: a failure while it stands, not a second jam
+    _place_pot(twin, 2, (tube_x, tube_y, cfg.funnel_top_z_m + 0.02))
+    judge.pending_outcome[:] = [records[2]]
+    judge._resolve_pending(4.0)
+    assert records[2].outcome == Outcome.DROPPED_OUTSIDE and records[2].after_jam == 0
+    # the jam clears (its pot down the tube, the one on it too): the next failure is its own
+    _place_pot(twin, 0, (tube_x, tube_y, throat - 0.05))
+    _place_pot(twin, 2, (tube_x, tube_y, throat - 0.12))
+    _place_pot(twin, 3, (tube_x + 0.3, tube_y + 0.1, 0.02))
+    judge.pending_outcome[:] = [records[3]]
+    judge._resolve_pending(5.0)
+    assert records[3].outcome == Outcome.DROPPED_OUTSIDE and records[3].after_jam is None
+    result = TrialResult("paper", 1, records, 6.0, 1.0)
+    (j,) = result.funnel_jams
+    assert (j["seedling"], j["pot"], j["later_failures"]) == (0, 0, 2)
+    assert j["later_failures_by_kind"] == {"dropped_outside": 2}
+    assert result.failures()["funnel_jam"] == 1 and result.failures_clustered
+    assert result.to_dict()["funnel_jams"] == [j]
+    summary = format_summary(result)
+    assert "funnel jam #0" in summary and "12.0 mm below the funnel's top" in summary
+    assert "tilted 24 deg; 2 later failures while it stood (2 dropped_outside)" in summary
+
+
 @pytest.mark.slow
 def test_each_cycle_picks_the_pot_the_conveyor_brought():
     """Across a conveyor index the judge follows the rows: seedlings 5-9 take row 1's pots."""

@@ -16,6 +16,7 @@ model with the same bodies and joints, `render_data` mirrors a physics state ont
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -170,6 +171,9 @@ class PotLine:
         self._tube_xy = np.array([tube_x, tube_y])
         self._tube_inner_radius = config.funnel_throat_diameter_m / 2
         self._throat_z = config.funnel_top_z_m - config.funnel_height_m
+        self._funnel_top_z = config.funnel_top_z_m
+        self._funnel_top_radius = config.funnel_top_diameter_m / 2
+        self._pot_height = config.pot_height_m
         self.window: LiveRows | None = LiveRows(self) if config.windowed else None
 
     def set_pot_body(self, pot: int, body: int, geom: int, qpos_adr: int, dof_adr: int) -> None:
@@ -237,6 +241,35 @@ class PotLine:
         )
         radial = np.hypot(p[:, 0] - self._tube_xy[0], p[:, 1] - self._tube_xy[1])
         return (radial < self._tube_inner_radius) & (p[:, 2] < self._throat_z)
+
+    def pot_in_funnel(self, data: mujoco.MjData) -> np.ndarray:
+        """Pots caught in the funnel: the centre inside its mouth's radius, above its throat
+        and no more than a pot's height over its top (a pot wedged on the rim included)."""
+        p = self.pot_positions(data)
+        radial = np.hypot(p[:, 0] - self._tube_xy[0], p[:, 1] - self._tube_xy[1])
+        z = p[:, 2]
+        return (
+            (radial < self._funnel_top_radius)
+            & (z >= self._throat_z)
+            & (z <= self._funnel_top_z + self._pot_height)
+        )
+
+    def funnel_place(self, data: mujoco.MjData, pot: int) -> dict[str, float | None]:
+        """Where a pot sits in the funnel: its centre under the funnel's top and off the
+        tube's axis (mm), its axis from upright (deg; None when it is not a body now)."""
+        p = self.pot_positions(data)[pot]
+        body = int(self.pot_bodies.ravel()[pot])
+        tilt = None
+        if body >= 0:
+            zz = float(np.clip(data.xmat[body][8], -1.0, 1.0))
+            tilt = round(math.degrees(math.acos(zz)), 1)
+        return {
+            "below_top_mm": round(1000 * (self._funnel_top_z - float(p[2])), 1),
+            "off_axis_mm": round(
+                1000 * math.hypot(p[0] - self._tube_xy[0], p[1] - self._tube_xy[1]), 1
+            ),
+            "tilt_deg": tilt,
+        }
 
     def _jaw_pot_contacts(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         n = data.ncon

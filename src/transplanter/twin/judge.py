@@ -104,6 +104,7 @@ class Judge:
         self.on_event = on_event
         self.current: SeedlingRecord | None = None
         self.pending_outcome: list[SeedlingRecord] = []
+        self.jams: list[SeedlingRecord] = []  # funnel jams whose pot is still in the funnel
         self.parked = 0
         self.indexes_done = 0  # conveyor indexes acknowledged so far
         scene, model = twin.scene, twin.model
@@ -352,12 +353,23 @@ class Judge:
     def _resolve_pending(self, t: float) -> None:
         if not self.pending_outcome:
             return
-        in_tube = self.twin.scene.pot_in_tube(self.twin.data)
+        scene, data = self.twin.scene, self.twin.data
+        in_tube = scene.pot_in_tube(data)
+        in_funnel = scene.pot_in_funnel(data)
+        # a jam stands while its pot is still caught in the funnel
+        self.jams = [j for j in self.jams if in_funnel[j.pot]]
         for rec in self.pending_outcome:
             if rec.outcome == Outcome.PENDING:
                 ok = rec.pot is not None and bool(in_tube[rec.pot])
                 if not ok:
                     rec.outcome = self.failure_kind(rec)
+                    caught = rec.pot is not None and bool(in_funnel[rec.pot])
+                    if rec.outcome == Outcome.DROPPED_OUTSIDE and caught and not self.jams:
+                        rec.outcome = Outcome.FUNNEL_JAM  # the jam itself
+                        rec.jam = {"t_s": round(t, 6), **scene.funnel_place(data, rec.pot)}
+                        self.jams.append(rec)
+                    elif self.jams:
+                        rec.after_jam = self.jams[0].index
                 elif rec.shoot_pressed_deg > self.damage_bend_deg:
                     rec.outcome = Outcome.SHOOT_CRUSHED  # the gripper's bridge bent it over
                 elif rec.peak_stem_bend_deg > self.damage_bend_deg:

@@ -184,6 +184,19 @@ def format_summary(result: TrialResult) -> str:
                 f"touching {printable(touching)}; {after}",
             )
         )
+    for i, j in enumerate(d["funnel_jams"]):
+        tilt = "" if j["tilt_deg"] is None else f", tilted {j['tilt_deg']:.0f} deg"
+        kinds = ", ".join(f"{n} {k}" for k, n in j["later_failures_by_kind"].items())
+        rows.append(
+            (
+                f"funnel jam #{i}",
+                f"seedling {j['seedling']} (pot {j['pot']}) released at {j['t_release_s']:.2f} s "
+                f"stuck {abs(j['below_top_mm']):.1f} mm "
+                f"{'below' if j['below_top_mm'] >= 0 else 'above'} the funnel's top, "
+                f"{j['off_axis_mm']:.1f} mm off its axis{tilt}; {j['later_failures']} later "
+                f"failures while it stood" + (f" ({kinds})" if kinds else ""),
+            )
+        )
     if d["fault"]:
         rows.append(("firmware fault", printable(d["fault"])))
         rows.append(("fault kind", str(d["fault_kind"])))

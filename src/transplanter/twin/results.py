@@ -32,6 +32,9 @@ class Outcome(StrEnum):
     SOFT_POT = "soft_pot"  # a soaked pot gave under the jaws and did not rise with them
     SLIPPED = "slipped"  # lifted, but no longer between the jaws over the drop tube
     DROPPED_OUTSIDE = "dropped_outside"  # released over the tube, but it did not land inside
+    # ... its pot stuck in the funnel above the throat, no earlier jam standing there: the jam
+    # itself (SeedlingRecord.jam says where; later failures while it stands name it: after_jam)
+    FUNNEL_JAM = "funnel_jam"
     # in the tube, but its stem bent past metrics.damage_bend_deg on the way: the paper
     # counts a success only "without any damage"
     DAMAGED = "damaged"
@@ -106,6 +109,11 @@ class SeedlingRecord:
     stall_recoveries: int = 0  # stalls in this cycle the PGF re-homed and went on from
     max_belt_displacement_mm: float = 0.0  # largest carriage offset from its held position
     bond_force_n: float = 0.0  # strength of its pot's bond to the belt (pots.bond_*; 0: none)
+    # a funnel_jam's pot as it was found stuck: t_s, below_top_mm (its centre under the
+    # funnel's top), off_axis_mm, tilt_deg (its axis from upright; None: not a body)
+    jam: dict[str, Any] | None = None
+    # a failure judged while a jam stood in the funnel: the jam's seedling (its index)
+    after_jam: int | None = None
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
@@ -144,9 +152,29 @@ class TrialResult:
 
     @property
     def failures_clustered(self) -> bool:
-        """Whether one event failed several seedlings (a lost-step cascade): the picks are not
-        independent, so an interval over this trial's picks would be too narrow."""
-        return any(r.outcome == Outcome.POSITION_LOST for r in self.per_seedling)
+        """Whether one event failed several seedlings (a lost-step cascade, failures while a
+        funnel jam stood): the picks are not independent, so an interval over this trial's
+        picks would be too narrow."""
+        return any(
+            r.outcome == Outcome.POSITION_LOST or r.after_jam is not None for r in self.per_seedling
+        )
+
+    @property
+    def funnel_jams(self) -> list[dict[str, Any]]:
+        """Each funnel jam: its seedling and pot, when it was released, where it stuck, and
+        the later failures judged while it stood (by kind)."""
+        out = []
+        for r in self.per_seedling:
+            if r.outcome != Outcome.FUNNEL_JAM or r.jam is None:
+                continue
+            later: dict[str, int] = {}
+            for o in self.per_seedling:
+                if o.after_jam == r.index:
+                    later[str(o.outcome)] = later.get(str(o.outcome), 0) + 1
+            out.append({"seedling": r.index, "pot": r.pot, "t_release_s": r.t_release_s,
+                        **r.jam, "later_failures": sum(later.values()),
+                        "later_failures_by_kind": dict(sorted(later.items()))})  # fmt: skip
+        return out
 
     @property
     def judged(self) -> int:
@@ -225,6 +253,7 @@ class TrialResult:
             "max_stem_bend_deg": self.max_stem_bend_deg,
             "warnings": list(self.warnings),
             "failures": self.failures(),
+            "funnel_jams": self.funnel_jams,
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,
             "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,
             # a seedling placed every cycle (the serial arm's and the delta's trials say how
