@@ -145,8 +145,18 @@ class Judge:
         self.canopy_pushed = np.zeros(self.pot_bodies.size, dtype=bool)
 
     def _emit(self, t: float, kind: EventKind, text: str, seedling: int | None) -> None:
+        if kind == EventKind.FAILURE and seedling is not None and self.jams:
+            self._while_jammed(self.records[seedling])
         if self.on_event is not None:
             self.on_event(t, kind, text, seedling)
+
+    def _while_jammed(self, rec: SeedlingRecord) -> None:
+        """A failure judged while a funnel jam stands (its pot still in the funnel) names the
+        jam, whatever the failure's own kind and wherever it was judged."""
+        in_funnel = self.twin.scene.pot_in_funnel(self.twin.data)
+        self.jams = [j for j in self.jams if in_funnel[j.pot]]
+        if self.jams and rec.outcome != Outcome.FUNNEL_JAM and rec.after_jam is None:
+            rec.after_jam = self.jams[0].index
 
     # -- the pick cycle ------------------------------------------------------------------
     def on_line(self, event: LineEvent) -> None:
@@ -368,8 +378,6 @@ class Judge:
                         rec.outcome = Outcome.FUNNEL_JAM  # the jam itself
                         rec.jam = {"t_s": round(t, 6), **scene.funnel_place(data, rec.pot)}
                         self.jams.append(rec)
-                    elif self.jams:
-                        rec.after_jam = self.jams[0].index
                 elif rec.shoot_pressed_deg > self.damage_bend_deg:
                     rec.outcome = Outcome.SHOOT_CRUSHED  # the gripper's bridge bent it over
                 elif rec.peak_stem_bend_deg > self.damage_bend_deg:
