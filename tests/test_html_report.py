@@ -1,4 +1,4 @@
-"""The HTML report (transplanter.html_report, `--report` of trial, sweep and compare): one
+"""The HTML report (transplanter.viewing.html_report, `--report` of trial, sweep and compare): one
 self-contained file whose tables hold what the JSON and CSV files hold, row for row, whose
 pictures draw, opened in headless Chromium (Debian's package, installed by `.ci/run`)."""
 
@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from transplanter import html_report
 from transplanter.cli import main
+from transplanter.viewing import html_report
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 needs_chromium = pytest.mark.skipif(

@@ -32,7 +32,7 @@ GENERIC = (
     "studies/jobs.py",
     "viewing/loop_video.py",
     "viewing/loop_recording.py",
-    "html_report.py",
+    "viewing/html_report.py",
 )
 """Modules every robot, effector and job goes through (the loop, the judge, the host, the
 handles, the studies, the observers)."""

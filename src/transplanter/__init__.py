@@ -36,6 +36,8 @@ _API = {
     "Outcome": "transplanter.twin.results",
     "pooled_rate": "transplanter.studies.stats",
     "run_sweep": "transplanter.studies.sweep",
+    "run_scenario": "transplanter.studies.run",
+    "TrialFailed": "transplanter.studies.run",
     "TransplanterError": "transplanter.errors",
     "Refusal": "transplanter.errors",
     "RefusalReason": "transplanter.errors",

@@ -346,7 +346,7 @@ def _report_trial(args: argparse.Namespace, results: Sequence[Any], payload: Any
     report = getattr(args, "report_data", None)
     if report is None or not isinstance(payload, dict):
         return
-    from transplanter import html_report
+    from transplanter.viewing import html_report
 
     report.tables = html_report.tables_of(payload, "result")
     report.pictures = [
@@ -406,7 +406,7 @@ def new_report(args: argparse.Namespace, argv: Sequence[str]):
     import shlex
 
     import transplanter
-    from transplanter import html_report
+    from transplanter.viewing import html_report
 
     names = getattr(args, "scenarios", None) or [getattr(args, "scenario", None)]
     names = [n for n in names if n is not None]
@@ -443,7 +443,8 @@ class StdoutCopy:
 def write_report(args: argparse.Namespace, target: Path, summary: str) -> str | None:
     """Write the filled report (with `summary`, what the command printed) atomically; the
     error's message when it could not be written, None when written (or nothing to write)."""
-    from transplanter import fileio, html_report
+    from transplanter import fileio
+    from transplanter.viewing import html_report
 
     report = args.report_data
     if not report.ready:

@@ -262,8 +262,8 @@ def _report_sweep(args: argparse.Namespace, spec, report) -> None:
     data = getattr(args, "report_data", None)
     if data is None:
         return
-    from transplanter import html_report
     from transplanter.studies.plots import seed_ranges
+    from transplanter.viewing import html_report
 
     data.seeds = seed_ranges(sorted(spec.seeds))
     data.tables = [
@@ -282,9 +282,9 @@ def _report_compare(args: argparse.Namespace, seeds, report) -> None:
     data = getattr(args, "report_data", None)
     if data is None:
         return
-    from transplanter import html_report
     from transplanter.studies.compare import COMPARE_PNG, job_png, jobs_of
     from transplanter.studies.plots import seed_ranges
+    from transplanter.viewing import html_report
 
     data.seeds = seed_ranges(sorted(seeds))
     jobs = jobs_of(report.rows)
