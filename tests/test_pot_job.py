@@ -180,14 +180,29 @@ def test_render_films_the_pot_job_and_writes_the_trials_json(name, camera, tmp_p
     assert abs(len(frames) - (math.floor(a["sim_time_s"] * 2) + 1)) <= 1
 
 
-def test_export_says_why_it_does_not_build_the_serial_arms_pot_scene(tmp_path, capsys):
-    """Not the five-bar's parallel-jaw refusal: the job's own reason, naming what runs it."""
+def test_export_writes_the_serial_arms_pot_scene_with_the_pots_decor(tmp_path, capsys):
+    """`export serial_arm_pots` writes the trial's scene (the same bodies, joints,
+    equalities and actuators, the arm on its pedestal, the station sensors) with the pots'
+    decor drawn, meshes beside it; MuJoCo loads it; the viewer still refuses with its
+    reason."""
     from transplanter import cli
 
-    assert cli.main(["export", "serial_arm_pots", str(tmp_path / "scene.xml")]) == 2
-    err = capsys.readouterr().err
-    assert "robot serial4 in the conveyor_tube workcell) is not in the viewer or export" in err
-    assert "render" in err and not (tmp_path / "scene.xml").exists()
+    out = tmp_path / "pots.xml"
+    assert cli.main(["export", "serial_arm_pots", str(out)]) == 0
+    assert "scene of serial_arm_pots (seed 1) written to" in capsys.readouterr().out
+    loaded = mujoco.MjModel.from_xml_path(str(out))
+    sc = load_scenario("serial_arm_pots")
+    drawn = serial_pots.scene_spec(sc, 1, decor=True)[0].compile()
+    physics = serial_pots.scene_spec(sc, 1)[0].compile()
+    sizes = lambda m: (m.nbody, m.njnt, m.neq, m.nu, m.ngeom, m.nmesh)  # noqa: E731
+    assert sizes(loaded) == sizes(drawn)
+    assert sizes(physics)[:4] == sizes(drawn)[:4] and physics.ngeom < drawn.ngeom
+    assert loaded.geom("pedestal").id >= 0 and loaded.site("station_sensor_c0").id >= 0
+    import xml.etree.ElementTree as ET
+
+    files = {m.get("file") for m in ET.parse(out).getroot().iter("mesh") if m.get("file")}
+    assert files and all((tmp_path / "assets" / Path(f).name).is_file() for f in files)
+    assert cli.main(["view", "serial_arm_pots"]) == 2
 
 
 def test_export_writes_the_deltas_pot_scene_with_the_pots_decor(tmp_path, capsys):

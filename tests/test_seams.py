@@ -33,6 +33,7 @@ GENERIC = (
     "viewing/loop_video.py",
     "viewing/loop_recording.py",
     "viewing/html_report.py",
+    "scene/export.py",
 )
 """Modules every robot, effector and job goes through (the loop, the judge, the host, the
 handles, the studies, the observers)."""

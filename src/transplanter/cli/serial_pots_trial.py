@@ -1,7 +1,7 @@
 """`transplanter trial` and `render` for the serial arm on the five-bar's pot line (`[robot]
 kind = "serial4"` in the `conveyor_tube` workcell; transplanter.twin.serial_pots): the trial
 is `cli.serial_trial`'s (its pot path), the render the pot jobs' (`serial_trial.render_pots`);
-the viewer and export refuse it with the reason."""
+`export` writes its scene; the viewer refuses it with the reason."""
 
 from __future__ import annotations
 
@@ -9,13 +9,27 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-__all__ = ["NOT_IN_VIEWER", "render", "run_trial"]
+__all__ = ["NOT_IN_VIEWER", "export", "render", "run_trial"]
 
 NOT_IN_VIEWER = (
     "the serial arm's pot job (robot serial4 in the conveyor_tube workcell) is not in the "
-    "viewer or export yet: transplanter trial (with --record for rerun), render, sweep and "
+    "viewer yet: transplanter trial (with --record for rerun), render, export, sweep and "
     "compare run it"
 )
+
+
+def export(scenario, target: Path) -> Path:
+    """`transplanter export serial_arm_pots`: the scene its trial builds for the scenario's
+    seed (`twin.serial_pots.scene_spec`) with the pots' decor, meshes in assets/ beside it."""
+    from transplanter.scene.effectors import fuzzy_gripper
+    from transplanter.scene.export import export_spec
+    from transplanter.twin.serial_arm import require_own_motion
+    from transplanter.twin.serial_pots import check_placement, scene_spec
+
+    require_own_motion(scenario, "the serial arm's pot job")
+    check_placement(scenario)
+    spec = scene_spec(scenario, scenario.seed, decor=True)[0]
+    return export_spec(spec, target, mount=fuzzy_gripper.MOUNT)
 
 
 def run_trial(

@@ -280,61 +280,9 @@ def export_spec(
     mount: str = "claws_mount",
 ) -> Path:
     """Write a delta scene's spec (`twin.delta_refill.job_spec`, `twin.delta_pots.scene_spec`)
-    as one MJCF file, with the meshes it uses (from every model folder's `assets/`: the
-    delta's, its effector's, the workcell's) in the `assets/` folder beside it (as the
-    five-bar's `build.export_scene`); `mount`: the attached effector's root body, whose
-    default classes are renamed where they clash (`_claws_classes_renamed`). Returns the
-    XML's path. It loads in MjModel.from_xml_path and `python -m mujoco.viewer --mjcf
-    OUT.xml`. MuJoCo's XML writer keeps 6 significant digits: the file's numbers match the
-    built scene's to about 5e-6 relative."""
-    import shutil
+    as one MJCF file with its meshes beside it (`scene.export.export_spec`), MuJoCo's note on
+    the effector attached without a prefix silenced."""
+    from transplanter.scene.export import export_spec as write
 
-    from transplanter import fileio
-
-    root = Path(models) if models is not None else models_dir()
-    target = fileio.check_output(out, ".xml")
     with kinds.robot("delta").quiet_prefix_note():
-        xml = _claws_classes_renamed(spec.to_xml(), mount)
-    assets = target.parent / spec.meshdir
-    assets.mkdir(exist_ok=True)
-    wanted = {Path(m.file).name for m in spec.meshes if m.file}
-    for folder in sorted(root.rglob("assets")):
-        for mesh in sorted(folder.iterdir()):
-            if mesh.name in wanted and not (assets / mesh.name).exists():
-                shutil.copyfile(mesh, assets / mesh.name)
-    fileio.write_text_atomic(target, xml)
-    return target
-
-
-def _claws_classes_renamed(xml: str, mount: str = "claws_mount") -> str:
-    """The MJCF of a scene whose effector was attached without a prefix, its default classes
-    that share a name with the robot's (Menagerie's `visual` and `collision`: an MjSpec allows
-    it, an MJCF file does not) renamed `<effector class>_<name>`, and so are the references to
-    them in the effector's bodies (each element keeps its own class)."""
-    import xml.etree.ElementTree as ET
-
-    root = ET.fromstring(xml)
-    top = root.find("default")
-    mount_body = root.find(f".//body[@name='{mount}']")
-    if top is None or mount_body is None:
-        return xml
-    own = mount_body.get("childclass")
-    effector = next((d for d in top.iter("default") if d.get("class") == own), None)
-    if effector is None:
-        return xml
-    inside = {id(d) for d in effector.iter("default")}
-    outside = {d.get("class") for d in top.iter("default") if id(d) not in inside}
-    renamed = {}
-    for d in effector.iter("default"):
-        name = d.get("class")
-        if d is not effector and name in outside:
-            renamed[name] = f"{own}_{name}"
-            d.set("class", renamed[name])
-    if not renamed:
-        return xml
-    for element in mount_body.iter():
-        for attr in ("class", "childclass"):
-            if element.get(attr) in renamed:
-                element.set(attr, renamed[element.get(attr)])
-    ET.indent(root)
-    return ET.tostring(root, encoding="unicode") + "\n"
+        return write(spec, out, models if models is not None else models_dir(), mount)

@@ -169,7 +169,13 @@ def check_placement(sc) -> None:
             )
 
 
-def _scene(sc, seed: int):
+def scene_spec(sc, seed: int, decor: bool = False):
+    """The trial's scene for seed `seed` (spec, scene config, line config); `decor`: with
+    the pots' decor drawn, as `transplanter export` writes it (the trial leaves it out)."""
+    return _scene(sc, seed, decor)
+
+
+def _scene(sc, seed: int, decor: bool = False):
     from transplanter.scene import serial_scene
     from transplanter.scene.geometry import cell_columns_x
 
@@ -180,7 +186,7 @@ def _scene(sc, seed: int):
         cfg,
         base_pos_m=(job.base_x_m, job.base_y_m, job.base_z_m),
         base_yaw_rad=job.base_yaw_rad,
-        decor=False,
+        decor=decor,
     )
     spec = serial_scene.build_serial_spec(cfg, seed)
     ground = min(
