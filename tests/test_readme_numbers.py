@@ -128,9 +128,10 @@ def test_quick_subset_finds_no_stale_number():
 
 
 def readme_commands() -> list[str]:
-    """Every `transplanter ...` the README quotes: code spans, and the lines of its shell
-    blocks (continuation lines joined, comments and a trailing & dropped)."""
-    text = README.read_text()
+    """Every `transplanter ...` the README and the command reference (docs/cli.md) quote:
+    code spans, and the lines of their shell blocks (continuation lines joined, comments and
+    a trailing & dropped)."""
+    text = README.read_text() + "\n" + (ROOT / "docs" / "cli.md").read_text()
     found = [
         m[1].replace("\\|", "|")
         for m in re.finditer(r"`((?:\.venv/bin/)?transplanter[^`]*)`", text)
