@@ -225,3 +225,67 @@ def test_export_writes_the_deltas_pot_scene_with_the_pots_decor(tmp_path, capsys
 
     files = {m.get("file") for m in ET.parse(out).getroot().iter("mesh") if m.get("file")}
     assert files and all((tmp_path / "assets" / Path(f).name).is_file() for f in files)
+
+
+class _FakeViewer:
+    """mujoco.viewer.launch_passive's handle, closed after `close_after` syncs (None: open
+    until the run's end, then closed by the user)."""
+
+    def __init__(self, close_after=None):
+        self.cam = SimpleNamespace(type=None, fixedcamid=-1)
+        self.syncs, self.texts, self.close_after, self.closed = 0, [], close_after, False
+        self.times = []
+
+    def __call__(self, model, data, **kw):
+        self.data = data
+        return self
+
+    def is_running(self):
+        if self.close_after is None:
+            return self.texts[-1:] == [] or "finished" not in str(self.texts[-1])
+        return self.syncs < self.close_after
+
+    def set_texts(self, texts):
+        self.texts.append(texts)
+
+    def sync(self):
+        self.syncs += 1
+        self.times.append(float(self.data.time))
+
+    def close(self):
+        self.closed = True
+
+
+@pytest.mark.parametrize("scenario", ["delta_pots", "serial_arm_pots"])
+def test_view_shows_a_pot_job_live_with_the_trials_results(scenario, monkeypatch, capsys):
+    """`view` of a pot job on the loop: the viewer synced as the physics runs (its clock
+    moving on), the same results as `trial`, the last state held until the window closes."""
+    import mujoco.viewer
+
+    from transplanter import cli
+    from transplanter.viewing import video
+
+    fake = _FakeViewer()
+    monkeypatch.setattr(video, "has_display", lambda: True)
+    monkeypatch.setattr(mujoco.viewer, "launch_passive", fake)
+    assert cli.main(["view", scenario, "--seedlings", "1", "--speed", "100"]) == 0
+    out = capsys.readouterr().out
+    assert "1/1 seedlings into the tube" in out
+    assert fake.syncs >= 3 and fake.times == sorted(fake.times) and fake.times[-1] > 5.0
+    assert "finished" in str(fake.texts[-1]) and fake.closed
+    assert fake.cam.fixedcamid >= 0  # the overview camera
+
+
+def test_closing_the_viewer_stops_the_pot_job(monkeypatch, capsys):
+    import mujoco.viewer
+
+    from transplanter import cli
+    from transplanter.viewing import video
+
+    fake = _FakeViewer(close_after=5)
+    monkeypatch.setattr(video, "has_display", lambda: True)
+    monkeypatch.setattr(mujoco.viewer, "launch_passive", fake)
+    assert cli.main(["view", "delta_pots", "--seedlings", "2", "--speed", "100"]) == 0
+    out = capsys.readouterr().out
+    assert "viewer closed at t = " in out and "seedlings into the tube" not in out
+    assert fake.closed and fake.syncs == 5

@@ -10,12 +10,7 @@ from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _seeds
 
-__all__ = ["NOT_IN_VIEWER", "export", "render", "run_trial"]
-
-NOT_IN_VIEWER = (
-    "the delta's pot job (robot delta in the conveyor_tube workcell) is not in the viewer yet: "
-    "transplanter trial (with --record for rerun), render, export, sweep and compare run it"
-)
+__all__ = ["export", "render", "run_trial", "view"]
 
 
 def export(scenario, target: Path) -> Path:
@@ -95,3 +90,15 @@ def run_trial(
     return run_pot_seeds(
         args, scenario, seeds, json_path, run_delta_pots, pots_line, DEFINITIONS, record_path
     )
+
+
+def view(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
+    """`transplanter view delta_pots`: one trial as `trial` runs it, shown live."""
+    from transplanter.cli.serial_trial import view_pots
+    from transplanter.twin.delta_pots import check_placement, require_delta_gripper, run_delta_pots
+
+    def check(scenario) -> None:
+        require_delta_gripper(scenario)
+        check_placement(scenario)
+
+    return view_pots(args, overrides, run_delta_pots, check)

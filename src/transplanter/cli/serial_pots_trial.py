@@ -1,7 +1,7 @@
 """`transplanter trial` and `render` for the serial arm on the five-bar's pot line (`[robot]
 kind = "serial4"` in the `conveyor_tube` workcell; transplanter.twin.serial_pots): the trial
 is `cli.serial_trial`'s (its pot path), the render the pot jobs' (`serial_trial.render_pots`);
-`export` writes its scene; the viewer refuses it with the reason."""
+`export` writes its scene and `view` shows it live (`serial_trial.view_pots`)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-__all__ = ["NOT_IN_VIEWER", "export", "render", "run_trial"]
-
-NOT_IN_VIEWER = (
-    "the serial arm's pot job (robot serial4 in the conveyor_tube workcell) is not in the "
-    "viewer yet: transplanter trial (with --record for rerun), render, export, sweep and "
-    "compare run it"
-)
+__all__ = ["export", "render", "run_trial", "view"]
 
 
 def export(scenario, target: Path) -> Path:
@@ -56,3 +50,16 @@ def render(
         check_placement(scenario)
 
     return render_pots(args, overrides, target, json_path, run_serial_pots, DEFINITIONS, check)
+
+
+def view(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
+    """`transplanter view serial_arm_pots`: one trial as `trial` runs it, shown live."""
+    from transplanter.cli.serial_trial import view_pots
+    from transplanter.twin.serial_arm import require_own_motion
+    from transplanter.twin.serial_pots import check_placement, run_serial_pots
+
+    def check(scenario) -> None:
+        require_own_motion(scenario, "the serial arm's pot job")
+        check_placement(scenario)
+
+    return view_pots(args, overrides, run_serial_pots, check)

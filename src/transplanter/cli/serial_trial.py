@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from transplanter.cli.common import (
+    EXIT_OK,
     EXIT_REFUSED,
     _err,
     _finish,
@@ -312,6 +313,39 @@ def render_pots(
     written = video_written(observer, args, target, "the pot job")
     summary = "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in definitions.items())
     return _finish(args, [result], summary, result.to_dict(), json_path, outputs=[written])
+
+
+def view_pots(args: argparse.Namespace, overrides: dict[str, Any], run, check) -> int:
+    """`transplanter view` of a pot job on `twin.loop.StepLoop` (the serial arm's, the
+    delta's): one trial as `trial` runs it, shown live (`viewing.loop_live.LoopLiveViewer`);
+    `check(scenario)` refuses what the job cannot run. Closing the window stops it."""
+    from transplanter.machine.servo_drives import frame_steps
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+    from transplanter.twin.report import format_summary
+    from transplanter.viewing.live import ViewerUnavailable
+    from transplanter.viewing.loop_live import LoopLiveViewer, ViewerClosed
+
+    try:
+        scenario = load_scenario(args.scenario, overrides)
+        frame_steps(scenario.physics.timestep_s)
+        check(scenario)
+    except (ScenarioError, ValueError) as exc:
+        _err(f"view refused: {exc}")
+        return EXIT_REFUSED
+    observer = LoopLiveViewer(args.speed)
+    try:
+        result = run(scenario, None, observers=[observer])
+    except ViewerUnavailable as exc:
+        _err(f"view: {exc}")
+        return EXIT_REFUSED
+    except ViewerClosed:
+        print(f"viewer closed at t = {observer.closed_at:.1f} s simulated, after "
+              f"{len(observer.verdicts)} verdicts ({observer.successes} successes); "
+              "`transplanter trial` gives the whole run's results")  # fmt: skip
+        return EXIT_OK
+    print(format_summary(result))
+    print(pots_line(result))
+    return _finish(args, [result], interrupted=result.interrupted)
 
 
 def run_pot_seeds(

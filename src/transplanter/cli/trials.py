@@ -518,7 +518,10 @@ def cmd_view(args: argparse.Namespace) -> int:
     from transplanter.twin.report import format_summary
 
     try:
-        job_cli = _job_cli(args, _trial_overrides(args))
+        overrides = _trial_overrides(args)
+        job_cli = _job_cli(args, overrides)
+        if job_cli is not None and hasattr(job_cli, "view"):  # a job on twin.loop.StepLoop
+            return job_cli.view(args, overrides)
         if job_cli is not None and hasattr(job_cli, "NOT_IN_VIEWER"):
             raise ScenarioError(job_cli.NOT_IN_VIEWER)
         config = _single_trial_config(args)
