@@ -359,3 +359,16 @@ def test_the_leaves_reach_is_measured_within_a_millimetre(graded):
             ex, ey = leaf_extents_mm(t, tray.geometry)
             errors += [c["reach_lr_mm"] - ex, c["reach_ud_mm"] - ey]
     assert len(errors) > 80 and float(np.mean(np.abs(errors))) < 1.0
+
+
+def test_the_overlay_has_a_legend_of_every_class_the_borders_and_the_cross():
+    from transplanter.vision import overlay
+
+    band = overlay._legend(1132, with_truth=True)
+    assert band.shape[1] == 1132 and (band == 255).mean() > 0.8  # a white band
+    colours = {tuple(int(v) for v in px) for px in band.reshape(-1, 3)}
+    for colour, _ in overlay.STYLE.values():  # each class's swatch, in its colour
+        assert colour in colours
+    assert (255, 255, 0) in colours and (255, 0, 0) in colours
+    assert (255, 0, 0) not in {tuple(int(v) for v in px) for px in
+                               overlay._legend(1132, with_truth=False).reshape(-1, 3)}  # fmt: skip

@@ -1,6 +1,7 @@
 """The grading drawn on the rectified picture: the cell borders the profiles found and each
 cell's class (a coloured frame and a letter); cells whose class differs from a given truth get
-a red cross."""
+a red cross. A legend under the picture names each class's colour and letter, the borders and
+the cross."""
 
 from __future__ import annotations
 
@@ -22,8 +23,38 @@ STYLE = {
 }
 
 
+LEGEND = {
+    EMPTY: "empty",
+    INFERIOR: "inferior",
+    HEALTHY_LR: "healthy, leaves left-right",
+    HEALTHY_UD: "healthy, leaves up-down",
+    HEALTHY: "healthy",
+}
+"""What each class's letter means in the legend."""
+
+
+def _legend(width: int, with_truth: bool) -> np.ndarray:
+    """A white band naming each class's colour and letter, the borders and the cross."""
+    entries = [(colour, f"{letter} {LEGEND[grade]}") for grade, (colour, letter) in STYLE.items()]
+    entries.append(((255, 255, 0), "cell borders found"))
+    if with_truth:
+        entries.append(((255, 0, 0), "X graded unlike the truth"))
+    row_h, pad = 22, 8
+    per_row = max(1, width // 230)
+    rows = -(-len(entries) // per_row)
+    band = np.full((rows * row_h + pad, width, 3), 255, dtype=np.uint8)
+    for i, (colour, text) in enumerate(entries):
+        x, y = pad + (i % per_row) * 230, pad + (i // per_row) * row_h
+        cv2.rectangle(band, (x, y), (x + 14, y + 14), colour, -1)
+        cv2.rectangle(band, (x, y), (x + 14, y + 14), (0, 0, 0), 1)
+        cv2.putText(band, text, (x + 20, y + 12), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1,
+                    cv2.LINE_AA)  # fmt: skip
+    return band
+
+
 def draw_overlay(grading: TrayGrading, truth: Sequence[str] | None = None) -> np.ndarray:
-    """RGB picture: the rectified tray, the borders, the classes (and the misses, with truth)."""
+    """RGB picture: the rectified tray, the borders, the classes (and the misses, with
+    truth), and the legend under it (`_legend`)."""
     out = grading.rectified.copy()
     h, w = out.shape[:2]
     s = grading.px_per_mm
@@ -45,7 +76,7 @@ def draw_overlay(grading: TrayGrading, truth: Sequence[str] | None = None) -> np
         if truth is not None and truth[cell.index] != cell.grade:
             cv2.line(out, (cx - half, cy - half), (cx + half, cy + half), (255, 0, 0), 2)
             cv2.line(out, (cx - half, cy + half), (cx + half, cy - half), (255, 0, 0), 2)
-    return out
+    return np.vstack([out, _legend(w, truth is not None)])
 
 
 def png_bytes(picture: np.ndarray) -> bytes:
