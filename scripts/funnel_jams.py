@@ -45,10 +45,33 @@ def poisson_interval(k: int, exposure: float) -> tuple[float, float]:
     return lo / exposure, hi / exposure
 
 
+STRIKE_WINDOW_S = 30.0
+"""A strike this soon after a jam's release counts as following it (about 8 cycles)."""
+
+
+def first_strike(r: dict) -> tuple[float | None, int, float | None]:
+    """The trial's first lost-step event that cost seedlings: its time (None: none), the
+    seedlings it cost, and how long after the last jam released before it (None: no jam)."""
+    for i, e in enumerate(r.get("lost_step_events", [])):
+        cost = sum(1 for s in r["per_seedling"]
+                   if s.get("lost_step_event") == i and s["outcome"] != "success")  # fmt: skip
+        if cost:
+            released = [j.get("t_release_s") for j in r.get("funnel_jams", [])]
+            before = [t for t in released if t is not None and t <= e["t_s"]]
+            return e["t_s"], cost, (e["t_s"] - max(before)) if before else None
+    return None, 0, None
+
+
 def summarise(results: list[dict]) -> str:
     jams, at_risk, seedlings, cost, kinds = 0, 0, 0, [], {}
+    after_jam, alone = [], []
     lines = []
     for r in results:
+        t_strike, strike_cost, since = first_strike(r)
+        if t_strike is not None:
+            (after_jam if since is not None and since <= STRIKE_WINDOW_S else alone).append(
+                strike_cost
+            )
         per = [s for s in r["per_seedling"] if s["outcome"] not in ("not_run", "pending")]
         risk = sum(1 for s in per if s.get("after_jam") is None)
         these = r.get("funnel_jams", [])
@@ -60,9 +83,13 @@ def summarise(results: list[dict]) -> str:
             for k, n in j["later_failures_by_kind"].items():
                 kinds[k] = kinds.get(k, 0) + n
         first = these[0]["seedling"] if these else "-"
+        strike = "no strike" if t_strike is None else (
+            f"first strike at {t_strike:.1f} s cost {strike_cost}"
+            + ("" if since is None else f", {since:.1f} s after a jam's release")
+        )  # fmt: skip
         lines.append(f"  seed {r['seed']:>3}: {r['successes']:>4}/{len(per)} successes, "
                      f"{len(these)} jam(s), first at seedling {first}, "
-                     f"{risk} seedlings at risk")  # fmt: skip
+                     f"{risk} seedlings at risk; {strike}")  # fmt: skip
     lo, hi = poisson_interval(jams, at_risk) if at_risk else (float("nan"),) * 2
     rate = 1000 * jams / at_risk if at_risk else float("nan")
     lines.append(
@@ -73,6 +100,12 @@ def summarise(results: list[dict]) -> str:
         by_kind = ", ".join(f"{n} {k}" for k, n in sorted(kinds.items(), key=lambda x: -x[1]))
         lines.append(f"failures while a jam stood: {sum(cost)} ({by_kind}); per jam "
                      f"{min(cost)}-{max(cost)}, mean {sum(cost) / len(cost):.1f}")  # fmt: skip
+    lines.append(
+        f"first strikes (a motor losing steps, nothing noticing): {len(after_jam)} within "
+        f"{STRIKE_WINDOW_S:g} s of a jam's release, costing {sum(after_jam)} seedlings; "
+        f"{len(alone)} with no jam released in the {STRIKE_WINDOW_S:g} s before, "
+        f"costing {sum(alone)}"
+    )
     return "\n".join(lines)
 
 

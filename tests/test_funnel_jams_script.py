@@ -47,6 +47,23 @@ def test_the_rate_counts_only_seedlings_at_risk_and_its_interval_is_poissons():
     assert "seed   1:    2/5 successes, 1 jam(s), first at seedling 2, 3 seedlings at risk" in text
 
 
+def test_a_first_strike_is_said_to_follow_a_jam_only_within_the_window():
+    fj = _script()
+    jam = {"seedling": 0, "t_release_s": 10.0, "later_failures": 0, "later_failures_by_kind": {}}
+    strike = [{"t_s": 14.0}]
+    soon = _trial(1, [("funnel_jam", None), ("lost_steps", None), ("position_lost", None)], [jam])
+    for s in soon["per_seedling"][1:]:
+        s["lost_step_event"] = 0
+    soon["lost_step_events"] = strike
+    late = {**soon, "seed": 2, "lost_step_events": [{"t_s": 10.0 + fj.STRIKE_WINDOW_S + 1}]}
+    text = fj.summarise([soon, late])
+    assert (
+        "seed   1:" in text and "first strike at 14.0 s cost 2, 4.0 s after a jam's release" in text
+    )
+    assert "1 within 30 s of a jam's release, costing 2 seedlings; 1 with no jam" in text
+    assert "released in the 30 s before, costing 2" in text
+
+
 def test_a_rerun_reads_what_out_holds(tmp_path, capsys):
     fj = _script()
     (tmp_path / "seed_4.json").write_text(json.dumps(_trial(4, [("success", None)] * 3)))

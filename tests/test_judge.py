@@ -149,6 +149,16 @@ def test_a_pot_caught_in_the_funnel_is_a_jam_and_names_the_failures_while_it_sta
     summary = format_summary(result)
     assert "funnel jam #0" in summary and "12.0 mm below the funnel's top" in summary
     assert "tilted 24 deg; 2 later failures while it stood (2 dropped_outside)" in summary
+    assert j["next_strike"] is None and "next strike" not in summary
+    # a strike after the jam carries a cascade on once the jam's pot has gone: named beside it
+    records[3].outcome, records[3].lost_step_event = Outcome.LOST_STEPS, 0
+    strike = {"t_s": 4.25, "motor": 0, "microsteps": 64, "contacts": [], "detected": False}
+    result = TrialResult("paper", 1, records, 6.0, 1.0, lost_step_events=[strike])
+    (j,) = result.funnel_jams
+    assert (j["next_strike"], j["next_strike_after_s"], j["next_strike_cost"]) == (0, 3.25, 1)
+    assert "the next strike 3.2 s after its release (lost steps #0, cost 1 seedlings)" in (
+        format_summary(result)
+    )
 
 
 @pytest.mark.slow

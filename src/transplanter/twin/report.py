@@ -194,7 +194,14 @@ def format_summary(result: TrialResult) -> str:
                 f"stuck {abs(j['below_top_mm']):.1f} mm "
                 f"{'below' if j['below_top_mm'] >= 0 else 'above'} the funnel's top, "
                 f"{j['off_axis_mm']:.1f} mm off its axis{tilt}; {j['later_failures']} later "
-                f"failures while it stood" + (f" ({kinds})" if kinds else ""),
+                f"failures while it stood"
+                + (f" ({kinds})" if kinds else "")
+                + (
+                    ""
+                    if j["next_strike"] is None
+                    else f"; the next strike {j['next_strike_after_s']:.1f} s after its release "
+                    f"(lost steps #{j['next_strike']}, cost {j['next_strike_cost']} seedlings)"
+                ),
             )
         )
     if d["fault"]:

@@ -161,8 +161,11 @@ class TrialResult:
 
     @property
     def funnel_jams(self) -> list[dict[str, Any]]:
-        """Each funnel jam: its seedling and pot, when it was released, where it stuck, and
-        the later failures judged while it stood (by kind)."""
+        """Each funnel jam: its seedling and pot, when it was released, where it stuck, the
+        later failures judged while it stood (by kind), and the first lost-step event at or
+        after its release (`next_strike`: its index in lost_step_events, None without one;
+        `next_strike_after_s`: how long after the release) with the seedlings it cost: a
+        strike carries a cascade on after the jam's pot has left the funnel."""
         out = []
         for r in self.per_seedling:
             if r.outcome != Outcome.FUNNEL_JAM or r.jam is None:
@@ -171,9 +174,19 @@ class TrialResult:
             for o in self.per_seedling:
                 if o.after_jam == r.index:
                     later[str(o.outcome)] = later.get(str(o.outcome), 0) + 1
+            t0 = r.t_release_s if r.t_release_s is not None else r.jam["t_s"]
+            strike = next((i for i, e in enumerate(self.lost_step_events) if e["t_s"] >= t0), None)
+            cost = None
+            if strike is not None:
+                cost = sum(o.lost_step_event == strike and o.outcome != Outcome.SUCCESS
+                           for o in self.per_seedling)  # fmt: skip
             out.append({"seedling": r.index, "pot": r.pot, "t_release_s": r.t_release_s,
                         **r.jam, "later_failures": sum(later.values()),
-                        "later_failures_by_kind": dict(sorted(later.items()))})  # fmt: skip
+                        "later_failures_by_kind": dict(sorted(later.items())),
+                        "next_strike": strike,
+                        "next_strike_after_s": None if strike is None else
+                        round(self.lost_step_events[strike]["t_s"] - t0, 6),
+                        "next_strike_cost": cost})  # fmt: skip
         return out
 
     @property
