@@ -10,7 +10,15 @@ from typing import Any
 
 from transplanter.cli.common import EXIT_REFUSED, _err, _seeds
 
-__all__ = ["export", "render", "run_trial", "view"]
+__all__ = ["check", "export", "render", "run_trial", "view"]
+
+
+def check(scenario) -> None:
+    """ScenarioError for what the delta's pot job cannot run: its gripper, its placement."""
+    from transplanter.twin.delta_pots import check_placement, require_delta_gripper
+
+    require_delta_gripper(scenario)
+    check_placement(scenario)
 
 
 def export(scenario, target: Path) -> Path:
@@ -18,10 +26,9 @@ def export(scenario, target: Path) -> Path:
     (`twin.delta_pots.scene_spec`) with the pots' decor, meshes in assets/ beside it."""
     from transplanter.scene.delta_scene import export_spec
     from transplanter.scene.effectors import fuzzy_gripper
-    from transplanter.twin.delta_pots import check_placement, require_delta_gripper, scene_spec
+    from transplanter.twin.delta_pots import scene_spec
 
-    require_delta_gripper(scenario)
-    check_placement(scenario)
+    check(scenario)
     spec = scene_spec(scenario, scenario.seed, decor=True)[0]
     return export_spec(spec, target, mount=fuzzy_gripper.MOUNT)
 
@@ -32,16 +39,7 @@ def render(
     """`transplanter render delta_pots`: one trial as `trial` runs it, filmed
     (`cli.serial_trial.render_pots`)."""
     from transplanter.cli.serial_trial import render_pots
-    from transplanter.twin.delta_pots import (
-        DEFINITIONS,
-        check_placement,
-        require_delta_gripper,
-        run_delta_pots,
-    )
-
-    def check(scenario) -> None:
-        require_delta_gripper(scenario)
-        check_placement(scenario)
+    from transplanter.twin.delta_pots import DEFINITIONS, run_delta_pots
 
     return render_pots(args, overrides, target, json_path, run_delta_pots, DEFINITIONS, check)
 
@@ -54,12 +52,7 @@ def run_trial(
 ) -> int:
     from transplanter.machine.servo_drives import frame_steps
     from transplanter.scenario.schema import ScenarioError, load_scenario
-    from transplanter.twin.delta_pots import (
-        DEFINITIONS,
-        check_placement,
-        require_delta_gripper,
-        run_delta_pots,
-    )
+    from transplanter.twin.delta_pots import DEFINITIONS, run_delta_pots
 
     for option, value in (
         ("--clips-of-failures", args.clips_of_failures),
@@ -80,8 +73,7 @@ def run_trial(
     try:
         scenario = load_scenario(args.scenario, overrides)
         frame_steps(scenario.physics.timestep_s)
-        require_delta_gripper(scenario)
-        check_placement(scenario)
+        check(scenario)
     except (ScenarioError, ValueError) as exc:
         _err(f"scenario refused: {exc}")
         return EXIT_REFUSED
@@ -95,10 +87,6 @@ def run_trial(
 def view(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
     """`transplanter view delta_pots`: one trial as `trial` runs it, shown live."""
     from transplanter.cli.serial_trial import view_pots
-    from transplanter.twin.delta_pots import check_placement, require_delta_gripper, run_delta_pots
-
-    def check(scenario) -> None:
-        require_delta_gripper(scenario)
-        check_placement(scenario)
+    from transplanter.twin.delta_pots import run_delta_pots
 
     return view_pots(args, overrides, run_delta_pots, check)

@@ -9,7 +9,17 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-__all__ = ["export", "render", "run_trial", "view"]
+__all__ = ["check", "export", "render", "run_trial", "view"]
+
+
+def check(scenario) -> None:
+    """ScenarioError for what the serial arm's pot job cannot run: its own motion, its
+    placement."""
+    from transplanter.twin.serial_arm import require_own_motion
+    from transplanter.twin.serial_pots import check_placement
+
+    require_own_motion(scenario, "the serial arm's pot job")
+    check_placement(scenario)
 
 
 def export(scenario, target: Path) -> Path:
@@ -17,11 +27,9 @@ def export(scenario, target: Path) -> Path:
     seed (`twin.serial_pots.scene_spec`) with the pots' decor, meshes in assets/ beside it."""
     from transplanter.scene.effectors import fuzzy_gripper
     from transplanter.scene.export import export_spec
-    from transplanter.twin.serial_arm import require_own_motion
-    from transplanter.twin.serial_pots import check_placement, scene_spec
+    from transplanter.twin.serial_pots import scene_spec
 
-    require_own_motion(scenario, "the serial arm's pot job")
-    check_placement(scenario)
+    check(scenario)
     spec = scene_spec(scenario, scenario.seed, decor=True)[0]
     return export_spec(spec, target, mount=fuzzy_gripper.MOUNT)
 
@@ -42,12 +50,7 @@ def render(
 ) -> int:
     """`transplanter render serial_arm_pots`: one trial as `trial` runs it, filmed."""
     from transplanter.cli.serial_trial import render_pots
-    from transplanter.twin.serial_arm import require_own_motion
-    from transplanter.twin.serial_pots import DEFINITIONS, check_placement, run_serial_pots
-
-    def check(scenario) -> None:
-        require_own_motion(scenario, "the serial arm's pot job")
-        check_placement(scenario)
+    from transplanter.twin.serial_pots import DEFINITIONS, run_serial_pots
 
     return render_pots(args, overrides, target, json_path, run_serial_pots, DEFINITIONS, check)
 
@@ -55,11 +58,6 @@ def render(
 def view(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
     """`transplanter view serial_arm_pots`: one trial as `trial` runs it, shown live."""
     from transplanter.cli.serial_trial import view_pots
-    from transplanter.twin.serial_arm import require_own_motion
-    from transplanter.twin.serial_pots import check_placement, run_serial_pots
-
-    def check(scenario) -> None:
-        require_own_motion(scenario, "the serial arm's pot job")
-        check_placement(scenario)
+    from transplanter.twin.serial_pots import run_serial_pots
 
     return view_pots(args, overrides, run_serial_pots, check)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from transplanter.viewing.live import SYNC_HZ, ViewerUnavailable
+from transplanter.viewing.live import Pacing, ViewerUnavailable
 
 __all__ = ["LoopLiveViewer", "ViewerClosed"]
 
@@ -27,15 +27,11 @@ class LoopLiveViewer:
     def __init__(self, speed: float = 1.0, camera: str = "overview") -> None:
         self.speed = speed
         self.camera = camera
-        self.sync_every_s = speed / SYNC_HZ  # simulated s between viewer updates
+        self.pacing = Pacing(speed)
         self.loop: Any = None
         self.handle: Any = None
         self.verdicts: list[str] = []
         self.successes = 0
-        self.t_next = 0.0
-        self.wall0 = 0.0
-        self.next_sync_wall = 0.0
-        self.syncs = 0
         self.closed_at: float | None = None
         self.error: str | None = None
 
@@ -54,7 +50,7 @@ class LoopLiveViewer:
         if cam >= 0:
             self.handle.cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
             self.handle.cam.fixedcamid = cam
-        self.wall0 = time.perf_counter()
+        self.pacing.start()
         loop.after_step.append(self._look)
 
     def event(self, t: float, kind: str, text: str, unit: int | None = None) -> None:
@@ -70,30 +66,12 @@ class LoopLiveViewer:
 
     def _look(self, _t: float) -> None:
         t = self.loop.time
-        if t + 1e-12 < self.t_next:
+        if not self.pacing.due(t):
             return
-        self.t_next = t + self.sync_every_s
-        handle = self.handle
-        if not handle.is_running():
+        if not self.handle.is_running():
             self.closed_at = t
             raise ViewerClosed
-        import mujoco
-
-        now = time.perf_counter()
-        if now >= self.next_sync_wall:
-            left, right = self._texts(t)
-            handle.set_texts(
-                (mujoco.mjtFontScale.mjFONTSCALE_150, mujoco.mjtGridPos.mjGRID_TOPLEFT, left, right)
-            )
-            handle.sync()
-            self.syncs += 1
-            done = time.perf_counter()
-            # at most half the wall time goes to viewer updates, so the physics keeps pace
-            self.next_sync_wall = done + max(1.0 / SYNC_HZ, done - now)
-            now = done
-        ahead = t / self.speed - (now - self.wall0)
-        if ahead > 0:
-            time.sleep(ahead)
+        self.pacing.sync(t, self.handle, lambda: self._texts(t))
 
     def finish(self, t: float) -> str | None:
         """The run ended: the last state stays up until the window is closed."""
