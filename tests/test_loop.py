@@ -136,3 +136,94 @@ def test_the_pulses_are_read_from_a_block_while_the_motion_stays_the_same():
     assert versions == {0, 1, 2}  # the two lines changed it: asked anew each time
     assert all(n == BLOCK_STEPS for n in controller.asked)
     assert len(controller.asked) < len(seen) / 10  # a block, not a step, per ask
+
+
+def _bare():
+    model = mujoco.MjModel.from_xml_string(XML)
+    return model, mujoco.MjData(model)
+
+
+def test_an_event_driven_exchange_steps_the_blocks_it_asks_for_never_past_the_limit():
+    """The five-bar's SGF side: the exchange says how many steps run until its next event;
+    `run_until` hands it the end time and stops there exactly."""
+    model, data = _bare()
+    asked = []
+
+    def exchange(t, t_limit):
+        n = min(7, round((t_limit - t) / 0.002))
+        asked.append((round(t, 6), n))
+        return n
+
+    loop = StepLoop(model, data, exchange=exchange)
+    index = []
+    loop.after_step.append(lambda t: index.append(loop.i))
+    blocks = []
+    loop.after_block.append(lambda: blocks.append(loop.k))
+    loop.run_until(0.04)  # 20 steps: blocks of 7, 7, 6
+    assert loop.k == 20 and blocks == [7, 14, 20]
+    assert asked == [(0.0, 7), (0.014, 7), (0.028, 6)]
+    assert index == list(range(7)) * 2 + list(range(6))  # the step's index in its block
+
+
+def test_end_block_cuts_a_block_short_and_the_next_exchange_comes_at_once():
+    """A stepper that slips stops the SGF: the block's other commands are void."""
+    model, data = _bare()
+    starts = []
+
+    def exchange(t, t_limit):
+        starts.append(round(t, 6))
+        return 10
+
+    loop = StepLoop(model, data, exchange=exchange)
+    loop.after_step.append(lambda t: loop.end_block() if loop.k == 4 else None)
+    loop.run(lambda t: loop.k >= 24)
+    assert starts == [0.0, 0.008, 0.028]  # 4 steps, then 10, then 10
+    assert loop.k == 24 and loop.stopped is None
+
+
+def test_run_steps_with_no_firmware_drives_the_bench_hooks_until_a_hook_stops():
+    """A bench (`scene.plug_bench`): its hooks write the actuators; `run_steps` steps n times
+    or until a hook stops it, and `after_block` runs once."""
+    model, data = _bare()
+    loop = StepLoop(model, data)
+    loop.before_step.append(lambda t: data.ctrl.__setitem__(0, 2.0))  # 2 N on 1 kg
+    loop.after_step.append(lambda t: loop.stop("moved 1 mm") if data.qpos[0] > 1e-3 else None)
+    ends = []
+    loop.after_block.append(lambda: ends.append(loop.k))
+    loop.run_steps(1000)
+    # x = a t^2 / 2 passes 1 mm at t = sqrt(1e-3) = 31.6 ms: the 16th step of 2 ms
+    assert loop.stopped == "moved 1 mm" and loop.k == 16 and ends == [16]
+    assert abs(data.time - loop.k * loop.dt) < 1e-12
+    loop2 = StepLoop(*_bare())
+    loop2.run_steps(25)
+    assert loop2.k == 25 and loop2.stopped is None
+
+
+def test_a_per_step_controller_and_an_exchange_are_refused_together():
+    import pytest
+
+    model, data = _bare()
+    bus = ComBus()
+    with pytest.raises(ValueError, match="not both"):
+        StepLoop(model, data, HostProgram(["M3"], bus), bus, _Controller([]), _Endstops(),
+                 exchange=lambda t, t_limit: 1)  # fmt: skip
+
+
+def test_mj_step_is_called_in_one_place_in_the_package():
+    """Issue 50: one loop steps every machine on every job; benchmarks' bare replays aside,
+    nothing in the package calls `mujoco.mj_step` but `twin/loop.py`."""
+    import ast
+    from pathlib import Path
+
+    import transplanter
+
+    root = Path(transplanter.__file__).parent
+    sites = []
+    for path in sorted(root.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Call):
+                f = node.func
+                name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", None)
+                if name in ("mj_step", "mj_step1", "mj_step2", "rollout"):
+                    sites.append((path.relative_to(root).as_posix(), node.lineno))
+    assert [p for p, _ in sites] == ["twin/loop.py"], sites

@@ -36,6 +36,7 @@ from transplanter.scene.plug_physics import (
 )
 from transplanter.scene.plug_substrate import PlugsConfig, Substrate
 from transplanter.scene.plug_tray import CellTruth, Seedling, TrayGeometry
+from transplanter.twin.loop import StepLoop
 
 __all__ = [
     "BenchConfig",
@@ -305,26 +306,31 @@ def run_pick(
     track: dict[str, tuple[float, float, float]] = {}
     pending = sorted(times.items(), key=lambda kv: kv[1])
     tip = model.body("claw_right").id
-    tip_depth = 0.0
-    stripper_peak = 0.0
-    for k in range(int(round(t_end / dt))):
-        tt = k * dt
+    peaks = {"tip_depth": 0.0, "stripper": 0.0}
+    loop = StepLoop(model, data)
+
+    def command(tt: float) -> None:
         pos, vel = carrier_ref(tt)
         data.ctrl[carrier] = pos
         data.ctrl[carrier_v] = vel
         data.ctrl[effector] = cycle.ctrl(tt)
         physics.before_step(data)
-        mujoco.mj_step(model, data)
+
+    def watch(tt: float) -> None:
         physics.after_step(data, tt, carried=t_lift <= tt < t_ret)
         leaves.after_step(data, tt)
         if t_ret <= tt < t_off:
-            stripper_peak = max(stripper_peak, stripper_push(model, data, "plug"))
+            peaks["stripper"] = max(peaks["stripper"], stripper_push(model, data, "plug"))
         if tt < t_lift:
-            tip_depth = float(data.xpos[plug, 2] - data.xpos[tip, 2])
+            peaks["tip_depth"] = float(data.xpos[plug, 2] - data.xpos[tip, 2])
         while pending and pending[0][1] <= tt + dt / 2:
             name, _ = pending.pop(0)
             x, y, z = (float(v) for v in data.xpos[plug])
             track[name] = (x * 1e3, y * 1e3, (z - TRAY_TOP_M) * 1e3)
+
+    loop.before_step.append(command)
+    loop.after_step.append(watch)
+    loop.run_steps(int(round(t_end / dt)))
     held = physics.dropped_at_s is None
     in_target = physics.seated_in(data, (move, 0.0), bench.target_tolerance_mm * 1e-3)
     mass = physics.mass_kg
@@ -342,8 +348,8 @@ def run_pick(
         leaf_damage=sorted(leaves.damage, key=lambda d: (d.time_s, d.leaf)),
         times_s=times,
         track_mm=track,
-        tip_depth_mm=tip_depth * 1e3,
-        stripper_peak_n=stripper_peak,
+        tip_depth_mm=peaks["tip_depth"] * 1e3,
+        stripper_peak_n=peaks["stripper"],
     )
 
 
@@ -375,19 +381,27 @@ def measure_hold(
     z_ctrl = model.actuator("carrier_z").id
     effector = [model.actuator(n).id for n in plug_claws.ACTUATORS]
     weight = float(model.body_mass[plug]) * -float(model.opt.gravity[2])
-    gap0 = None
     t_pull = t_lift + t_up + 0.1
-    for k in range(int(round((t_pull + 20.0) / dt))):
-        tt = k * dt
+    state: dict[str, float] = {}
+    loop = StepLoop(model, data)
+
+    def command(tt: float) -> None:
         s = min(max((tt - t_lift) / t_up, 0.0), 1.0)
         data.ctrl[z_ctrl] = lift * (3 * s * s - 2 * s**3)
         data.ctrl[effector] = cycle.ctrl(tt)
-        pull = max(tt - t_pull, 0.0) * ramp_n_s
-        data.xfrc_applied[plug, 2] = -pull
-        mujoco.mj_step(model, data)
+        state["pull"] = max(tt - t_pull, 0.0) * ramp_n_s
+        data.xfrc_applied[plug, 2] = -state["pull"]
+
+    def watch(tt: float) -> None:
         gap = float(data.xpos[mount, 2] - data.xpos[plug, 2])
         if tt < t_pull:
-            gap0 = gap
-        elif gap - gap0 > slip_mm * 1e-3:
-            return pull + weight
+            state["gap0"] = gap
+        elif gap - state["gap0"] > slip_mm * 1e-3:
+            loop.stop("slipped")
+
+    loop.before_step.append(command)
+    loop.after_step.append(watch)
+    loop.run_steps(int(round((t_pull + 20.0) / dt)))
+    if loop.stopped is not None:
+        return state["pull"] + weight
     return math.inf

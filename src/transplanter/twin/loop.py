@@ -1,33 +1,48 @@
-"""One physics step at a time: host -> bus -> controller -> the step's commands -> `mj_step`.
+"""The one loop of every machine on every job: the controller's exchange, then a block of
+physics steps, each host -> bus -> controller -> the step's commands -> `mj_step`.
 
-The loop of every job whose controller is not the five-bar's SGF stepped in blocks
-(`twin.sim.Twin`): the delta's trays (`twin.delta_refill`) and its pot line
-(`twin.delta_pots`), the serial arm's jobs (`twin.serial_arm`, `twin.serial_pots`). At each
-physics step, at its start time t = k * dt:
+At each exchange, at time t = k * dt, the machine's firmware side is advanced and says how many
+physics steps may run before it has something to say again; the loop then steps that block,
+one `mj_step` at a time. Two firmware sides exist:
 
-1. the host program (`machine.host.HostProgram`) takes its replies and sends what is due;
-2. the bus delivers the lines due to the controller, which answers them (its limit switches
-   read from the raw pulses of the step before: `SimulatedEndstops`);
-3. the controller's machine events (the conveyor's `M710`) go to `on_event(t_event, name)`;
-4. the raw pulse counts at t (read from a block of the next steps' counts while the
-   controller's motion stays the same), then its servo commands go to `on_servo(t,
-   commands)`;
+- **per step** (the default, given `host`, `bus`, `controller`, `endstops`: the delta's
+  controller, the serial arm's servo board): at every step
+  1. the host program (`machine.host.HostProgram`) takes its replies and sends what is due;
+  2. the bus delivers the lines due to the controller, which answers them (its limit switches
+     read from the raw pulses of the step before: `SimulatedEndstops`);
+  3. the controller's machine events (the conveyor's `M710`) go to `on_event(t_event, name)`;
+  4. the raw pulse counts at t (read from a block of the next steps' counts while the
+     controller's motion stays the same), then its servo commands go to `on_servo(t,
+     commands)`;
+  and the block is that one step;
+- **event driven** (`exchange=`: the five-bar's SGF, `twin.sim.Twin`): the exchange delivers
+  what is due, computes the commands of every step until the next firmware event at once and
+  returns their count (`exchange(t, t_limit) -> n`, n >= 1, never past `t_limit`).
+
+Each step of a block (t: its start time, `i`: its index in the block):
+
 5. `before_step(t)`: the hooks that write the step's commands (the robot's drives, the
    effector's servos, the job's conveyor and plug physics), in their order;
 6. `mujoco.mj_step`; then `guard(t)`, which may stop the run at once (a state MuJoCo reset:
    the step is not counted and nothing after it runs);
 7. the step is counted (k + 1), then `after_step(t)`: the meters, the judges' watches and the
-   observers (at (k + 1) * dt, `StepLoop.time`).
+   observers (at (k + 1) * dt, `StepLoop.time`). A hook may `end_block()`: the block's other
+   commands are void (a stepper slipped and its driver stopped the SGF) and the next exchange
+   comes at once.
 
-A hook may `stop(reason)` the run: it ends after that step. `run(end)` steps until `end(t)`
-says so after a step (t: the step's start) or a hook stopped it; `run_program(limit_s,
-settle_s)` until the host's program has ended (or failed) and settled, with a time-out, the
-end every job's run shares. A hook may `settle_until(t)` to end the run at t (a drive's alarm:
-the machine is let come to rest, then the run ends).
+After each block, `after_block()` (the five-bar's check of MuJoCo's warnings). A hook may
+`stop(reason)` the run: it ends after that step. `run(end)` runs blocks until `end(t)` says so
+after one (t: the last step's start) or a hook stopped it; `run_until(t_end, done)` until the
+simulated time reaches `t_end` or `done()` after a block; `run_program(limit_s, settle_s)` until
+the host's program has ended (or failed) and settled, with a time-out, the end every per-step
+job's run shares. A hook may `settle_until(t)` to end the run at t (a drive's alarm: the
+machine is let come to rest, then the run ends). `run_steps(n)` steps n times with no firmware
+at all (a bench whose hooks drive the actuators themselves: `scene.plug_bench`).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -37,36 +52,48 @@ import numpy as np
 __all__ = ["BLOCK_STEPS", "StepLoop"]
 
 BLOCK_STEPS = 64
-"""Steps of raw pulse counts asked of the controller at once (`StepLoop._pulses`)."""
+"""Steps of raw pulse counts asked of a per-step controller at once (`StepLoop._pulses`)."""
 
 
 class StepLoop:
-    """A job's machine and physics stepped together (module docstring)."""
+    """A machine and its physics stepped together (module docstring)."""
 
     def __init__(
         self,
         model: mujoco.MjModel,
         data: mujoco.MjData,
-        host: Any,
-        bus: Any,
-        controller: Any,
-        endstops: Any,
+        host: Any = None,
+        bus: Any = None,
+        controller: Any = None,
+        endstops: Any = None,
         machine_events: Callable[[], list] | None = None,
+        exchange: Callable[[float, float], int] | None = None,
     ) -> None:
+        if exchange is not None and controller is not None:
+            raise ValueError("give a per-step controller or an exchange, not both")
         self.model, self.data = model, data
         self.host, self.bus, self.controller, self.endstops = host, bus, controller, endstops
         self._events = machine_events if machine_events is not None else (lambda: [])
+        if exchange is not None:
+            self.exchange = exchange
+        elif controller is not None:
+            self.exchange = self._exchange_each_step
+        else:
+            self.exchange = self._no_firmware
         self.dt = model.opt.timestep
         self.k = 0
-        self.raw = np.zeros(len(endstops.initial), dtype=np.int64)  # the pulses at power-on
+        self.i = 0  # the step's index in its block
+        self.raw = np.zeros(len(endstops.initial) if endstops is not None else 0, dtype=np.int64)
         self.on_event: list[Callable[[float, str], None]] = []
         self.on_servo: list[Callable[[float, list], None]] = []
         self.before_step: list[Callable[[float], None]] = []
         self.after_step: list[Callable[[float], None]] = []
+        self.after_block: list[Callable[[], None]] = []
         self.guard: Callable[[float], str | None] | None = None
         self.stopped: str | None = None
         self.last_t = 0.0
         self.t_end: float | None = None  # run_program ends the run after the step at t_end
+        self._end_block = False
         self._block: tuple[int, int, np.ndarray] | None = None  # first step, version, counts
 
     @property
@@ -79,11 +106,14 @@ class StepLoop:
         if self.stopped is None:
             self.stopped = reason
 
-    def step(self) -> bool:
-        """One physics step (module docstring); False when the guard stopped it."""
-        model, data, controller, bus = self.model, self.data, self.controller, self.bus
-        t = self.k * self.dt
-        self.last_t = t
+    def end_block(self) -> None:
+        """End the block after the step in progress: the next exchange comes at once."""
+        self._end_block = True
+
+    # -- the firmware side -----------------------------------------------------------------
+    def _exchange_each_step(self, t: float, t_limit: float) -> int:
+        """The per-step firmware side (module docstring, 1-4): a block of one step."""
+        controller, bus = self.controller, self.bus
         self.host.tick(t)
         for line in bus.device_receive(t):
             controller.receive(line, t)
@@ -97,18 +127,52 @@ class StepLoop:
         commands = controller.drain_servo_commands()
         for fn in self.on_servo:
             fn(t, commands)
-        for fn in self.before_step:
-            fn(t)
-        mujoco.mj_step(model, data)
-        if self.guard is not None:
-            reason = self.guard(t)
-            if reason is not None:
-                self.stop(reason)
-                return False
-        self.k += 1
-        for fn in self.after_step:
-            fn(t)
+        return 1
+
+    def _no_firmware(self, t: float, t_limit: float) -> int:
+        """No firmware: one block to `t_limit` (one step when it is unbounded)."""
+        if math.isinf(t_limit):
+            return 1
+        return max(1, math.ceil((t_limit - t) / self.dt - 1e-9))
+
+    # -- stepping --------------------------------------------------------------------------
+    def _run_block(self, n: int) -> bool:
+        """Up to n physics steps (module docstring, 5-7); False when the guard stopped."""
+        model, data, dt = self.model, self.data, self.dt
+        before, after, guard = self.before_step, self.after_step, self.guard
+        self._end_block = False
+        for i in range(n):
+            t = self.k * dt
+            self.last_t, self.i = t, i
+            for fn in before:
+                fn(t)
+            mujoco.mj_step(model, data)
+            if guard is not None:
+                reason = guard(t)
+                if reason is not None:
+                    self.stop(reason)
+                    return False
+            self.k += 1
+            for fn in after:
+                fn(t)
+            if self._end_block or self.stopped is not None:
+                break
         return True
+
+    def advance(self, t_limit: float = math.inf) -> bool:
+        """One exchange and its block of steps (never past `t_limit`), then `after_block`;
+        False when the guard stopped it."""
+        t = self.k * self.dt
+        self.last_t = t
+        if not self._run_block(self.exchange(t, t_limit)):
+            return False
+        for fn in self.after_block:
+            fn()
+        return True
+
+    def step(self) -> bool:
+        """`advance()`: with a per-step controller, one physics step."""
+        return self.advance()
 
     def _pulses(self, k: int, t: float) -> np.ndarray:
         """The raw pulse counts at step k (time t): from the block of the next BLOCK_STEPS
@@ -135,14 +199,15 @@ class StepLoop:
 
     def run_program(self, limit_s: float, settle_s: float = 0.0, what: str = "the program"
                     ) -> str | None:  # fmt: skip
-        """Step until the host's program has ended or failed and `settle_s` more have passed
-        (or until a hook's `settle_until`), or a hook stopped the run; the time-out's message
-        when a step starts after `limit_s` (s of simulated time), else None."""
+        """Run blocks until the host's program has ended or failed and `settle_s` more have
+        passed (or until a hook's `settle_until`), or a hook stopped the run; the time-out's
+        message when a block's last step starts after `limit_s` (s of simulated time), else
+        None."""
         host = self.host
         while self.stopped is None:
-            t = self.k * self.dt
-            if not self.step():
+            if not self.advance():
                 return None
+            t = self.last_t
             if self.t_end is None and (host.done or host.error is not None):
                 self.t_end = t + settle_s
             if self.t_end is not None and t >= self.t_end:
@@ -152,10 +217,26 @@ class StepLoop:
         return None
 
     def run(self, end: Callable[[float], bool]) -> None:
-        """Step until `end(t)` after a step (t: its start time) or a hook stopped the run."""
+        """Run blocks until `end(t)` after one (t: its last step's start) or a hook stopped
+        the run."""
         while self.stopped is None:
-            t = self.k * self.dt
-            if not self.step():
+            if not self.advance():
                 return
-            if end(t):
+            if end(self.last_t):
                 return
+
+    def run_until(self, t_end: float, done: Callable[[], bool] | None = None) -> None:
+        """Run blocks until the simulated time reaches `t_end` (s), `done()` after a block, or
+        a hook stopped the run."""
+        while self.stopped is None and self.k * self.dt < t_end - 1e-12:
+            if not self.advance(t_end):
+                return
+            if done is not None and done():
+                return
+
+    def run_steps(self, n: int) -> None:
+        """n physics steps with no exchange (fewer if a hook stopped the run), then
+        `after_block`."""
+        if self._run_block(n):
+            for fn in self.after_block:
+                fn()

@@ -1,15 +1,16 @@
-"""The twin's simulation loop: the firmware's step events drive the MuJoCo physics.
+"""The five-bar's firmware side of the one loop (`twin.loop.StepLoop`): the SGF's step events
+drive the MuJoCo physics.
 
 PGF -> COM bus -> SGF run on the simulated clock exactly as in `machine.rig`, but the
 limit switches come from the model's sensors and, at every physics step, each stepper's field
 stands where its SGF step pulses have put it at the step's start (`SGF.pulses_at`), never on a
 smoothed trajectory, and the motor's torque over the step is its torque law at the load angle
-then (`transplanter.scene.stepper`). Per-move work is done once per firmware event: the fields,
-pull-out torques and field speeds of every physics step until the next event are computed in
-one vectorised call, so the per-step path is one row copy, three motor torques, `mj_step` and
-the drives' meter
-(plus the conveyor's drive while it indexes, a slip check every few steps and the caller's
-monitor).
+then (`transplanter.scene.stepper`). The loop is event driven here: per-move work is done once
+per firmware event (the loop's exchange, `Twin._exchange_block`): the fields, pull-out torques
+and field speeds of every physics step until the next event are computed in one vectorised
+call, so the per-step path (`Twin._before_step`, `Twin._after_step`) is one row copy, three
+motor torques, `mj_step` and the drives' meter (plus the conveyor's drive while it indexes, a
+slip check every few steps and the caller's monitor).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from transplanter.machine.sgf import SGF
 from transplanter.scenario.assemble import TwinConfig
 from transplanter.scene import ConveyorDrive, Scene, build_scene
 from transplanter.scene.conveyor import INDEX_ERROR_STREAM
+from transplanter.twin.loop import StepLoop
 from transplanter.twin.motors import MotorMeter, drive_actuators
 
 __all__ = ["Twin", "SimulationInvalid", "LineEvent", "LineEventKind", "LostStepEvent"]
@@ -202,7 +204,15 @@ class Twin:
         the index's own profile then takes back."""
         platform = self.model.body("platform").id
         self._machine_body = self.model.body_rootid == self.model.body_rootid[platform]
-        self.k = 0  # physics steps taken; time = k * dt exactly
+        # the one loop, event driven: an exchange computes a block of steps' commands
+        self.loop = StepLoop(self.model, self.data, exchange=self._exchange_block)
+        self.loop.before_step.append(self._before_step)
+        self.loop.after_step.append(self._after_step)
+        self.loop.after_block.append(self._check_valid)
+        self._monitor: Callable[[Twin, int], None] | None = None
+        self._monitor_every = 5
+        self._idle_to_end = False
+        self._switches_then: tuple[bool, ...] | None = None
         self._done_index = 0
         self._warnings0 = self._warning_counts()
         self.line_listeners: list[Callable[[LineEvent], None]] = []
@@ -226,8 +236,13 @@ class Twin:
 
     # -- time -------------------------------------------------------------------------
     @property
+    def k(self) -> int:
+        """Physics steps taken; time = k * dt exactly."""
+        return self.loop.k
+
+    @property
     def time(self) -> float:
-        return self.k * self.dt
+        return self.loop.k * self.dt
 
     @property
     def pickups_xy(self) -> list[tuple[float, float]]:
@@ -334,41 +349,48 @@ class Twin:
     ) -> None:
         """Advance the whole machine to simulated time t_end, or until the PGF is done or
         faults when stop_when_done (else the physics runs on with the firmware idle)."""
-        m, d = self.model, self.data
-        ctrl = d.ctrl
+        self._monitor, self._monitor_every = monitor, monitor_every
         # With nothing in flight the firmware has nothing to say until t_end, unless the
         # caller stops when the program is done (it then looks after every step, as ever)
         # or an external host may write at any time.
-        idle_to_end = not stop_when_done and self.remote is None
-        while self.time < t_end - 1e-12:
-            t = self.time
-            self._exchange(t)
-            idle_until = t_end if idle_to_end else t + self.dt
-            block = self.block = self._block(min(self._next_exchange_time(t, idle_until), t_end))
-            # While it homes the SGF reads its switches: a change of them ends the block
-            # (step_until's exchange reads them; see FirmwareLink.next_event_time).
-            switches = self._switches() if self.sgf.homing else None
-            rows, amplitude, feed = block.ctrl, block.amplitude, block.feed
-            drive, qpos, meter = self.drives.apply, d.qpos, self.motors.record
-            for i in range(rows.shape[0]):
-                ctrl[:] = rows[i]
-                drive(ctrl, qpos, block.field[i], amplitude[i], feed[i])
-                if block.conveyor:
-                    self.conveyor.apply(d, self.time)
-                mujoco.mj_step(m, d)
-                meter(d)
-                self.k += 1
-                self._field_now = block.field[i + 1]  # the field now, beside the rotor now
-                stalled = self.k % SLIP_CHECK_STEPS == 0 and self._slip(block, i)
-                if monitor is not None and self.k % monitor_every == 0:
-                    monitor(self, i)
-                if stalled:  # the SGF stopped: the rest of this block's commands are void
-                    break
-                if switches is not None and self._switches() != switches:
-                    break
-            self._check_valid()
-            if stop_when_done and (self.pgf.done or self.pgf.fault):
-                return
+        self._idle_to_end = not stop_when_done and self.remote is None
+        pgf = self.pgf
+        self.loop.run_until(t_end, (lambda: pgf.done or pgf.fault) if stop_when_done else None)
+
+    def _exchange_block(self, t: float, t_end: float) -> int:
+        """The loop's exchange: the firmware's, then the commands of every step until the
+        next one (at most `t_end`); how many steps they are."""
+        self._exchange(t)
+        idle_until = t_end if self._idle_to_end else t + self.dt
+        block = self.block = self._block(min(self._next_exchange_time(t, idle_until), t_end))
+        # While it homes the SGF reads its switches: a change of them ends the block
+        # (the next exchange reads them; see FirmwareLink.next_event_time).
+        self._switches_then = self._switches() if self.sgf.homing else None
+        return block.ctrl.shape[0]
+
+    def _before_step(self, t: float) -> None:
+        """The step's commands: the block's row, the steppers' torque law, the conveyor."""
+        block, i, d = self.block, self.loop.i, self.data
+        ctrl = d.ctrl
+        ctrl[:] = block.ctrl[i]
+        self.drives.apply(ctrl, d.qpos, block.field[i], block.amplitude[i], block.feed[i])
+        if block.conveyor:
+            self.conveyor.apply(d, t)
+
+    def _after_step(self, t: float) -> None:
+        """The drives' meter, the field now, the slip check every few steps, the monitor; a
+        stall the drivers reported or a switch change while homing ends the block."""
+        block, i, loop = self.block, self.loop.i, self.loop
+        self.motors.record(self.data)
+        self._field_now = block.field[i + 1]  # the field now, beside the rotor now
+        k = loop.k
+        stalled = k % SLIP_CHECK_STEPS == 0 and self._slip(block, i)
+        if self._monitor is not None and k % self._monitor_every == 0:
+            self._monitor(self, i)
+        if stalled:  # the SGF stopped: the rest of this block's commands are void
+            loop.end_block()
+        elif self._switches_then is not None and self._switches() != self._switches_then:
+            loop.end_block()
 
     def _slip(self, block: _Block, i: int) -> bool:
         """Count the electrical cycles every motor lagging more than two full steps has
