@@ -204,7 +204,7 @@ def test_a_trials_report_holds_its_json_row_for_row(tmp_path, capsys):
     assert len(per_seedling["cells"]) == 2
     assert len(page.images) == 1 and page.images[0]["src"].startswith("data:image/png;base64,")
     text = report.read_text()
-    assert "seedlings per hour" in text  # the summary as printed
+    assert "plants per hour" in text  # the summary as printed
     assert "[conveyor]" in text  # the base chain's files as read
     assert "--seedlings 2" in text  # the command
 

@@ -8,7 +8,8 @@ from transplanter.twin.results import Outcome, SeedlingRecord, TrialResult
 
 def test_summary_shows_rate_interval_and_the_failure_kinds_that_occurred():
     """The answer first, then only the kinds that occurred (the JSON keeps every kind)."""
-    records = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS) for i in range(39)]
+    records = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS, t_start_s=4.0 + 3.6 * i)
+               for i in range(39)]  # fmt: skip
     records.append(SeedlingRecord(39, 4, outcome=Outcome.NO_POT, cycle_time_s=3.5))
     result = TrialResult("paper", 1, records, sim_time_s=147.0, wall_time_s=7.0)
     text = format_summary(result)
@@ -18,10 +19,14 @@ def test_summary_shows_rate_interval_and_the_failure_kinds_that_occurred():
         "failures: no_pot           1"
     ]
     assert result.to_dict()["failures"]["knocked_over"] == 0  # every kind in the JSON
-    assert "21.0x" in text.splitlines()[9]
-    # a shift in one number: the whole run's rate (40 attempted in 147 s) beside the cycle's
-    assert "seedlings per hour         980 over the whole run (homing, indexes and " in text
-    assert ", 1029 at the mean cycle" in text
+    assert "21.0x" in text.splitlines()[8]
+    # the throughput second, at the pick pitch over whole rows (seedling 35's start is the
+    # last at pickup 0: 35 picks of 3.6 s), the homing before the first (4 s) left out
+    assert text.splitlines()[4] == (
+        "plants per hour            1000 (a pick every 3.600 s start to start, over 35 picks "
+        "in whole rows: cycles, indexes and recoveries; the homing before the first, 4.00 s, "
+        "left out)"
+    )
     clean = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS) for i in range(40)]
     text = format_summary(TrialResult("paper", 1, clean, sim_time_s=147.0, wall_time_s=7.0))
     assert "failures:                  none" in text

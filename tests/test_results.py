@@ -37,8 +37,33 @@ def test_counts_and_rates_follow_the_outcomes():
     assert failures["no_pot"] == 1 and failures["not_run"] == 1
     assert sum(failures.values()) == 2
     d = r.to_dict()
-    assert d["seedlings_per_min"] == pytest.approx(3.0)  # 3 attempted in 60 s
+    assert d["plants_per_hour"] is None and d["pick_pitch_s"] is None  # no pick started
     assert d["real_time_factor"] == pytest.approx(30.0)
+
+
+def _timed(starts, cols=5):
+    records = [SeedlingRecord(index=i, pickup=i % cols, outcome=Outcome.SUCCESS, t_start_s=t)
+               for i, t in enumerate(starts)]  # fmt: skip
+    return TrialResult("t", 1, records, sim_time_s=starts[-1] + 3.0, wall_time_s=1.0)
+
+
+def test_plants_per_hour_is_the_pitch_over_whole_rows_whatever_the_run_size():
+    """A row of 5 picks of 3, 3, 3, 3 s and a 4 s last one with its index: 16 s a row,
+    3.2 s a pick, 1125 an hour, from a run of 2, 3 or 8 rows and a partial one; the homing
+    before the first pick (10 s here) is not counted."""
+    row = [3.0, 3.0, 3.0, 3.0, 4.0]
+    for n in (11, 17, 43):
+        starts = [10.0 + sum((row * 9)[:i]) for i in range(n)]
+        d = _timed(starts).to_dict()
+        assert d["pick_pitch_s"] == pytest.approx(3.2) and d["pick_pitch_whole_rows"]
+        assert d["plants_per_hour"] == pytest.approx(1125.0)
+        assert d["pick_pitch_picks"] == 5 * ((n - 1) // 5)
+        assert d["first_pick_start_s"] == 10.0
+    # within one row: its picks alone, no index, said so
+    d = _timed([10.0, 13.0, 16.0]).to_dict()
+    assert d["pick_pitch_s"] == pytest.approx(3.0) and d["pick_pitch_whole_rows"] is False
+    assert d["plants_per_hour"] == pytest.approx(1200.0) and d["pick_pitch_picks"] == 2
+    assert _timed([10.0]).to_dict()["plants_per_hour"] is None  # one pick: no pitch
 
 
 def test_failure_kinds_are_every_outcome_but_success_and_pending():

@@ -41,7 +41,9 @@ def test_paper_cycle_time_is_3_5_s(paper_result):
     assert d["valid"], d["invalid_reason"]
     assert d["seedlings"] == 40
     assert d["cycle_time_s"] == pytest.approx(3.496, abs=0.005)  # paper: 3.5 s
-    assert 15.0 < d["seedlings_per_min"] < 18.0  # paper: about 17 per minute
+    # a pick every 3.617 s over 7 whole rows (the index between rows included): 995 an hour
+    assert d["pick_pitch_s"] == pytest.approx(3.617, abs=0.005) and d["pick_pitch_picks"] == 35
+    assert d["plants_per_hour"] == pytest.approx(995.0, abs=2.0)
     # the conveyor's drive holds the belt while the arm picks: it moves under 1 mm
     assert 0.0 < d["max_belt_displacement_mm"] < 1.0
     assert len(d["belt_realignments"]) == 7  # 8 rows: 7 indexes, each takes back the offset
@@ -146,8 +148,11 @@ def test_rejected_move_is_recorded_and_nothing_after_it_runs(tmp_path):
     assert "error:33 target position not reachable" in result.per_seedling[1].rejected_line
     assert result.fault is not None and result.valid
     assert result.attempted == 2  # one success, one rejected; three never ran
-    # seedlings per minute counts the two attempted seedlings only
-    assert result.to_dict()["seedlings_per_min"] == pytest.approx(120 / result.sim_time_s)
+    # the rate counts the two picks started, the rejected one's start included
+    d = result.to_dict()
+    assert d["pick_pitch_picks"] == 1 and d["plants_per_hour"] == pytest.approx(
+        3600 / (result.per_seedling[1].t_start_s - result.per_seedling[0].t_start_s)
+    )
 
 
 def test_invalid_physics_is_never_a_success():

@@ -244,10 +244,11 @@ def pots_line(r) -> str:
     kinds = ", ".join(f"{k} {v}" for k, v in d["outcomes"].items())
     cycle = "-" if not math.isfinite(r.cycle_time_s) else f"{r.cycle_time_s:.3f} s"
     planner = f", {d['planner']}" if "planner" in d else ""
+    rate = "-" if d["plants_per_hour"] is None else f"{d['plants_per_hour']:.0f}"
     line = (
         f"{r.trial} (seed {r.seed}{planner}): {r.successes}/{r.seedlings} seedlings into the "
         f"tube ({100 * d['success_rate']:.1f} %; {kinds}); cycle {cycle}, "
-        f"{d['seedlings_per_hour']} seedlings/h; largest shoot bend "
+        f"{rate} plants/h; largest shoot bend "
         f"{d['max_stem_bend_deg']:.1f} deg; peak squeeze {d['peak_squeeze_n']:.2f} N; "
         f"{r.sim_time_s:.1f} s simulated in {r.wall_s:.1f} s"
     )

@@ -100,7 +100,7 @@ def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter import interrupts
     from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError
-    from transplanter.twin.report import estimate_line, format_summary
+    from transplanter.twin.report import definitions_block, estimate_line, format_summary
     from transplanter.viewing.video import GLUnavailable, RenderRefused
 
     if not (math.isfinite(args.record_rate) and args.record_rate > 0):
@@ -161,6 +161,8 @@ def cmd_trial(args: argparse.Namespace) -> int:
         _err(f"--clips-of-failures: {exc}")
         return EXIT_REFUSED
     summary, payload, outputs = format_summary(result), result.to_dict(), []
+    if args.explain:
+        summary += "\n" + definitions_block(payload["definitions"])
     if clips is not None:
         payload["clips"] = [dataclasses.asdict(c) for c in clips.clips]
         summary += "\n" + _clips_listing(clips, args.clips_of_failures)
@@ -361,6 +363,10 @@ def _pooled_trials(args, overrides: dict[str, Any], seeds: list[int], json_path)
             f"({pooled.successes}/{pooled.seedlings}), 95 % CI {100 * lo:.1f}-{100 * hi:.1f} % "
             f"({pooled.method})"
         )
+        rates = [r.plants_per_hour for r in results if r.plants_per_hour is not None]
+        if rates:
+            payload["plants_per_hour"] = sum(rates) / len(rates)
+            summary += f"; {payload['plants_per_hour']:.0f} plants per hour (the trials' mean)"
     return _finish(
         args, results, summary, payload, json_path, interrupted=interrupted,
         note=f"interrupted after {len(results)} trials",

@@ -11,8 +11,9 @@ of the comparison:
   end of its release, the row's index left out; the delta's trays: its time per operation),
   pooled over every timed cycle;
 - ``plants_per_hour``: the mean over the seeds of each trial's own figure (the pot line:
-  3600 / cycle, a seedling placed each cycle; the delta's trays: cells culled or refilled per
-  hour of trays, tray changes included);
+  3600 / the pick pitch, one pick's start to the next over whole rows, indexes and recoveries
+  included, as the trial's summary; the delta's trays: cells culled or refilled per hour of
+  trays, tray changes included);
 - ``damage_rate``: damaged / seedlings where the job judges damage (the pot line's bent or
   crushed shoots under every robot, the delta's torn leaves of a refill, the tomatoes'
   bruises), else None;

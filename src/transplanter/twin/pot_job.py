@@ -40,6 +40,7 @@ from transplanter.machine.pgf import LinePhase
 from transplanter.scene.conveyor import INDEX_ERROR_STREAM, ConveyorDrive
 from transplanter.scene.handles import GripperParts, PotLine
 from transplanter.twin.judge import Judge
+from transplanter.twin.results import DEFINITIONS as RESULT_DEFINITIONS
 from transplanter.twin.results import EventKind, Outcome, SeedlingRecord, TrialResult
 
 __all__ = [
@@ -54,16 +55,8 @@ __all__ = [
     "reporter",
 ]
 
-DEFINITIONS = {
-    "success": "the pot fell into the drop tube below the funnel's throat with its shoot bent no "
-    "further than metrics.damage_bend_deg on the way (the pot line's judge, twin.judge)",
-    "failures": "each failed seedling named by the first check it failed, as the five-bar's "
-    "(docs/results.md): knocked_over, not_gripped, slipped, dropped_outside, damaged, ...",
-    "no_pot": "the cell held no pot (the host's sensor 1 read none and it went on)",
-    "cycle_time_s": "mean time from a pot's approach to the end of its release (the row's "
-    "index not included, as the five-bar's)",
-    "seedlings_per_hour": "3600 / cycle_time_s",
-}
+DEFINITIONS = RESULT_DEFINITIONS
+"""What the pot job's numbers mean: the pot line's, whatever robot (`twin.results`)."""
 
 INVALID = "MuJoCo warned or the job ran out of simulated time"
 """The invalid reason of a pot job's trial."""
@@ -166,7 +159,7 @@ class PotJobResult(TrialResult):
     trial: str = ""
     pots: list = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
-    definitions: dict[str, str] = field(default_factory=dict)
+    definitions: dict[str, str] = field(default_factory=lambda: dict(RESULT_DEFINITIONS))
 
     @property
     def wall_s(self) -> float:
@@ -196,11 +189,9 @@ class PotJobResult(TrialResult):
         return max((r.peak_grip_force_n for r in self.per_seedling), default=0.0)
 
     def to_dict(self) -> dict[str, Any]:
-        cycle = self.cycle_time_s
         return super().to_dict() | {
             "trial": self.trial,
             "outcomes": self.outcomes,
-            "seedlings_per_hour": round(3600.0 / cycle, 1) if math.isfinite(cycle) else None,
             "peak_squeeze_n": round(self.peak_squeeze_n, 4),
             "pots": [p.as_dict() for p in self.pots],
             **self.extra,

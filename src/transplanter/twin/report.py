@@ -111,6 +111,26 @@ def printable(text: str) -> str:
     )
 
 
+def definitions_block(definitions: dict[str, str]) -> str:
+    """A job's definitions as the summary prints them under `--explain`."""
+    return "definitions:\n" + "\n".join(f"  {k}: {v}" for k, v in definitions.items())
+
+
+def _throughput(d: dict) -> str:
+    """The summary's plants per hour: the rate at the pick pitch, and what it counts."""
+    if d["plants_per_hour"] is None:
+        return "n/a (a rate needs two picks started)"
+    counted = (
+        f"over {d['pick_pitch_picks']} picks in whole rows: cycles, indexes and recoveries"
+        if d["pick_pitch_whole_rows"]
+        else f"over {d['pick_pitch_picks']} picks within one row: no index counted"
+    )
+    return (
+        f"{d['plants_per_hour']:.0f} (a pick every {d['pick_pitch_s']:.3f} s start to start, "
+        f"{counted}; the homing before the first, {d['first_pick_start_s']:.2f} s, left out)"
+    )
+
+
 def format_summary(result: TrialResult) -> str:
     """The trial's numbers as an aligned two-column table."""
     d = result.to_dict()
@@ -127,18 +147,13 @@ def format_summary(result: TrialResult) -> str:
             "success rate",
             f"{100 * d['success_rate']:.1f} % ({d['successes']}/{d['seedlings']}), {interval}",
         ),
+        ("plants per hour", _throughput(d)),
         (
             "cycle time",
             "n/a"
             if d["cycle_time_s"] is None
-            else f"{d['cycle_time_s']:.3f} s mean, sd {d['cycle_time_sd_s'] or 0:.3f} s",
-        ),
-        ("seedlings per minute", f"{d['seedlings_per_min']:.1f}"),
-        (
-            "seedlings per hour",
-            f"{60 * d['seedlings_per_min']:.0f} over the whole run (homing, indexes and "
-            "recoveries included)"
-            + (f", {3600 / d['cycle_time_s']:.0f} at the mean cycle" if d["cycle_time_s"] else ""),
+            else f"{d['cycle_time_s']:.3f} s mean, sd {d['cycle_time_sd_s'] or 0:.3f} s (a "
+            "pot's approach to the end of its release)",
         ),
         ("simulated time", f"{d['sim_time_s']:.1f} s"),
         ("wall time", f"{d['wall_time_s']:.1f} s"),

@@ -116,6 +116,25 @@ class SeedlingRecord:
     after_jam: int | None = None
 
 
+DEFINITIONS = {
+    "success": "the pot fell into the drop tube below the funnel's throat with its shoot bent no "
+    "further than metrics.damage_bend_deg on the way (the pot line's judge, twin.judge)",
+    "failures": "each failed seedling named by the first check it failed (docs/results.md): "
+    "knocked_over, not_gripped, slipped, dropped_outside, damaged, ...",
+    "no_pot": "the cell held no pot (the host's sensor read none and it went on)",
+    "cycle_time_s": "mean time from a pot's approach to the end of its release (the row's "
+    "index not included), whatever robot works the line",
+    "pick_pitch_s": "the job's time per seedling, one pick's start to the next: from the first "
+    "pick's start to the last start at the same pickup, over the picks between (whole rows: "
+    "each pick's cycle, the rows' indexes and any recovery; a run within one row: its picks "
+    "alone, pick_pitch_whole_rows false); the homing before the first pick "
+    "(first_pick_start_s) left out",
+    "plants_per_hour": "3600 / pick_pitch_s: the pot line's one throughput, the same in the "
+    "summary, the JSON, sweep and compare for every robot (None with fewer than two picks)",
+}
+"""What the pot line's numbers mean (the JSON's `definitions`, `trial --explain`)."""
+
+
 def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
     """95 % Wilson score interval of a binomial proportion."""
     if n == 0:
@@ -215,6 +234,38 @@ class TrialResult:
     def cycle_times(self) -> np.ndarray:
         return np.array([r.cycle_time_s for r in self.per_seedling if r.cycle_time_s is not None])
 
+    def _pitch(self) -> tuple[float, int, bool] | None:
+        """(pitch s, picks it spans, whether over whole rows) or None (`pick_pitch_s`)."""
+        started = sorted((r for r in self.per_seedling if r.t_start_s is not None),
+                         key=lambda r: r.t_start_s)  # fmt: skip
+        if len(started) < 2:
+            return None
+        # over whole rows: to the last start at the first pick's pickup, so that every row's
+        # picks (near and far pickups) and its index count once, whatever the run's size
+        m = max(i for i, r in enumerate(started) if r.pickup == started[0].pickup)
+        whole = m > 0
+        if not whole:
+            m = len(started) - 1
+        span = started[m].t_start_s - started[0].t_start_s
+        return (span / m, m, whole) if span > 0 else None
+
+    @property
+    def pick_pitch_s(self) -> float | None:
+        """The job's time per seedling, start to start: from the first pick's start to the
+        last start at the same pickup, over the picks between (whole rows: each pick's cycle,
+        the rows' indexes and any recovery; a run within one row: its picks alone, no index);
+        the homing before the first pick is left out (a start-up cost). None with fewer than
+        two picks started."""
+        pitch = self._pitch()
+        return None if pitch is None else pitch[0]
+
+    @property
+    def plants_per_hour(self) -> float | None:
+        """Seedlings an hour at the pick pitch (`pick_pitch_s`): the one throughput of the
+        pot line, whatever robot works it, in the summary, the JSON, `compare` and `sweep`."""
+        pitch = self.pick_pitch_s
+        return None if pitch is None else 3600.0 / pitch
+
     @property
     def stem_bends_in_tube(self) -> list[float]:
         """Each shoot's largest bend (deg), for the pots that reached the tube (success or
@@ -234,6 +285,8 @@ class TrialResult:
         """The results as plain JSON types (the same trial gives the same dict, bar the
         wall time and the real-time factor)."""
         cycles = self.cycle_times
+        pitch = self._pitch()
+        starts = [r.t_start_s for r in self.per_seedling if r.t_start_s is not None]
         ci95 = (
             None
             if self.failures_clustered
@@ -269,15 +322,18 @@ class TrialResult:
             "funnel_jams": self.funnel_jams,
             "cycle_time_s": float(cycles.mean()) if cycles.size else None,
             "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,
-            # a seedling placed every cycle (the serial arm's and the delta's trials say how
-            # they count theirs): what `transplanter compare` ranks machines by
-            "plants_per_hour": 3600.0 / float(cycles.mean()) if cycles.size else None,
-            "seedlings_per_min": (
-                60.0 * self.attempted / self.sim_time_s if self.sim_time_s else 0.0
-            ),
+            # seedlings an hour at the pick pitch, first pick's start to last (cycles, indexes
+            # and recoveries; not the homing before): what `transplanter compare` ranks by
+            "plants_per_hour": self.plants_per_hour,
+            "pick_pitch_s": self.pick_pitch_s,
+            # the picks the pitch spans and whether over whole rows (indexes included)
+            "pick_pitch_picks": None if pitch is None else pitch[1],
+            "pick_pitch_whole_rows": None if pitch is None else pitch[2],
+            "first_pick_start_s": min(starts) if starts else None,
             "sim_time_s": self.sim_time_s,
             "wall_time_s": self.wall_time_s,
             "real_time_factor": self.sim_time_s / self.wall_time_s if self.wall_time_s else None,
             "motors": self.motors,
             "per_seedling": per_seedling,
+            "definitions": DEFINITIONS,
         }
