@@ -324,8 +324,8 @@ class TrialResult:
             "cycle_time_sd_s": float(cycles.std(ddof=1)) if cycles.size > 1 else None,
             # seedlings an hour at the pick pitch, first pick's start to last (cycles, indexes
             # and recoveries; not the homing before): what `transplanter compare` ranks by
-            "plants_per_hour": self.plants_per_hour,
-            "pick_pitch_s": self.pick_pitch_s,
+            "plants_per_hour": None if pitch is None else 3600.0 / pitch[0],
+            "pick_pitch_s": None if pitch is None else pitch[0],
             # the picks the pitch spans and whether over whole rows (indexes included)
             "pick_pitch_picks": None if pitch is None else pitch[1],
             "pick_pitch_whole_rows": None if pitch is None else pitch[2],
