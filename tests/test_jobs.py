@@ -1,8 +1,10 @@
-"""transplanter.studies.jobs: the delta's jobs through the studies' `run_one` (the dispatch by
-workcell kind), their rows and their refusals."""
+"""transplanter.studies.jobs: the jobs with their own run (transplanter.runs) through the
+studies' `run_one` (the dispatch by the job kind's run), their rows and their refusals."""
 
 import pytest
 
+from transplanter.runs import plug_trays
+from transplanter.scenario.schema import load_scenario
 from transplanter.studies import jobs
 from transplanter.studies.backends import RESULT_FIELDS, run_one
 from transplanter.studies.grid import task
@@ -14,8 +16,6 @@ NO_SPREAD = {"plug_bench.vigour_cv_pct": 0.0, "plug_bench.moisture_band_pct": 0.
 
 
 def test_jobs_by_workcell_kind():
-    from transplanter.scenario.schema import load_scenario
-
     assert jobs.job_of(load_scenario("paper")) is None  # the five-bar's trial
     assert jobs.job_of(load_scenario("delta_refill")).kind == "plug_trays"
     assert jobs.job_of(load_scenario("plug_bench")).kind == "plug_bench"
@@ -45,14 +45,16 @@ def test_a_delta_tray_is_a_row_of_serviced_cells_not_a_five_bar_refusal():
     # before the dispatch every delta run was "setting refused: taught.drop_mm ..."
     row = run_one(task("delta_refill", SMALL, {"delta_refill.pose_judgement": True}, 10, 1))
     assert row["error"] is None, row["error"]
-    assert set(RESULT_FIELDS) <= set(row) and set(jobs.JOBS["plug_trays"].fields) <= set(row)
+    assert set(RESULT_FIELDS) <= set(row) and set(
+        jobs.job_of(load_scenario("delta_refill")).fields
+    ) <= set(row)
     assert (row["successes"], row["seedlings"], row["cycles"]) == (1, 1, 1)
     # the work time: the claws' arrival at the cell to its end (the approach is the tray's)
     assert row["cycle_time_s"] == pytest.approx(3.543)
     assert row["cycle_time_sd_s"] is None  # one operation: no spread
     assert row["substrate_retention"] == pytest.approx(0.87946, abs=1e-5)
     assert row["leaf_damage_rate"] == 0.0 and row["dropped"] == 0
-    assert all(row[f"fail_{k}"] == 0 for k in jobs.DELTA_FAILURES)
+    assert all(row[f"fail_{k}"] == 0 for k in plug_trays.FAILURES)
     assert row["valid"] is True and row["fault"] is None
 
 

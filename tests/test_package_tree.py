@@ -9,7 +9,7 @@ from pathlib import Path
 import transplanter
 
 SRC = Path(__file__).resolve().parents[1] / "src"
-PACKAGES = {"cli", "scenario", "machine", "scene", "twin", "viewing", "studies"}
+PACKAGES = {"cli", "kinds", "scenario", "machine", "scene", "twin", "viewing", "runs", "studies"}
 
 
 def _modules() -> dict[str, Path]:

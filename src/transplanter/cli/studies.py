@@ -165,13 +165,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         axes = tuple(parse_vary(v) for v in args.vary)
         seedlings = _seedlings(args, overrides)
         spec = SweepSpec(args.scenario, axes, tuple(seeds), seedlings, overrides, args.design)
-        job = job_of(spec.check())  # the delta's tray or the claws' bench; None: the five-bar
+        job = job_of(spec.check())  # a job with its own run (transplanter.runs); None: the twin's
         check_backend(args.backend, args.workers, args.address)
         _check_out_parent(args.out)
     except (ScenarioError, SweepRefused) as exc:
         _err(f"sweep refused: {exc}")
         return EXIT_REFUSED
-    each = "one tray" if job is not None and job.kind == "plug_trays" else f"{seedlings} seedlings"
+    unit = "seedlings" if job is None else job.unit
+    each = f"{seedlings} {unit}" if seedlings else f"all the {unit} of one run"
     print(
         f"{spec.runs_total} runs: {len(spec.settings())} settings x {len(seeds)} seeds, "
         f"{each} each, {args.workers} {args.backend} worker(s)"

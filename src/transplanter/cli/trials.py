@@ -30,6 +30,7 @@ from transplanter.cli.common import (
     add_options,
     ascii_float,
     ascii_int,
+    video_written,
 )
 
 
@@ -127,8 +128,8 @@ def cmd_trial(args: argparse.Namespace) -> int:
         except ScenarioError as exc:
             _err(f"scenario refused: {exc}")
             return EXIT_REFUSED
-        job_cli = _job_cli(args, overrides)  # a job with its own trial (transplanter.kinds)
-        if job_cli is None and args.seeds is None:
+        job = _job_run(args, overrides)  # a job with its own run (transplanter.runs)
+        if job is None and args.seeds is None:
             try:
                 scenario = _trial_scenario(args, overrides)
                 config = assemble(scenario, preflight=not args.no_preflight)
@@ -140,9 +141,9 @@ def cmd_trial(args: argparse.Namespace) -> int:
             estimate = estimate_line(config.seedlings, config.scene.body_rows * config.scene.cols)
             if estimate is not None and not args.quiet:
                 print(estimate, file=sys.stderr)
-    if job_cli is not None:
+    if job is not None:
         interrupts.raise_pending()  # a stop while its scenario was read stops it at once
-        return job_cli.run_trial(args, overrides, targets["--json"], targets["--record"])
+        return _job_trial(job, args, overrides, targets["--json"], targets["--record"])
     if args.seeds is not None:
         if args.seed is not None or args.record is not None:
             _err("--seeds runs one trial per seed: drop --seed and --record (record one seed)")
@@ -178,21 +179,168 @@ def cmd_trial(args: argparse.Namespace) -> int:
     )  # fmt: skip
 
 
-def _job_cli(args: argparse.Namespace, overrides: dict[str, Any]):
-    """The command-line module of the scenario's job with its robot, where it has its own
-    trial (`transplanter.kinds`: JobKind.cli), None for the twin's own; None too for a
-    scenario that does not load (the twin's path refuses it, saying why)."""
-    import importlib
-
-    from transplanter import kinds
+def _job_run(args: argparse.Namespace, overrides: dict[str, Any]):
+    """The run module of the scenario's job with its robot (`transplanter.runs`: JobRun), or
+    None for the twin's own trial; None too for a scenario that does not load (the twin's
+    path refuses it, saying why)."""
+    from transplanter import runs
     from transplanter.scenario.schema import ScenarioError, load_scenario
 
     try:
         sc = load_scenario(args.scenario, overrides)
     except ScenarioError:
         return None
-    module = kinds.job(sc.workcell.kind).cli(sc.robot.kind)
-    return importlib.import_module(module) if module else None
+    return runs.of(sc)
+
+
+def _refused_option(job, args: argparse.Namespace) -> str | None:
+    """Why the job cannot honour an option the command was given (None: it can)."""
+    for option, why in job.REFUSED_OPTIONS.items():
+        value = getattr(args, option.lstrip("-").replace("-", "_"), None)
+        if value is not None and value is not False:
+            return why
+    return None
+
+
+def _job_scenario(job, args: argparse.Namespace, overrides: dict[str, Any], what: str):
+    """The scenario, checked by the job (`JobRun.check`), or None after saying why not."""
+    from transplanter.scenario.schema import ScenarioError, load_scenario
+
+    try:
+        scenario = load_scenario(args.scenario, overrides)
+        job.check(scenario)
+    except (ScenarioError, ValueError) as exc:
+        _err(f"{what} refused: {exc}")
+        return None
+    return scenario
+
+
+def _job_trial(job, args, overrides, json_path, record_path) -> int:
+    """`transplanter trial` of a job with its own run (`transplanter.runs`): per seed a run
+    with a progress bar over its units and its summary (a line per seed with --seeds, then
+    the pooled rate); --record through the job's recorder; --explain its definitions."""
+    from transplanter.scenario.schema import ScenarioError
+    from transplanter.studies.stats import pooled_rate
+    from transplanter.twin.report import definitions_block, progress_bar
+
+    why = _refused_option(job, args)
+    if why is not None:
+        _err(why)
+        return EXIT_REFUSED
+    if args.seeds is not None and args.seed is not None:
+        _err("--seeds runs one trial per seed: drop --seed")
+        return EXIT_REFUSED
+    if args.seeds is not None and record_path is not None:
+        _err("--seeds runs one trial per seed: drop --record (record one --seed)")
+        return EXIT_REFUSED
+    seeds = _seeds(args) if args.seeds is not None else [None]
+    if seeds is None:
+        return EXIT_REFUSED
+    scenario = _job_scenario(job, args, overrides, "scenario")
+    if scenario is None:
+        return EXIT_REFUSED
+    results, outputs = [], []
+    for seed in seeds:
+        try:
+            observers = [] if record_path is None else [
+                job.recorder(scenario, record_path, args.record_rate)
+            ]  # fmt: skip
+        except ScenarioError as exc:
+            _err(f"{exc}")
+            return EXIT_REFUSED
+        bar, update = progress_bar(job.total(scenario), _progress(args), job.UNIT)
+        try:
+            result = job.run(scenario, seed, progress=update, observers=observers)
+        except ScenarioError as exc:
+            _err(f"trial refused: {exc}")
+            return EXIT_REFUSED
+        finally:
+            if bar is not None:
+                bar.close()
+        if record_path is not None and result.recording_error is None:
+            shown = _show(record_path)
+            outputs.append(
+                (f"recording written to {shown} (view it with: transplanter replay {shown})",
+                 None)
+            )  # fmt: skip
+        results.append(result)
+        print(job.summary(result) if args.seeds is None else job.line(result))
+    if args.seeds is None:
+        payload: dict[str, Any] = results[0].to_dict()
+    else:
+        pooled = pooled_rate([r.successes for r in results], [r.seedlings for r in results])
+        extra, lines = job.pool(results, pooled)
+        payload = {"trials": [r.to_dict() for r in results], "pooled": pooled.to_dict(), **extra}
+        print("\n".join(lines))
+    # the definitions under --explain (else a hint to it: cli.common._finish)
+    summary = definitions_block(dict(job.DEFINITIONS))
+    return _finish(args, results, summary, payload, json_path, outputs=outputs)
+
+
+def _job_render(job, args, overrides, target: Path, json_path: Path | None) -> int:
+    """`transplanter render` of a job with its own run: one trial (`--seed`) as `trial` runs
+    it, the same results, filmed by the job's filmer."""
+    from transplanter.scenario.schema import ScenarioError
+    from transplanter.twin.report import progress_bar
+    from transplanter.viewing import video
+
+    why = _refused_option(job, args)
+    if why is not None:
+        _err(why)
+        return EXIT_REFUSED
+    scenario = _job_scenario(job, args, overrides, "render")
+    if scenario is None:
+        return EXIT_REFUSED
+    subset = args.cells_of if args.cells_of is not None else args.seedlings_of
+    try:
+        observer = job.filmer(scenario, target, (args.width, args.height), args.fps,
+                              args.camera, args.shadows, subset)  # fmt: skip
+    except (ScenarioError, ValueError, video.RenderRefused, video.GLUnavailable) as exc:
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    bar, update = progress_bar(job.total(scenario), _progress(args), job.UNIT)
+    try:
+        result = job.run(scenario, None, progress=update, observers=[observer])
+    except (ScenarioError, video.GLUnavailable, video.RenderRefused) as exc:
+        observer.abort()
+        _err(f"render refused: {exc}")
+        return EXIT_REFUSED
+    finally:
+        if bar is not None:
+            bar.close()
+    result.recording_error = None  # the video's error is reported below, not as --record's
+    print(job.summary(result))
+    written = video_written(observer, args, target, job.FILMED)
+    return _finish(args, [result], None, result.to_dict(), json_path, outputs=[written])
+
+
+def _job_view(job, args, overrides) -> int:
+    """`transplanter view` of a job with its own run: one trial shown live by the job's
+    viewer; closing the window stops it."""
+    from transplanter.scenario.schema import ScenarioError
+    from transplanter.viewing.live import ViewerUnavailable
+    from transplanter.viewing.loop_live import ViewerClosed
+
+    scenario = _job_scenario(job, args, overrides, "view")
+    if scenario is None:
+        return EXIT_REFUSED
+    try:
+        observer = job.viewer(scenario, args.speed)
+    except ScenarioError as exc:
+        _err(f"view refused: {exc}")
+        return EXIT_REFUSED
+    try:
+        result = job.run(scenario, None, observers=[observer])
+    except ViewerUnavailable as exc:
+        _err(f"view: {exc}")
+        return EXIT_REFUSED
+    except ViewerClosed:
+        print(f"viewer closed at t = {observer.closed_at:.1f} s simulated, after "
+              f"{len(observer.verdicts)} verdicts ({observer.successes} successes); "
+              "`transplanter trial` gives the whole run's results")  # fmt: skip
+        return EXIT_OK
+    print(job.summary(result))
+    return _finish(args, [result], interrupted=getattr(result, "interrupted", False))
 
 
 def _move_exported(staging: Path, target: Path) -> None:
@@ -441,12 +589,9 @@ def cmd_render(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         _err(f"render refused: {exc}")
         return EXIT_REFUSED
-    job_cli = _job_cli(args, overrides)  # a job with its own trial films it itself
-    if job_cli is not None:
-        if not hasattr(job_cli, "render"):
-            _err(f"render refused: {getattr(job_cli, 'NOT_IN_VIEWER', 'this job is not filmed')}")
-            return EXIT_REFUSED
-        return job_cli.render(args, overrides, target, json_target)
+    job = _job_run(args, overrides)  # a job with its own run films it through its filmer
+    if job is not None:
+        return _job_render(job, args, overrides, target, json_target)
     if args.cells_of is not None:
         _err("render refused: --cells-of is for the delta's plug-tray job; give --seedlings-of")
         return EXIT_REFUSED
@@ -525,11 +670,9 @@ def cmd_view(args: argparse.Namespace) -> int:
 
     try:
         overrides = _trial_overrides(args)
-        job_cli = _job_cli(args, overrides)
-        if job_cli is not None and hasattr(job_cli, "view"):  # a job on twin.loop.StepLoop
-            return job_cli.view(args, overrides)
-        if job_cli is not None and hasattr(job_cli, "NOT_IN_VIEWER"):
-            raise ScenarioError(job_cli.NOT_IN_VIEWER)
+        job = _job_run(args, overrides)
+        if job is not None:  # a job with its own run shows it through its viewer
+            return _job_view(job, args, overrides)
         config = _single_trial_config(args)
     except ScenarioError as exc:
         _err(f"view refused: {exc}")
@@ -574,12 +717,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         if clash is not None:
             raise fileio.FileRefused(clash)
         overrides = _trial_overrides(args)
-        job_cli = _job_cli(args, overrides)
-        if job_cli is not None and not hasattr(job_cli, "export"):
-            if hasattr(job_cli, "NOT_IN_VIEWER"):
-                raise ScenarioError(job_cli.NOT_IN_VIEWER)
-        delta = job_cli is not None and hasattr(job_cli, "export")  # a job's own scene
-        if delta:
+        job = _job_run(args, overrides)  # a job with its own run writes its own scene
+        if job is not None:
             config = load_scenario(args.scenario, overrides)
         else:
             config = assemble(load_scenario(args.scenario, overrides), preflight=False)
@@ -591,8 +730,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     # program derives): os.replace puts the file in the link's place.
     staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
-        if delta:
-            job_cli.export(config, staging / path.name)
+        if job is not None:
+            job.export(config, staging / path.name)
         else:
             export_scene(config.scene, config.seed, staging / path.name)
         _move_exported(staging, path)

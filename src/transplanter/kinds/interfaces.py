@@ -87,6 +87,10 @@ class JobKind(Protocol):
     """What a run counts, plural: 'seedlings', 'cells', 'tomatoes'."""
     UNITS_KEY: str
     """The scenario key ``--seedlings N`` sets: how many units a run does."""
+    RUN: str
+    """The module of :mod:`transplanter.runs` that runs it (trial, render, view, export and
+    the studies' rows: ``transplanter.runs.JobRun``) for every robot whose ``runner`` is not
+    ''."""
     SUMMARY: str
 
     def uses_robot(self) -> bool:
@@ -107,22 +111,15 @@ class JobKind(Protocol):
         the twin's own trial (``transplanter.twin.trial.run_trial``)."""
         ...
 
-    def cli(self, robot: str) -> str:
-        """The module of ``transplanter.cli`` that runs the job's trial with this robot
-        (its ``run_trial``, and ``render`` and ``export`` where it has them, and
-        ``NOT_IN_VIEWER``: why the viewer, and export where it has none, do not draw it), or
-        '' for the twin's own commands."""
-        ...
 
-
-_TEXT = {"NAME", "SCENE", "MODEL", "SUMMARY", "KINEMATICS", "WORKCELL", "UNIT", "UNITS_KEY"}
+_TEXT = {"NAME", "SCENE", "MODEL", "SUMMARY", "KINEMATICS", "WORKCELL", "UNIT", "UNITS_KEY", "RUN"}
 _MAY_BE_EMPTY = {"WORKCELL", "MODEL"}
 MEMBERS: dict[str, tuple[str, ...]] = {
     "robot": ("NAME", "READS", "KINEMATICS", "SCENE", "MODEL", "SUMMARY"),
     "effector": ("NAME", "READS", "SCENE", "MODEL", "SUMMARY"),
     "job": (
-        "NAME", "WORKCELL", "UNIT", "UNITS_KEY", "SUMMARY",
-        "uses_robot", "refusal", "reads", "runner", "cli",
+        "NAME", "WORKCELL", "UNIT", "UNITS_KEY", "SUMMARY", "RUN",
+        "uses_robot", "refusal", "reads", "runner",
     ),
 }  # fmt: skip
 """The members of each interface above, which :func:`problems` checks."""

@@ -44,16 +44,27 @@ def export_spec(
 
     root = Path(models) if models is not None else models_dir()
     target = fileio.check_output(out, ".xml")
-    xml = spec.to_xml()
+    import warnings
+
+    with warnings.catch_warnings():  # the effector's clashing classes are renamed below
+        if mount is not None:
+            warnings.filterwarnings("ignore", "Attaching a spec with an empty prefix")
+        xml = spec.to_xml()
     if mount is not None:
         xml = effector_classes_renamed(xml, mount)
-    assets = target.parent / spec.meshdir
-    assets.mkdir(exist_ok=True)
-    wanted = {Path(m.file).name for m in spec.meshes if m.file}
-    for folder in sorted(root.rglob("assets")):
-        for mesh in sorted(folder.iterdir()):
-            if mesh.name in wanted and not (assets / mesh.name).exists():
-                shutil.copyfile(mesh, assets / mesh.name)
+    # the meshes into the spec's meshdir, the textures' pictures into its texturedir
+    for where, files in (
+        (spec.meshdir, {Path(m.file).name for m in spec.meshes if m.file}),
+        (spec.texturedir, {Path(t.file).name for t in spec.textures if t.file}),
+    ):
+        if not files:
+            continue
+        assets = target.parent / where
+        assets.mkdir(exist_ok=True)
+        for folder in sorted(root.rglob("assets")):
+            for item in sorted(folder.iterdir()):
+                if item.name in files and not (assets / item.name).exists():
+                    shutil.copyfile(item, assets / item.name)
     fileio.write_text_atomic(target, xml)
     return target
 

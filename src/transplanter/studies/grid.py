@@ -34,6 +34,13 @@ RESERVED_KEYS = ("scenario.seed", "scenario.seedlings")
 _DECIMAL_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 
 
+PLUG_SECTIONS = ("plugs", "plug_claws", "plug_bench", "vision")
+"""The scenario sections only the delta's jobs read."""
+SERIAL_ONLY_SECTIONS = ("fuzzy_gripper", "pool_to_belt", "serial_arm", "serial_pots")
+"""The scenario sections only the serial arm's jobs read (added after the five-bar's sweeps
+had their digests: left out of them, as the plug sections are)."""
+
+
 class SweepRefused(TransplanterError, ValueError):
     """A sweep that cannot start (bad grid, output directory of another sweep); the message
     says why and what to do."""
@@ -263,7 +270,7 @@ class SweepSpec:
         scenario = self.check()
         # each run sets its own seed; the seedlings are a field of their own
         meta = dataclasses.replace(scenario.meta, seed=0, seedlings=0)
-        from transplanter.studies.jobs import PLUG_SECTIONS, SERIAL_ONLY_SECTIONS, job_of
+        from transplanter.studies.jobs import job_of
 
         # the plug and serial-arm sections are read only by the other machines' jobs: a
         # five-bar sweep's digest is the one it had before they existed (its results resume)

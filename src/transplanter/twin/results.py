@@ -12,6 +12,8 @@ import numpy as np
 from transplanter.machine.faults import FaultKind
 
 __all__ = [
+    "WARNING_SEPARATOR",
+    "trial_row",
     "FAILURE_KINDS",
     "EventKind",
     "FaultKind",
@@ -337,3 +339,42 @@ class TrialResult:
             "per_seedling": per_seedling,
             "definitions": DEFINITIONS,
         }
+
+
+WARNING_SEPARATOR = " | "
+"""The trial's warnings in one cell of a row (none: an empty string)."""
+
+
+def trial_row(result, row: dict[str, Any]) -> dict[str, Any]:
+    """A pot-line trial's result (`twin.results.TrialResult`, whatever robot worked the line)
+    in `row`: the counts, times, the judge's failure kinds and damage, the motors; the
+    error of an invalid or faulted trial."""
+    from transplanter.twin.motors import motor_columns
+
+    d = result.to_dict()
+    row.update(
+        successes=d["successes"],
+        seedlings=d["seedlings"],
+        success_rate=d["success_rate"],
+        cycle_time_s=d["cycle_time_s"],
+        cycle_time_sd_s=d["cycle_time_sd_s"],
+        cycles=int(result.cycle_times.size),
+        plants_per_hour=d["plants_per_hour"],
+        lost_step_events=len(d["lost_step_events"]),
+        max_stem_bend_deg=d["max_stem_bend_deg"],
+        valid=d["valid"],
+        fault=d["fault"],
+        fault_kind=d["fault_kind"],  # why the firmware stopped, by kind (FaultKind)
+        sim_time_s=d["sim_time_s"],
+        wall_time_s=d["wall_time_s"],
+        # what the trial summary warns of (speeds the drives could not reach, ...), one cell
+        warnings=WARNING_SEPARATOR.join(d["warnings"]),
+        **motor_columns(d["motors"]),
+    )
+    for kind, count in d["failures"].items():
+        row[f"fail_{kind}"] = count
+    if not d["valid"]:
+        row["error"] = f"trial not valid: {d['invalid_reason']}"
+    elif d["fault"]:
+        row["error"] = f"firmware fault: {d['fault']}"
+    return row

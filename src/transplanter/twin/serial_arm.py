@@ -1003,6 +1003,16 @@ class SerialArmResult:
     recording_error: str | None = None
 
     @property
+    def successes(self) -> int:
+        """Tomatoes placed on the belt."""
+        return int(self.pick_totals.get("successes", 0))
+
+    @property
+    def seedlings(self) -> int:
+        """Tomatoes picked (the job's units: `trial --seeds` pools successes over these)."""
+        return int(self.pick_totals.get("picked", 0))
+
+    @property
     def fault(self) -> str | None:
         """The first job's error (a refused line, a time-out), None if all ended."""
         return next(iter(self.errors.values()), None)

@@ -64,6 +64,8 @@ from transplanter.twin.serial_arm import (
 __all__ = [
     "DEFINITIONS",
     "PotRecord",
+    "check",
+    "export",
     "line_config",
     "pitch_release",
     "run_serial_pots",
@@ -238,6 +240,27 @@ class PotRecord(GripRecord):
             **self.grip_dict(),
             "attempts": self.attempts,
         }
+
+
+def check(sc) -> None:
+    """ScenarioError (or ValueError: a timestep the servos' PWM frame cannot divide) for what
+    the serial arm's pot job cannot run: its robot, gripper and motion, its placement."""
+    from transplanter.machine.servo_drives import frame_steps
+
+    frame_steps(sc.physics.timestep_s)
+    require_own_motion(sc, "the serial arm's pot job")
+    check_placement(sc)
+
+
+def export(sc, target):
+    """`transplanter export` of the job: the scene its trial builds for the scenario's seed
+    (`scene_spec`) with the pots' decor, meshes in assets/ beside it; the XML's path."""
+    from transplanter.scene.effectors import fuzzy_gripper
+    from transplanter.scene.export import export_spec
+
+    check(sc)
+    spec = scene_spec(sc, sc.seed, decor=True)[0]
+    return export_spec(spec, target, mount=fuzzy_gripper.MOUNT)
 
 
 def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) -> PotJobResult:

@@ -12,6 +12,7 @@ NAME = "conveyor_tube"
 SUMMARY = "paper pots in rows on a feeding conveyor into a drop tube (seed 000)"
 WORKCELL = "transplanter.scene.workcells.conveyor_tube"
 UNIT = "seedlings"
+RUN = "transplanter.runs.pot_line"
 UNITS_KEY = "scenario.seedlings"
 
 _EFFECTOR = {"fivebar": "parallel_jaw", "delta": "fuzzy_gripper", "serial4": "fuzzy_gripper"}
@@ -59,13 +60,3 @@ def reads(robot: str, effector: str) -> dict:
 
 def runner(robot: str) -> str:
     return _RUNNER.get(robot, "")
-
-
-_CLI = {
-    "delta": "transplanter.cli.delta_pots_trial",
-    "serial4": "transplanter.cli.serial_pots_trial",
-}
-
-
-def cli(robot: str) -> str:
-    return _CLI.get(robot, "")

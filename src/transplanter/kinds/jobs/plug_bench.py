@@ -9,6 +9,7 @@ NAME = "plug_bench"
 SUMMARY = "the plug claws on their test bench, one seedling a pick (seed 002)"
 WORKCELL = ""  # the bench builds its own scene (transplanter.scene.plug_bench)
 UNIT = "seedlings"
+RUN = "transplanter.runs.plug_bench"
 UNITS_KEY = "scenario.seedlings"
 
 
@@ -29,7 +30,3 @@ def reads(robot: str, effector: str) -> dict:
 
 def runner(robot: str) -> str:
     return "transplanter.twin.plug_bench_trial:run_bench_trial"
-
-
-def cli(robot: str) -> str:
-    return "transplanter.cli.delta_trial"

@@ -9,6 +9,7 @@ NAME = "plug_trays"
 SUMMARY = "cull inferior plug seedlings to a bin and refill from a supply tray (seed 002)"
 WORKCELL = "transplanter.scene.workcells.plug_trays"
 UNIT = "cells"
+RUN = "transplanter.runs.plug_trays"
 UNITS_KEY = "delta_refill.max_cells"
 
 
@@ -39,7 +40,3 @@ def reads(robot: str, effector: str) -> dict:
 
 def runner(robot: str) -> str:
     return "transplanter.twin.delta_refill:run_delta_refill"
-
-
-def cli(robot: str) -> str:
-    return "transplanter.cli.delta_trial"

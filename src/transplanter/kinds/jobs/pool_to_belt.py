@@ -9,6 +9,7 @@ NAME = "pool_to_belt"
 SUMMARY = "tomatoes from a pool onto a belt, the paper's targets and gripper trials (seed 004)"
 WORKCELL = "transplanter.scene.workcells.pool_to_belt"
 UNIT = "tomatoes"
+RUN = "transplanter.runs.pool_to_belt"
 UNITS_KEY = "pool_to_belt.count"
 
 
@@ -42,7 +43,3 @@ def reads(robot: str, effector: str) -> dict:
 
 def runner(robot: str) -> str:
     return "transplanter.twin.serial_arm:run_serial_arm"
-
-
-def cli(robot: str) -> str:
-    return "transplanter.cli.serial_trial"

@@ -1,0 +1,147 @@
+"""The pot line's run (`[workcell] kind = "conveyor_tube"`) for every robot whose host program
+its job kind names (`JobKind.runner`: the robot's module, with its `check`, `export` and the
+trial function): the pots picked row by row into the drop tube and judged seedling by
+seedling by the pot line's judge (`transplanter.twin.pot_job`). The five-bar's PGF runs as
+the twin's own trial (`transplanter.twin.trial`)."""
+
+from __future__ import annotations
+
+import importlib
+import math
+from typing import Any
+
+from transplanter.twin.pot_job import DEFINITIONS
+
+__all__ = [
+    "DEFINITIONS", "FILMED", "REFUSED_OPTIONS", "UNIT",
+    "check", "export", "filmer", "line", "pool", "recorder", "row", "run", "study", "summary",
+    "total", "viewer",
+]  # fmt: skip
+
+FILMED = "the pot job"
+UNIT = "seedling"
+REFUSED_OPTIONS = {
+    "--clips-of-failures": "--clips-of-failures: not available for this robot's pot job "
+    "(film it: transplanter render SCENARIO --out run.mp4)",
+    "--eeprom": "--eeprom: an EEPROM image holds the five-bar's taught cycle; this robot's "
+    "host program comes from the scenario (docs/compare.md)",
+    "--no-preflight": "--no-preflight: this robot's pot job checks its placement before any "
+    "step and has no taught points to leave unchecked",
+    "--seedlings-of": "render refused: --seedlings-of: a pot job on the pot line is filmed "
+    "whole; give --seedlings to film fewer",
+    "--cells-of": "render refused: --cells-of: a pot job on the pot line is filmed whole; give "
+    "--seedlings to film fewer",
+}
+
+POT_FIELDS = ("peak_squeeze_n",)
+"""The pot jobs' own column beside the five-bar's trial row."""
+POT_LINE_DAMAGE = ("fail_damaged", "fail_shoot_crushed")
+"""The pot line judge's failures that are a damaged seedling (its shoot bent past
+`metrics.damage_bend_deg` or crushed by the gripper), whatever robot works it."""
+
+
+def _robot(scenario) -> tuple[Any, Any]:
+    """(the robot's module, its trial function) from the job kind's runner."""
+    from transplanter import kinds
+
+    name = kinds.job(scenario.workcell.kind).runner(scenario.robot.kind)
+    module_name, _, function = name.partition(":")
+    module = importlib.import_module(module_name)
+    return module, getattr(module, function)
+
+
+def check(scenario) -> None:
+    _robot(scenario)[0].check(scenario)
+
+
+def total(scenario) -> int:
+    return scenario.meta.seedlings
+
+
+def run(scenario, seed, *, progress=None, observers=()):
+    return _robot(scenario)[1](scenario, seed, progress=progress, observers=observers)
+
+
+def line(r) -> str:
+    """One pot job's result in a line (`twin.pot_job.PotJobResult`, any robot's)."""
+    d = r.to_dict()
+    kinds = ", ".join(f"{k} {v}" for k, v in d["outcomes"].items())
+    cycle = "-" if not math.isfinite(r.cycle_time_s) else f"{r.cycle_time_s:.3f} s"
+    planner = f", {d['planner']}" if "planner" in d else ""
+    rate = "-" if d["plants_per_hour"] is None else f"{d['plants_per_hour']:.0f}"
+    out = (
+        f"{r.trial} (seed {r.seed}{planner}): {r.successes}/{r.seedlings} seedlings into the "
+        f"tube ({100 * d['success_rate']:.1f} %; {kinds}); cycle {cycle}, "
+        f"{rate} plants/h; largest shoot bend "
+        f"{d['max_stem_bend_deg']:.1f} deg; peak squeeze {d['peak_squeeze_n']:.2f} N; "
+        f"{r.sim_time_s:.1f} s simulated in {r.wall_s:.1f} s"
+    )
+    if r.fault:
+        out += f"\n  fault: {r.fault}"
+    return out
+
+
+def summary(r) -> str:
+    """The pot line's summary (as the five-bar's), then the run's line."""
+    from transplanter.twin.report import format_summary
+
+    return f"{format_summary(r)}\n{line(r)}"
+
+
+def pool(results, pooled) -> tuple[dict[str, Any], list[str]]:
+    cycles = [r.cycle_time_s for r in results if math.isfinite(r.cycle_time_s)]
+    lo, hi = pooled.ci95
+    return {"mean_cycle_time_s": sum(cycles) / len(cycles) if cycles else None}, [
+        f"pooled over {pooled.trials} runs: {100 * pooled.success_rate:.1f} % of seedlings "
+        f"into the tube ({pooled.successes}/{pooled.seedlings}), 95 % CI "
+        f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
+    ]
+
+
+def study(scenario) -> dict[str, Any]:
+    from transplanter import kinds
+
+    robot = scenario.robot.kind
+    reads = kinds.reads(robot, scenario.effector.kind, scenario.workcell.kind)
+    # what the run reads: a tuning study's identity (the kinds and the name aside)
+    skip = ("scenario", "robot", "effector", "workcell", "costs")
+    sections = tuple(sorted(s for s in reads if s not in skip))
+    return {
+        "kind": f"{robot}:{scenario.workcell.kind}",
+        "fields": POT_FIELDS,
+        "means": ("plants_per_hour", "peak_squeeze_n"),
+        "sections": sections,
+        "damage": POT_LINE_DAMAGE,
+    }
+
+
+def row(scenario, seed: int, out: dict[str, Any]) -> None:
+    """A pot job's result as the five-bar's trial row (`studies.jobs.trial_row`'s columns),
+    with the gripper's peak squeeze."""
+    from transplanter.twin.results import trial_row
+
+    r = run(scenario, seed)
+    trial_row(r, out)
+    out["peak_squeeze_n"] = round(r.peak_squeeze_n, 4)
+
+
+def recorder(scenario, path, rate_hz: float):
+    from transplanter.viewing.loop_recording import LoopRecording
+
+    return LoopRecording(path, rate_hz)
+
+
+def filmer(scenario, target, size, fps, camera, shadows, subset):
+    from transplanter.viewing.loop_video import LoopVideo
+
+    return LoopVideo(target, *size, fps, camera, shadows)
+
+
+def viewer(scenario, speed: float):
+    from transplanter.viewing.loop_live import LoopLiveViewer
+
+    return LoopLiveViewer(speed)
+
+
+def export(scenario, target):
+    return _robot(scenario)[0].export(scenario, target)
