@@ -21,11 +21,12 @@ by it: when `run` returns, each observer's file is written or its `error` says w
 from __future__ import annotations
 
 import importlib
+import math
 from collections.abc import Mapping
 from types import ModuleType
 from typing import Any, Protocol, runtime_checkable
 
-__all__ = ["MEMBERS", "JobRun", "of", "problems"]
+__all__ = ["MEMBERS", "JobRun", "finite", "of", "pooled_line", "problems", "read_sections"]
 
 
 @runtime_checkable
@@ -138,3 +139,29 @@ def of(scenario: Any) -> Any:
     if not job.runner(scenario.robot.kind):
         return None
     return importlib.import_module(job.RUN)
+
+
+def pooled_line(pooled, what: str, over: str = "runs") -> str:
+    """`trial --seeds`'s pooled rate in a line: 'pooled over 3 runs: 95.0 % of <what>
+    (57/60), 95 % CI ...' (`pooled`: `studies.stats.pooled_rate`'s result)."""
+    lo, hi = pooled.ci95
+    return (
+        f"pooled over {pooled.trials} {over}: {100 * pooled.success_rate:.1f} % of {what} "
+        f"({pooled.successes}/{pooled.seedlings}), 95 % CI {100 * lo:.1f}-{100 * hi:.1f} % "
+        f"({pooled.method})"
+    )
+
+
+def read_sections(scenario: Any) -> tuple[str, ...]:
+    """The sections a scenario's kinds read (`kinds.reads`), its name and kinds aside: what a
+    tuning study of its job is identified by."""
+    from transplanter import kinds
+
+    reads = kinds.reads(scenario.robot.kind, scenario.effector.kind, scenario.workcell.kind)
+    skip = ("scenario", "robot", "effector", "workcell", "costs")
+    return tuple(sorted(s for s in reads if s not in skip))
+
+
+def finite(v: float) -> float | None:
+    """A row's value: None for a NaN or an infinity."""
+    return v if math.isfinite(v) else None

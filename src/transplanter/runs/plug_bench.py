@@ -74,12 +74,9 @@ def pool(results, pooled) -> tuple[dict[str, Any], list[str]]:
     for name in ("cycle_time_s", "leaf_damage_rate"):
         values = [getattr(r, name) for r in results if math.isfinite(getattr(r, name))]
         payload[f"mean_{name}"] = sum(values) / len(values) if values else None
-    lo, hi = pooled.ci95
-    return payload, [
-        f"pooled over {pooled.trials} runs: {100 * pooled.success_rate:.1f} % of seedlings "
-        f"arrived ({pooled.successes}/{pooled.seedlings}), 95 % CI "
-        f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
-    ]
+    from transplanter.runs import pooled_line
+
+    return payload, [pooled_line(pooled, "seedlings arrived")]
 
 
 def study(scenario) -> dict[str, Any]:

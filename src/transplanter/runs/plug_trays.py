@@ -145,11 +145,10 @@ def pool(results, pooled) -> tuple[dict[str, Any], list[str]]:
         payload[f"mean_{name}"] = sum(values) / len(values) if values else None
     payload["pooled_leaf_damage"] = d = _pooled_damage(results)
     payload["pooled_misgrades"] = _pooled_misgrades(results)
-    lo, hi = pooled.ci95
+    from transplanter.runs import pooled_line
+
     return payload, [
-        f"pooled over {pooled.trials} trays: {100 * pooled.success_rate:.1f} % of serviced "
-        f"cells done ({pooled.successes}/{pooled.seedlings}), 95 % CI "
-        f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})",
+        pooled_line(pooled, "serviced cells done", over="trays"),
         f"leaf damage pooled over {len(results)} trays ({d['vision']} grading, pose "
         f"judgement {'on' if d['pose_judgement'] else 'off'}): "
         f"{d['damaged']}/{d['picked']} refills ({100 * d['rate']:.2f} %, 95 % Wilson "
@@ -194,13 +193,10 @@ def _sd(values) -> float:
     return math.sqrt(sum((v - m) ** 2 for v in values) / (len(values) - 1))
 
 
-def _finite(v: float) -> float | None:
-    return v if math.isfinite(v) else None
-
-
 def row(scenario, seed: int, out: dict[str, Any]) -> None:
     """One tray as a study row: its serviced cells done over those serviced, the time per
     operation (with the spread of the operations' spans), the rates, damage and drives."""
+    from transplanter.runs import finite as _finite
     from transplanter.twin.delta_refill import FAULT_KINDS, run_delta_refill
     from transplanter.twin.motors import motor_columns
 

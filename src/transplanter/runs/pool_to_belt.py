@@ -138,34 +138,26 @@ summary = format_tables
 
 
 def pool(results, pooled) -> tuple[dict[str, Any], list[str]]:
+    from transplanter.runs import pooled_line
+
     cycles = [r.pick_totals.get("cycle_time_s", math.nan) for r in results]
     cycles = [c for c in cycles if math.isfinite(c)]
-    lo, hi = pooled.ci95
-    return {"mean_cycle_time_s": sum(cycles) / len(cycles) if cycles else None}, [
-        f"pooled over {pooled.trials} runs: {100 * pooled.success_rate:.1f} % of tomatoes "
-        f"onto the belt ({pooled.successes}/{pooled.seedlings}), 95 % CI "
-        f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
-    ]
+    mean = sum(cycles) / len(cycles) if cycles else None
+    return {"mean_cycle_time_s": mean}, [pooled_line(pooled, "tomatoes onto the belt")]
 
 
 def study(scenario) -> dict[str, Any]:
-    from transplanter import kinds
+    from transplanter.runs import read_sections
 
-    reads = kinds.reads(scenario.robot.kind, scenario.effector.kind, scenario.workcell.kind)
-    skip = ("scenario", "robot", "effector", "workcell", "costs")
     return {
         "kind": "pool_to_belt",
         "fields": ("peak_squeeze_n", "fail_bruised", "fail_dropped", "fail_missed"),
         "means": ("plants_per_hour", "peak_squeeze_n"),
-        "sections": tuple(sorted(s for s in reads if s not in skip)),
+        "sections": read_sections(scenario),
         "unit": "tomatoes",
         "more": "pool_to_belt.count x seeds",
         "damage": ("fail_bruised",),
     }
-
-
-def _finite(v: float) -> float | None:
-    return v if math.isfinite(v) else None
 
 
 def row(scenario, seed: int, out: dict[str, Any]) -> None:
@@ -173,6 +165,7 @@ def row(scenario, seed: int, out: dict[str, Any]) -> None:
     import time
 
     from transplanter.machine.servo_drives import frame_steps
+    from transplanter.runs import finite as _finite
     from transplanter.twin.motors import motor_columns
     from transplanter.twin.serial_arm import run_pick_place
 

@@ -89,28 +89,21 @@ def summary(r) -> str:
 
 
 def pool(results, pooled) -> tuple[dict[str, Any], list[str]]:
+    from transplanter.runs import pooled_line
+
     cycles = [r.cycle_time_s for r in results if math.isfinite(r.cycle_time_s)]
-    lo, hi = pooled.ci95
-    return {"mean_cycle_time_s": sum(cycles) / len(cycles) if cycles else None}, [
-        f"pooled over {pooled.trials} runs: {100 * pooled.success_rate:.1f} % of seedlings "
-        f"into the tube ({pooled.successes}/{pooled.seedlings}), 95 % CI "
-        f"{100 * lo:.1f}-{100 * hi:.1f} % ({pooled.method})"
-    ]
+    mean = sum(cycles) / len(cycles) if cycles else None
+    return {"mean_cycle_time_s": mean}, [pooled_line(pooled, "seedlings into the tube")]
 
 
 def study(scenario) -> dict[str, Any]:
-    from transplanter import kinds
+    from transplanter.runs import read_sections
 
-    robot = scenario.robot.kind
-    reads = kinds.reads(robot, scenario.effector.kind, scenario.workcell.kind)
-    # what the run reads: a tuning study's identity (the kinds and the name aside)
-    skip = ("scenario", "robot", "effector", "workcell", "costs")
-    sections = tuple(sorted(s for s in reads if s not in skip))
     return {
-        "kind": f"{robot}:{scenario.workcell.kind}",
+        "kind": f"{scenario.robot.kind}:{scenario.workcell.kind}",
         "fields": POT_FIELDS,
         "means": ("plants_per_hour", "peak_squeeze_n"),
-        "sections": sections,
+        "sections": read_sections(scenario),
         "damage": POT_LINE_DAMAGE,
     }
 
