@@ -88,6 +88,30 @@ def test_the_same_seed_gives_the_same_json(two, tmp_path, capsys):
     assert got == want
 
 
+def test_exchanges_only_when_something_is_due_give_the_same_trial(two, monkeypatch):
+    """The loop exchanges with the host, the bus and the controller only at the steps at
+    which one of them has something due (`StepLoop._exchange_on_events`): the trial is the
+    one an exchange at every step gives, bit for bit, for fewer exchanges."""
+    from transplanter.twin.loop import StepLoop
+
+    sc, r = two
+    calls = {"each": 0}
+    each_step = StepLoop._exchange_each_step
+
+    def counted(self, t, t_limit):
+        calls["each"] += 1
+        return each_step(self, t, t_limit)
+
+    monkeypatch.setattr(StepLoop, "_exchange_on_events", counted)  # every step exchanges
+    per_step = run_delta_pots(load_scenario("delta_pots", {"scenario.seedlings": 2}), 1)
+    got, want = per_step.to_dict(), r.to_dict()
+    for d in (got, want):
+        d.pop("wall_time_s"), d.pop("real_time_factor")
+    assert got == want
+    steps = round(r.sim_time_s / sc.physics.timestep_s)
+    assert calls["each"] >= steps - 1  # one exchange a step with the per-step exchange
+
+
 def test_the_pot_is_held_by_contact_only():
     sc = load_scenario("delta_pots")
     spec, _, _, _ = scene_spec(sc, 1)

@@ -227,3 +227,109 @@ def test_mj_step_is_called_in_one_place_in_the_package():
                 if name in ("mj_step", "mj_step1", "mj_step2", "rollout"):
                     sites.append((path.relative_to(root).as_posix(), node.lineno))
     assert [p for p, _ in sites] == ["twin/loop.py"], sites
+
+
+class _TimedController(_Controller):
+    """A controller with a timeline: `G4 P<ms>` is done (its `ok`) that long after it starts,
+    one line at a time; `M280 S<deg>` queues a servo command 30 ms ahead; `G28` homes for
+    5 ms. It reports its next event (`next_event_time`) and whether it homes; it logs every
+    poll that changed something, with the step's time."""
+
+    def __init__(self, log):
+        super().__init__(log)
+        self.busy_until, self.homes_until, self.polls = None, None, 0
+
+    def poll(self, t, switches):
+        self.polls += 1
+        out = []
+        if self.busy_until is not None and t >= self.busy_until:
+            self.busy_until = None
+            out.append("ok")
+        if self.homes_until is not None and t >= self.homes_until:
+            self.homes_until = None
+            out.append("ok")
+        while self.queued and self.busy_until is None and self.homes_until is None:
+            line = self.queued.pop(0)
+            if line.startswith("G4"):
+                self.busy_until = t + float(line.split("P")[1]) / 1000
+            elif line == "G28":
+                self.homes_until = t + 0.005
+            else:
+                if line.startswith("M280"):
+                    self.servo.append((t + 0.03, 0, float(line.split("S")[1])))
+                out.append("ok")
+        if out:
+            self.log.append((round(t, 9), tuple(out)))
+        return out
+
+    @property
+    def homing(self):
+        return self.homes_until is not None
+
+    def next_event_time(self):
+        ends = [x for x in (self.busy_until, self.homes_until) if x is not None]
+        return min(ends) if ends else None
+
+
+def _timed_run(per_step: bool):
+    from transplanter.machine.host import Call, Wait
+
+    model = mujoco.MjModel.from_xml_string(XML)
+    data = mujoco.MjData(model)
+    bus = ComBus(baud_bps=9600)
+    log = []
+    controller = _TimedController(log)
+    calls = []
+    program = ["G28", "G4 P17", Wait(0.0231), Call(lambda t: calls.append(round(t, 9))),
+               "M280 S40", "G4 P3", "M280 S10", Wait(0.1), "G4 P40"]  # fmt: skip
+    host = HostProgram(program, bus)
+    loop = StepLoop(model, data, host, bus, controller, _Endstops(), per_step=per_step)
+    pending, applied, raws = [], [], []
+
+    def servo(t, commands):  # a servo board: applies each command once its time has come
+        pending.extend(commands)
+        while pending and pending[0][0] <= t:
+            applied.append((round(t, 9), pending.pop(0)[2]))
+
+    loop.on_servo.append(servo)
+    loop.before_step.append(lambda t: raws.append(int(loop.raw[0])))
+    loop.before_step.append(lambda t: data.ctrl.__setitem__(0, np.sin(40 * t)))
+    timed_out = loop.run_program(limit_s=5.0, settle_s=0.05)
+    return {
+        "timed_out": timed_out, "k": loop.k, "log": log, "calls": calls, "applied": applied,
+        "raws": raws, "qpos": data.qpos.tolist(), "qvel": data.qvel.tolist(),
+        "polls": controller.polls,
+    }  # fmt: skip
+
+
+def test_the_exchanges_come_at_the_steps_something_is_due_and_change_nothing():
+    """A controller that says when its next event is due is exchanged with only at the steps
+    at which the host's timer, the bus, the controller or a servo command has something due
+    (every step while it homes): the same replies at the same steps, the same servo
+    commands applied at the same steps, the same raw counts at every step and the same
+    physics, bit for bit, as an exchange at every step."""
+    each, events = _timed_run(per_step=True), _timed_run(per_step=False)
+    assert each["timed_out"] is None
+    assert each["polls"] == each["k"]  # per step: one exchange a step
+    assert events["polls"] < each["polls"] / 5
+    for key in ("k", "log", "calls", "applied", "raws", "qpos", "qvel"):
+        assert events[key] == each[key], key
+    # the timeline it held: homing 5 ms, G4 P17 from its line's arrival, the host's 23.1 ms
+    # wait, the servo commands 30 ms after their lines, the run settled 50 ms after the end
+    assert [v for _, v in events["applied"]] == [40.0, 10.0]
+    assert len(events["log"]) == 6 and events["calls"][0] > 0.0231 + 0.017  # one ok a line
+
+
+def test_a_long_block_ends_at_the_step_the_program_run_ends():
+    """`run_program` ends a run at the step it would end with an exchange at every step, so
+    a block with nothing due does not run past the settle time or the time-out."""
+    each, events = _timed_run(per_step=True), _timed_run(per_step=False)
+    assert events["k"] == each["k"]
+    model = mujoco.MjModel.from_xml_string(XML)
+    bus = ComBus()
+    controller = _TimedController([])
+    loop = StepLoop(model, mujoco.MjData(model), HostProgram(["G4 P10000"], bus), bus,
+                    controller, _Endstops())  # fmt: skip
+    message = loop.run_program(limit_s=0.1)
+    assert message == "the program did not finish in 0.1 s of simulated time"
+    assert loop.last_t > 0.1 and loop.last_t - loop.dt <= 0.1 + 1e-12  # the first step after

@@ -140,6 +140,15 @@ class DeltaController:
     def pulses_at(self, times) -> np.ndarray:
         return self.sgf.pulses_at(times)
 
+    def next_event_time(self) -> float | None:
+        """When the SGF next finishes or starts a line (`SGF.next_event_time`): a refusal
+        of its own is answered at once, at the exchange that received the line."""
+        return self.sgf.next_event_time()
+
+    @property
+    def homing(self) -> bool:
+        return self.sgf.homing
+
     @property
     def motion_version(self) -> int | None:
         return self.sgf.motion_version

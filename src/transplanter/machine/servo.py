@@ -237,6 +237,12 @@ class HobbyServo:
         self.link_rad = float(horn_rad)
         """Where the horn and the link on it are (within the backlash of the shaft)."""
         self._moving = False
+        # the class's constants as `step` uses them (a ServoClass is frozen): the same
+        # values it would compute at every step
+        self._half_band = 0.5 * servo.deadband_rad
+        self._speed = servo.speed_rad_s
+        self._stall = servo.stall_torque_nm
+        self._half_play = 0.5 * servo.backlash_rad
 
     def command(self, pulse_s: float) -> None:
         """A pulse of width ``pulse_s`` arrives: its angle becomes the target."""
@@ -245,18 +251,17 @@ class HobbyServo:
     def step(self, dt: float, load_torque_nm: float = 0.0) -> float:
         """Advance ``dt`` seconds under a load torque on the output (N m, positive pushing
         the horn angle up); returns the link angle."""
-        servo = self.servo
         error = self.target_rad - self.shaft_rad
         # the deadband: a servo at rest starts only for an error beyond half the band; once
         # moving it drives on until it is at the target
-        if self._moving or abs(error) > 0.5 * servo.deadband_rad:
+        if self._moving or abs(error) > self._half_band:
             direction = math.copysign(1.0, error)
             opposing = max(0.0, -direction * load_torque_nm)
-            factor = max(0.0, 1.0 - opposing / servo.stall_torque_nm)
-            travel = min(abs(error), servo.speed_rad_s * factor * dt)
+            factor = max(0.0, 1.0 - opposing / self._stall)
+            travel = min(abs(error), self._speed * factor * dt)
             self.shaft_rad += direction * travel
             self._moving = abs(self.target_rad - self.shaft_rad) > 1e-12 and factor > 0.0
-        half = 0.5 * servo.backlash_rad
+        half = self._half_play
         if load_torque_nm > 0.0:
             self.link_rad = self.shaft_rad + half
         elif load_torque_nm < 0.0:

@@ -86,6 +86,9 @@ class ServoBank:
         self.mounts = tuple(mounts)
         q0 = np.asarray(joints0, dtype=np.float64)
         self.servos = [HobbyServo(m.servo, float(m.horn(q0[i]))) for i, m in enumerate(mounts)]
+        # each mount's joint = zero + direction x horn, in floats (`ServoMount.joint`)
+        self._maps = [(s, float(m.direction), float(m.zero_rad))
+                      for s, m in zip(self.servos, self.mounts, strict=True)]  # fmt: skip
 
     @property
     def classes(self) -> tuple[ServoClass, ...]:
@@ -98,11 +101,11 @@ class ServoBank:
     def step(self, dt: float, joint_loads_nm) -> np.ndarray:
         """Advance ``dt`` under the loads on each joint (N m, positive pushing the joint
         angle up); the joint angles the links sit at."""
-        out = np.empty(len(self.servos))
-        for i, (servo, mount) in enumerate(zip(self.servos, self.mounts, strict=True)):
-            link = servo.step(dt, mount.direction * float(joint_loads_nm[i]))
-            out[i] = float(mount.joint(link))
-        return out
+        loads = [float(v) for v in joint_loads_nm]
+        return np.array([
+            zero + direction * servo.step(dt, direction * load)
+            for (servo, direction, zero), load in zip(self._maps, loads, strict=True)
+        ])  # fmt: skip
 
     def shafts(self) -> np.ndarray:
         """The joint angles the servos' potentiometers read (the shafts, without the play)."""

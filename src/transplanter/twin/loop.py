@@ -5,8 +5,8 @@ At each exchange, at time t = k * dt, the machine's firmware side is advanced an
 physics steps may run before it has something to say again; the loop then steps that block,
 one `mj_step` at a time. Two firmware sides exist:
 
-- **per step** (the default, given `host`, `bus`, `controller`, `endstops`: the delta's
-  controller, the serial arm's servo board): at every step
+- **host, bus and controller** (given `host`, `bus`, `controller`, `endstops`: the delta's
+  controller, the serial arm's servo board): at an exchange
   1. the host program (`machine.host.HostProgram`) takes its replies and sends what is due;
   2. the bus delivers the lines due to the controller, which answers them (its limit switches
      read from the raw pulses of the step before: `SimulatedEndstops`);
@@ -14,7 +14,13 @@ one `mj_step` at a time. Two firmware sides exist:
   4. the raw pulse counts at t (read from a block of the next steps' counts while the
      controller's motion stays the same), then its servo commands go to `on_servo(t,
      commands)`;
-  and the block is that one step;
+  and the block runs to the next step at which any of them has something to do (`_next_due`):
+  the host's timer (`Wait`), the bus's next delivery either way, the controller's next event
+  (a line done, a queued one started), a servo command's time; one step while the controller
+  homes (it reads its switches every step). Each step of the block gets its raw pulse counts
+  (`raw`). Nothing happens between those times, so the machine is the one an exchange at every
+  step gives, bit for bit (`per_step=True` keeps that, for a controller without
+  `next_event_time` and for the test that shows it);
 - **event driven** (`exchange=`: the five-bar's SGF, `twin.sim.Twin`): the exchange delivers
   what is due, computes the commands of every step until the next firmware event at once and
   returns their count (`exchange(t, t_limit) -> n`, n >= 1, never past `t_limit`).
@@ -33,11 +39,12 @@ Each step of a block (t: its start time, `i`: its index in the block):
 After each block, `after_block()` (the five-bar's check of MuJoCo's warnings). A hook may
 `stop(reason)` the run: it ends after that step. `run(end)` runs blocks until `end(t)` says so
 after one (t: the last step's start) or a hook stopped it; `run_until(t_end, done)` until the
-simulated time reaches `t_end` or `done()` after a block; `run_program(limit_s, settle_s)` until
-the host's program has ended (or failed) and settled, with a time-out, the end every per-step
-job's run shares. A hook may `settle_until(t)` to end the run at t (a drive's alarm: the
-machine is let come to rest, then the run ends). `run_steps(n)` steps n times with no firmware
-at all (a bench whose hooks drive the actuators themselves: `scene.plug_bench`).
+simulated time reaches `t_end` or `done()` after a block; `run_program(limit_s, settle_s)`
+until the host's program has ended (or failed) and settled, with a time-out, the end that every
+job with a host program shares (a block ends at that step). A hook may `settle_until(t)` to end
+the run at t (a drive's alarm: the machine is let come to rest, then the run ends).
+`run_steps(n)` steps n times with no firmware at all (a bench whose hooks drive the actuators
+themselves: `scene.plug_bench`).
 """
 
 from __future__ import annotations
@@ -49,10 +56,13 @@ from typing import Any
 import mujoco
 import numpy as np
 
-__all__ = ["BLOCK_STEPS", "StepLoop"]
+__all__ = ["BLOCK_STEPS", "MAX_BLOCK_STEPS", "StepLoop"]
 
 BLOCK_STEPS = 64
-"""Steps of raw pulse counts asked of a per-step controller at once (`StepLoop._pulses`)."""
+"""Steps of raw pulse counts asked of a host's controller at once (`StepLoop._pulses`)."""
+MAX_BLOCK_STEPS = 500
+"""The longest block of steps between two exchanges of a host's controller (bounds how late an
+exchange with nothing due comes: it changes nothing)."""
 
 
 class StepLoop:
@@ -68,16 +78,19 @@ class StepLoop:
         endstops: Any = None,
         machine_events: Callable[[], list] | None = None,
         exchange: Callable[[float, float], int] | None = None,
+        per_step: bool = False,
     ) -> None:
         if exchange is not None and controller is not None:
-            raise ValueError("give a per-step controller or an exchange, not both")
+            raise ValueError("give a host's controller or an exchange, not both")
         self.model, self.data = model, data
         self.host, self.bus, self.controller, self.endstops = host, bus, controller, endstops
         self._events = machine_events if machine_events is not None else (lambda: [])
         if exchange is not None:
             self.exchange = exchange
         elif controller is not None:
-            self.exchange = self._exchange_each_step
+            timed = hasattr(controller, "next_event_time") and hasattr(controller, "homing")
+            events = timed and not per_step
+            self.exchange = self._exchange_on_events if events else self._exchange_each_step
         else:
             self.exchange = self._no_firmware
         self.dt = model.opt.timestep
@@ -95,6 +108,9 @@ class StepLoop:
         self.t_end: float | None = None  # run_program ends the run after the step at t_end
         self._end_block = False
         self._block: tuple[int, int, np.ndarray] | None = None  # first step, version, counts
+        self._raw_each_step = False  # a block of several steps: `raw` read at each one
+        self._servo_times: list[float] = []  # the drained servo commands' times still ahead
+        self._program: tuple[float, float] | None = None  # run_program's (settle_s, limit_s)
 
     @property
     def time(self) -> float:
@@ -112,7 +128,8 @@ class StepLoop:
 
     # -- the firmware side -----------------------------------------------------------------
     def _exchange_each_step(self, t: float, t_limit: float) -> int:
-        """The per-step firmware side (module docstring, 1-4): a block of one step."""
+        """The host's, the bus's and the controller's exchange (module docstring, 1-4): a block
+        of one step (`per_step=True`, or a controller that does not say when it is due)."""
         controller, bus = self.controller, self.bus
         self.host.tick(t)
         for line in bus.device_receive(t):
@@ -127,7 +144,53 @@ class StepLoop:
         commands = controller.drain_servo_commands()
         for fn in self.on_servo:
             fn(t, commands)
+        if commands:
+            self._servo_times = sorted([*self._servo_times, *(c[0] for c in commands)])
         return 1
+
+    def _exchange_on_events(self, t: float, t_limit: float) -> int:
+        """The host's, the bus's and the controller's exchange (module docstring, 1-4), then a
+        block of steps to the next step at which one of them has something due."""
+        self._exchange_each_step(t, t_limit)
+        n = self._steps_to(self._next_due(t))
+        if not math.isinf(t_limit):
+            n = min(n, max(1, math.ceil((t_limit - t) / self.dt - 1e-9)))
+        self._raw_each_step = n > 1
+        return n
+
+    def _next_due(self, t: float) -> float:
+        """When the host, the bus or the controller next has something to do (after `t`,
+        where the exchange has done what was due); `t`: at the next step (homing);
+        inf: nothing in flight."""
+        host, controller = self.host, self.controller
+        if controller.homing:
+            return t
+        due = [math.inf]
+        if not host.done and not host.waiting:
+            due.append(host.resume_at)  # its timer (a Wait): the only thing it waits for
+        for x in (self.bus.next_delivery_time(), controller.next_event_time()):
+            if x is not None:
+                due.append(x)
+        times = self._servo_times
+        while times and times[0] <= t:
+            times.pop(0)
+        if times:
+            due.append(times[0])  # a servo command comes due: its board applies it then
+        return min(due)
+
+    def _steps_to(self, t_due: float) -> int:
+        """Steps from now to the first step whose start is at or after `t_due` (every
+        firmware side compares `time >= t_due` at a step's start), at least 1, at most
+        MAX_BLOCK_STEPS."""
+        k, dt = self.k, self.dt
+        if not t_due < (k + MAX_BLOCK_STEPS) * dt:
+            return MAX_BLOCK_STEPS
+        k_due = max(k + 1, math.ceil(t_due / dt))
+        while k_due - 1 > k and (k_due - 1) * dt >= t_due:
+            k_due -= 1
+        while k_due * dt < t_due:
+            k_due += 1
+        return min(k_due - k, MAX_BLOCK_STEPS)
 
     def _no_firmware(self, t: float, t_limit: float) -> int:
         """No firmware: one block to `t_limit` (one step when it is unbounded)."""
@@ -141,9 +204,12 @@ class StepLoop:
         model, data, dt = self.model, self.data, self.dt
         before, after, guard = self.before_step, self.after_step, self.guard
         self._end_block = False
+        raw_each_step, program = self._raw_each_step, self._program
         for i in range(n):
             t = self.k * dt
             self.last_t, self.i = t, i
+            if i and raw_each_step:
+                self.raw = self._pulses(self.k, t)
             for fn in before:
                 fn(t)
             mujoco.mj_step(model, data)
@@ -156,6 +222,8 @@ class StepLoop:
             for fn in after:
                 fn(t)
             if self._end_block or self.stopped is not None:
+                break
+            if program is not None and self._program_ends(t, *program):
                 break
         return True
 
@@ -171,7 +239,7 @@ class StepLoop:
         return True
 
     def step(self) -> bool:
-        """`advance()`: with a per-step controller, one physics step."""
+        """`advance()`: one exchange and its block of steps."""
         return self.advance()
 
     def _pulses(self, k: int, t: float) -> np.ndarray:
@@ -203,18 +271,27 @@ class StepLoop:
         passed (or until a hook's `settle_until`), or a hook stopped the run; the time-out's
         message when a block's last step starts after `limit_s` (s of simulated time), else
         None."""
+        self._program = (settle_s, limit_s)  # a block ends at the step the run does
+        try:
+            while self.stopped is None:
+                if not self.advance():
+                    return None
+                if self._program_ends(self.last_t, settle_s, limit_s):
+                    if self.t_end is not None and self.last_t >= self.t_end:
+                        return None
+                    return f"{what} did not finish in {limit_s:g} s of simulated time"
+            return None
+        finally:
+            self._program = None
+
+    def _program_ends(self, t: float, settle_s: float, limit_s: float) -> bool:
+        """After the step that started at `t`: whether `run_program`'s run ends there (the
+        host's program ended or failed `settle_s` before, a hook's `settle_until`, or the
+        time-out at `limit_s`)."""
         host = self.host
-        while self.stopped is None:
-            if not self.advance():
-                return None
-            t = self.last_t
-            if self.t_end is None and (host.done or host.error is not None):
-                self.t_end = t + settle_s
-            if self.t_end is not None and t >= self.t_end:
-                return None
-            if t > limit_s:
-                return f"{what} did not finish in {limit_s:g} s of simulated time"
-        return None
+        if self.t_end is None and (host.done or host.error is not None):
+            self.t_end = t + settle_s
+        return (self.t_end is not None and t >= self.t_end) or t > limit_s
 
     def run(self, end: Callable[[float], bool]) -> None:
         """Run blocks until `end(t)` after one (t: its last step's start) or a hook stopped

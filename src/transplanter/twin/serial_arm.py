@@ -339,17 +339,10 @@ class _Rig:
         self.loop.step()
 
     def run(self, limit_s: float, settle_s: float = 0.0) -> str | None:
-        """Step until the host's program ends (then ``settle_s`` more) or ``limit_s``;
-        the host's error or a time-out, None if it ended."""
-        end = None
-        while True:
-            self.step()
-            if end is None and self.host.done:
-                end = self.t + settle_s
-            if end is not None and self.t >= end:
-                return self.host.error
-            if self.t > limit_s:
-                return f"the program did not finish in {limit_s:g} s of simulated time"
+        """Step until the host's program ends (then ``settle_s`` more) or ``limit_s``
+        (`StepLoop.run_program`); the host's error or a time-out, None if it ended."""
+        timed_out = self.loop.run_program(limit_s, settle_s)
+        return timed_out if timed_out is not None else self.host.error
 
     @property
     def valid(self) -> bool:
