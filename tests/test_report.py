@@ -19,7 +19,7 @@ def test_summary_shows_rate_interval_and_the_failure_kinds_that_occurred():
         "failures: no_pot           1"
     ]
     assert result.to_dict()["failures"]["knocked_over"] == 0  # every kind in the JSON
-    assert "21.0x" in text.splitlines()[8]
+    assert "21.0x" in text.splitlines()[9]
     # the throughput second, at the pick pitch over whole rows (seedling 35's start is the
     # last at pickup 0: 35 picks of 3.6 s), the homing before the first (4 s) left out
     assert text.splitlines()[4] == (
@@ -30,6 +30,30 @@ def test_summary_shows_rate_interval_and_the_failure_kinds_that_occurred():
     clean = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS) for i in range(40)]
     text = format_summary(TrialResult("paper", 1, clean, sim_time_s=147.0, wall_time_s=7.0))
     assert "failures:                  none" in text
+
+
+def test_the_damage_leads_beside_success_throughput_and_cycle():
+    """The summary's lead: success, throughput, cycle, then the damage (the seedlings whose
+    shoot was bent too far or crushed, and the largest bend), before the times."""
+    records = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS, peak_stem_bend_deg=8.0)
+               for i in range(37)]  # fmt: skip
+    records += [
+        SeedlingRecord(37, 2, outcome=Outcome.DAMAGED, peak_stem_bend_deg=41.5),
+        SeedlingRecord(38, 3, outcome=Outcome.SHOOT_CRUSHED, peak_stem_bend_deg=12.0),
+        SeedlingRecord(39, 4, outcome=Outcome.NOT_GRIPPED),
+    ]
+    result = TrialResult("paper", 1, records, sim_time_s=147.0, wall_time_s=7.0)
+    lines = format_summary(result).splitlines()
+    labels = [line.split("  ")[0] for line in lines]
+    assert labels[3:7] == ["success rate", "plants per hour", "cycle time", "damage"]
+    bend = result.to_dict()["max_stem_bend_deg"]
+    assert lines[6] == (
+        "damage                     2/40 seedlings (5.0 %: damaged 1, shoot_crushed 1); "
+        f"largest shoot bend {bend:.1f} deg"
+    )
+    clean = [SeedlingRecord(i, i % 5, outcome=Outcome.SUCCESS) for i in range(40)]
+    text = format_summary(TrialResult("paper", 1, clean, sim_time_s=147.0, wall_time_s=7.0))
+    assert "damage                     none (no shoot bent past metrics.damage_bend_deg or " in text
 
 
 def test_control_characters_are_shown_escaped():

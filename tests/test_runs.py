@@ -129,3 +129,24 @@ def test_a_job_check_refuses_before_anything_is_built():
         plug_trays.check(load_scenario("delta_refill", {"physics.sleep": True}))
     with pytest.raises(ValueError, match="PWM frame"):
         pool_to_belt.check(load_scenario("serial_arm", {"physics.timestep_ms": 0.3}))
+
+
+def test_run_job_gives_each_jobs_own_result_whatever_the_robot():
+    """`transplanter.run_job`: the five-bar's pot trial (the twin's own) and the serial arm's
+    on the same line give the pot line's records (one judge), at the seed and units asked;
+    a loaded scenario runs as loaded; a key its kinds do not read is refused by name."""
+    import transplanter
+    from transplanter.twin.results import SeedlingRecord
+
+    five = transplanter.run_job("paper", seed=2, units=1)
+    serial = transplanter.run_job("serial_arm_pots", seed=2, units=1)
+    for r in (five, serial):
+        assert r.seed == 2 and len(r.per_seedling) == 1
+        assert isinstance(r.per_seedling[0], SeedlingRecord)
+        assert set(r.to_dict()["failures"]) == set(five.to_dict()["failures"])
+    again = transplanter.run_job(load_scenario("paper", {"scenario.seedlings": 1}), seed=2)
+    assert again.to_dict()["per_seedling"] == five.to_dict()["per_seedling"]
+    with pytest.raises(ScenarioError, match=r"\[taught\] z_low_mm"):
+        transplanter.run_job("serial_arm_pots", units=1, overrides={"taught.z_low_mm": 20})
+    with pytest.raises(ValueError, match="units and overrides"):
+        transplanter.run_job(load_scenario("paper"), units=3)

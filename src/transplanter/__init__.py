@@ -37,6 +37,7 @@ _API = {
     "pooled_rate": "transplanter.studies.stats",
     "run_sweep": "transplanter.studies.sweep",
     "run_scenario": "transplanter.studies.run",
+    "run_job": "transplanter.runs",
     "TrialFailed": "transplanter.studies.run",
     "TransplanterError": "transplanter.errors",
     "Refusal": "transplanter.errors",

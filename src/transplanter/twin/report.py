@@ -131,6 +131,23 @@ def _throughput(d: dict) -> str:
     )
 
 
+DAMAGE_KINDS = ("damaged", "shoot_crushed")
+"""The pot line judge's failure kinds that are a damaged seedling (`compare`'s damage)."""
+
+
+def _damage(d: dict) -> str:
+    """The summary's damage: the seedlings whose shoot was bent too far or crushed, and the
+    largest bend of any shoot."""
+    kinds = {k: d["failures"].get(k, 0) for k in DAMAGE_KINDS}
+    n = sum(kinds.values())
+    bend = f"largest shoot bend {d['max_stem_bend_deg']:.1f} deg"
+    if not n:
+        return f"none (no shoot bent past metrics.damage_bend_deg or crushed); {bend}"
+    shown = ", ".join(f"{k} {v}" for k, v in kinds.items() if v)
+    share = 100 * n / max(d["seedlings"], 1)
+    return f"{n}/{d['seedlings']} seedlings ({share:.1f} %: {shown}); {bend}"
+
+
 def format_summary(result: TrialResult) -> str:
     """The trial's numbers as an aligned two-column table."""
     d = result.to_dict()
@@ -155,6 +172,7 @@ def format_summary(result: TrialResult) -> str:
             else f"{d['cycle_time_s']:.3f} s mean, sd {d['cycle_time_sd_s'] or 0:.3f} s (a "
             "pot's approach to the end of its release)",
         ),
+        ("damage", _damage(d)),
         ("simulated time", f"{d['sim_time_s']:.1f} s"),
         ("wall time", f"{d['wall_time_s']:.1f} s"),
         ("real-time factor", f"{d['real_time_factor']:.1f}x" if d["real_time_factor"] else "n/a"),
