@@ -415,6 +415,103 @@ def _doc_table(name: str) -> Callable[[Runs], str]:
     return make
 
 
+NINE = (
+    "paper", "paper_calibrated", "paper_tuned", "serial_arm_pots", "serial_arm_pots_tuned",
+    "delta_pots", "delta_pots_tuned", "delta_refill", "delta_refill_tuned",
+)  # fmt: skip
+"""The nine rows of docs/compare.md's comparison."""
+NINE_COMMAND = (
+    "MUJOCO_GL=egl transplanter compare " + " ".join(NINE)
+    + " --seeds 1-3 --seedlings 40 --workers 2 --out results/compare"
+)  # fmt: skip
+
+
+def _nine(runs: Runs) -> dict[str, dict]:
+    """The nine-row comparison's rows by scenario (compare.json), run once (under
+    --sweep-out NAME a rerun resumes)."""
+    out_dir = (runs.sweep_out or runs.scratch) / "compare_nine"
+    runs.cli(["compare", *NINE, "--seeds", "1-3", "--seedlings", "40", "--workers", "2",
+              "--out", str(out_dir), "--quiet"])  # fmt: skip
+    rows = json.loads((out_dir / "compare.json").read_text())["rows"]
+    return {r["scenario"]: r for r in rows}
+
+
+def _of(row: dict) -> str:
+    return f"{row['successes']}/{row['seedlings']}"
+
+
+def compare_machines(runs: Runs) -> str:
+    """The README's paragraph on the comparison: each machine's plants per hour and success,
+    as published and tuned (the nine-row comparison)."""
+    r = _nine(runs)
+    paper, tuned = r["paper"], r["paper_tuned"]
+    arm, arm_tuned = r["serial_arm_pots"], r["serial_arm_pots_tuned"]
+    tray, tray_tuned = r["delta_refill"], r["delta_refill_tuned"]
+    return (
+        f"{paper['plants_per_hour']:.0f} pots an hour as published "
+        f"({100 * paper['success_rate']:.0f} %) and {tuned['plants_per_hour']:.0f} tuned "
+        f"(`paper_tuned`, {tuned['cycle_time_s']:.1f} s a cycle, {_of(tuned)}); the serial arm "
+        f"{arm['plants_per_hour']:.0f} ({_of(arm)}) and {arm_tuned['plants_per_hour']:.0f} tuned "
+        f"({_of(arm_tuned)}), both below a 90 % floor; the delta culls or refills "
+        f"{tray['plants_per_hour']:.0f} cells an hour ({100 * tray['success_rate']:.1f} %) on its "
+        f"trays and {tray_tuned['plants_per_hour']:.0f} tuned (`delta_refill_tuned`)"
+    )
+
+
+def compare_delta_pots(runs: Runs) -> str:
+    """The delta on the pot line in the README's comparison paragraph."""
+    r = _nine(runs)
+    pots, tuned = r["delta_pots"], r["delta_pots_tuned"]
+    return (
+        f"{pots['plants_per_hour']:.0f} pots an hour, {_of(pots)}, and "
+        f"{tuned['plants_per_hour']:.0f} tuned (`delta_pots_tuned`, {_of(tuned)}"
+    )
+
+
+def serial_arm_pots_seeds_1_3(runs: Runs) -> str:
+    """The serial arm on the pot line over seeds 1-3 (the nine-row comparison's row)."""
+    arm = _nine(runs)["serial_arm_pots"]
+    lo, hi = arm["ci95"]
+    return (
+        f"{arm['successes']} of {arm['seedlings']} into the tube undamaged over seeds 1-3 "
+        f"({100 * arm['success_rate']:.1f} %, 95 % CI {100 * lo:.1f}-{100 * hi:.1f} %)"
+    )
+
+
+def _pooled(runs: Runs, argv: list[str]) -> tuple[dict, float]:
+    """A `trial --seeds` run's pooled rate and the mean of its trials' cycles (s)."""
+    d = runs.cli(["trial", *argv, "--quiet"], json_out=True)[1]
+    cycles = [t["cycle_time_s"] for t in d["trials"] if t["cycle_time_s"] is not None]
+    return d["pooled"], sum(cycles) / len(cycles)
+
+
+def delta_pots_planners(runs: Runs) -> str:
+    """`trial delta_pots --seeds 1-3 --seedlings 20`, with its splines and with G1 lines."""
+    argv = ["delta_pots", "--seeds", "1-3", "--seedlings", "20"]
+    splines, spline_cycle = _pooled(runs, argv)
+    _, lines_cycle = _pooled(runs, [*argv, "--set", 'motion.planner="lines"'])
+    return (
+        f"{splines['successes']}/{splines['seedlings']} pots into the tube, their shoots "
+        f"undamaged, over seeds 1-3 x 20 at {spline_cycle:.2f} s a pot with its splines, "
+        f"{lines_cycle:.2f} s"
+    )
+
+
+def paper_bspline5(runs: Runs) -> str:
+    """`trial paper --seeds 31-35` with the five-bar's spline transfer and with its lines."""
+    spline, spline_cycle = _pooled(runs, ["paper", "--seeds", "31-35", "--set",
+                                          'motion.planner="bspline5"'])  # fmt: skip
+    lines, lines_cycle = _pooled(runs, ["paper", "--seeds", "31-35"])
+    same = (spline["successes"], spline["seedlings"]) == (lines["successes"], lines["seedlings"])
+    tally = (
+        f"the same {spline['successes']}/{spline['seedlings']}"
+        if same
+        else f"{spline['successes']}/{spline['seedlings']} against "
+        f"{lines['successes']}/{lines['seedlings']}"
+    )
+    return f"{spline_cycle:.3f} s a seedling against {lines_cycle:.3f} s at {tally}"
+
+
 def calibrated_held_out(runs: Runs) -> str:
     """docs/fidelity.md: `transplanter trial paper_calibrated --seeds S` on the fitted seeds and
     on seeds the fit never saw, per seed and pooled."""
@@ -475,6 +572,14 @@ BLOCKS = {
               "--seedlings 40 --workers 2 --out results/zlow",
               partial=zlow_sweep_quick),
         Block("zlow_24_per_seed", zlow_24_per_seed, "the same sweep, runs.jsonl"),
+        Block("compare_machines", compare_machines, NINE_COMMAND),
+        Block("compare_delta_pots", compare_delta_pots, NINE_COMMAND),
+        Block("serial_arm_pots_seeds_1_3", serial_arm_pots_seeds_1_3, NINE_COMMAND),
+        Block("delta_pots_planners", delta_pots_planners,
+              "transplanter trial delta_pots --seeds 1-3 --seedlings 20 [--set "
+              "motion.planner='\"lines\"']"),
+        Block("paper_bspline5", paper_bspline5,
+              "transplanter trial paper --seeds 31-35 [--set motion.planner='\"bspline5\"']"),
         Block("calibrated_held_out", calibrated_held_out,
               "transplanter trial paper_calibrated --seeds S", page="docs/fidelity.md"),
         *(
