@@ -652,3 +652,26 @@ def test_trial_records_a_windowed_conveyor_with_a_body_per_pot(tmp_path, capsys)
     pots = {e: n for e, n in rows.items() if re.fullmatch(r"world/bodies/pot_\d+_\d", e)}
     assert len(pots) == 20 * 5  # every pot of the 20 rows, not only the 12 live ones
     assert set(pots.values()) == {rows["world/bodies/conveyor"]}  # a pose every frame
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["trial", "paper", "--set", "taught.bogus_mm=1"],  # no such key
+        ["trial", "papr"],  # no such scenario
+        ["trial", "delta_pots", "--set", "taught.z_low_mm=20"],  # a key its kinds do not read
+        ["trial", "paper", "--set", "taught.z_low_mm=abc"],  # not a number
+    ],
+)
+def test_a_refusal_comes_before_mujoco_is_imported(argv):
+    """A bad key or scenario is refused from the scenario's text and the kinds' declarations
+    alone: the process never imports MuJoCo or builds a scene, so the answer comes in a
+    fraction of a second (about 0.3 s here, the interpreter's start included)."""
+    code = (
+        "import sys\nfrom transplanter import cli\nstatus = cli.main(sys.argv[1:])\n"
+        "print('status', status, 'mujoco' in sys.modules)\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True,
+                         cwd=ROOT, timeout=120)  # fmt: skip
+    assert run.stdout.split() == ["status", "2", "False"], run.stdout + run.stderr
+    assert "refused" in run.stderr

@@ -99,7 +99,6 @@ def _trial_parser(sub) -> None:
 
 def cmd_trial(args: argparse.Namespace) -> int:
     from transplanter import interrupts
-    from transplanter.scenario.assemble import assemble
     from transplanter.scenario.schema import ScenarioError
     from transplanter.twin.report import definitions_block, estimate_line, format_summary
     from transplanter.viewing.video import GLUnavailable, RenderRefused
@@ -132,6 +131,9 @@ def cmd_trial(args: argparse.Namespace) -> int:
         if job is None and args.seeds is None:
             try:
                 scenario = _trial_scenario(args, overrides)
+                # MuJoCo is imported once the scenario has loaded: a refusal comes first
+                from transplanter.scenario.assemble import assemble
+
                 config = assemble(scenario, preflight=not args.no_preflight)
             except ScenarioError as exc:
                 _err(f"scenario refused: {exc}")
@@ -393,12 +395,13 @@ def _read_eeprom(args: argparse.Namespace) -> bool:
 def _trial_scenario(args: argparse.Namespace, overrides: dict[str, Any]):
     """The trial's scenario with its overrides and, with --eeprom, the image's taught data
     in place of its [taught] section (config.with_eeprom); ScenarioError when refused."""
-    from transplanter.scenario.assemble import with_eeprom
     from transplanter.scenario.schema import load_scenario
 
     scenario = load_scenario(args.scenario, overrides)
     image = getattr(args, "eeprom_image", None)
     if image is not None:
+        from transplanter.scenario.assemble import with_eeprom
+
         scenario = with_eeprom(scenario, image, str(args.eeprom))
     return scenario
 
