@@ -299,3 +299,17 @@ def test_no_help_shows_a_doubled_percent_sign(capsys):
         with pytest.raises(SystemExit):
             main([command, "--help"])
         assert said in " ".join(capsys.readouterr().out.split()), command
+
+
+def test_a_comparison_over_two_jobs_draws_each_jobs_picture(tmp_path):
+    """Rows of two jobs: compare.png with both, and compare_JOB.png with each job's own rows,
+    listed among the outputs."""
+    from transplanter.studies.compare import job_png
+
+    spec = CompareSpec(("paper", "plug_bench"), (1,), seedlings=2, success_floor=0.5)
+    report = run_compare(spec, tmp_path / "c", backend="inline")
+    jobs = sorted({r["workcell"] for r in report.rows})
+    assert jobs == ["conveyor_tube", "plug_bench"]
+    for name in ("compare.png", *(job_png(j) for j in jobs)):
+        png = (tmp_path / "c" / name).read_bytes()
+        assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000, name
