@@ -155,7 +155,9 @@ class MetaSection:
     """[scenario]: the trial's name, seed and size."""
 
     name: str = key("str", doc="short name used in reports")
-    description: str = key("str")
+    description: str = key(
+        "str", doc="one line on what the scenario is, shown by `transplanter scenarios`"
+    )
     seed: int = key("int", lo=0, hi=2**63 - 1, doc="random seed of the pots")
     seedlings: int = key("int", lo=1, hi=100000, doc="seedlings to pick in a trial")
 
@@ -189,7 +191,11 @@ class ArmSection:
     l0_m: float = key("float", 1, 500, doc="half the distance between the two motors")
     l1_m: float = key("float", 1, 1000, doc="active link length")
     l2_m: float = key("float", 1, 1000, doc="passive link length")
-    working_mode: str = key("str", choices=("+-", "-+", "++", "--"))
+    working_mode: str = key(
+        "str",
+        choices=("+-", "-+", "++", "--"),
+        doc="IK branch of arm 1, arm 2: '+-' elbows out (the paper's, the only one the twin runs)",
+    )
 
 
 @dataclass(frozen=True)
@@ -349,21 +355,37 @@ class Serial4Section:
     l2_m: float = key("float", 1, 1000, doc="elbow axis to the grip centre")
     elbow: str = key("str", choices=("up", "down"), doc="IK branch")
     base_min_rad: float = key("float", -180, 180, doc="base yaw window (a servo's 180 deg)")
-    base_max_rad: float = key("float", -180, 180)
+    base_max_rad: float = key("float", -180, 180, doc="upper end of the base yaw window")
     shoulder_min_rad: float = key("float", -180, 180, doc="shoulder elevation window")
-    shoulder_max_rad: float = key("float", -180, 180)
+    shoulder_max_rad: float = key(
+        "float", -180, 180, doc="upper end of the shoulder elevation window"
+    )
     elbow_min_rad: float = key("float", -180, 180, doc="elbow window (relative angle)")
-    elbow_max_rad: float = key("float", -180, 180)
+    elbow_max_rad: float = key("float", -180, 180, doc="upper end of the elbow window")
     min_radius_m: float = key("float", 0, 1000, doc="closest target to the base axis")
     y_min_m: float = key("float", -1000, 1000, doc="lowest target height above the shoulder")
     y_max_m: float = key("float", -1000, 1000, doc="highest target height")
     park_base_rad: float = key("float", -180, 180, doc="park pose, where G28 sends the arm")
-    park_shoulder_rad: float = key("float", -180, 180)
-    park_elbow_rad: float = key("float", -180, 180)
+    park_shoulder_rad: float = key("float", -180, 180, doc="shoulder elevation of the park pose")
+    park_elbow_rad: float = key(
+        "float", -180, 180, doc="elbow angle of the park pose (relative to the upper arm)"
+    )
     base_servo: str = key("str", choices=("sg90", "mg996r"), doc="hobby servo class")
-    shoulder_servo: str = key("str", choices=("sg90", "mg996r"))
-    elbow_servo: str = key("str", choices=("sg90", "mg996r"))
-    gripper_servo: str = key("str", choices=("sg90", "mg996r"))
+    shoulder_servo: str = key(
+        "str",
+        choices=("sg90", "mg996r"),
+        doc="the shoulder's hobby servo class: its speed and stall torque",
+    )
+    elbow_servo: str = key(
+        "str",
+        choices=("sg90", "mg996r"),
+        doc="the elbow's hobby servo class: its speed and stall torque",
+    )
+    gripper_servo: str = key(
+        "str",
+        choices=("sg90", "mg996r"),
+        doc="hobby servo class of the fuzzy gripper's finger servo",
+    )
 
 
 @dataclass(frozen=True)
@@ -407,7 +429,7 @@ class PoolToBeltSection:
     contact_timeconst_s: float = key("float", 2, 100, doc="a tomato's contact time constant")
     rolling_resistance_m: float = key("float", 0, 10, doc="lane's and belt's rolling friction")
     station_x_m: float = key("float", -160, 160, doc="pick station (a middle tomato's centre)")
-    station_y_m: float = key("float", -160, 160)
+    station_y_m: float = key("float", -160, 160, doc="pick station's y: the lane's centre line")
     lane_floor_z_m: float = key("float", 0, 200, doc="trough bottom at the stop above the floor")
     lane_slope_rad: float = key("float", 0.5, 20, doc="lane's slope down to the stop")
     trough_angle_rad: float = key("float", 3, 45, doc="trough faces' sideways rise")
@@ -429,28 +451,55 @@ class LimitsSection:
     """[limits]: joint windows and conditioning limits the firmware enforces."""
 
     motor1_min_rad: float = key("float", -180, 360, doc="active joint 1 window")
-    motor1_max_rad: float = key("float", -180, 360)
+    motor1_max_rad: float = key("float", -180, 360, doc="upper end of active joint 1's window")
     motor2_min_rad: float = key("float", -180, 360, doc="active joint 2 window")
-    motor2_max_rad: float = key("float", -180, 360)
-    elbow_min_rad: float = key("float", 0, 180)
-    elbow_max_rad: float = key("float", 0, 180)
-    transmission_min_rad: float = key("float", 0, 180)
-    transmission_max_rad: float = key("float", 0, 180)
-    max_condition: float = key("float", 1, 1e6)
-    z_min_m: float = key("float", -100, 1000)
-    z_max_m: float = key("float", -100, 1000)
+    motor2_max_rad: float = key("float", -180, 360, doc="upper end of active joint 2's window")
+    elbow_min_rad: float = key(
+        "float", 0, 180, doc="least angle between active and passive link at B and D (0: folded)"
+    )
+    elbow_max_rad: float = key(
+        "float",
+        0,
+        180,
+        doc="largest angle between active and passive link at B and D (180: stretched)",
+    )
+    transmission_min_rad: float = key(
+        "float", 0, 180, doc="least angle at C between the passive links (0: parallel singularity)"
+    )
+    transmission_max_rad: float = key(
+        "float",
+        0,
+        180,
+        doc="largest angle at C between the passive links (180: parallel singularity)",
+    )
+    max_condition: float = key(
+        "float", 1, 1e6, doc="largest condition number of the Jacobian dC/dtheta (1: isotropic)"
+    )
+    z_min_m: float = key(
+        "float", -100, 1000, doc="lowest Z a move may target; limit switch 4 (Z down) trips there"
+    )
+    z_max_m: float = key("float", -100, 1000, doc="highest Z a move may target")
 
 
 @dataclass(frozen=True)
 class DrivesSection:
     """[drives]: stepper motors, transmissions, limit switches and homing rates."""
 
-    steps_per_rev: int = key("int", lo=1, hi=100000)
-    microsteps: int = key("int", lo=1, hi=256)
+    steps_per_rev: int = key(
+        "int", lo=1, hi=100000, doc="full steps per revolution of each of the three steppers"
+    )
+    microsteps: int = key("int", lo=1, hi=256, doc="the drivers' microsteps per full step")
     arm_belt_ratio: float = key("float", 0.01, 100, doc="motor revolutions per arm revolution")
     z_lead_m: float = key("float", 0.1, 100, doc="lead screw travel per revolution")
-    max_step_rate_hz: float = key("float", 1, 1e6)
-    holding_torque_nm: float = key("float", 0.001, 100)
+    max_step_rate_hz: float = key(
+        "float", 1, 1e6, doc="highest step pulse rate (microsteps/s) the SGF may send a motor"
+    )
+    holding_torque_nm: float = key(
+        "float",
+        0.001,
+        100,
+        doc="each stepper's holding torque: its torque law's peak at standstill",
+    )
     rotor_inertia_kgm2: float = key("float", 1e-9, 1e-2, doc="motor rotor inertia")
     detent_torque_nm: float = key(
         "float", 0.0, 100, doc="the motor's torque unpowered, one cycle per full step"
@@ -482,10 +531,16 @@ class DrivesSection:
     switch1_theta1_rad: float = key("float", -180, 360, doc="limit switch 1 trip angle")
     switch2_theta2_rad: float = key("float", -180, 360, doc="limit switch 2 trip angle")
     switch3_z_m: float = key("float", 0, 1000, doc="limit switch 3 (Z up) trip height")
-    homing_rate_arm_hz: float = key("float", 1, 1e5)
-    homing_rate_z_hz: float = key("float", 1, 1e6)
+    homing_rate_arm_hz: float = key(
+        "float", 1, 1e5, doc="each arm motor's step rate while G28 seeks its switch and pulls off"
+    )
+    homing_rate_z_hz: float = key(
+        "float", 1, 1e6, doc="Z motor's step rate while G28 seeks switch 3 and pulls off"
+    )
     homing_locate_rate_arm_hz: float = key("float", 1, 1e5, doc="slow second homing pass")
-    homing_locate_rate_z_hz: float = key("float", 1, 1e6)
+    homing_locate_rate_z_hz: float = key(
+        "float", 1, 1e6, doc="Z motor's step rate in the slow second homing pass"
+    )
     homing_debounce_s: float = key(
         "float", 0, 5000, doc="dwell after a homing switch trips, before the pull-off"
     )
@@ -496,8 +551,14 @@ class MotionSection:
     """[motion]: the SGF's interpolation and speed profile."""
 
     resolution_m: float = key("float", 0.001, 10, doc="Bresenham grid (paper 2.4)")
-    accel_m_s2: float = key("float", 1, 1e6)
-    profile: str = key("str", choices=("trapezoid", "scurve"))
+    accel_m_s2: float = key(
+        "float", 1, 1e6, doc="path acceleration and deceleration of a line (scurve: its peak)"
+    )
+    profile: str = key(
+        "str",
+        choices=("trapezoid", "scurve"),
+        doc="a line's speed ramps: trapezoid (constant acceleration) or scurve (smoothstep)",
+    )
     compute_time_per_point_s: float = key(
         "float",
         0.01,
@@ -520,7 +581,12 @@ class MotionSection:
 class BusSection:
     """[bus]: the UART between the PGF and the SGF."""
 
-    baud_bps: float = key("float", 300, 1e7)
+    baud_bps: float = key(
+        "float",
+        300,
+        1e7,
+        doc="the UART's bit rate: a line of n characters takes (n + 1) x 10 / baud s",
+    )
     line_numbers: bool = key("bool", doc="Marlin N<n> ... *<checksum> framing")
     reply_timeout_s: float = key(
         "float",
@@ -537,16 +603,46 @@ class GripperSection:
 
     servo_s_per_60deg: float = key("float", 0.01, 10, doc="hobby servo speed")
     max_opening_m: float = key("float", 1, 200, doc="jaw opening at 180 deg servo angle")
-    open_rad: float = key("float", 0, 180, quantum=GCODE_QUANTUM)
-    close_rad: float = key("float", 0, 180, quantum=GCODE_QUANTUM)
+    open_rad: float = key(
+        "float",
+        0,
+        180,
+        quantum=GCODE_QUANTUM,
+        doc="gripper servo angle (M280) that opens the jaws, before the grip and at the drop",
+    )
+    close_rad: float = key(
+        "float",
+        0,
+        180,
+        quantum=GCODE_QUANTUM,
+        doc="gripper servo angle (M280) that closes the jaws on a pot",
+    )
     grip_force_n: float = key("float", 0.01, 1000, doc="servo force limit at the jaws")
     bridge_clearance_m: float = key(
         "float", 1, 1000, doc="underside of the bridge joining the jaws, over the grip centre"
     )
-    wrist_servo_s_per_60deg: float = key("float", 0.01, 10)
-    open_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
-    close_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
-    release_dwell_s: float = key("float", 0, 10000, quantum=GCODE_QUANTUM)
+    wrist_servo_s_per_60deg: float = key("float", 0.01, 10, doc="wrist hobby servo speed")
+    open_dwell_s: float = key(
+        "float",
+        0,
+        10000,
+        quantum=GCODE_QUANTUM,
+        doc="G4 dwell after the jaws open, before the grip move",
+    )
+    close_dwell_s: float = key(
+        "float",
+        0,
+        10000,
+        quantum=GCODE_QUANTUM,
+        doc="G4 dwell after the jaws close, before the lift",
+    )
+    release_dwell_s: float = key(
+        "float",
+        0,
+        10000,
+        quantum=GCODE_QUANTUM,
+        doc="G4 dwell after the jaws open at the drop point",
+    )
     carry_accel_limit_m_s2: float = key(
         "float",
         100,
@@ -560,18 +656,30 @@ class GripperSection:
 class ConveyorSection:
     """[conveyor]: the feeding conveyor's cells and index time."""
 
-    rows: int = key("int", lo=1, hi=10000)
-    cols: int = key("int", lo=1, hi=20)
+    rows: int = key("int", lo=1, hi=10000, doc="rows of cells on the belt; row 0 is the pickup row")
+    cols: int = key("int", lo=1, hi=20, doc="cells per row, along x")
     live_rows: int = key(
         "int", lo=1, hi=10000,
         doc="rows of pots that are bodies in the physics: the row just picked, the pickup row "
         "and the rows upstream being pushed into place; the others ride the belt outside the "
         "physics and enter as rows are picked (at least 6; >= rows: every pot a body)",
     )  # fmt: skip
-    cell_pitch_m: float = key("float", 1, 1000)
-    row_pitch_m: float = key("float", 1, 1000)
-    pickup_row_y_m: float = key("float", -1000, 1000)
-    index_time_s: float = key("float", 0.01, 60)
+    cell_pitch_m: float = key("float", 1, 1000, doc="cell centre to cell centre along a row (x)")
+    row_pitch_m: float = key(
+        "float", 1, 1000, doc="row centre to row centre (y): how far an index moves the pots"
+    )
+    pickup_row_y_m: float = key(
+        "float",
+        -1000,
+        1000,
+        doc="y of the pickup row's centres (row 0); the rows behind at + row_pitch_mm each",
+    )
+    index_time_s: float = key(
+        "float",
+        0.01,
+        60,
+        doc="duration of a conveyor index (M710): push and settle, at least 0.2 s",
+    )
     index_error_sd_m: float = key(
         "float", 0, 20, doc="where an index leaves the row: belt stretch and rib play (sd)"
     )
@@ -586,12 +694,18 @@ class ConveyorSection:
 class PotsSection:
     """[pots]: paper pots and their spread."""
 
-    diameter_m: float = key("float", 1, 500)
-    diameter_sd_m: float = key("float", 0, 100)
-    height_m: float = key("float", 1, 500)
-    height_sd_m: float = key("float", 0, 100)
-    mass_kg: float = key("float", 0.1, 10000)
-    mass_sd_kg: float = key("float", 0, 10000)
+    diameter_m: float = key(
+        "float", 1, 500, doc="mean pot diameter; each pot's is drawn from a normal"
+    )
+    diameter_sd_m: float = key("float", 0, 100, doc="sd of the pot diameters (normal)")
+    height_m: float = key("float", 1, 500, doc="mean pot height; each pot's is drawn from a normal")
+    height_sd_m: float = key("float", 0, 100, doc="sd of the pot heights (normal)")
+    mass_kg: float = key(
+        "float", 0.1, 10000, doc="pot mass: mean of a normal truncated to [mass_min_g, mass_max_g]"
+    )
+    mass_sd_kg: float = key(
+        "float", 0, 10000, doc="sd of the pot masses' normal (before truncation)"
+    )
     friction: float = key("float", 0, 10, doc="sliding friction coefficient pot-jaw")
     friction_sd: float = key("float", 0, 10, doc="spread of a gamma distribution (never < 0)")
     placement_sd_m: float = key("float", 0, 100, doc="pot offset from its cell centre")
@@ -599,7 +713,12 @@ class PotsSection:
     mass_min_kg: float = key(
         "float", 0.1, 10000, doc="masses are a normal truncated to [min, max] (no clipping)"
     )
-    mass_max_kg: float = key("float", 0.1, 10000)
+    mass_max_kg: float = key(
+        "float",
+        0.1,
+        10000,
+        doc="heaviest pot drawn; the five-bar's lumped dynamics carry it with the shoot",
+    )
     bond_share: float = key(
         "float", 0, 1, doc="share of pots whose roots or wet paper bond them to the belt"
     )
@@ -649,10 +768,12 @@ class PotsSection:
 class DropTubeSection:
     """[drop_tube]: where the drop tube's funnel is."""
 
-    x_m: float = key("float", -1000, 1000)
-    y_m: float = key("float", -1000, 1000)
-    funnel_top_diameter_m: float = key("float", 1, 1000)
-    funnel_top_z_m: float = key("float", -1000, 1000)
+    x_m: float = key("float", -1000, 1000, doc="x of the drop tube's funnel centre")
+    y_m: float = key("float", -1000, 1000, doc="y of the drop tube's funnel centre")
+    funnel_top_diameter_m: float = key("float", 1, 1000, doc="the funnel's diameter at its top")
+    funnel_top_z_m: float = key(
+        "float", -1000, 1000, doc="height of the funnel's top above the belt's top face"
+    )
 
 
 @dataclass(frozen=True)
@@ -679,7 +800,12 @@ class MetricsSection:
 class PhysicsSection:
     """[physics]: solver settings."""
 
-    timestep_s: float = key("float", 0.01, 10)
+    timestep_s: float = key(
+        "float",
+        0.01,
+        10,
+        doc="MuJoCo's physics timestep (the five-bar's preflight refuses one too coarse)",
+    )
     sleep: bool = key(
         "bool",
         doc="let resting bodies sleep: faster; may change a single trial's trajectory near "
@@ -752,8 +878,15 @@ class TaughtPickup:
 class TaughtSection:
     """[taught]: the EEPROM image (paper Fig. 9) as entered on the HMI."""
 
-    z_up_m: float = key("float", -100, 1000)
-    z_low_m: float = key("float", -100, 1000)
+    z_up_m: float = key(
+        "float",
+        -100,
+        1000,
+        doc="Z_up: grip centre height of the lift, the retract and the carry to the drop",
+    )
+    z_low_m: float = key(
+        "float", -100, 1000, doc="Z_low: grip centre height of the approach and the grip"
+    )
     s_low_m_s: float = key("float", 0.1, 10000, doc="paper S_l")
     s_high_m_s: float = key("float", 0.1, 10000, doc="paper S_h")
     drop_m: tuple[float, float] = key("xy", -1000, 1000, doc="drop point M_dp")
@@ -840,7 +973,7 @@ class SerialPotsSection:
     (docs/serial_arm.md)."""
 
     base_x_m: float = key("float", -1000, 1000, doc="the base plate's centre, workcell frame")
-    base_y_m: float = key("float", -1000, 1000)
+    base_y_m: float = key("float", -1000, 1000, doc="y of the base plate's centre, workcell frame")
     base_z_m: float = key("float", -1000, 1000, doc="the base plate's height (a pedestal)")
     base_yaw_rad: float = key("float", -180, 180, doc="the arm's forward from world +x")
     grasp_z_m: float = key("float", 1, 200, doc="grip centre above the belt (a pot's bottom)")
@@ -859,7 +992,7 @@ class DeltaPotsSection:
     Optional: estimates (docs/compare.md, "The delta on the pot line")."""
 
     base_x_m: float = key("float", -2000, 2000, doc="the base frame's origin, workcell frame")
-    base_y_m: float = key("float", -2000, 2000)
+    base_y_m: float = key("float", -2000, 2000, doc="y of the base frame's origin, workcell frame")
     base_z_m: float = key("float", -2000, 3000, doc="the base above the belt's top")
     mount_drop_m: float = key("float", 0, 200, doc="gripper's mount below the platform's face")
     gripper_yaw_rad: float = key(
