@@ -542,6 +542,8 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             drop_tube_xy_m=(tube.x_m, tube.y_m),
             funnel_top_diameter_m=tube.funnel_top_diameter_m,
             funnel_top_z_m=tube.funnel_top_z_m,
+            funnel_throat_diameter_m=tube.funnel_throat_diameter_m,
+            funnel_height_m=tube.funnel_height_m,
             timestep_s=phys.timestep_s,
             sleep=phys.sleep,
         )

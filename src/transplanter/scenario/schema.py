@@ -774,6 +774,15 @@ class DropTubeSection:
     funnel_top_z_m: float = key(
         "float", -1000, 1000, doc="height of the funnel's top above the belt's top face"
     )
+    funnel_throat_diameter_m: float = key(
+        "float",
+        1,
+        1000,
+        doc="the funnel's throat, the tube's bore below it (a pot tilted too far is wider than it)",
+    )
+    funnel_height_m: float = key(
+        "float", 1, 1000, doc="the funnel's cone from its top to the throat"
+    )
 
 
 @dataclass(frozen=True)

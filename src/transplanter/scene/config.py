@@ -404,6 +404,14 @@ class SceneConfig:
                 f"integer from 3 (fewer do not stand a pot up) to {POT_FEET_MAX}, got "
                 f"{self.pot_feet!r}"
             )
+        if not 0 < self.funnel_throat_diameter_m < self.funnel_top_diameter_m:
+            raise ValueError(
+                "the drop tube's funnel narrows to its throat: funnel_throat_diameter_mm "
+                f"({self.funnel_throat_diameter_m * 1e3:g}) must be below "
+                f"funnel_top_diameter_mm ({self.funnel_top_diameter_m * 1e3:g})"
+            )
+        if not self.funnel_height_m > 0:
+            raise ValueError(f"the funnel's height must be > 0, got {self.funnel_height_m}")
         if self.rows < 1 or self.cols < 1:
             raise ValueError(
                 f"SceneConfig needs rows >= 1 and cols >= 1, got {self.rows}x{self.cols}"
