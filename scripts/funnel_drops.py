@@ -253,7 +253,9 @@ def map_(args) -> None:
                 got = b.drop("pot_0_0", pos, _tilted(tilt, az + math.pi / 2), [0.0] * 6)
                 grid.append({"tilt_deg": float(tilt), "offset_mm": float(side * off), **got})
     entries = _entries(out)
-    suffix = "".join("_" + x.split(".")[-1].replace("=", "_") for x in args.set or [])
+    suffix = "".join(
+        "_" + x.split(".", 1)[-1].replace("=", "_").replace(".", "p") for x in args.set or []
+    )
     fileio.write_json_atomic(out / f"map{suffix}.json", {"settings": args.set or [], "grid": grid})
     fig, ax = plt.subplots(figsize=(7, 5.0))
     colours = {"tube": "tab:green", "jam": "tab:red", "outside": "tab:gray"}
