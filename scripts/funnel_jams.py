@@ -20,9 +20,7 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from scipy.stats import chi2
-
-from transplanter.studies.stats import parse_seeds
+from transplanter.studies.stats import parse_seeds, poisson_interval
 
 
 def _run(scenario: str, seed: int, seedlings: int, rows: int, sets: list[str], out: Path) -> Path:
@@ -36,13 +34,6 @@ def _run(scenario: str, seed: int, seedlings: int, rows: int, sets: list[str], o
         cmd += ["--set", s]
     subprocess.run(cmd, check=False, capture_output=True)
     return target
-
-
-def poisson_interval(k: int, exposure: float) -> tuple[float, float]:
-    """The exact 95 % interval of a Poisson rate: k events over `exposure`."""
-    lo = chi2.ppf(0.025, 2 * k) / 2 if k else 0.0
-    hi = chi2.ppf(0.975, 2 * k + 2) / 2
-    return lo / exposure, hi / exposure
 
 
 STRIKE_WINDOW_S = 30.0

@@ -11,6 +11,7 @@ from transplanter.scenario.schema import load_scenario
 from transplanter.studies.compare import (
     CompareSpec,
     compare_row,
+    format_table,
     rank_rows,
     run_compare,
 )
@@ -313,3 +314,34 @@ def test_a_comparison_over_two_jobs_draws_each_jobs_picture(tmp_path):
     for name in ("compare.png", *(job_png(j) for j in jobs)):
         png = (tmp_path / "c" / name).read_bytes()
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000, name
+
+
+def test_a_pot_line_row_carries_its_jam_rate_with_poissons_interval():
+    """jams/1k: the pot line judge's funnel jams per 1,000 seedlings with Poisson's exact 95 %
+    interval; a job whose judge names no jam has none."""
+    from transplanter.studies.compare import JAM_FIELD
+    from transplanter.studies.stats import poisson_interval
+
+    sc = load_scenario("paper", {"scenario.seedlings": 40})
+    runs = [
+        {
+            "seed": s,
+            "successes": 38,
+            "seedlings": 40,
+            "cycles": 38,
+            "cycle_time_s": 3.5,
+            JAM_FIELD: j,
+            "fail_dropped_outside": 2 - j,
+        }
+        for s, j in ((1, 1), (2, 0), (3, 1))
+    ]
+    row = compare_row("paper", sc, runs, 0.9)
+    assert row["jams_per_1000"] == pytest.approx(1000 * 2 / 120)
+    lo, hi = poisson_interval(2, 120)
+    assert row["jams_per_1000_ci95"] == pytest.approx([1000 * lo, 1000 * hi])
+    assert 1000 * lo == pytest.approx(2.018, abs=1e-3) and 1000 * hi == pytest.approx(
+        60.206, abs=1e-3
+    )
+    none = [{**r, JAM_FIELD: None} for r in runs]
+    assert compare_row("paper", sc, none, 0.9)["jams_per_1000"] is None
+    assert "jams/1k" in format_table([row | {"rank": 1, "tie": None}], 0.9)

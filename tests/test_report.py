@@ -2,6 +2,8 @@
 
 import re
 
+import pytest
+
 from transplanter.twin.report import format_summary, printable
 from transplanter.twin.results import Outcome, SeedlingRecord, TrialResult
 
@@ -19,7 +21,7 @@ def test_summary_shows_rate_interval_and_the_failure_kinds_that_occurred():
         "failures: no_pot           1"
     ]
     assert result.to_dict()["failures"]["knocked_over"] == 0  # every kind in the JSON
-    assert "21.0x" in text.splitlines()[9]
+    assert "21.0x" in text.splitlines()[10]
     # the throughput second, at the pick pitch over whole rows (seedling 35's start is the
     # last at pickup 0: 35 picks of 3.6 s), the homing before the first (4 s) left out
     assert text.splitlines()[4] == (
@@ -45,9 +47,11 @@ def test_the_damage_leads_beside_success_throughput_and_cycle():
     result = TrialResult("paper", 1, records, sim_time_s=147.0, wall_time_s=7.0)
     lines = format_summary(result).splitlines()
     labels = [line.split("  ")[0] for line in lines]
-    assert labels[3:7] == ["success rate", "plants per hour", "cycle time", "damage"]
+    assert labels[3:8] == [
+        "success rate", "plants per hour", "placed per hour", "cycle time", "damage"
+    ]  # fmt: skip
     bend = result.to_dict()["max_stem_bend_deg"]
-    assert lines[6] == (
+    assert lines[7] == (
         "damage                     2/40 seedlings (5.0 %: damaged 1, shoot_crushed 1); "
         f"largest shoot bend {bend:.1f} deg"
     )
@@ -130,3 +134,24 @@ def test_one_bar_runs_over_the_seedlings_of_every_seed(capsys):
     assert bar.bar.n == 6 and "seed 2" in bar.bar.postfix
     bar.close()
     assert "3/3" in capsys.readouterr().out  # the rows go to stdout above the bar
+
+
+def test_placed_per_hour_is_the_whole_runs_yield_beside_the_picks_pace():
+    """A long run's shift in one number: the seedlings placed an hour of the whole run, which
+    a decay pulls down while the picks keep their pace (plants per hour)."""
+    records = [
+        SeedlingRecord(
+            i,
+            i % 5,
+            outcome=Outcome.SUCCESS if i < 10 else Outcome.POSITION_LOST,
+            t_start_s=4.0 + 3.6 * i,
+        )  # fmt: skip
+        for i in range(40)
+    ]
+    result = TrialResult("paper", 1, records, sim_time_s=147.6, wall_time_s=7.0)
+    d = result.to_dict()
+    assert d["placed_per_hour"] == pytest.approx(3600 * 10 / 147.6)
+    assert d["plants_per_hour"] == pytest.approx(1000.0)  # a pick every 3.6 s, placed or not
+    text = format_summary(result)
+    assert "placed per hour            244 over the whole run (10 placed in 147.6 s: " in text
+    assert "placed_per_hour" in d["definitions"]

@@ -37,7 +37,7 @@ _API = {
     "pooled_rate": "transplanter.studies.stats",
     "run_sweep": "transplanter.studies.sweep",
     "run_scenario": "transplanter.studies.run",
-    "run_job": "transplanter.runs",
+    "run_job": "transplanter.studies.run",
     "TrialFailed": "transplanter.studies.run",
     "TransplanterError": "transplanter.errors",
     "Refusal": "transplanter.errors",

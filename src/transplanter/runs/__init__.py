@@ -26,9 +26,7 @@ from collections.abc import Mapping
 from types import ModuleType
 from typing import Any, Protocol, runtime_checkable
 
-__all__ = [
-    "MEMBERS", "JobRun", "finite", "of", "pooled_line", "problems", "read_sections", "run_job",
-]  # fmt: skip
+__all__ = ["MEMBERS", "JobRun", "finite", "of", "pooled_line", "problems", "read_sections"]
 
 
 @runtime_checkable
@@ -141,48 +139,6 @@ def of(scenario: Any) -> Any:
     if not job.runner(scenario.robot.kind):
         return None
     return importlib.import_module(job.RUN)
-
-
-def run_job(
-    scenario: Any,
-    seed: int | None = None,
-    units: int | None = None,
-    overrides: Mapping[str, Any] | None = None,
-    *,
-    progress: Any = None,
-    observers: Any = (),
-) -> Any:
-    """One trial of `scenario` (a packaged name or a file; or a loaded `Scenario`, with no
-    `units` or `overrides` then) by its job, whatever its robot: the job's own result, with
-    its per-unit records, as `transplanter trial --json` writes it (`to_dict()`): the pot
-    line's per seedling (every robot on it), the trays' per cell, the tomatoes' per pick.
-    `seed`: None for the scenario's; `units`: `--seedlings`; `overrides`: 'section.key' ->
-    value in file units, as `--set`. ScenarioError with the reason for what the job refuses,
-    before any step (the five-bar's taught points and moves are checked as `trial` checks
-    them)."""
-    from transplanter.scenario.schema import Scenario, load_scenario, with_units
-
-    given = dict(overrides or {})
-    if seed is not None:
-        given["scenario.seed"] = int(seed)
-    if isinstance(scenario, Scenario):
-        if units is not None or overrides:
-            raise ValueError("give units and overrides with a scenario's name or file")
-        sc = scenario
-        if seed is not None and seed != scenario.seed:
-            if scenario.path is None:
-                raise ValueError("a scenario built without a file: give its seed in it")
-            sc = load_scenario(scenario.path, dict(scenario.overrides) | given)
-    else:
-        sc = load_scenario(scenario, with_units(scenario, given, units))
-    run = of(sc)
-    if run is None:  # the five-bar's PGF on the pot line: the twin's own trial
-        from transplanter.scenario.assemble import assemble
-        from transplanter.twin.trial import run_trial
-
-        return run_trial(assemble(sc), progress=progress, observers=observers)
-    run.check(sc)
-    return run.run(sc, sc.seed, progress=progress, observers=observers)
 
 
 def pooled_line(pooled, what: str, over: str = "runs") -> str:

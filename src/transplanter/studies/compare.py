@@ -52,7 +52,12 @@ from transplanter.scenario.schema import (
 )
 from transplanter.studies.grid import SweepRefused, SweepSpec
 from transplanter.studies.jobs import POT_LINE_DAMAGE, job_of
-from transplanter.studies.stats import mean_interval, pool_runs, seedlings_to_decide
+from transplanter.studies.stats import (
+    mean_interval,
+    poisson_interval,
+    pool_runs,
+    seedlings_to_decide,
+)
 
 __all__ = [
     "CompareReport",
@@ -96,6 +101,9 @@ CSV_FIELDS = (
     "plants_per_hour_ci95_high",
     "tie",
     "damage_rate",
+    "jams_per_1000",
+    "jams_per_1000_ci95_low",
+    "jams_per_1000_ci95_high",
     "peak_motor_torque_nm",
     "energy_per_seedling_j",
     "mean_power_w",
@@ -103,6 +111,11 @@ CSV_FIELDS = (
     "usd_per_plant_per_hour",
     "failures",
 )
+
+
+JAM_FIELD = "fail_funnel_jam"
+"""A run's count of jams (the pot line's judge: a pot stuck in the funnel, the jam itself, not
+what followed it); a row gets its rate per 1,000 units with Poisson's exact interval."""
 
 
 @dataclass(frozen=True)
@@ -222,6 +235,8 @@ def compare_row(
         "decide_seedlings": None,
         "more": job.more if job is not None else "--seedlings x seeds",
         "plants_per_hour_ci95": None,
+        "jams_per_1000": None,
+        "jams_per_1000_ci95": None,
     }
     if not counted:
         return out
@@ -253,6 +268,11 @@ def compare_row(
         for k in kinds
         if (total := sum(r.get(k) or 0 for r in counted))
     }
+    if any(r.get(JAM_FIELD) is not None for r in counted):  # a judge that names a jam
+        jams = sum(r.get(JAM_FIELD) or 0 for r in counted)
+        lo, hi = poisson_interval(jams, n)
+        out["jams_per_1000"] = 1000.0 * jams / n
+        out["jams_per_1000_ci95"] = [1000.0 * lo, 1000.0 * hi]
     peaks = [r["peak_motor_torque_nm"] for r in counted if r.get("peak_motor_torque_nm")]
     out["peak_motor_torque_nm"] = max(peaks) if peaks else None
     metered = [r for r in counted if r.get("motor_energy_j") is not None]
@@ -378,7 +398,8 @@ def format_table(rows: Sequence[Mapping[str, Any]], floor: float) -> str:
     head = (
         f"{'#':>3}  {'scenario':<22} {'robot':<8} {'effector':<13} {'job':<13} "
         f"{'success':>13} {'95 % CI':>13} "
-        f"{'cycle s':>7} {'plants/h':>8} {'damage':>7} {'torque':>7} {'J/seedl.':>8} "
+        f"{'cycle s':>7} {'plants/h':>8} {'damage':>7} {'jams/1k':>7} {'torque':>7} "
+        f"{'J/seedl.':>8} "
         f"{'W':>6} {'drives $':>8} {'$/(pl/h)':>8}"
     )
     mark = {ABOVE: "", UNDECIDED: " ?", BELOW: " *"}
@@ -403,7 +424,8 @@ def format_table(rows: Sequence[Mapping[str, Any]], floor: float) -> str:
                 f"{rank:>3}  {r['scenario'][:22]:<22} {r['robot']:<8} {r['effector'][:13]:<13} "
                 f"{r['workcell'][:13]:<13} {success:>13} {ci:>13} "
                 f"{_fmt(r['cycle_time_s'], '.3f'):>7} {_fmt(r['plants_per_hour'], '.0f'):>8} "
-                f"{damage:>7} {_fmt(r['peak_motor_torque_nm'], '.3f'):>7} "
+                f"{damage:>7} {_fmt(r.get('jams_per_1000'), '.1f'):>7} "
+                f"{_fmt(r['peak_motor_torque_nm'], '.3f'):>7} "
                 f"{_fmt(r['energy_per_seedling_j'], '.2f'):>8} "
                 f"{_fmt(r['mean_power_w'], '.2f'):>6} {_fmt(r['drives_usd'], '.0f'):>8} "
                 f"{_fmt(r['usd_per_plant_per_hour'], '.3f'):>8}{mark[_verdict_of(r)]}"
@@ -418,7 +440,8 @@ def format_table(rows: Sequence[Mapping[str, Any]], floor: float) -> str:
         f"ranked within each job by plants per hour among rows whose pooled success's 95 % "
         f"interval lies at or above the {100 * floor:g} % floor, then the undecided (?: the "
         "interval holds the floor), then those below it (*); N=: tied with rank N on plants "
-        "per hour. torque: the robot's peak motor torque (N m at the shaft); J/seedl.: the "
+        "per hour. jams/1k: pots stuck in the funnel per 1,000 seedlings (its 95 % interval in "
+        "compare.json). torque: the robot's peak motor torque (N m at the shaft); J/seedl.: the "
         "drives' mechanical work per seedling; W: their mean power"
     )
     return "\n".join(lines) + "\n"
@@ -569,6 +592,8 @@ def _write_csv(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
         f["ci95_low"], f["ci95_high"] = r["ci95"] if r["ci95"] else (None, None)
         band = r.get("plants_per_hour_ci95")
         f["plants_per_hour_ci95_low"], f["plants_per_hour_ci95_high"] = band or (None, None)
+        jams = r.get("jams_per_1000_ci95")
+        f["jams_per_1000_ci95_low"], f["jams_per_1000_ci95_high"] = jams or (None, None)
         f["failures"] = " ".join(f"{k}={v}" for k, v in r["failures"].items())
         flat.append(f)
     write_csv_atomic(path, CSV_FIELDS, flat)

@@ -18,9 +18,10 @@ offscreen backend as the command line does (EGL, else OSMesa), so that a job tha
 photographs its trays runs on a server.
 
 A scenario or a setting it refuses raises `ScenarioError` with the reason; a trial whose
-physics or controller raised raises `TrialFailed` with the row (its `error`) attached. Each
-job's own result, with its per-unit records, comes from its runner (`transplanter.kinds`:
-`JobKind.runner`), as `transplanter trial --json` writes it.
+physics or controller raised raises `TrialFailed` with the row (its `error`) attached.
+`run_job` returns each job's own result instead, with its per-unit records, as `transplanter
+trial --json` writes it (its job's run, `transplanter.runs`, or the twin's own trial of the
+five-bar on the pot line).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from typing import Any
 
 from transplanter.errors import TransplanterError
 
-__all__ = ["TrialFailed", "run_scenario"]
+__all__ = ["TrialFailed", "run_job", "run_scenario"]
 
 
 class TrialFailed(TransplanterError, RuntimeError):
@@ -44,6 +45,50 @@ class TrialFailed(TransplanterError, RuntimeError):
 
 
 REFUSED = "setting refused: "
+
+
+def run_job(
+    scenario: Any,
+    seed: int | None = None,
+    units: int | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    progress: Any = None,
+    observers: Any = (),
+) -> Any:
+    """One trial of `scenario` (a packaged name or a file; or a loaded `Scenario`, with no
+    `units` or `overrides` then) by its job, whatever its robot: the job's own result, with
+    its per-unit records, as `transplanter trial --json` writes it (`to_dict()`): the pot
+    line's per seedling (every robot on it), the trays' per cell, the tomatoes' per pick.
+    `seed`: None for the scenario's; `units`: `--seedlings`; `overrides`: 'section.key' ->
+    value in file units, as `--set`. ScenarioError with the reason for what the job refuses,
+    before any step (the five-bar's taught points and moves are checked as `trial` checks
+    them)."""
+    from transplanter.scenario.schema import Scenario, load_scenario, with_units
+
+    given = dict(overrides or {})
+    if seed is not None:
+        given["scenario.seed"] = int(seed)
+    if isinstance(scenario, Scenario):
+        if units is not None or overrides:
+            raise ValueError("give units and overrides with a scenario's name or file")
+        sc = scenario
+        if seed is not None and seed != scenario.seed:
+            if scenario.path is None:
+                raise ValueError("a scenario built without a file: give its seed in it")
+            sc = load_scenario(scenario.path, dict(scenario.overrides) | given)
+    else:
+        sc = load_scenario(scenario, with_units(scenario, given, units))
+    from transplanter import runs
+
+    run = runs.of(sc)
+    if run is None:  # the five-bar's PGF on the pot line: the twin's own trial
+        from transplanter.scenario.assemble import assemble
+        from transplanter.twin.trial import run_trial
+
+        return run_trial(assemble(sc), progress=progress, observers=observers)
+    run.check(sc)
+    return run.run(sc, sc.seed, progress=progress, observers=observers)
 
 
 def run_scenario(

@@ -131,6 +131,18 @@ def mean_interval(values: Sequence[float]) -> tuple[float, float] | None:
     return mean - half, mean + half
 
 
+def poisson_interval(k: int, exposure: float) -> tuple[float, float]:
+    """The exact 95 % interval of a Poisson rate: `k` events over `exposure` (units of
+    exposure, e.g. seedlings), from the chi-square quantiles (Garwood's interval)."""
+    from scipy.stats import chi2
+
+    if not exposure > 0:
+        raise ValueError(f"a rate needs an exposure > 0, got {exposure!r}")
+    lo = chi2.ppf(0.025, 2 * k) / 2 if k else 0.0
+    hi = chi2.ppf(0.975, 2 * k + 2) / 2
+    return float(lo) / exposure, float(hi) / exposure
+
+
 def parse_seeds(text: str) -> list[int]:
     """'41-44' or '1,3,5-7' -> seeds, in order; ValueError naming the bad part."""
     seeds: list[int] = []

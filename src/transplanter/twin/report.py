@@ -131,6 +131,16 @@ def _throughput(d: dict) -> str:
     )
 
 
+def _placed(d: dict) -> str:
+    """The summary's shift figure: the seedlings placed an hour of the whole run."""
+    if d["placed_per_hour"] is None:
+        return "n/a"
+    return (
+        f"{d['placed_per_hour']:.0f} over the whole run ({d['successes']} placed in "
+        f"{d['sim_time_s']:.1f} s: the homing, indexes, failed picks and recoveries included)"
+    )
+
+
 DAMAGE_KINDS = ("damaged", "shoot_crushed")
 """The pot line judge's failure kinds that are a damaged seedling (`compare`'s damage)."""
 
@@ -165,6 +175,7 @@ def format_summary(result: TrialResult) -> str:
             f"{100 * d['success_rate']:.1f} % ({d['successes']}/{d['seedlings']}), {interval}",
         ),
         ("plants per hour", _throughput(d)),
+        ("placed per hour", _placed(d)),
         (
             "cycle time",
             "n/a"

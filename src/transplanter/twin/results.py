@@ -133,6 +133,9 @@ DEFINITIONS = {
     "(first_pick_start_s) left out",
     "plants_per_hour": "3600 / pick_pitch_s: the pot line's one throughput, the same in the "
     "summary, the JSON, sweep and compare for every robot (None with fewer than two picks)",
+    "placed_per_hour": "3600 x successes / sim_time_s: the seedlings placed in the tube an hour "
+    "of the whole run (the homing, the indexes, the failed picks, jams, cascades and recoveries "
+    "in it): a long run's shift in one number, beside plants_per_hour (the pace of the picks)",
 }
 """What the pot line's numbers mean (the JSON's `definitions`, `trial --explain`)."""
 
@@ -332,6 +335,10 @@ class TrialResult:
             "pick_pitch_picks": None if pitch is None else pitch[1],
             "pick_pitch_whole_rows": None if pitch is None else pitch[2],
             "first_pick_start_s": min(starts) if starts else None,
+            # the run as a shift: seedlings placed an hour of its whole simulated time
+            "placed_per_hour": (
+                3600.0 * self.successes / self.sim_time_s if self.sim_time_s > 0 else None
+            ),
             "sim_time_s": self.sim_time_s,
             "wall_time_s": self.wall_time_s,
             "real_time_factor": self.sim_time_s / self.wall_time_s if self.wall_time_s else None,
