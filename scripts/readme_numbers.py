@@ -512,6 +512,16 @@ def paper_bspline5(runs: Runs) -> str:
     return f"{spline_cycle:.3f} s a seedling against {lines_cycle:.3f} s at {tally}"
 
 
+def serial_arm_tomatoes(runs: Runs) -> str:
+    """`trial serial_arm --seeds 1-3`: the tomatoes onto the belt and their mean cycle."""
+    d = runs.cli(["trial", "serial_arm", "--seeds", "1-3", "--quiet"], json_out=True)[1]
+    pooled = d["pooled"]
+    return (
+        f"{pooled['successes']}/{pooled['seedlings']} over seeds 1-3, "
+        f"{d['mean_cycle_time_s']:.2f} s a tomato"
+    )
+
+
 def calibrated_held_out(runs: Runs) -> str:
     """docs/fidelity.md: `transplanter trial paper_calibrated --seeds S` on the fitted seeds and
     on seeds the fit never saw, per seed and pooled."""
@@ -580,6 +590,8 @@ BLOCKS = {
               "motion.planner='\"lines\"']"),
         Block("paper_bspline5", paper_bspline5,
               "transplanter trial paper --seeds 31-35 [--set motion.planner='\"bspline5\"']"),
+        Block("serial_arm_tomatoes", serial_arm_tomatoes,
+              "transplanter trial serial_arm --seeds 1-3"),
         Block("calibrated_held_out", calibrated_held_out,
               "transplanter trial paper_calibrated --seeds S", page="docs/fidelity.md"),
         *(
