@@ -8,17 +8,18 @@ trials, then the funnel alone, re-dropping those states and varying one thing at
     python scripts/funnel_drops.py map --out results/funnel      # the tilt x offset map + figure
 
 `capture` runs the scenario's trial (`paper` by default) with an observer that keeps, for every
-released pot, its state at the step its centre first comes within half its height (+ 3 mm) of
-the funnel's top plane, over the funnel (the pot falling out of the opened jaws): its pose and
-velocity relative to the tube's axis, and the judge's outcome for it. `bench` builds the
-workcell alone (the conveyor, its pots asleep on the belt, the drop tube: no robot, no jaws),
-sets one belt pot into each captured state over the funnel and lets it fall for 1 s (the
-loop's `run_steps`), then says where it came to rest: through the throat into the tube, stuck
-above the throat (a jam), or outside. The scene's settings may be changed as `--set` changes a
-trial's (`pots.friction=0.3`, `physics.timestep_ms=0.25`,
-`drop_tube.funnel_throat_diameter_mm=46`). `map` drops a pot from rest at each tilt and offset from
-the axis of a grid, at the height a trial's pots enter, and draws the jams over the captured
-entry states. Writes JSON (atomically) and a PNG into --out.
+released pot, its state at the first step after its release at which its centre lies within
+half its height (+ 3 mm) of the funnel's top plane or below it, over the funnel: the step of
+the release itself for a pot the jaws lowered into the funnel, as they lower the paper's. It
+keeps the pose and velocity relative to the tube's axis, and the judge's outcome for the pot.
+`bench` builds the workcell alone (the conveyor, its pots asleep on the belt, the drop tube: no
+robot, no jaws), sets one belt pot into each captured state over the funnel and lets it fall
+for 1 s (the loop's `run_steps`), then says where it came to rest: through the throat into the
+tube, stuck above the throat (a jam), or outside. The scene's settings may be changed as
+`--set` changes a trial's (`pots.friction=0.3`, `physics.timestep_ms=0.25`,
+`drop_tube.funnel_throat_diameter_mm=46`). `map` drops a pot from rest at each tilt and offset
+from the axis of a grid, at the height a trial's pots enter, and draws the jams over the
+captured entry states. Writes JSON (atomically) and a PNG into --out.
 """
 
 from __future__ import annotations

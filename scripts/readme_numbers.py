@@ -522,6 +522,32 @@ def serial_arm_tomatoes(runs: Runs) -> str:
     )
 
 
+def serial_arm_targets(runs: Runs) -> str:
+    """`trial serial_arm` (seed 1): the ten targets' mean error per axis, its range (cm)."""
+    d = runs.cli(["trial", "serial_arm", "--quiet"], json_out=True)[1]
+    errors = d["mean_error_cm"]
+    return f"{min(errors):.2f}-{max(errors):.2f} cm per axis"
+
+
+def _per_operation(runs: Runs, extra: list[str]) -> float:
+    """The mean of the trays' time per operation, `trial delta_refill --seeds 1-3` graded from
+    the drawn truth (the motion compared alone, as docs/delta.md's table)."""
+    argv = ["trial", "delta_refill", "--seeds", "1-3", "--set", 'delta_refill.vision="truth"']
+    d = runs.cli([*argv, *extra, "--quiet"], json_out=True)[1]
+    times = [t["time_per_operation_s"] for t in d["trials"]]
+    return sum(times) / len(times)
+
+
+def delta_tray_operation(runs: Runs) -> str:
+    """The delta's time per operation with its splines and with straight lines."""
+    splines = _per_operation(runs, [])
+    lines = _per_operation(runs, ["--set", 'motion.planner="lines"'])
+    return (
+        f"about {splines:.2f} s per operation against the paper's 3.1 s ({lines:.1f} s with "
+        "straight lines"
+    )
+
+
 def calibrated_held_out(runs: Runs) -> str:
     """docs/fidelity.md: `transplanter trial paper_calibrated --seeds S` on the fitted seeds and
     on seeds the fit never saw, per seed and pooled."""
@@ -592,6 +618,10 @@ BLOCKS = {
               "transplanter trial paper --seeds 31-35 [--set motion.planner='\"bspline5\"']"),
         Block("serial_arm_tomatoes", serial_arm_tomatoes,
               "transplanter trial serial_arm --seeds 1-3"),
+        Block("serial_arm_targets", serial_arm_targets, "transplanter trial serial_arm"),
+        Block("delta_tray_operation", delta_tray_operation,
+              "transplanter trial delta_refill --seeds 1-3 --set delta_refill.vision='\"truth\"'"
+              " [--set motion.planner='\"lines\"']"),
         Block("calibrated_held_out", calibrated_held_out,
               "transplanter trial paper_calibrated --seeds S", page="docs/fidelity.md"),
         *(
