@@ -292,3 +292,47 @@ def test_a_too_low_approach_brings_the_bridge_down_on_the_shoots_and_names_it():
     for r in crushed.per_seedling:
         assert r.shoot_touched_by == "bridge"
         assert (r.outcome == Outcome.SHOOT_CRUSHED) == (r.shoot_pressed_deg > 45.0)
+
+
+class _TubeWatch:
+    """A trial observer: the most pots inside the drop tube below its throat at any step, and
+    the judged ones among them (a pot whose verdict is in stays in the tube: none may)."""
+
+    def attach(self, twin, records) -> None:
+        cfg = twin.scene.config
+        self.records, self.most, self.judged_in_tube = records, 0, set()
+        self.axis = np.array(cfg.drop_tube_xy_m)
+        self.radius = cfg.funnel_throat_diameter_m / 2
+        self.throat_z = cfg.funnel_top_z_m - cfg.funnel_height_m
+
+    def step(self, twin) -> None:
+        if twin.k % 20:
+            return
+        scene, q = twin.scene, twin.data.qpos
+        inside = []
+        for pot in np.flatnonzero(scene.pot_qpos_adr >= 0):
+            p = q[scene.pot_qpos_adr[pot] : scene.pot_qpos_adr[pot] + 3]
+            if p[2] < self.throat_z and np.hypot(*(p[:2] - self.axis)) < self.radius:
+                inside.append(int(pot))
+        self.most = max(self.most, len(inside))
+        for rec in self.records:
+            if rec.pot in inside and rec.outcome != Outcome.PENDING:
+                self.judged_in_tube.add(rec.index)
+
+    def finish(self, twin, interrupted: bool) -> None:
+        pass
+
+    def abort(self) -> None:
+        pass
+
+
+def test_a_pot_leaves_the_tube_at_its_verdict_so_the_tube_never_fills():
+    """The planting unit takes each pot that reached the tube away at its verdict (the judge
+    parks it): over 60 seedlings on a 20-row belt with the window of live rows, never more
+    than the pot landing and the one before it lie in the tube, and no judged pot stays."""
+    over = {"scenario.seedlings": 60, "conveyor.rows": 20}
+    watch = _TubeWatch()
+    result = run_trial(assemble(load_scenario("paper", over)), observers=[watch])
+    assert result.successes >= 55  # pots did land in the tube
+    assert 1 <= watch.most <= 2
+    assert watch.judged_in_tube == set()
