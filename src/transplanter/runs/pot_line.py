@@ -1,5 +1,5 @@
 """The pot line's run (`[workcell] kind = "conveyor_tube"`) for every robot whose host program
-its job kind names (`JobKind.runner`: the robot's module, with its `check`, `export` and the
+its job kind names (`JobKind.runner`: the robot's module, with its `check`, `scene_spec` and the
 trial function): the pots picked row by row into the drop tube and judged seedling by
 seedling by the pot line's judge (`transplanter.twin.pot_job`). The five-bar's PGF runs as
 the twin's own trial (`transplanter.twin.trial`)."""
@@ -137,4 +137,14 @@ def viewer(scenario, speed: float):
 
 
 def export(scenario, target):
-    return _robot(scenario)[0].export(scenario, target)
+    """The scene the robot's trial builds for the scenario's seed (its module's `scene_spec`),
+    with the pots' decor, meshes in assets/ beside it; the effector's classes renamed at its
+    mount (`scene.export.export_spec`)."""
+    from transplanter import kinds
+    from transplanter.scene.export import export_spec
+
+    module = _robot(scenario)[0]
+    module.check(scenario)
+    spec = module.scene_spec(scenario, scenario.seed, decor=True)[0]
+    scene = importlib.import_module(kinds.effector(scenario.effector.kind).SCENE)
+    return export_spec(spec, target, mount=scene.MOUNT)

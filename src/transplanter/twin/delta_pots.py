@@ -80,7 +80,6 @@ from transplanter.twin.serial_pots import DETECTED_CM, PotRecord, line_config
 __all__ = [
     "DEFINITIONS",
     "check",
-    "export",
     "check_placement",
     "run_delta_pots",
     "scene_spec",
@@ -292,17 +291,6 @@ def check(sc) -> None:
     frame_steps(sc.physics.timestep_s)
     require_delta_gripper(sc)
     check_placement(sc)
-
-
-def export(sc, target):
-    """`transplanter export` of the job: the scene its trial builds for the scenario's seed
-    (`scene_spec`) with the pots' decor, meshes in assets/ beside it; the XML's path."""
-    from transplanter.scene.delta_scene import export_spec
-    from transplanter.scene.effectors import fuzzy_gripper
-
-    check(sc)
-    spec = scene_spec(sc, sc.seed, decor=True)[0]
-    return export_spec(spec, target, mount=fuzzy_gripper.MOUNT)
 
 
 def run_delta_pots(sc, seed: int | None = None, progress=None, observers=()) -> PotJobResult:

@@ -65,7 +65,6 @@ __all__ = [
     "DEFINITIONS",
     "PotRecord",
     "check",
-    "export",
     "line_config",
     "pitch_release",
     "run_serial_pots",
@@ -250,17 +249,6 @@ def check(sc) -> None:
     frame_steps(sc.physics.timestep_s)
     require_own_motion(sc, "the serial arm's pot job")
     check_placement(sc)
-
-
-def export(sc, target):
-    """`transplanter export` of the job: the scene its trial builds for the scenario's seed
-    (`scene_spec`) with the pots' decor, meshes in assets/ beside it; the XML's path."""
-    from transplanter.scene.effectors import fuzzy_gripper
-    from transplanter.scene.export import export_spec
-
-    check(sc)
-    spec = scene_spec(sc, sc.seed, decor=True)[0]
-    return export_spec(spec, target, mount=fuzzy_gripper.MOUNT)
 
 
 def run_serial_pots(sc, seed: int | None = None, progress=None, observers=()) -> PotJobResult:
