@@ -11,6 +11,7 @@ import math
 from typing import Any
 
 from transplanter.twin.pot_job import DEFINITIONS
+from transplanter.twin.results import DAMAGE_FIELDS
 
 __all__ = [
     "DEFINITIONS", "FILMED", "REFUSED_OPTIONS", "UNIT",
@@ -35,9 +36,7 @@ REFUSED_OPTIONS = {
 
 POT_FIELDS = ("peak_squeeze_n",)
 """The pot jobs' own column beside the five-bar's trial row."""
-POT_LINE_DAMAGE = ("fail_damaged", "fail_shoot_crushed")
-"""The pot line judge's failures that are a damaged seedling (its shoot bent past
-`metrics.damage_bend_deg` or crushed by the gripper), whatever robot works it."""
+POT_LINE_DAMAGE = DAMAGE_FIELDS  # the pot line judge's damaged seedlings (twin.results)
 
 
 def _robot(scenario) -> tuple[Any, Any]:

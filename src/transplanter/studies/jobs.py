@@ -24,11 +24,11 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from transplanter.twin.results import WARNING_SEPARATOR, trial_row
+from transplanter.twin.results import DAMAGE_FIELDS, WARNING_SEPARATOR, trial_row
 
 __all__ = ["POT_LINE_DAMAGE", "WARNING_SEPARATOR", "Job", "job_of", "run_job", "trial_row"]
 
-POT_LINE_DAMAGE = ("fail_damaged", "fail_shoot_crushed")
+POT_LINE_DAMAGE = DAMAGE_FIELDS  # the pot line judge's damaged seedlings (twin.results)
 """The pot line judge's failures that are a damaged seedling (its shoot bent past
 `metrics.damage_bend_deg` or crushed by the gripper's bridge), whatever robot works it."""
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from transplanter.twin.results import TrialResult
+from transplanter.twin.results import DAMAGE_KINDS, TrialResult
 
 __all__ = [
     "SEEDLING_WALL_S",
@@ -139,10 +139,6 @@ def _placed(d: dict) -> str:
         f"{d['placed_per_hour']:.0f} over the whole run ({d['successes']} placed in "
         f"{d['sim_time_s']:.1f} s: the homing, indexes, failed picks and recoveries included)"
     )
-
-
-DAMAGE_KINDS = ("damaged", "shoot_crushed")
-"""The pot line judge's failure kinds that are a damaged seedling (`compare`'s damage)."""
 
 
 def _damage(d: dict) -> str:

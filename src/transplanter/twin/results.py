@@ -70,6 +70,12 @@ class EventKind(StrEnum):
     STALL = "stall"  # a driver reported a stall: the SGF stopped, the PGF re-homes
 
 
+DAMAGE_KINDS: tuple[str, ...] = (str(Outcome.DAMAGED), str(Outcome.SHOOT_CRUSHED))
+"""The pot line judge's failure kinds that are a damaged seedling (its shoot bent past
+`metrics.damage_bend_deg`, or crushed by the gripper), whatever robot works the line."""
+DAMAGE_FIELDS: tuple[str, ...] = tuple(f"fail_{k}" for k in DAMAGE_KINDS)
+"""The same as a study row's columns (`compare`'s damage)."""
+
 FAILURE_KINDS: tuple[Outcome, ...] = tuple(
     o for o in Outcome if o not in (Outcome.PENDING, Outcome.SUCCESS)
 )
