@@ -53,6 +53,7 @@ def test_the_checker_names_what_a_kind_lacks():
 def test_a_kind_registered_at_run_time_is_one_of_the_known():
     robot = types.SimpleNamespace(
         NAME="test_arm", READS={"arm": ("l0_mm",)}, KINEMATICS="m:C", SCENE="m", MODEL="m",
+        CONTROLLER="",
         SUMMARY="a test's arm",
     )  # fmt: skip
     kinds.register("robot", "test_arm", robot)

@@ -107,6 +107,7 @@ class _KinematicsOnly:
         self.KINEMATICS = f"transplanter.machine.kinematics:{name}"
         self.SCENE = ""
         self.MODEL = ""
+        self.CONTROLLER = ""
         self.SUMMARY = "a kinematics registered at run time (ik and plan only)"
 
 

@@ -55,6 +55,11 @@ class RobotKind(Protocol):
     """The module of its scene (``transplanter.scene.robots.<name>``)."""
     MODEL: str
     """Its Menagerie folder: models/<MODEL>/<MODEL>.xml."""
+    CONTROLLER: str
+    """What drives it: ``"sgf"`` (the five-bar's controller: G-code lines from the PGF over
+    the bus, the SGF's Bresenham interpolation through the robot's kinematics, stepper
+    pulses; a job's PGF program then drives any such robot), or the name of its own
+    controller (``"delta"``, ``"servo"``) that its jobs' host programs drive."""
     SUMMARY: str
     """One line: what it is and where it comes from."""
 
@@ -112,10 +117,13 @@ class JobKind(Protocol):
         ...
 
 
-_TEXT = {"NAME", "SCENE", "MODEL", "SUMMARY", "KINEMATICS", "WORKCELL", "UNIT", "UNITS_KEY", "RUN"}
-_MAY_BE_EMPTY = {"WORKCELL", "MODEL"}
+_TEXT = {
+    "NAME", "SCENE", "MODEL", "SUMMARY", "KINEMATICS", "CONTROLLER", "WORKCELL", "UNIT",
+    "UNITS_KEY", "RUN",
+}  # fmt: skip
+_MAY_BE_EMPTY = {"WORKCELL", "MODEL", "CONTROLLER"}
 MEMBERS: dict[str, tuple[str, ...]] = {
-    "robot": ("NAME", "READS", "KINEMATICS", "SCENE", "MODEL", "SUMMARY"),
+    "robot": ("NAME", "READS", "KINEMATICS", "SCENE", "MODEL", "CONTROLLER", "SUMMARY"),
     "effector": ("NAME", "READS", "SCENE", "MODEL", "SUMMARY"),
     "job": (
         "NAME", "WORKCELL", "UNIT", "UNITS_KEY", "SUMMARY", "RUN",

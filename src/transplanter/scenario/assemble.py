@@ -15,7 +15,7 @@ import zlib
 from dataclasses import dataclass
 from typing import Any
 
-from transplanter.machine.config import GRIPPER_SERVO, WRIST_SERVO, Machine, power_on_joints
+from transplanter.machine.config import GRIPPER_SERVO, WRIST_SERVO, Machine
 from transplanter.machine.eeprom import (
     ANGLE_COUNTS_PER_DEG,
     DATA_SIZE,
@@ -49,11 +49,6 @@ __all__ = [
     "vision_config",
     "with_eeprom",
 ]
-
-# Hard stops of the scene's joints sit this far beyond the motor windows the firmware
-# enforces (rad), and the Z slide's top stop this far above switch 3 (m).
-HARD_STOP_BEYOND_WINDOW_RAD = math.radians(5.0)
-Z_STOP_ABOVE_SWITCH_M = 0.005
 
 
 @dataclass(frozen=True)
@@ -459,8 +454,8 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
     The power-on pose (the `home` keyframe) is machine.power_on_joints: a little short of
     limit switches 1-3, so that G28 has a little way to travel.
     """
-    arm, drv, grip, conv, pots, tube, phys, lim = (
-        s.arm, s.drives, s.gripper, s.conveyor, s.pots, s.drop_tube, s.physics, s.limits,
+    drv, grip, conv, pots, tube, phys = (
+        s.drives, s.gripper, s.conveyor, s.pots, s.drop_tube, s.physics,
     )  # fmt: skip
     for group, kind in (
         ("robot", s.robot.kind),
@@ -471,16 +466,14 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             getattr(scene_kinds, group)(kind)
         except UnknownKind as exc:
             raise ScenarioError(f"{group}.kind: {exc}.") from None
-    theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
-    stop = HARD_STOP_BEYOND_WINDOW_RAD
     try:
+        # the robot's own fields (its section, its power-on pose), from its scene module
+        robot_fields = scene_kinds.robot(s.robot.kind).scene_fields(s, machine)
         return SceneConfig(
             robot_kind=s.robot.kind,
             effector_kind=s.effector.kind,
             workcell_kind=s.workcell.kind,
-            l0_m=arm.l0_m,
-            l1_m=arm.l1_m,
-            l2_m=arm.l2_m,
+            **robot_fields,
             steps_per_rev=drv.steps_per_rev,
             holding_torque_nm=drv.holding_torque_nm,
             rotor_inertia_kgm2=drv.rotor_inertia_kgm2,
@@ -488,18 +481,7 @@ def scene_config(s: Scenario, machine: Machine) -> SceneConfig:
             pullout_corner_rev_s=drv.pullout_corner_rev_s,
             rotor_damping_ratio=drv.rotor_damping_ratio,
             screw_efficiency=drv.screw_efficiency,
-            arm_belt_ratio=drv.arm_belt_ratio,
             z_lead_m=drv.z_lead_m,
-            switch1_theta1_rad=drv.switch1_theta1_rad,
-            switch2_theta2_rad=drv.switch2_theta2_rad,
-            switch3_z_m=drv.switch3_z_m,
-            switch4_z_m=lim.z_min_m,
-            theta1_range_rad=(lim.motor1_min_rad - stop, lim.motor1_max_rad + stop),
-            theta2_range_rad=(lim.motor2_min_rad - stop, lim.motor2_max_rad + stop),
-            z_range_m=(0.0, max(lim.z_max_m, drv.switch3_z_m) + Z_STOP_ABOVE_SWITCH_M),
-            power_on_theta1_rad=theta1_on,
-            power_on_theta2_rad=theta2_on,
-            power_on_z_m=z_on,
             gripper_max_opening_m=grip.max_opening_m,
             grip_force_n=grip.grip_force_n,
             bridge_clearance_m=grip.bridge_clearance_m,

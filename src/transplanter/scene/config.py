@@ -147,6 +147,10 @@ class SceneConfig:
     robot_kind: str = "fivebar"
     effector_kind: str = "parallel_jaw"
     workcell_kind: str = "conveyor_tube"
+    # A robot's own scene numbers where they are not this config's fields (a frozen dataclass
+    # of its scene module: the gantry's GantryParams); None for the five-bar, whose numbers
+    # are the fields below.
+    robot_params: object = None
 
     # --- five-bar geometry (m): motors at (-l0, 0) and (+l0, 0); active l1, passive l2.
     l0_m: float = 0.050

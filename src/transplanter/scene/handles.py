@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from transplanter.scene import kinds
 from transplanter.scene.config import SceneConfig
 from transplanter.scene.conveyor import conveyor_armed
 from transplanter.scene.live_rows import LiveRows
@@ -389,8 +390,10 @@ JAW_PARTS = GripperParts(root="gripper", pads=("jaw_left", "jaw_right"), site="g
 
 
 class Scene(PotLine):
-    """The five-bar's scene on the pot line: the line's handles (`PotLine`), the steppers'
-    drives, the gripper's and wrist's servos, the limit switches and the home keyframe."""
+    """The scene of a stepper robot on the pot line (the five-bar, the gantry): the line's
+    handles (`PotLine`), the steppers' drives (the robot's scene module names its `MOTORS`,
+    `ROOT`, `SWITCH_MOTORS` and `power_on`), the gripper's and wrist's servos, the limit
+    switches and the home keyframe."""
 
     def __init__(
         self,
@@ -403,11 +406,13 @@ class Scene(PotLine):
         super().__init__(model, config, pots, leaves, JAW_PARTS, decorated)
         m = model
         name = lambda kind, n: mujoco.mj_name2id(m, kind, n)  # noqa: E731
+        robot = kinds.robot(config.robot_kind)
+        self.robot_root = name(mujoco.mjtObj.mjOBJ_BODY, robot.ROOT)
         self.motor_actuators = np.array(
-            [name(mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in ("theta1", "theta2", "z")]
+            [name(mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in robot.MOTORS]
         )
         self.motor_gears = m.actuator_gear[self.motor_actuators, 0].copy()
-        motor_joints = [name(mujoco.mjtObj.mjOBJ_JOINT, n) for n in ("theta1", "theta2", "z")]
+        motor_joints = [name(mujoco.mjtObj.mjOBJ_JOINT, n) for n in robot.MOTORS]
         self.motor_qpos_adr = m.jnt_qposadr[motor_joints].copy()
         # the steppers' torque laws; the detent's zero where they were energised at power-on
         self.drives = StepperDrives(
@@ -415,7 +420,7 @@ class Scene(PotLine):
             self.motor_actuators,
             self.motor_qpos_adr,
             self.motor_gears,
-            [config.power_on_theta1_rad, config.power_on_theta2_rad, config.power_on_z_m],
+            robot.power_on(config),
         )
         self.gripper_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "gripper")
         self.wrist_actuator = name(mujoco.mjtObj.mjOBJ_ACTUATOR, "wrist")
@@ -428,7 +433,7 @@ class Scene(PotLine):
         sense_adr = m.numeric_adr[name(mujoco.mjtObj.mjOBJ_NUMERIC, "limit_switch_sense")]
         self.switch_trip = m.numeric_data[trip_adr : trip_adr + 4].copy()
         self.switch_sense = m.numeric_data[sense_adr : sense_adr + 4].copy()
-        self.switch_qpos_adr = self.motor_qpos_adr[[0, 1, 2, 2]]
+        self.switch_qpos_adr = self.motor_qpos_adr[list(robot.SWITCH_MOTORS)]
 
     # ----- state -----
     def make_data(self) -> mujoco.MjData:

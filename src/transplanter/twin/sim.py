@@ -202,8 +202,8 @@ class Twin:
         self.belt_realignments: list[tuple[float, float]] = []
         """(t, m) at each conveyor index: how far the belt was off its held position, which
         the index's own profile then takes back."""
-        platform = self.model.body("platform").id
-        self._machine_body = self.model.body_rootid == self.model.body_rootid[platform]
+        root = self.scene.robot_root
+        self._machine_body = self.model.body_rootid == self.model.body_rootid[root]
         # the one loop, event driven: an exchange computes a block of steps' commands
         self.loop = StepLoop(self.model, self.data, exchange=self._exchange_block)
         self.loop.before_step.append(self._before_step)

@@ -1,6 +1,8 @@
 """The pot line of seed 000: paper-pot seedlings in rows on a feeding conveyor, each picked
-into a drop tube. The five-bar does it through its PGF (the taught EEPROM image), the delta
-and the serial arm through generated host programs (`twin.delta_pots`, `twin.serial_pots`);
+into a drop tube. A robot on the five-bar's controller (`CONTROLLER = "sgf"`: the five-bar,
+the gantry, any robot added so) does it through the PGF (the taught EEPROM image) with the
+parallel jaws; the delta and the serial arm through generated host programs for their own
+controllers (`twin.delta_pots`, `twin.serial_pots`);
 every robot on it is judged seedling by seedling by the one judge (`transplanter.twin.judge`:
 the shoots, every failure kind, damage)."""
 
@@ -15,12 +17,26 @@ UNIT = "seedlings"
 RUN = "transplanter.runs.pot_line"
 UNITS_KEY = "scenario.seedlings"
 
-_EFFECTOR = {"fivebar": "parallel_jaw", "delta": "fuzzy_gripper", "serial4": "fuzzy_gripper"}
+PGF_EFFECTOR = "parallel_jaw"
+"""What the PGF's program drives (its M280 lines: the jaws' servo and the wrist's)."""
+# the robots with a controller of their own, each with its host program and effector
+_EFFECTOR = {"delta": "fuzzy_gripper", "serial4": "fuzzy_gripper"}
 _RUNNER = {
-    "fivebar": "",
     "delta": "transplanter.twin.delta_pots:run_delta_pots",
     "serial4": "transplanter.twin.serial_pots:run_serial_pots",
 }
+
+
+def _on_the_pgf(robot: str) -> bool:
+    """Whether the robot is driven by the five-bar's controller, so by the PGF's program."""
+    from transplanter import kinds
+
+    try:
+        return kinds.robot(robot).CONTROLLER == "sgf"
+    except kinds.UnknownKind:
+        return False
+
+
 _LINE = {
     "scenario": ("seedlings",),
     "drop_tube": ALL,
@@ -33,7 +49,7 @@ def uses_robot() -> bool:
 
 
 def refusal(robot: str, effector: str) -> str | None:
-    wanted = _EFFECTOR.get(robot)
+    wanted = PGF_EFFECTOR if _on_the_pgf(robot) else _EFFECTOR.get(robot)
     if wanted is None:
         return f"no host program drives the {robot} robot on the pot line"
     if effector != wanted:
@@ -42,7 +58,7 @@ def refusal(robot: str, effector: str) -> str | None:
 
 
 def reads(robot: str, effector: str) -> dict:
-    if robot == "fivebar":  # its PGF, its bus and the seedling judge
+    if _on_the_pgf(robot):  # the PGF, its bus and the seedling judge
         return {
             **_LINE,
             "conveyor": ALL,
@@ -59,4 +75,5 @@ def reads(robot: str, effector: str) -> dict:
 
 
 def runner(robot: str) -> str:
-    return _RUNNER.get(robot, "")
+    """The robot's host program's trial; '' for the PGF's (the twin's own trial)."""
+    return "" if _on_the_pgf(robot) else _RUNNER.get(robot, "")

@@ -8,6 +8,7 @@ SUMMARY = "rotary delta on pulse-train AC servos with quintic B-spline transfers
 KINEMATICS = "transplanter.machine.kinematics.delta:DeltaKinematics"
 SCENE = "transplanter.scene.robots.delta"
 MODEL = "delta"
+CONTROLLER = "delta"
 READS = {
     "delta": ALL,  # geometry, joint window, drives
     # the controller's planner and end-effector limit; its lines' grid, acceleration and

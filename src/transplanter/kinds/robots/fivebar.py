@@ -8,6 +8,7 @@ SUMMARY = "closed-chain five-bar on a lead-screw Z slide, stepper-driven (seed 0
 KINEMATICS = "transplanter.machine.kinematics.fivebar:FiveBarKinematics"
 SCENE = "transplanter.scene.robots.fivebar"
 MODEL = "fivebar"
+CONTROLLER = "sgf"
 READS = {
     "arm": ALL,  # its links and working mode
     "limits": ALL,  # the reach check at every interpolated point

@@ -8,6 +8,7 @@ SUMMARY = "4-DOF serial arm on hobby PWM servos, analytic IK (seed 004)"
 KINEMATICS = "transplanter.machine.kinematics.serial4:Serial4Kinematics"
 SCENE = "transplanter.scene.robots.serial4"
 MODEL = "serial4"
+CONTROLLER = "servo"
 READS = {
     "serial4": ALL,  # links, servos, windows
     # its controller's motion and its host's grasp and release (in every job it does)

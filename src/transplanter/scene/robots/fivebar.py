@@ -7,6 +7,8 @@ at passive link 1's tip: the parallel jaws of models/effectors/parallel_jaw/
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -20,6 +22,17 @@ MOUNT = "tool_mount"
 """The frame at passive link 1's tip (the end effector C) where an effector attaches."""
 ACTUATORS = ("theta1", "theta2", "z")
 """The robot's drives (the kinds' interface: first in the model, the effector's next)."""
+MOTORS = ACTUATORS
+"""The stepper-driven joints, each driven by the actuator of the same name (motor order)."""
+ROOT = "platform"
+"""The robot's moving root body (what the twin counts as the machine in a contact)."""
+SWITCH_MOTORS = (0, 1, 2, 2)
+"""The motor whose joint each of limit switches 1-4 watches: theta1, theta2, Z up, Z down."""
+
+# Hard stops of the joints sit this far beyond the motor windows the firmware enforces (rad),
+# and the Z slide's top stop this far above switch 3 (m).
+HARD_STOP_BEYOND_WINDOW_RAD = math.radians(5.0)
+Z_STOP_ABOVE_SWITCH_M = 0.005
 
 INERTIAL_BODIES = (
     "platform", "link1", "passive1", "gripper", "jaw_left", "jaw_right", "link2", "passive2",
@@ -107,6 +120,32 @@ def screw_friction_n(weight_n: float, efficiency: float) -> float:
     return weight_n * (1.0 / efficiency - 1.0)
 
 
+def scene_fields(s, machine) -> dict:
+    """The SceneConfig fields of a scenario's five-bar ([arm], [limits], [drives]' belt and
+    switches) and its power-on pose (the SGF's: `machine.config.power_on_joints`)."""
+    from transplanter.machine.config import power_on_joints
+
+    arm, drv, lim = s.arm, s.drives, s.limits
+    theta1_on, theta2_on, z_on = power_on_joints(machine.sgf)
+    stop = HARD_STOP_BEYOND_WINDOW_RAD
+    return dict(
+        l0_m=arm.l0_m,
+        l1_m=arm.l1_m,
+        l2_m=arm.l2_m,
+        arm_belt_ratio=drv.arm_belt_ratio,
+        switch1_theta1_rad=drv.switch1_theta1_rad,
+        switch2_theta2_rad=drv.switch2_theta2_rad,
+        switch3_z_m=drv.switch3_z_m,
+        switch4_z_m=lim.z_min_m,
+        theta1_range_rad=(lim.motor1_min_rad - stop, lim.motor1_max_rad + stop),
+        theta2_range_rad=(lim.motor2_min_rad - stop, lim.motor2_max_rad + stop),
+        z_range_m=(0.0, max(lim.z_max_m, drv.switch3_z_m) + Z_STOP_ABOVE_SWITCH_M),
+        power_on_theta1_rad=theta1_on,
+        power_on_theta2_rad=theta2_on,
+        power_on_z_m=z_on,
+    )
+
+
 def home_joints(cfg: SceneConfig) -> dict[str, float]:
     """The power-on pose of the robot's joints: the passive angles close the chain."""
     phi1, phi2 = (
@@ -120,6 +159,11 @@ def home_joints(cfg: SceneConfig) -> dict[str, float]:
         "phi1": phi1,
         "phi2": phi2,
     }
+
+
+def power_on(cfg: SceneConfig) -> list[float]:
+    """The motors' joints at power-on (theta1, theta2 in rad, Z in m), in motor order."""
+    return [cfg.power_on_theta1_rad, cfg.power_on_theta2_rad, cfg.power_on_z_m]
 
 
 def home_ctrl(cfg: SceneConfig) -> list[float]:
