@@ -14,6 +14,9 @@ from transplanter.kinds.interfaces import ALL, problems
 from transplanter.scenario import schema
 from transplanter.scenario.schema import ScenarioError, load_scenario, packaged_scenarios
 
+ON_THE_PGF = "the conveyor_tube job with the fivebar or gantry robot"
+"""Who reads the PGF's taught keys: the pot line with a robot on the SGF."""
+
 PRESENTATION = {("costs", "drives_usd"), ("scenario", "description"), ("scenario", "name")}
 """Keys every scenario reads for its reports and `compare`, not its physics."""
 
@@ -66,8 +69,8 @@ def test_a_kind_registered_at_run_time_is_one_of_the_known():
 
 
 def test_an_unknown_kind_names_the_known_ones_and_the_nearest():
-    with pytest.raises(kinds.UnknownKind, match=r"'detla'; known kinds: delta, fivebar, serial4 "
-                       r"\(robot.kind\); did you mean 'delta'\?"):  # fmt: skip
+    with pytest.raises(kinds.UnknownKind, match=r"'detla'; known kinds: delta, fivebar, gantry, "
+                       r"serial4 \(robot.kind\); did you mean 'delta'\?"):  # fmt: skip
         kinds.robot("detla")
     with pytest.raises(ScenarioError, match=r"unknown job kind 'plug_tray'.*'plug_trays'"):
         load_scenario("delta_refill", {"workcell.kind": "plug_tray"})
@@ -75,7 +78,7 @@ def test_an_unknown_kind_names_the_known_ones_and_the_nearest():
 
 def test_who_reads_a_key():
     assert kinds.readers("delta", "base_radius_mm") == ["the delta robot"]
-    assert kinds.readers("taught", "z_low_mm") == ["the conveyor_tube job with the fivebar robot"]
+    assert kinds.readers("taught", "z_low_mm") == [ON_THE_PGF]
     assert kinds.readers("plugs", "moisture_pct") == ["the plug_bench job", "the plug_trays job"]
     assert kinds.readers("scenario", "seed") == ["every scenario"]
     # the bench moves the claws itself: no robot's keys are read there
@@ -117,8 +120,8 @@ def test_every_packaged_scenario_refuses_a_key_its_kinds_do_not_read(name):
     ("name", "key", "value", "reader"),
     [
         ("paper", "delta.base_radius_mm", 250.0, "the delta robot"),
-        ("plug_bench", "taught.z_low_mm", 30.0, "the conveyor_tube job with the fivebar robot"),
-        ("delta_refill", "taught.z_low_mm", 22.0, "the conveyor_tube job with the fivebar robot"),
+        ("plug_bench", "taught.z_low_mm", 30.0, ON_THE_PGF),
+        ("delta_refill", "taught.z_low_mm", 22.0, ON_THE_PGF),
         ("delta_refill", "scenario.seedlings", 3, "the conveyor_tube job, the plug_bench job"),
         ("delta_refill", "motion.resolution_mm", 0.05, "the fivebar robot"),
         ("serial_arm_pots", "taught.z_low_mm", 30.0, "the conveyor_tube job with"),

@@ -153,7 +153,7 @@ def test_transplanter_plan_prints_the_gantry_plan(gantry, tmp_path, capsys):
 
 
 def test_an_unknown_kind_is_refused_with_the_known_ones():
-    known = "known kinds: delta, fivebar, serial4"
+    known = "known kinds: delta, fivebar, gantry, serial4"
     with pytest.raises(ScenarioError, match=f"unknown robot kind 'delta_x'; {known}"):
         machine_config(load_scenario("paper", {"robot.kind": "delta_x"}))
 

@@ -220,5 +220,5 @@ def test_a_motion_section_in_a_serial_scenario_file_is_refused_not_ignored(tmp_p
     path.write_text('[scenario]\nbase = "serial_arm_pots"\n[motion]\naccel_mm_s2 = 3000.0\n')
     assert cli.main(["trial", str(path), "--seedlings", "1"]) == 2
     err = capsys.readouterr().err
-    assert "[motion] accel_mm_s2 (read by the fivebar robot)" in err
+    assert "[motion] accel_mm_s2 (read by the fivebar robot, the gantry robot)" in err
     assert "given in the scenario file or its base chain" in err

@@ -44,6 +44,7 @@ ROBOTS: dict[str, str] = {
     "fivebar": "transplanter.kinds.robots.fivebar",
     "delta": "transplanter.kinds.robots.delta",
     "serial4": "transplanter.kinds.robots.serial4",
+    "gantry": "transplanter.kinds.robots.gantry",
 }
 EFFECTORS: dict[str, str] = {
     "parallel_jaw": "transplanter.kinds.effectors.parallel_jaw",

@@ -35,6 +35,7 @@ ROBOTS = {
     "fivebar": "transplanter.scene.robots.fivebar",
     "delta": "transplanter.scene.robots.delta",
     "serial4": "transplanter.scene.robots.serial4",
+    "gantry": "transplanter.scene.robots.gantry",
 }
 EFFECTORS = {
     "parallel_jaw": "transplanter.scene.effectors.parallel_jaw",

@@ -28,6 +28,7 @@ __all__ = [
 KINDS: dict[str, str] = {
     "delta": "transplanter.machine.kinematics.delta:DeltaKinematics",
     "fivebar": "transplanter.machine.kinematics.fivebar:FiveBarKinematics",
+    "gantry": "transplanter.machine.kinematics.gantry:GantryKinematics",
     "serial4": "transplanter.machine.kinematics.serial4:Serial4Kinematics",
 }
 """kind -> "module:Class" of every arm the package ships."""
