@@ -61,9 +61,6 @@ KIND_MODULES = (
 """A kind's own modules: its twin, scene, registry entry, kinematics and drives."""
 
 DEBT = {
-    "studies/grid.py": "a sweep's digest leaves out, by name, the sections added for the "
-    "other machines' jobs (and 'delta:conveyor_tube''s own) so that the five-bar's sweeps "
-    "resume with the digests they had (issue: one twin for every machine)",
     "studies/backends.py": "a run with no study job registered is the five-bar's trial, run "
     "by the backend itself (twin.trial), not through a registered job",
 }

@@ -3,7 +3,8 @@ grid of (setting, seed) runs."""
 
 import pytest
 
-from transplanter.scenario.schema import ScenarioError
+from conftest import ROOT
+from transplanter.scenario.schema import ScenarioError, load_scenario
 from transplanter.studies.grid import Axis, SweepRefused, SweepSpec, parse_param_range, parse_vary
 
 REFUSED = Axis("taught.z_low_mm", (61.0, 70.0))
@@ -172,3 +173,26 @@ def test_a_five_bar_sweeps_identity_does_not_hold_the_plug_sections():
     with pytest.raises(ScenarioError, match=r"\[plugs\] moisture_pct \(read by the plug"):
         digest("paper", **{"plugs.moisture_pct": 75})
     assert digest("plug_bench", **{"plugs.moisture_pct": 75}) != digest("plug_bench")
+
+
+def test_a_studys_identity_is_the_keys_its_kinds_read(tmp_path):
+    from transplanter.scenario.schema import read_values, scenario_digest
+
+    def digest(name, **over):
+        return scenario_digest(load_scenario(name, over))
+
+    # every robot's own section counts: the gantry's guides, the five-bar's links
+    assert digest("gantry_pots", **{"gantry.guide_friction_n": 5.0}) != digest("gantry_pots")
+    assert digest("paper", **{"arm.l1_mm": 125.0}) != digest("paper")
+    keys = {k for k, _ in read_values(load_scenario("gantry_pots"))}
+    assert "gantry.belt_lead_mm" in keys and "taught.z_low_mm" in keys
+    assert not any(k.startswith(("arm.", "delta.", "costs.")) for k in keys)
+    assert "drives.arm_belt_ratio" not in keys and "drives.z_lead_mm" in keys
+    # a copy under another name, description and price runs the same physics
+    text = (ROOT / "scenarios" / "paper.toml").read_text()
+    text = text.replace('name = "paper"', 'name = "mine"').replace(
+        "drives_usd = 59.0", "drives_usd = 80.0"
+    )
+    parts = str(ROOT / "scenarios" / "parts")
+    (tmp_path / "mine.toml").write_text(text.replace('base = "parts/', f'base = "{parts}/'))
+    assert scenario_digest(load_scenario(tmp_path / "mine.toml")) == digest("paper")

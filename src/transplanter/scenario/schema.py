@@ -2104,6 +2104,9 @@ def scenario_files(name: str | Path) -> list[Path]:
     return files
 
 
+ALL_KEYS = "*"
+"""IDENTITY_SKIP's mark for a whole section."""
+
 REFERENCE_SCENARIO = "paper"
 """The packaged scenario whose values fill a section that a scenario neither gives nor reads
 (the five-bar's [arm], [taught], ... in a delta's scenario): a Scenario has every section,
@@ -2253,6 +2256,39 @@ def read_overrides(path: str | Path, overrides: Mapping[str, Any]) -> dict[str, 
         if keys == kinds.ALL or key in keys:
             out[dotted] = value
     return out
+
+
+IDENTITY_SKIP = {"scenario": ("name", "description", "seed", "seedlings"), "costs": ALL_KEYS}
+"""What a study's identity leaves out of the keys a scenario reads: its name, description,
+seed and unit count (a study sets or reports them itself) and what the drives cost (not
+physics: no result depends on it)."""
+
+
+def read_values(scenario: Scenario) -> tuple[tuple[str, Any], ...]:
+    """('section.key', SI value) of every key the scenario's kinds read (`transplanter.kinds`),
+    in the schema's order, less IDENTITY_SKIP: what its results depend on. A combination its
+    job refuses reads nothing defined: every key then."""
+    robot, effector, job = scenario.robot.kind, scenario.effector.kind, scenario.workcell.kind
+    runs = kinds.job(job).refusal(robot, effector) is None
+    table = kinds.reads(robot, effector, job) if runs else {s: kinds.ALL for s in SCHEMA}
+    out = []
+    for section, keys in SCHEMA.items():
+        read = table.get(section)
+        skip = IDENTITY_SKIP.get(section, ())
+        if read is None or skip == ALL_KEYS:
+            continue
+        for name in keys if read == kinds.ALL else read:
+            if name not in skip:
+                out.append((f"{section}.{name}", scenario.get(f"{section}.{name}")))
+    return tuple(out)
+
+
+def scenario_digest(scenario: Scenario) -> str:
+    """A digest of `read_values`: two scenarios with the same digest run the same physics
+    (what a resumed sweep, tune or calibration must share)."""
+    import hashlib
+
+    return hashlib.sha256(repr(read_values(scenario)).encode()).hexdigest()
 
 
 def units_of(scenario: Scenario) -> int:

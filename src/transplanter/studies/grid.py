@@ -4,8 +4,6 @@ identifies a sweep's results."""
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
 import itertools
 import json
 import math
@@ -23,6 +21,7 @@ from transplanter.scenario.schema import (
     key_spec,
     load_scenario,
     parse_value,
+    scenario_digest,
     with_units,
 )
 
@@ -32,13 +31,6 @@ MAX_RUNS = 1_000_000
 RESERVED_KEYS = ("scenario.seed", "scenario.seedlings")
 
 _DECIMAL_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
-
-
-PLUG_SECTIONS = ("plugs", "plug_claws", "plug_bench", "vision")
-"""The scenario sections only the delta's jobs read."""
-SERIAL_ONLY_SECTIONS = ("fuzzy_gripper", "pool_to_belt", "serial_arm", "serial_pots")
-"""The scenario sections only the serial arm's jobs read (added after the five-bar's sweeps
-had their digests: left out of them, as the plug sections are)."""
 
 
 class SweepRefused(TransplanterError, ValueError):
@@ -268,22 +260,8 @@ class SweepSpec:
     def manifest(self) -> dict[str, Any]:
         """What identifies the sweep's results (not how it is run: backend, workers)."""
         scenario = self.check()
-        # each run sets its own seed; the seedlings are a field of their own
-        meta = dataclasses.replace(scenario.meta, seed=0, seedlings=0)
-        from transplanter.studies.jobs import job_of
-
-        # the plug and serial-arm sections are read only by the other machines' jobs: a
-        # five-bar sweep's digest is the one it had before they existed (its results resume)
-        job = job_of(scenario)
-        others = (*PLUG_SECTIONS, *SERIAL_ONLY_SECTIONS) if job is None else ()
-        if job is None or job.kind != "delta:conveyor_tube":  # added after the others' sweeps
-            others = (*others, "delta_pots")
-        # what the drives cost is not physics: no run's result depends on it
-        skip = ("path", "meta", "overrides", "costs", *others)
-        sections = [meta] + [
-            getattr(scenario, f.name) for f in dataclasses.fields(scenario) if f.name not in skip
-        ]
-        digest = hashlib.sha256(repr(sections).encode()).hexdigest()
+        # the keys its kinds read: each run sets its own seed, the seedlings are a field
+        digest = scenario_digest(scenario)
         return {
             "scenario": str(self.scenario),
             "scenario_name": scenario.name,

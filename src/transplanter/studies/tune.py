@@ -38,6 +38,7 @@ from transplanter.scenario.schema import (
     ScenarioError,
     load_scenario,
     resolve_scenario_path,
+    scenario_digest,
     with_units,
 )
 from transplanter.studies.grid import task
@@ -195,44 +196,6 @@ def _counts(trial, optuna) -> bool:
     return state == optuna.trial.TrialState.COMPLETE or (
         state == optuna.trial.TrialState.FAIL and "errors" in trial.user_attrs
     )
-
-
-def scenario_digest(scenario) -> str:
-    """A digest of a loaded scenario's validated sections (what a resumed study must share)."""
-    import hashlib
-
-    return hashlib.sha256(
-        repr(
-            [
-                getattr(scenario, f)
-                for f in (
-                    "arm",
-                    "limits",
-                    "drives",
-                    "motion",
-                    "bus",
-                    "gripper",
-                    "conveyor",
-                    "pots",
-                    "drop_tube",
-                    "metrics",
-                    "physics",
-                    "recovery",
-                    "taught",
-                )
-            ]
-            + _job_sections(scenario)
-        ).encode()  # fmt: skip
-    ).hexdigest()
-
-
-def _job_sections(scenario) -> list:
-    """The sections a delta job reads (studies.jobs), none for the five-bar's trial (whose
-    digests stay as they were)."""
-    from transplanter.studies.jobs import job_of
-
-    job = job_of(scenario)
-    return [] if job is None else [getattr(scenario, f) for f in job.sections]
 
 
 TUNE_METRICS = ("success_ci95_low", "cycle_time_s")
