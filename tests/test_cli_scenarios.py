@@ -37,3 +37,37 @@ def test_scenarios_lists_every_packaged_scenario_with_its_kinds(capsys):
     # the columns line up: every description starts in the same column
     starts = {line.index(line.split()[4]) for line in lines}
     assert len(starts) == 1
+
+
+def test_matrix_lists_every_robot_on_every_job(capsys):
+    import json
+
+    from transplanter import kinds
+    from transplanter.cli import main
+    from transplanter.scenario.schema import load_scenario
+
+    assert main(["matrix", "--json"]) == 0
+    cells = json.loads(capsys.readouterr().out)
+    robots, jobs = kinds.names("robot"), kinds.names("job")
+    moving = [j for j in jobs if kinds.job(j).uses_robot()]
+    assert len(cells) == len(moving) * len(robots) + len(jobs) - len(moving)
+    by = {(c["job"], c["robot"]): c for c in cells}
+    assert by["conveyor_tube", "gantry"]["scenarios"] == ["gantry_pots"]
+    assert by["conveyor_tube", "gantry"]["effectors"] == ["parallel_jaw"]
+    assert by["plug_bench", None]["scenarios"] == ["plug_bench"]
+    for (job, robot), cell in by.items():
+        for name in cell["scenarios"]:  # each packaged scenario is of its cell's kinds
+            s = load_scenario(name)
+            assert (s.workcell.kind, s.effector.kind) == (job, *cell["effectors"][:1])
+            assert robot is None or s.robot.kind == robot
+        if not cell["effectors"]:  # refused: the job's own reason, never empty
+            assert cell["reason"] == kinds.job(job).refusal(robot, kinds.names("effector")[0])
+            assert cell["reason"]
+    assert by["plug_trays", "gantry"]["reason"] == (
+        "no host program drives the gantry robot on the trays: their host "
+        "(twin.delta_refill) drives the delta's own controller"
+    )
+    assert main(["matrix"]) == 0
+    text = capsys.readouterr().out
+    assert "gantry     gantry_pots (effector parallel_jaw)" in text
+    assert "pool_to_belt (tomatoes):" in text and "cannot run: no host program" in text

@@ -1,7 +1,9 @@
 """`transplanter scenarios`: the packaged scenarios, a line each (name, robot, effector,
 workcell, description), so a user can see what `trial NAME` runs before running it.
 `transplanter keys [SCENARIO]`: the keys a scenario's kinds read, with their values, or
-every key (`scenario.keys`; `--markdown` writes docs/keys.md)."""
+every key (`scenario.keys`; `--markdown` writes docs/keys.md).
+`transplanter matrix`: every robot on every job, each cell its packaged scenarios and
+effector, or the job's reason it cannot run (`--json`)."""
 
 from __future__ import annotations
 
@@ -31,6 +33,16 @@ def register(sub) -> None:
     k.add_argument("--markdown", action="store_true",
                    help="print docs/keys.md (every key, a table per section)")  # fmt: skip
     k.set_defaults(func=cmd_keys)
+    m = sub.add_parser(
+        "matrix",
+        help="every robot on every job: the packaged scenarios of each cell, or why it cannot run",
+        description="A row per job, a cell per robot: the packaged scenarios that run the "
+        "robot on the job with their effector, a combination the job takes that no packaged "
+        "scenario runs yet, or the job's one-line reason it refuses the robot (each job's "
+        "`refusal`, transplanter.kinds). A bench of an effector alone moves no robot.",
+    )
+    m.add_argument("--json", action="store_true", help="print the cells as JSON")
+    m.set_defaults(func=cmd_matrix)
 
 
 def scenario_rows() -> list[tuple[str, str, str, str, str]]:
@@ -95,4 +107,70 @@ def cmd_keys(args: argparse.Namespace) -> int:
         print(json.dumps([r.to_dict() for r in rows], indent=1))
     else:
         print(keys.format_keys(rows, title), end="")
+    return 0
+
+
+def matrix_cells() -> list[dict]:
+    """A cell per (job, robot) of the registered kinds: `scenarios` (the packaged ones of the
+    cell, by name) and `effectors` (those the job takes with the robot), or `reason` (why the
+    job takes the robot with no effector); a job that moves no robot (a bench) has one cell
+    with robot None."""
+    from transplanter import kinds
+
+    by_cell: dict[tuple[str, str | None], list[tuple[str, str]]] = {}
+    for name, robot, effector, job, _ in scenario_rows():
+        key = (job, robot if kinds.job(job).uses_robot() else None)
+        by_cell.setdefault(key, []).append((name, effector))
+    cells = []
+    for job_name in kinds.names("job"):
+        job = kinds.job(job_name)
+        robots = kinds.names("robot") if job.uses_robot() else [None]
+        for robot in robots:
+            effectors = [e for e in kinds.names("effector") if job.refusal(robot or "", e) is None]
+            packaged = by_cell.get((job_name, robot), [])
+            cell = {
+                "job": job_name,
+                "robot": robot,
+                "unit": job.UNIT,
+                "scenarios": [n for n, _ in packaged],
+                "effectors": sorted({e for _, e in packaged} or effectors),
+                "reason": None,
+            }
+            if not effectors:
+                first = kinds.names("effector")[0]
+                cell["reason"] = job.refusal(robot or "", first)
+            elif not packaged:
+                cell["reason"] = "runs, but no packaged scenario does it yet"
+            cells.append(cell)
+    return cells
+
+
+def cmd_matrix(args: argparse.Namespace) -> int:
+    import json
+    import textwrap
+
+    from transplanter.scenario.schema import ScenarioError
+    from transplanter.twin.report import printable
+
+    try:
+        cells = matrix_cells()
+    except ScenarioError as exc:
+        _err(f"a packaged scenario is refused: {exc}")
+        return EXIT_REFUSED
+    if args.json:
+        print(json.dumps(cells, indent=1))
+        return 0
+    for job in dict.fromkeys(c["job"] for c in cells):
+        row = [c for c in cells if c["job"] == job]
+        print(f"{job} ({row[0]['unit']}):")
+        for c in row:
+            who = c["robot"] if c["robot"] is not None else "(bench)"
+            if c["scenarios"]:
+                text = f"{', '.join(c['scenarios'])} (effector {', '.join(c['effectors'])})"
+            else:
+                text = f"cannot run: {c['reason']}" if not c["effectors"] else c["reason"]
+            lines = textwrap.wrap(printable(text), 78) or [""]
+            print(f"  {who:<10} {lines[0]}")
+            for more in lines[1:]:
+                print(f"  {'':<10} {more}")
     return 0

@@ -17,11 +17,21 @@ def uses_robot() -> bool:
     return True
 
 
+_OUT_OF_REACH = ("fivebar", "serial4")
+"""Robots whose workspace misses the trays (the five-bar's 200 x 120 mm, the serial arm's
+reach of 160 mm against two 566 x 286 mm trays)."""
+
+
 def refusal(robot: str, effector: str) -> str | None:
-    if robot != "delta":
+    if robot in _OUT_OF_REACH:
         return (
             "the trays (two 566 x 286 mm trays and a bin) lie outside the "
             f"{robot} robot's workspace; the delta's scene alone hangs over them"
+        )
+    if robot != "delta":
+        return (
+            f"no host program drives the {robot} robot on the trays: their host "
+            "(twin.delta_refill) drives the delta's own controller"
         )
     if effector != "plug_claws":
         return "the trays' plugs are pulled by the plug_claws effector only"
