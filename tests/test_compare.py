@@ -110,6 +110,14 @@ def test_ranked_rows_whose_plants_per_hour_intervals_overlap_tie():
     assert [(r["scenario"], r["rank"], r["tie"]) for r in ranked] == [
         ("a", 1, 1), ("b", 2, 1), ("c", 3, None), ("d", 4, None),
     ]  # fmt: skip
+    # two planned cycles 0.03 plants/h apart (the gantry's and the five-bar's at the paper's
+    # setting) are below the table's whole plants: tied; a whole plant apart they are not
+    same = [
+        _ranked("gantry", "line", "above", 995.41, band=(995.41, 995.41)),
+        _ranked("fivebar", "line", "above", 995.38, band=(995.38, 995.38)),
+        _ranked("slower", "line", "above", 994.0, band=(994.0, 994.0)),
+    ]
+    assert [(r["rank"], r["tie"]) for r in rank_rows(same)] == [(1, 1), (2, 1), (3, None)]
 
 
 def test_a_row_is_decided_only_by_its_interval_against_the_floor():

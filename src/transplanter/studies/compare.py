@@ -302,8 +302,15 @@ def _verdict_of(r: Mapping[str, Any]) -> str:
     return r.get("verdict") or (ABOVE if r.get("meets_floor") else BELOW)
 
 
-def _overlap(a: Sequence[float] | None, b: Sequence[float] | None) -> bool:
-    return a is not None and b is not None and a[0] <= b[1] and b[0] <= a[1]
+PLANTS_PER_HOUR_RESOLUTION = 1.0
+"""The finest difference of plants per hour a ranking tells apart: the table counts whole
+plants, and two rows whose trials repeat the same pitch exactly (a zero-width interval, as
+the five-bar's and the gantry's at the paper's setting: 995.38 and 995.41) are the same for a
+grower. Each interval is widened by half of it before two are compared."""
+
+
+def _overlap(a: Sequence[float] | None, b: Sequence[float] | None, slack: float = 0.0) -> bool:
+    return a is not None and b is not None and a[0] - slack <= b[1] and b[0] - slack <= a[1]
 
 
 def jobs_of(rows: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -316,7 +323,8 @@ def rank_rows(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     tray's): those whose success interval lies at or above the floor by plants per hour (most
     first), then the undecided, then those below, each the same way. Each gets its `rank`
     (1 first within its job) and `tie`: for a ranked row whose plants-per-hour interval over
-    the trials overlaps the one ranked just above it, the first rank of that run of ties
+    the trials overlaps the one ranked just above it (to PLANTS_PER_HOUR_RESOLUTION), the
+    first rank of that run of ties
     (None otherwise); the rows come grouped by job."""
     order_of = {ABOVE: 0, UNDECIDED: 1, BELOW: 2}
 
@@ -332,7 +340,9 @@ def rank_rows(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
             r["rank"], r["tie"] = i, None
         for above, r in zip(ranked, ranked[1:], strict=False):
             if _verdict_of(above) == _verdict_of(r) == ABOVE and _overlap(
-                above.get("plants_per_hour_ci95"), r.get("plants_per_hour_ci95")
+                above.get("plants_per_hour_ci95"),
+                r.get("plants_per_hour_ci95"),
+                PLANTS_PER_HOUR_RESOLUTION,
             ):
                 r["tie"] = above["tie"] or above["rank"]
                 above["tie"] = above["tie"] or above["rank"]
@@ -361,7 +371,7 @@ def job_notes(rows: Sequence[Mapping[str, Any]], floor: float) -> list[str]:
         )
         notes.append(
             f"  tie: {' and '.join(names)} on plants per hour (their 95 % intervals over the "
-            f"trials overlap: {bands})"
+            f"trials overlap, to a whole plant an hour: {bands})"
         )
     for r in rows:
         if _verdict_of(r) == UNDECIDED and r.get("ci95"):
