@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 __all__ = ["StepperDrives", "StepperParams"]
@@ -143,3 +144,31 @@ class StepperDrives:
             else self.gears * np.asarray(joint_speeds, dtype=float)
         )
         self.apply(data.ctrl, data.qpos, field, self.pullout_nm(speed), self.damping * speed)
+
+
+def drive_joint(
+    spec: mujoco.MjSpec,
+    name: str,
+    gear: float,
+    travel: tuple[float, float],
+    motor: StepperParams,
+    rotor_inertia_kgm2: float,
+) -> None:
+    """A stepper on joint `name` through its transmission (`gear`: motor rad per joint unit):
+    the general actuator of the same name, whose ctrl is the torque at the motor shaft (N m)
+    the twin computes from the load angle before every step (`StepperDrives`), whose velocity
+    bias is the rotor's damping against its field (the field-speed half rides in ctrl); no
+    force limit (the torque law itself peaks at the pull-out torque); the joint's `travel`
+    (its hard stops), no joint damping, the rotor's inertia as its armature."""
+    act = spec.actuator(name)
+    act.gear = [gear, 0, 0, 0, 0, 0]
+    act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    act.gainprm = [1.0] + [0] * 9
+    act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+    act.biasprm = [0, 0, -motor.damping_nms_rad] + [0] * 7
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    act.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    joint = spec.joint(name)
+    joint.range = list(travel)
+    joint.damping = [0.0, 0, 0]
+    joint.armature = rotor_inertia_kgm2 * gear**2

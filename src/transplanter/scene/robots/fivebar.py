@@ -14,6 +14,7 @@ import numpy as np
 
 from transplanter.machine.kinematics.fivebar import FiveBarMasses
 from transplanter.scene.config import PASSIVE_DROP, SceneConfig
+from transplanter.scene.stepper import drive_joint
 
 MODEL = "fivebar"
 """The robot's Menagerie folder: models/fivebar/fivebar.xml."""
@@ -57,13 +58,9 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     # the arm plane at column_height_m above the grip centre (the effector's column below C)
     spec.body("platform").pos = [0, 0, cfg.column_height_m]
 
-    # Stepper drives: a general actuator per motor on its joint through the gear, whose ctrl
-    # is the torque at the motor shaft (N m) the twin computes from the load angle before
-    # every step (transplanter.scene.stepper), whose velocity bias is the damping of the
-    # rotor against its field (the field-speed half rides in ctrl); the rotor's inertia is
-    # the joint's armature. No force limit: the torque law itself peaks at the pull-out
-    # torque. The lead screw's friction is the Z slide's (apply_inertials, which knows
-    # the weight it carries).
+    # Stepper drives (scene.stepper.drive_joint): the rotor through the arms' belt and the Z
+    # screw. The lead screw's friction is the Z slide's (apply_inertials, which knows the
+    # weight it carries).
     arm_gear, screw_gear = cfg.arm_belt_ratio, cfg.screw_gear_rad_m
     for (joint_name, gear, travel), params in zip(
         (
@@ -74,18 +71,7 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
         cfg.stepper_params(),
         strict=True,
     ):
-        act = spec.actuator(joint_name)
-        act.gear = [gear, 0, 0, 0, 0, 0]
-        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-        act.gainprm = [1.0] + [0] * 9
-        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
-        act.biasprm = [0, 0, -params.damping_nms_rad] + [0] * 7
-        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        act.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        joint = spec.joint(joint_name)
-        joint.range = list(travel)
-        joint.damping = [0.0, 0, 0]
-        joint.armature = cfg.rotor_inertia_kgm2 * gear**2
+        drive_joint(spec, joint_name, gear, travel, params, cfg.rotor_inertia_kgm2)
 
     spec.numeric("limit_switch_trip").data = [
         cfg.switch1_theta1_rad,

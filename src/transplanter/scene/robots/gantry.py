@@ -21,6 +21,7 @@ import mujoco
 
 from transplanter.scene.config import SceneConfig
 from transplanter.scene.robots.fivebar import screw_friction_n
+from transplanter.scene.stepper import drive_joint
 
 __all__ = [
     "ACTUATORS",
@@ -163,18 +164,7 @@ def apply(spec: mujoco.MjSpec, cfg: SceneConfig) -> None:
     for joint_name, gear, window, motor in zip(
         MOTORS, gears(cfg), travel, cfg.stepper_params(), strict=True
     ):
-        act = spec.actuator(joint_name)
-        act.gear = [gear, 0, 0, 0, 0, 0]
-        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-        act.gainprm = [1.0] + [0] * 9
-        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
-        act.biasprm = [0, 0, -motor.damping_nms_rad] + [0] * 7
-        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        act.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        joint = spec.joint(joint_name)
-        joint.range = list(window)
-        joint.damping = [0.0, 0, 0]
-        joint.armature = cfg.rotor_inertia_kgm2 * gear**2
+        drive_joint(spec, joint_name, gear, window, motor, cfg.rotor_inertia_kgm2)
     for joint_name in ("x", "y"):
         spec.joint(joint_name).frictionloss = p.guide_friction_n
     spec.numeric("limit_switch_trip").data = [x0, y0, z1, z0]
