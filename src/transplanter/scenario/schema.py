@@ -2104,9 +2104,6 @@ def scenario_files(name: str | Path) -> list[Path]:
     return files
 
 
-ALL_KEYS = "*"
-"""IDENTITY_SKIP's mark for a whole section."""
-
 REFERENCE_SCENARIO = "paper"
 """The packaged scenario whose values fill a section that a scenario neither gives nor reads
 (the five-bar's [arm], [taught], ... in a delta's scenario): a Scenario has every section,
@@ -2258,7 +2255,7 @@ def read_overrides(path: str | Path, overrides: Mapping[str, Any]) -> dict[str, 
     return out
 
 
-IDENTITY_SKIP = {"scenario": ("name", "description", "seed", "seedlings"), "costs": ALL_KEYS}
+IDENTITY_SKIP = {"scenario": ("name", "description", "seed", "seedlings"), "costs": kinds.ALL}
 """What a study's identity leaves out of the keys a scenario reads: its name, description,
 seed and unit count (a study sets or reports them itself) and what the drives cost (not
 physics: no result depends on it)."""
@@ -2275,7 +2272,7 @@ def read_values(scenario: Scenario) -> tuple[tuple[str, Any], ...]:
     for section, keys in SCHEMA.items():
         read = table.get(section)
         skip = IDENTITY_SKIP.get(section, ())
-        if read is None or skip == ALL_KEYS:
+        if read is None or skip == kinds.ALL:
             continue
         for name in keys if read == kinds.ALL else read:
             if name not in skip:

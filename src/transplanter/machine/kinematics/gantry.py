@@ -152,13 +152,10 @@ class GantryKinematics(Kinematics):
             ),
             dirs=HOMING_DIRS,
             first_cycle=(2,),
+            # a seek may cross the whole travel and 20 mm more
             max_steps=tuple(
-                int(round((hi - lo + 0.02) * d.steps_per_unit))
-                for (lo, hi), d in zip(
-                    ((g.x_min_m, g.x_max_m), (g.y_min_m, g.y_max_m), (g.z_min_m, g.z_max_m)),
-                    cls.from_scenario(scenario).drives_xyz,
-                    strict=True,
-                )
+                int(round((a.window[1] - a.window[0] + 0.02) * a.drive.steps_per_unit))
+                for a in cls.from_scenario(scenario).axes
             ),
             debounce_s=scenario.drives.homing_debounce_s,
         )

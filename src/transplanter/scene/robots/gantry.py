@@ -96,17 +96,18 @@ def params(cfg: SceneConfig) -> GantryParams:
 
 
 def scene_fields(scenario, machine) -> dict:
-    """The SceneConfig fields of a scenario's gantry: its [gantry] numbers and power-on pose
-    (the SGF's: `machine.config.power_on_joints`)."""
+    """The SceneConfig fields of a scenario's gantry: its travel and belt as the firmware's
+    kinematics holds them (`machine.kinematics`), its [gantry] masses, guides and portal, and
+    its power-on pose (the SGF's: `machine.config.power_on_joints`)."""
     from transplanter.machine.config import power_on_joints
 
-    g = scenario.gantry
+    g, kin = scenario.gantry, machine.kinematics
     return {
         "robot_params": GantryParams(
-            x_window_m=(g.x_min_m, g.x_max_m),
-            y_window_m=(g.y_min_m, g.y_max_m),
-            z_window_m=(g.z_min_m, g.z_max_m),
-            belt_lead_m=g.belt_lead_m,
+            x_window_m=kin.x_window_m,
+            y_window_m=kin.y_window_m,
+            z_window_m=kin.z_window_m,
+            belt_lead_m=kin.drives_xyz[0].lead_m,
             bridge_mass_kg=g.bridge_mass_kg,
             carriage_mass_kg=g.carriage_mass_kg,
             ram_mass_kg=g.ram_mass_kg,
