@@ -99,3 +99,20 @@ def test_the_sgf_refuses_a_line_past_the_travel():
     with pytest.raises(PlanError, match=r"error:33 x axis 200.0 mm outside \[-150, 150\]") as info:
         plan_program(machine, "G28\nG1 X200 Y100 Z50 S100\n")
     assert info.value.line_no == 2
+
+
+def test_the_default_section_homes_at_the_rate_the_steppers_follow():
+    """A gantry scenario that leaves out the homing rates gets the packaged scenario's 1600
+    microsteps/s, the rate at which X follows from rest (tests/test_gantry_trial.py)."""
+    import tomllib
+
+    from conftest import ROOT
+
+    path = ROOT / "scenarios" / "gantry_pots.toml"
+    packaged = tomllib.loads(path.read_text())["gantry"]
+    rates = machine_config(load_scenario("gantry_pots")).sgf.homing
+    from transplanter.scenario.schema import DEFAULT_SECTIONS
+
+    for key in ("homing_rate_xy_hz", "homing_locate_rate_xy_hz"):
+        assert DEFAULT_SECTIONS["gantry"][key] == packaged[key]
+    assert rates.rate_hz[:2] == (1600.0, 1600.0)

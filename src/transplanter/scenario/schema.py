@@ -1334,9 +1334,9 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "ram_mass_kg": 0.25,
         "guide_friction_n": 3.0,
         "beam_height_mm": 400.0,
-        "homing_rate_xy_hz": 4000.0,
+        "homing_rate_xy_hz": 1600.0,  # 4000 (100 mm/s) slips X from rest (docs/gantry.md)
         "homing_rate_z_hz": 16000.0,
-        "homing_locate_rate_xy_hz": 400.0,
+        "homing_locate_rate_xy_hz": 160.0,
         "homing_locate_rate_z_hz": 1600.0,
     },
     "fuzzy_gripper": {
