@@ -12,7 +12,7 @@ import pytest
 
 from transplanter import cli
 from transplanter.errors import RefusalReason
-from transplanter.machine.kinematics import KINDS, UnreachableError, kinematics_class
+from transplanter.machine.kinematics import UnreachableError, kinematics_class
 from transplanter.machine.kinematics.serial4 import (
     Serial4Geometry,
     Serial4Kinematics,
@@ -157,7 +157,6 @@ def test_each_axis_is_a_servo_counting_microseconds_of_pulse_width():
 
 
 def test_the_scenario_picks_the_serial_arm_and_its_section():
-    assert KINDS["serial4"].endswith(":Serial4Kinematics")
     assert kinematics_class("serial4") is Serial4Kinematics
     machine = machine_config(load_scenario("paper", SERIAL4))
     arm = machine.kinematics

@@ -93,9 +93,9 @@ def register(category: str, name: str, kind: ModuleType | Any) -> None:
 def _kinematics_only() -> list[str]:
     """Robot kinds whose kinematics alone was registered at run time
     (`machine.kinematics.register`): enough for `ik` and `plan`, no scene and no job."""
-    from transplanter.machine.kinematics import known_kinds
+    from transplanter.machine.kinematics import registered_kinds
 
-    return [k for k in known_kinds() if k not in ROBOTS and k not in _REGISTERED["robot"]]
+    return [k for k in registered_kinds() if k not in ROBOTS and k not in _REGISTERED["robot"]]
 
 
 class _KinematicsOnly:

@@ -276,7 +276,7 @@ def _via_transfers(kinematics: Kinematics) -> bool:
 def _machine(s: Scenario) -> Machine:
     kinematics = robot_kinematics(s)
     arm_masses = None  # a kinematics kind without a scene module (a test's) has no masses
-    if s.robot.kind in scene_kinds.ROBOTS:
+    if scene_kinds.has_scene("robot", s.robot.kind):
         arm_masses = getattr(scene_kinds.robot(s.robot.kind), "arm_masses", None)
     if arm_masses is None:
         return _machine_of(s, kinematics)

@@ -1,6 +1,8 @@
-"""The kinds the scene is assembled from, one module each, created by name: a robot
-(`[robot] kind`), the end effector on it (`[effector] kind`) and the workcell of the job
-(`[workcell] kind`). Adding a kind adds its module and one line here.
+"""The scene modules of the kinds a scene is assembled from: a robot (`[robot] kind`), the
+end effector on it (`[effector] kind`) and the workcell of the job (`[workcell] kind`), each
+found through the one registry, :mod:`transplanter.kinds` (a robot's and an effector's
+``SCENE``, a job's ``WORKCELL``). Adding a kind adds its modules and its line there; nothing
+here names one.
 
 A robot module has ``MODEL`` (its folder, models/<MODEL>/<MODEL>.xml), ``INERTIAL_BODIES``,
 ``ACTUATORS`` (its drives' actuator names: transplanter.twin.motors meters them),
@@ -19,55 +21,53 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
+from transplanter import kinds as registry
 from transplanter.machine.kinematics import UnknownKind
 
 __all__ = [
-    "EFFECTORS",
-    "ROBOTS",
-    "WORKCELLS",
     "effector",
+    "has_scene",
     "judge_class",
     "robot",
     "workcell",
 ]
 
-ROBOTS = {
-    "fivebar": "transplanter.scene.robots.fivebar",
-    "delta": "transplanter.scene.robots.delta",
-    "serial4": "transplanter.scene.robots.serial4",
-    "gantry": "transplanter.scene.robots.gantry",
-}
-EFFECTORS = {
-    "parallel_jaw": "transplanter.scene.effectors.parallel_jaw",
-    "plug_claws": "transplanter.scene.effectors.plug_claws",
-    "fuzzy_gripper": "transplanter.scene.effectors.fuzzy_gripper",
-}
-WORKCELLS = {
-    "conveyor_tube": "transplanter.scene.workcells.conveyor_tube",
-    "plug_trays": "transplanter.scene.workcells.plug_trays",
-    "pool_to_belt": "transplanter.scene.workcells.pool_to_belt",
-}
+
+def _module(category: str, kind: str) -> str:
+    """The scene module's name of a kind ('' where it has none)."""
+    the_kind = registry.get(category, kind)  # UnknownKind naming the known ones
+    return the_kind.WORKCELL if category == "job" else the_kind.SCENE
 
 
-def _load(table: dict[str, str], what: str, kind: str) -> ModuleType:
-    if kind not in table:
-        raise UnknownKind(f"unknown {what} kind {kind!r}; known kinds: {', '.join(table)}")
-    return importlib.import_module(table[kind])
+def _load(category: str, what: str, kind: str) -> ModuleType:
+    name = _module(category, kind)
+    if not name:
+        raise UnknownKind(f"the {what} kind {kind!r} has no scene module")
+    return importlib.import_module(name)
+
+
+def has_scene(category: str, kind: str) -> bool:
+    """Whether the kind ('robot', 'effector' or 'job') is registered with a scene module (a
+    kinematics registered alone, for `ik` and `plan`, has none)."""
+    try:
+        return bool(_module(category, kind))
+    except UnknownKind:
+        return False
 
 
 def robot(kind: str) -> ModuleType:
     """The scene module of a robot kind."""
-    return _load(ROBOTS, "robot", kind)
+    return _load("robot", "robot", kind)
 
 
 def effector(kind: str) -> ModuleType:
     """The scene module of an end-effector kind."""
-    return _load(EFFECTORS, "effector", kind)
+    return _load("effector", "effector", kind)
 
 
 def workcell(kind: str) -> ModuleType:
-    """The scene module of a workcell kind."""
-    return _load(WORKCELLS, "workcell", kind)
+    """The scene module of a workcell kind (its job's ``WORKCELL``)."""
+    return _load("job", "workcell", kind)
 
 
 def judge_class(kind: str) -> type:

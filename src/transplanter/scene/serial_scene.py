@@ -73,7 +73,7 @@ class SerialSceneConfig:
     timestep_s: float = 0.001
     gripper: FuzzyGripperConfig = field(default_factory=FuzzyGripperConfig)
     workcell_kind: str | None = None
-    """The workcell of the job (`scene.kinds.WORKCELLS`), or none: the arm on a bare floor."""
+    """The workcell of the job (`scene.kinds.workcell`), or none: the arm on a bare floor."""
     workcell: object | None = None
     """The workcell module's config (its `apply` and `populate` take it)."""
     base_pos_m: tuple[float, float, float] = (0.0, 0.0, 0.0)

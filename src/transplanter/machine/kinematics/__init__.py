@@ -1,9 +1,11 @@
 """Arm kinematics, one module per kind of arm, created by name (as Klipper loads
 ``klippy/kinematics/<name>.py`` and RepRapFirmware creates a ``Kinematics`` by type).
 
-``KINDS`` maps a scenario's ``[robot] kind`` to the class that implements it, imported only
-when asked for. Adding an arm adds its module and one line here; :func:`register` adds a kind
-at run time (a test's own gantry, a user's plug-in).
+A scenario's ``[robot] kind`` names a robot kind of the one registry,
+:mod:`transplanter.kinds`, whose ``KINEMATICS`` ("module:Class") is the class that implements
+it, imported only when asked for: adding an arm adds its module and its robot kind's line
+there. :func:`register` adds a kinematics alone at run time (a test's own arm, a user's
+plug-in: enough for `ik` and `plan`).
 """
 
 from __future__ import annotations
@@ -17,21 +19,12 @@ from transplanter.machine.kinematics.base import Kinematics, ReachReport, Unreac
 __all__ = [
     "Axis",
     "Kinematics",
-    "KINDS",
     "ReachReport",
     "UnknownKind",
     "UnreachableError",
     "kinematics_class",
     "register",
 ]
-
-KINDS: dict[str, str] = {
-    "delta": "transplanter.machine.kinematics.delta:DeltaKinematics",
-    "fivebar": "transplanter.machine.kinematics.fivebar:FiveBarKinematics",
-    "gantry": "transplanter.machine.kinematics.gantry:GantryKinematics",
-    "serial4": "transplanter.machine.kinematics.serial4:Serial4Kinematics",
-}
-"""kind -> "module:Class" of every arm the package ships."""
 
 _REGISTERED: dict[str, type[Kinematics]] = {}
 
@@ -47,16 +40,36 @@ def register(kind: str, cls: type[Kinematics]) -> None:
     _REGISTERED[kind] = cls
 
 
+def _shipped() -> dict[str, str]:
+    """kind -> "module:Class" of every robot kind of the registry that has a kinematics."""
+    from transplanter import kinds  # declarations only: no scene, no physics
+
+    out = {}
+    for name in kinds.names("robot"):
+        if name in _REGISTERED:
+            continue
+        target = kinds.robot(name).KINEMATICS
+        if target and not target.startswith(f"{__name__}:"):
+            out[name] = target
+    return out
+
+
+def registered_kinds() -> list[str]:
+    """The kinds whose kinematics :func:`register` added at run time, sorted."""
+    return sorted(_REGISTERED)
+
+
 def known_kinds() -> list[str]:
     """Every kind that :func:`kinematics_class` can create, sorted."""
-    return sorted(set(KINDS) | set(_REGISTERED))
+    return sorted(set(_shipped()) | set(_REGISTERED))
 
 
 def kinematics_class(kind: str) -> type[Kinematics]:
     """The class of a kind of arm; UnknownKind naming the known ones otherwise."""
     if kind in _REGISTERED:
         return _REGISTERED[kind]
-    if kind not in KINDS:
+    shipped = _shipped()
+    if kind not in shipped:
         raise UnknownKind(f"unknown robot kind {kind!r}; known kinds: {', '.join(known_kinds())}")
-    module, _, name = KINDS[kind].partition(":")
+    module, _, name = shipped[kind].partition(":")
     return getattr(importlib.import_module(module), name)
