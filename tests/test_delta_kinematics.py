@@ -14,7 +14,8 @@ import pytest
 from conftest import PAPER_PATH
 from transplanter import cli
 from transplanter.errors import RefusalReason, TransplanterError
-from transplanter.machine.kinematics import UnreachableError, kinematics_class
+from transplanter.kinds import kinematics_class
+from transplanter.machine.kinematics import UnreachableError
 from transplanter.machine.kinematics.delta import (
     DeltaGeometry,
     DeltaKinematics,

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from transplanter.errors import RefusalReason
-from transplanter.machine.kinematics import UnreachableError, kinematics_class
+from transplanter.kinds import kinematics_class
+from transplanter.machine.kinematics import UnreachableError
 from transplanter.machine.kinematics.gantry import HOMING_DIRS, GantryKinematics
 from transplanter.machine.planner import PlanError, plan_program
 from transplanter.scenario.assemble import machine_config
@@ -116,3 +117,23 @@ def test_the_default_section_homes_at_the_rate_the_steppers_follow():
     for key in ("homing_rate_xy_hz", "homing_locate_rate_xy_hz"):
         assert DEFAULT_SECTIONS["gantry"][key] == packaged[key]
     assert rates.rate_hz[:2] == (1600.0, 1600.0)
+
+
+def test_the_class_defaults_are_the_sections_defaults():
+    """GantryKinematics() and the scene's GantryParams() (a gantry built in code, without a
+    scenario) are the catalogue build of the [gantry] section's defaults, the one place
+    those numbers are given (its kind module's SECTIONS)."""
+    from transplanter.kinds.robots.gantry import SECTIONS
+    from transplanter.scene.robots.gantry import GantryParams
+
+    d = SECTIONS["gantry"].defaults
+    windows = [v / 1e3 for a in "xyz" for v in (d[f"{a}_min_mm"], d[f"{a}_max_mm"])]
+    arm, params = GantryKinematics(), GantryParams()
+    assert [*arm.x_window_m, *arm.y_window_m, *arm.z_window_m] == pytest.approx(windows)
+    assert [*params.x_window_m, *params.y_window_m, *params.z_window_m] == pytest.approx(windows)
+    assert params.belt_lead_m == pytest.approx(d["belt_lead_mm"] / 1e3)
+    assert arm.drives_xyz[0].lead_m == pytest.approx(d["belt_lead_mm"] / 1e3)
+    assert arm.drives_xyz[0].microsteps == d["belt_microsteps"]
+    for name in ("bridge_mass_kg", "carriage_mass_kg", "ram_mass_kg", "guide_friction_n"):
+        assert getattr(params, name) == pytest.approx(d[name]), name
+    assert params.beam_height_m == pytest.approx(d["beam_height_mm"] / 1e3)

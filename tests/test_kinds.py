@@ -10,6 +10,7 @@ import types
 import pytest
 
 from transplanter import kinds
+from transplanter.kinds import sections
 from transplanter.kinds.interfaces import ALL, problems
 from transplanter.scenario import schema
 from transplanter.scenario.schema import ScenarioError, load_scenario, packaged_scenarios
@@ -66,6 +67,86 @@ def test_a_kind_registered_at_run_time_is_one_of_the_known():
     finally:
         kinds._REGISTERED["robot"].pop("test_arm")
     assert "test_arm" not in kinds.names("robot")
+
+
+@dataclasses.dataclass(frozen=True)
+class _SagSection:
+    """A user's robot's own section: one key with no default, one with."""
+
+    sag_m: float = sections.key("float", 0, 100, doc="the beam's sag under load")
+    sag_per_kg_m: float = sections.key("float", 0, 100, doc="more sag per carried kg")
+
+
+def _user_gantry(section_name: str = "sagging_gantry"):
+    """The gantry's declaration with a section of its own, as a user's plug-in would give."""
+    from transplanter.kinds.robots import gantry
+
+    return types.SimpleNamespace(
+        NAME="sagging_gantry", SUMMARY="a user's gantry", KINEMATICS=gantry.KINEMATICS,
+        SCENE=gantry.SCENE, MODEL=gantry.MODEL, CONTROLLER="sgf",
+        READS={**gantry.READS, section_name: ALL},
+        SECTIONS={section_name: sections.Section(
+            _SagSection, defaults={"sag_per_kg_mm": 0.5},
+            check=lambda v: "sagging_gantry.sag_mm above 10 mm breaks the beam."
+            if v["sag_m"] > 0.010 else None,
+        )},
+    )  # fmt: skip
+
+
+def test_a_kind_brings_its_own_section_into_the_schema(tmp_path):
+    """A robot kind registered at run time with a section of its own: the loader takes its
+    keys (units, range, default, check), refuses them in a scenario of other kinds naming the
+    kind, and a scenario of other kinds holds no such section; unregistered, it is gone."""
+    kinds.register("robot", "sagging_gantry", _user_gantry())
+    try:
+        assert schema.KIND_SECTIONS["sagging_gantry"][0] == "the sagging_gantry robot"
+        assert schema.SCHEMA["sagging_gantry"]["sag_mm"].scale == pytest.approx(1e-3)
+        path = tmp_path / "mine.toml"
+        path.write_text(
+            '[scenario]\nbase = "gantry_pots"\nname = "mine"\n'
+            '[robot]\nkind = "sagging_gantry"\n[sagging_gantry]\nsag_mm = 2.5\n'
+        )
+        sc = load_scenario(path)
+        assert sc.sagging_gantry.sag_m == pytest.approx(0.0025)
+        assert sc.sagging_gantry.sag_per_kg_m == pytest.approx(0.0005)  # the default
+        assert sc.get("sagging_gantry.sag_mm") == pytest.approx(0.0025)
+        assert ("sagging_gantry.sag_mm", pytest.approx(0.0025)) in schema.read_values(sc)
+        with pytest.raises(ScenarioError, match="sag_mm above 10 mm breaks the beam"):
+            load_scenario(path, {"sagging_gantry.sag_mm": 12.0})
+        with pytest.raises(
+            ScenarioError,
+            match=r"sagging_gantry.sag_mm: 200.0 is outside the allowed range \[0, 100\]",
+        ):
+            load_scenario(path, {"sagging_gantry.sag_mm": 200.0})
+        path.write_text(path.read_text().replace("sag_mm = 2.5\n", ""))
+        with pytest.raises(ScenarioError, match=r"sagging_gantry.sag_mm is missing"):
+            load_scenario(path)
+        paper = load_scenario("paper")  # reads it not, and it has no default for sag_mm
+        assert not paper.has_section("sagging_gantry") and paper.has_section("gantry")
+        with pytest.raises(AttributeError, match="no kind of it reads it"):
+            paper.sagging_gantry  # noqa: B018
+        with pytest.raises(ScenarioError, match=r"\[sagging_gantry\] sag_mm \(read by the "
+                           r"sagging_gantry robot\)"):  # fmt: skip
+            load_scenario("paper", {"sagging_gantry.sag_mm": 1.0})
+    finally:
+        kinds._REGISTERED["robot"].pop("sagging_gantry")
+        schema.add_kind_sections()
+    assert "sagging_gantry" not in schema.SCHEMA
+    with pytest.raises(ScenarioError, match="unknown section"):
+        load_scenario("paper", {"sagging_gantry.sag_mm": 1.0})
+
+
+def test_a_section_two_kinds_declare_is_refused_and_the_registry_undone():
+    with pytest.raises(ValueError, match=r"\[gantry\] section is declared by the gantry robot "
+                       "and by the sagging_gantry robot"):  # fmt: skip
+        kinds.register("robot", "sagging_gantry", _user_gantry("gantry"))
+    assert "sagging_gantry" not in kinds.names("robot")
+    with pytest.raises(ValueError, match=r"declares the \[drives\] section, one of the "
+                       "loader's shared sections"):  # fmt: skip
+        kinds.register("robot", "sagging_gantry", _user_gantry("drives"))
+    assert "sagging_gantry" not in kinds.names("robot") and "gantry" in schema.KIND_SECTIONS
+    odd = types.SimpleNamespace(**{**vars(_user_gantry()), "SECTIONS": {"x": object()}})
+    assert problems("robot", odd) == ["SECTIONS['x'] is not a kinds.sections.Section"]
 
 
 def test_an_unknown_kind_names_the_known_ones_and_the_nearest():

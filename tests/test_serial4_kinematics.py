@@ -12,7 +12,8 @@ import pytest
 
 from transplanter import cli
 from transplanter.errors import RefusalReason
-from transplanter.machine.kinematics import UnreachableError, kinematics_class
+from transplanter.kinds import kinematics_class
+from transplanter.machine.kinematics import UnreachableError
 from transplanter.machine.kinematics.serial4 import (
     Serial4Geometry,
     Serial4Kinematics,

@@ -23,7 +23,7 @@ _API = {
     "TwinConfig": "transplanter.scenario.assemble",
     "check_machine": "transplanter.scenario.preflight",
     "Kinematics": "transplanter.machine.kinematics",
-    "kinematics_class": "transplanter.machine.kinematics",
+    "kinematics_class": "transplanter.kinds",
     "register": "transplanter.machine.kinematics",
     "UnreachableError": "transplanter.machine.kinematics",
     "Machine": "transplanter.machine.config",

@@ -5,7 +5,9 @@ written interface of :mod:`transplanter.kinds.interfaces`, created by name (``[r
 Adding a kind adds its module and one line in its table here. A kind module is a
 declaration (no MuJoCo, no physics imported): what it reads of a scenario and the modules
 that implement it, so the loader can refuse a key that no kind of a scenario reads before
-anything is built (:func:`unread_keys`). :func:`register` adds a kind at run time (a user's
+anything is built (:func:`unread_keys`). A kind's own scenario sections are declared in
+its module too (``SECTIONS``, :mod:`transplanter.kinds.sections`) and join the loader's
+schema from here (:func:`own_sections`). :func:`register` adds a kind at run time (a user's
 plug-in, a test's own gantry).
 """
 
@@ -13,11 +15,13 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import sys
 from collections.abc import Iterable, Mapping
 from types import ModuleType
 from typing import Any
 
 from transplanter.kinds.interfaces import ALL, Reads, problems
+from transplanter.kinds.sections import Section
 from transplanter.machine.kinematics import UnknownKind
 
 __all__ = [
@@ -31,11 +35,14 @@ __all__ = [
     "effector",
     "get",
     "job",
+    "kinematics_class",
+    "known_kinematics",
     "names",
     "reads",
     "readers",
     "register",
     "robot",
+    "own_sections",
     "describe_unread",
     "unread_keys",
 ]
@@ -87,7 +94,36 @@ def register(category: str, name: str, kind: ModuleType | Any) -> None:
     missing = problems(category, kind)
     if missing:
         raise TypeError(f"the {category} kind {name!r} " + "; ".join(missing))
+    before = _REGISTERED[category].get(name)
     _REGISTERED[category][name] = kind
+    loader = sys.modules.get("transplanter.scenario.schema")
+    if loader is not None:  # its schema takes the kind's own sections (a clash undoes it)
+        try:
+            loader.add_kind_sections()
+        except Exception:
+            if before is None:
+                del _REGISTERED[category][name]
+            else:
+                _REGISTERED[category][name] = before
+            loader.add_kind_sections()
+            raise
+
+
+def own_sections() -> dict[str, tuple[str, Section]]:
+    """{section: (its owner, 'the gantry robot'; its Section)} of every kind's own sections;
+    ValueError for a section two kinds declare."""
+    out: dict[str, tuple[str, Section]] = {}
+    for category in CATEGORIES:
+        for name in names(category):
+            for section, declared in getattr(get(category, name), "SECTIONS", {}).items():
+                owner = f"the {name} {category}"
+                if section in out:
+                    raise ValueError(
+                        f"the [{section}] section is declared by {out[section][0]} and by "
+                        f"{owner}: a section belongs to one kind; rename one"
+                    )
+                out[section] = (owner, declared)
+    return out
 
 
 def _kinematics_only() -> list[str]:
@@ -136,6 +172,31 @@ def get(category: str, name: str) -> Any:
             f"({section}.kind){hint}"
         )
     return importlib.import_module(table[name])
+
+
+def known_kinematics() -> list[str]:
+    """Every robot kind :func:`kinematics_class` can create, sorted."""
+    return [n for n in names("robot") if robot(n).KINEMATICS]
+
+
+def kinematics_class(name: str) -> type:
+    """The firmware's `Kinematics` class of the robot kind `name` (its ``KINEMATICS``, or the
+    one `machine.kinematics.register` gave it); UnknownKind naming the known ones."""
+    from transplanter.machine import kinematics as firmware
+
+    given = firmware.registered(name)
+    if given is not None:
+        return given
+    try:
+        target = robot(name).KINEMATICS
+    except UnknownKind:
+        target = ""
+    if not target:
+        raise UnknownKind(
+            f"unknown robot kind {name!r}; known kinds: {', '.join(known_kinematics())}"
+        )
+    module, _, attribute = target.partition(":")
+    return getattr(importlib.import_module(module), attribute)
 
 
 def robot(name: str) -> Any:

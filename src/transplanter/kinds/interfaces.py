@@ -14,6 +14,11 @@ writes them (``"l1_mm"``), or :data:`ALL` for every key of the section. The load
 key given in a scenario file (its ``base`` chain included) or by ``--set`` that no kind of
 the scenario reads, naming the kinds that do read it: a value the user set is the value the
 run uses, or it is refused.
+
+Sections: a kind of any category may own scenario sections, ``SECTIONS = {name: Section}``
+(:mod:`transplanter.kinds.sections`: the section's key dataclass, its defaults and its
+check); the loader's schema takes them, so a kind brings its own keys. Optional: a kind that
+reads only shared sections has none.
 """
 
 from __future__ import annotations
@@ -148,8 +153,16 @@ def _reads_problems(where: str, reads: Any) -> list[str]:
 def problems(category: str, module: ModuleType | Any) -> list[str]:
     """What a kind module of `category` ('robot', 'effector', 'job') lacks of its interface
     ([] when it implements it): a missing or empty name, a callable that is not one, reads
-    that are not {section: keys}."""
+    that are not {section: keys}, own sections that are not Sections of key fields."""
+    from transplanter.kinds.sections import section_problems
+
     out = []
+    own = getattr(module, "SECTIONS", {})
+    if not isinstance(own, Mapping):
+        out.append("SECTIONS is not a mapping of section -> Section")
+    else:
+        for name, section in own.items():
+            out.extend(section_problems(name, section))
     for name in MEMBERS[category]:
         if not hasattr(module, name):
             out.append(f"has no {name}")

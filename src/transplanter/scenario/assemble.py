@@ -15,6 +15,7 @@ import zlib
 from dataclasses import dataclass
 from typing import Any
 
+from transplanter.kinds import kinematics_class
 from transplanter.machine.config import GRIPPER_SERVO, WRIST_SERVO, Machine
 from transplanter.machine.eeprom import (
     ANGLE_COUNTS_PER_DEG,
@@ -25,7 +26,7 @@ from transplanter.machine.eeprom import (
     Pickup,
 )
 from transplanter.machine.faults import FaultConfig
-from transplanter.machine.kinematics import Kinematics, UnknownKind, kinematics_class
+from transplanter.machine.kinematics import Kinematics, UnknownKind
 from transplanter.machine.motion import MotionConfig
 from transplanter.machine.pgf import PGFConfig, build_program
 from transplanter.machine.sgf import SGFConfig

@@ -190,8 +190,12 @@ def markdown() -> str:
     for r in all_key_rows():
         if r.section != section:
             section = r.section
-            out += ["", f"## [{section}]", "", "| key | kind | unit | allowed | default | read by |"
-                    " meaning |", "| --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
+            owner = schema.KIND_SECTIONS.get(section, ("",))[0]
+            out += ["", f"## [{section}]", ""]
+            if owner:
+                out += [f"Declared by {owner} (its kind module's `SECTIONS`).", ""]
+            out += ["| key | kind | unit | allowed | default | read by | meaning |",
+                    "| --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
         out.append(
             f"| `{r.key}` | {r.kind} | {r.unit} | {_cell(r.allowed)} | "
             f"{_cell(_shown(r.default))} | {_cell(r.readers)} | {_cell(r.doc)} |"

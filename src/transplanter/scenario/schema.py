@@ -19,12 +19,14 @@ import math
 import reprlib
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
 from transplanter import fileio, kinds
 from transplanter.errors import TransplanterError
+from transplanter.kinds import sections as _sections
+from transplanter.kinds.sections import Key, Section
 from transplanter.machine.eeprom import MAX_PICKUPS
 
 __all__ = [
@@ -43,23 +45,11 @@ __all__ = [
 ]
 
 
+key = _sections.key  # a section field that is a scenario key (transplanter.kinds.sections)
+
+
 class ScenarioError(TransplanterError, ValueError):
     """A scenario file cannot be used; the message names the key and what to do."""
-
-
-@dataclass(frozen=True)
-class Key:
-    """One scenario key: its kind, SI scale factor and allowed range (in file units)."""
-
-    kind: str  # "float", "int", "bool", "str", "xy" (pair of floats), "list"
-    scale: float = 1.0
-    lo: float | None = None
-    hi: float | None = None
-    choices: tuple[str, ...] = ()
-    doc: str = ""
-    quantum: float | None = None
-    """The smallest nonzero magnitude (file units) the firmware can carry out (a dwell's or a
-    servo angle's resolution in its G-code word): anything between 0 and it is refused."""
 
 
 _DEG = math.pi / 180.0
@@ -130,23 +120,11 @@ def si_key(key: str) -> str:
     return key[: -len(unit)] + _SI_SUFFIX[unit] if unit in _SI_SUFFIX else key
 
 
-def key(
-    kind: str,
-    lo: float | None = None,
-    hi: float | None = None,
-    doc: str = "",
-    choices: tuple[str, ...] = (),
-    quantum: float | None = None,
-):
-    """A section dataclass field that is a scenario key: its kind, allowed range (in the
-    file's unit) and meaning. The file key is the field name with its file unit (the field
-    `l1_m` is read from `l1_mm`; see FILE_KEYS), the scale follows from that unit."""
-    return field(metadata={"key": Key(kind, 1.0, lo, hi, choices, doc, quantum)})
-
-
 # ---------------------------------------------------------------------------------------
-# The sections. Field names carry the SI unit of the value; the file key carries the unit
-# the file uses. A new key is a field here plus one line in transplanter.scenario.assemble.
+# The shared sections. Field names carry the SI unit of the value; the file key carries the
+# unit the file uses. A new key is a field here plus one line in transplanter.scenario.assemble.
+# A kind's own section is declared in its kind module (`SECTIONS`, transplanter.kinds.sections)
+# and joins the schema from there (`_add_kind_sections`).
 # ---------------------------------------------------------------------------------------
 
 
@@ -385,47 +363,6 @@ class Serial4Section:
         "str",
         choices=("sg90", "mg996r"),
         doc="hobby servo class of the fuzzy gripper's finger servo",
-    )
-
-
-@dataclass(frozen=True)
-class GantrySection:
-    """[gantry]: the Cartesian gantry of linear modules (`[robot] kind = "gantry"`): belt X
-    and Y, lead-screw Z, read by its kinematics and its scene; its motors are [drives]'
-    (docs/gantry.md gives each number's source). Optional: default a catalogue build."""
-
-    x_min_m: float = key("float", -2000, 2000, doc="X travel's low end: X's homing switch")
-    x_max_m: float = key("float", -2000, 2000, doc="X travel's high end (the grip centre's x)")
-    y_min_m: float = key("float", -2000, 2000, doc="Y travel's low end: Y's homing switch")
-    y_max_m: float = key("float", -2000, 2000, doc="Y travel's high end (the grip centre's y)")
-    z_min_m: float = key("float", 0, 2000, doc="Z's lowest grip height: limit switch 4 (Z down)")
-    z_max_m: float = key("float", 0, 2000, doc="Z's highest grip height: Z's homing switch")
-    belt_lead_m: float = key(
-        "float", 1, 1000, doc="X and Y belt travel per motor revolution (GT2, 20 teeth: 40 mm)"
-    )
-    belt_microsteps: int = key("int", lo=1, hi=256, doc="the X and Y drivers' microsteps")
-    bridge_mass_kg: float = key(
-        "float", 0.01, 100, doc="what X moves besides Y's load: the Y module, its motor, belt"
-    )
-    carriage_mass_kg: float = key(
-        "float", 0.01, 100, doc="what Y moves besides Z's load: the carriage and the Z module"
-    )
-    ram_mass_kg: float = key("float", 0.01, 100, doc="the Z slide that carries the effector")
-    guide_friction_n: float = key(
-        "float", 0, 1000, doc="each X and Y guide's friction (Coulomb, at the carriage)"
-    )
-    beam_height_m: float = key(
-        "float", 10, 5000, doc="the Y beam above the belt's top (the portal's height)"
-    )
-    homing_rate_xy_hz: float = key(
-        "float", 1, 1e6, doc="X and Y step rate while G28 seeks their switches and pulls off"
-    )
-    homing_rate_z_hz: float = key("float", 1, 1e6, doc="Z step rate while G28 seeks switch 3")
-    homing_locate_rate_xy_hz: float = key(
-        "float", 1, 1e6, doc="X and Y step rate in the slow second homing pass"
-    )
-    homing_locate_rate_z_hz: float = key(
-        "float", 1, 1e6, doc="Z step rate in the slow second homing pass"
     )
 
 
@@ -1131,7 +1068,6 @@ SECTIONS: dict[str, type] = {
     "plug_claws": PlugClawsSection,
     "plug_bench": PlugBenchSection,
     "serial4": Serial4Section,
-    "gantry": GantrySection,
     "fuzzy_gripper": FuzzyGripperSection,
     "pool_to_belt": PoolToBeltSection,
     "limits": LimitsSection,
@@ -1172,7 +1108,12 @@ def _schema_of(cls: type, section: str | None = None) -> dict[str, Key]:
     for f in fields(cls):
         spec: Key = f.metadata["key"]
         file_key = _file_key(f.name, section)
-        assert si_key(file_key) == f.name, (file_key, f.name)
+        if si_key(file_key) != f.name:  # a kind's section may name its file keys wrongly
+            raise ValueError(
+                f"[{section}] field {f.name!r}: its file key {file_key!r} reads as "
+                f"{si_key(file_key)!r} in SI; name the field for its SI unit, or give its file "
+                "key in Section.file_keys"
+            )
         out[file_key] = replace(spec, scale=_SCALE.get(_unit_of(file_key) or "", 1.0))
     return out
 
@@ -1320,25 +1261,6 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "elbow_servo": "mg996r",
         "gripper_servo": "sg90",
     },
-    "gantry": {  # estimates of catalogue linear modules (docs/gantry.md)
-        "x_min_mm": -150.0,
-        "x_max_mm": 150.0,
-        "y_min_mm": 40.0,
-        "y_max_mm": 300.0,
-        "z_min_mm": 5.0,
-        "z_max_mm": 160.0,
-        "belt_lead_mm": 40.0,
-        "belt_microsteps": 8,
-        "bridge_mass_kg": 1.2,
-        "carriage_mass_kg": 0.6,
-        "ram_mass_kg": 0.25,
-        "guide_friction_n": 3.0,
-        "beam_height_mm": 400.0,
-        "homing_rate_xy_hz": 1600.0,  # 4000 (100 mm/s) slips X from rest (docs/gantry.md)
-        "homing_rate_z_hz": 16000.0,
-        "homing_locate_rate_xy_hz": 160.0,
-        "homing_locate_rate_z_hz": 1600.0,
-    },
     "fuzzy_gripper": {
         "pivot_x_mm": -10.0,
         "pivot_offset_mm": 15.0,
@@ -1481,6 +1403,47 @@ replace these one by one). The kinds are checked against the registries when the
 assembled (an unknown kind is refused there with the known ones)."""
 PICKUP_SCHEMA: dict[str, Key] = _schema_of(TaughtPickup)
 
+SHARED_SECTIONS: tuple[str, ...] = tuple(SECTIONS)
+"""The loader's own sections; every other one is a kind's (KIND_SECTIONS)."""
+KIND_SECTIONS: dict[str, tuple[str, Section]] = {}
+"""{section: (its owner, 'the gantry robot'; its Section)}: the sections the registered kinds
+declare (`transplanter.kinds.sections`), taken into SECTIONS, SCHEMA and DEFAULT_SECTIONS."""
+
+
+def add_kind_sections() -> None:
+    """Take every registered kind's own sections into the schema (again: a kind registered at
+    run time brings its own); ValueError for a section that clashes with a shared one or
+    another kind's, a field whose file key does not read as it, a default for no key."""
+    declared = kinds.own_sections()
+    for name, (owner, _) in declared.items():
+        if name in SHARED_SECTIONS:
+            raise ValueError(
+                f"{owner} declares the [{name}] section, one of the loader's shared sections; "
+                "rename it"
+            )
+    built: dict[str, tuple[type, dict[str, Key]]] = {}
+    for name, (owner, section) in declared.items():
+        for field_name, file_key in section.file_keys.items():
+            _SECTION_FILE_KEYS[name, field_name] = file_key
+        keys = _schema_of(section.fields, name)
+        stray = sorted(set(section.defaults) - set(keys))
+        if stray:
+            raise ValueError(f"{owner}'s [{name}] defaults name no key of it: {', '.join(stray)}")
+        built[name] = (section.fields, keys)
+    for name in KIND_SECTIONS:
+        SECTIONS.pop(name, None)
+        SCHEMA.pop(name, None)
+        DEFAULT_SECTIONS.pop(name, None)
+    KIND_SECTIONS.clear()
+    for name, (owner, section) in declared.items():
+        SECTIONS[name], SCHEMA[name] = built[name]
+        if section.defaults:
+            DEFAULT_SECTIONS[name] = dict(section.defaults)
+        KIND_SECTIONS[name] = (owner, section)
+
+
+add_kind_sections()
+
 
 @dataclass(frozen=True)
 class Scenario:
@@ -1498,7 +1461,6 @@ class Scenario:
     plug_claws: PlugClawsSection
     plug_bench: PlugBenchSection
     serial4: Serial4Section
-    gantry: GantrySection
     fuzzy_gripper: FuzzyGripperSection
     pool_to_belt: PoolToBeltSection
     limits: LimitsSection
@@ -1521,6 +1483,25 @@ class Scenario:
     costs: CostsSection
     overrides: tuple[tuple[str, Any], ...] = ()
     """The 'section.key' = value overrides applied on top of the file, as given."""
+    kind_sections: tuple[tuple[str, Any], ...] = ()
+    """(name, section) of the kinds' own sections this scenario holds (KIND_SECTIONS: every
+    one its kinds read, and every one with a default for each key), read as attributes
+    (`scenario.gantry`)."""
+
+    def __getattr__(self, name: str) -> Any:
+        for section, values in self.__dict__.get("kind_sections", ()):
+            if section == name:
+                return values
+        if name in KIND_SECTIONS:
+            raise AttributeError(
+                f"this scenario has no [{name}] section: no kind of it reads it and it is "
+                f"{KIND_SECTIONS[name][0]}'s, without a default for every key"
+            )
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def has_section(self, section: str) -> bool:
+        """Whether the scenario holds `section` (a shared one always; a kind's, see above)."""
+        return section in SHARED_SECTIONS or any(n == section for n, _ in self.kind_sections)
 
     def get(self, dotted: str) -> Any:
         """The SI value of a file key given as 'section.key' (`taught.s_high_mm_s`)."""
@@ -1782,14 +1763,25 @@ def check_value(dotted: str, raw: Any) -> Any:
     return _convert(section, name, spec, raw)
 
 
-def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, dict[str, Any]]:
-    """Check a raw TOML mapping against SCHEMA and convert it to SI: {section: {field: value}}."""
+def validate(
+    raw: Mapping[str, Any], source: str = "<scenario>", unread: frozenset[str] = frozenset()
+) -> dict[str, dict[str, Any]]:
+    """Check a raw TOML mapping against SCHEMA and convert it to SI: {section: {field: value}}.
+    A kind's section in `unread` (its kinds do not read it) that `raw` leaves out and whose
+    defaults do not give every key is left out."""
     values: dict[str, dict[str, Any]] = {}
     for section in raw:
         if section not in SCHEMA:
             raise _unknown_section_error(source, section)
     for section, keys in SCHEMA.items():
         table = raw.get(section)
+        if (
+            table is None
+            and section in unread
+            and section in KIND_SECTIONS
+            and not set(keys) <= set(DEFAULT_SECTIONS.get(section, {}))
+        ):
+            continue
         if section in DEFAULT_SECTIONS and (table is None or isinstance(table, dict)):
             table = {**DEFAULT_SECTIONS[section], **(table or {})}  # the keys left out
         if table is None:
@@ -1814,6 +1806,11 @@ def validate(raw: Mapping[str, Any], source: str = "<scenario>") -> dict[str, di
                 out[si_key(key_name)] = _convert(section, key_name, spec, table[key_name])
         values[section] = out
     _cross_checks(values)
+    for section, (_, declared) in KIND_SECTIONS.items():
+        if section in values and declared.check is not None:
+            problem = declared.check(dict(values[section]))
+            if problem:
+                raise ScenarioError(problem)
     return values
 
 
@@ -1865,10 +1862,6 @@ def _check_arm_torque_limit(drv: Mapping[str, Any]) -> None:
 
 def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
     lim, taught = v["limits"], v["taught"]
-    gantry = v["gantry"]
-    for axis in "xyz":
-        if gantry[f"{axis}_min_m"] >= gantry[f"{axis}_max_m"]:
-            raise ScenarioError(f"gantry.{axis}_min_mm must be below gantry.{axis}_max_mm.")
     for lo, hi in (
         ("motor1_min_deg", "motor1_max_deg"),
         ("motor2_min_deg", "motor2_max_deg"),
@@ -2181,8 +2174,8 @@ def _with_unread_sections(raw: dict, robot: str, effector: str, job: str) -> dic
     out = dict(raw)
     for section, keys in SCHEMA.items():
         read = table.get(section, ())
-        if read == kinds.ALL:
-            continue
+        if read == kinds.ALL or section in KIND_SECTIONS:
+            continue  # a kind's own section: its defaults fill it, or it is left out
         have = out.get(section)
         if have is not None and not isinstance(have, dict):
             continue  # validate says why
@@ -2272,7 +2265,7 @@ def read_values(scenario: Scenario) -> tuple[tuple[str, Any], ...]:
     for section, keys in SCHEMA.items():
         read = table.get(section)
         skip = IDENTITY_SKIP.get(section, ())
-        if read is None or skip == kinds.ALL:
+        if read is None or skip == kinds.ALL or not scenario.has_section(section):
             continue
         for name in keys if read == kinds.ALL else read:
             if name not in skip:
@@ -2306,6 +2299,15 @@ def load_scenario(path: str | Path, overrides: Mapping[str, Any] | None = None) 
         raw = _apply_overrides(raw, overrides)
     robot, effector, job = _refuse_unread(raw, overrides or {}, str(path))
     raw = _with_unread_sections(raw, robot, effector, job)
-    values = validate(raw, str(path))
-    sections = {("meta" if k == "scenario" else k): SECTIONS[k](**v) for k, v in values.items()}
-    return Scenario(path=path, overrides=tuple((overrides or {}).items()), **sections)
+    runs = kinds.job(job).refusal(robot, effector) is None
+    table = kinds.reads(robot, effector, job) if runs else {}
+    values = validate(raw, str(path), frozenset(s for s in KIND_SECTIONS if s not in table))
+    sections = {
+        ("meta" if k == "scenario" else k): SECTIONS[k](**v)
+        for k, v in values.items()
+        if k not in KIND_SECTIONS
+    }
+    own = tuple((k, SECTIONS[k](**v)) for k, v in values.items() if k in KIND_SECTIONS)
+    return Scenario(
+        path=path, overrides=tuple((overrides or {}).items()), kind_sections=own, **sections
+    )
