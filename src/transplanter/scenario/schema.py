@@ -177,74 +177,6 @@ class ArmSection:
 
 
 @dataclass(frozen=True)
-class DeltaSection:
-    """[delta]: the rotary delta's geometry, joint window and servo drives (`[robot] kind =
-    "delta"`; read only by its kinematics). Optional: the defaults are estimates for the robot
-    of Zhao et al. 2022, whose text gives no dimensions (docs/delta.md)."""
-
-    base_radius_m: float = key("float", 1, 2000, doc="R: base centre to each arm's joint")
-    platform_radius_m: float = key("float", 1, 2000, doc="r: platform centre to each follower")
-    upper_arm_m: float = key("float", 1, 3000, doc="l1: active arm")
-    forearm_m: float = key("float", 1, 5000, doc="l2: follower parallelogram")
-    q_min_rad: float = key("float", -90, 90, doc="lowest arm angle (below the base positive)")
-    q_max_rad: float = key("float", -90, 90, doc="highest arm angle")
-    max_condition: float = key("float", 1, 1e6, doc="largest Jacobian condition number")
-    z_min_m: float = key("float", -10000, 0, doc="lowest platform Z a move may target")
-    z_max_m: float = key("float", -10000, 0, doc="highest platform Z a move may target")
-    home_q_rad: float = key("float", -90, 90, doc="arm angle at which each homing switch trips")
-    gear_ratio: float = key("float", 0.01, 1000, doc="motor revolutions per arm revolution")
-    pulses_per_rev: int = key("int", lo=1, hi=10**7, doc="command pulses per motor revolution")
-    max_joint_speed_rad_s: float = key("float", 1, 1e5, doc="V_max at the joint")
-    max_joint_accel_rad_s2: float = key("float", 1, 1e7, doc="A_max at the joint")
-    joint_torque_limit_nm: float = key("float", 0.01, 10000, doc="tau_max at the joint")
-    rotor_inertia_kgm2: float = key("float", 1e-9, 1, doc="servo motor rotor inertia")
-    upper_arm_mass_kg: float = key("float", 1e-4, 100, doc="m_a: one active arm")
-    elbow_mass_kg: float = key("float", 1e-4, 100, doc="m_b: one elbow's spherical hinges")
-    forearm_mass_kg: float = key("float", 1e-4, 100, doc="m_c: one follower parallelogram")
-    platform_mass_kg: float = key("float", 1e-4, 100, doc="m_move: platform and effector")
-    homing_rate_hz: float = key("float", 1, 1e7, doc="pulse rate while seeking the switches")
-    homing_locate_rate_hz: float = key("float", 1, 1e7, doc="slow second homing pass")
-
-
-@dataclass(frozen=True)
-class DeltaRefillSection:
-    """[delta_refill]: the delta's cull-and-refill job (`[workcell] kind = "plug_trays"`;
-    read only by transplanter.twin.delta_refill). Optional: the defaults are the paper's
-    numbers where it gives them and estimates otherwise (docs/delta.md)."""
-
-    image_delay_s: float = key("float", 0, 60000, doc="the PC's imaging and grading time")
-    pose_judgement: bool = key("bool", doc="turn the claws by the cell's leaf layout")
-    fixed_rotary_rad: float = key("float", 0, 90, doc="rotary setting without pose judgement")
-    following_error_limit_rad: float = key("float", 0.001, 90, doc="drive alarm level")
-    travel_speed_m_s: float = key("float", 1, 5000, doc="G1 speed of the travel moves")
-    approach_speed_m_s: float = key("float", 1, 5000, doc="G1 speed onto a cell")
-    path_accel_m_s2: float = key("float", 1, 1e6, doc="the controller's path acceleration")
-    segment_m: float = key("float", 0.01, 10, doc="interpolation grid of the controller")
-    point_time_s: float = key("float", 1, 1e5, doc="the controller's IK time per point")
-    lift_m: float = key("float", 10, 300, doc="lift above the work height (the paper: 100)")
-    arc_radius_m: float = key(
-        "float", 1, 300, doc="arc at the top of a bspline5 transfer's lift (the paper: 50)"
-    )
-    exit_m: float = key(
-        "float", 0, 299, doc="bspline5: key point straight above each end (0: the paper's 7)"
-    )
-    release_above_m: float = key("float", 0, 50, doc="platform above work height at release")
-    bin_release_above_m: float = key("float", 0, 200, doc="platform above work over the bin")
-    bin_x_m: float = key("float", -1000, 1000, doc="the bin's centre X")
-    bin_y_m: float = key("float", -1000, 1000, doc="the bin's centre Y")
-    tray_change_s: float = key("float", 0, 600000, doc="tray out and next tray in")
-    settle_after_s: float = key("float", 0, 10000, doc="simulated after the last line")
-    max_cells: int = key("int", lo=0, hi=128, doc="cells serviced per tray (0: all)")
-    supply_seed_offset: int = key("int", lo=1, hi=10**9, doc="supply tray's seed - seed")
-    vision: str = key(
-        "str",
-        choices=("pipeline", "truth"),
-        doc="the grading map: the OpenCV pipeline on the camera's pictures (needs an "
-        "offscreen GL context: MUJOCO_GL=egl or osmesa) or the drawn truth",
-    )
-
-
-@dataclass(frozen=True)
 class PlugsSection:
     """[plugs]: the plug of substrate and its laws (`transplanter.scene.plug_substrate.
     PlugsConfig`, whose fields are the file keys), read by the delta's jobs. Optional: the
@@ -279,149 +211,6 @@ class PlugsSection:
     substrate_timeconst_s: float = key("float", 2, 1000, doc="pin contact's solref time")
     substrate_stiffening: float = key("float", 0, 100, doc="time constant / (1 + this R)")
     reference_mass_kg: float = key("float", 0.1, 1000, doc="plug mass of the time constant")
-
-
-@dataclass(frozen=True)
-class PlugClawsSection:
-    """[plug_claws]: the plug-in claws (`transplanter.scene.effectors.plug_claws.
-    PlugClawsConfig`, whose fields are the file keys), read by the delta's jobs. Optional: the
-    defaults are PlugClawsConfig's estimates (docs/plug_claws.md)."""
-
-    insertion_angle_rad: float = key("float", 1, 45, doc="each claw's slide from vertical")
-    insertion_depth_m: float = key("float", 5, 38, doc="tips below the substrate at full stroke")
-    tip_offset_m: float = key("float", 1, 14, doc="tip from the cell's centre line")
-    tip_recess_m: float = key("float", 0, 20, doc="retracted tips inside the stripper")
-    stripper_drop_m: float = key("float", 20, 200, doc="stripper's underside below the mount")
-    work_gap_m: float = key("float", 0, 20, doc="stripper above the tray while the claws go in")
-    tray_substrate_below_top_m: float = key("float", 0, 20, doc="the stroke's substrate level")
-    claw_radius_m: float = key("float", 0.2, 5, doc="claw collision capsule radius")
-    pin_interference_m: float = key("float", 0, 5, doc="claw surface into the plug's core")
-    pressure_mpa: float = key("float", 0.01, 1.0, doc="cylinder supply pressure (gauge)")
-    bore_m: float = key("float", 2, 50, doc="cylinder bore")
-    rod_m: float = key("float", 1, 25, doc="cylinder rod")
-    cylinder_stroke_s: float = key("float", 10, 5000, doc="full stroke (throttled)")
-    cylinder_kv_n_s_m: float = key("float", 0.1, 10000, doc="stiffness of the flow limit")
-    rotary_stroke_s: float = key("float", 10, 5000, doc="the rotary cylinder's 90 deg swing")
-    rotary_torque_nm: float = key("float", 0.01, 100, doc="rotary cylinder torque")
-    rotary_kp_nm_rad: float = key("float", 0.01, 1000, doc="rotary cylinder stiffness")
-    settle_s: float = key("float", 0, 5000, doc="dwell after a stroke (switch, valve)")
-    leaf_damage_force_n: float = key("float", 0.01, 100, doc="a leaf pressed harder tears")
-
-
-@dataclass(frozen=True)
-class PlugBenchSection:
-    """[plug_bench]: the claws' test bench job (`[workcell] kind = "plug_bench"`; read only by
-    transplanter.twin.plug_bench_trial): `scenario.seedlings` picks, one seedling each, on the
-    bench of transplanter.scene.plug_bench, as the paper's end-effector tests (64 a run).
-    Optional: the defaults are estimates (docs/plug_claws.md)."""
-
-    extraction_accel_m_s2: float = key("float", 1, 200, doc="lift's peak (paper's factor C)")
-    move_accel_m_s2: float = key("float", 1, 200, doc="peak of the move to the target cell")
-    moisture_band_pct: float = key("float", 0, 40, doc="moisture drawn in its level +- half")
-    vigour_cv_pct: float = key("float", 0, 50, doc="spread of the seedlings' root growth")
-    pose_judgement: bool = key("bool", doc="turn the claws by the seedling's leaf layout")
-    fixed_rotary_rad: float = key("float", 0, 90, doc="rotary setting without pose judgement")
-    timestep_s: float = key("float", 0.1, 2, doc="physics step")
-
-
-@dataclass(frozen=True)
-class Serial4Section:
-    """[serial4]: the serial 4-DOF servo arm of seed 004 (`[robot] kind = "serial4"`), read
-    only by its kinematics; optional, default the MeArm-class arm (docs/serial_arm.md)."""
-
-    l1_m: float = key("float", 1, 1000, doc="shoulder axis to elbow axis")
-    l2_m: float = key("float", 1, 1000, doc="elbow axis to the grip centre")
-    elbow: str = key("str", choices=("up", "down"), doc="IK branch")
-    base_min_rad: float = key("float", -180, 180, doc="base yaw window (a servo's 180 deg)")
-    base_max_rad: float = key("float", -180, 180, doc="upper end of the base yaw window")
-    shoulder_min_rad: float = key("float", -180, 180, doc="shoulder elevation window")
-    shoulder_max_rad: float = key(
-        "float", -180, 180, doc="upper end of the shoulder elevation window"
-    )
-    elbow_min_rad: float = key("float", -180, 180, doc="elbow window (relative angle)")
-    elbow_max_rad: float = key("float", -180, 180, doc="upper end of the elbow window")
-    min_radius_m: float = key("float", 0, 1000, doc="closest target to the base axis")
-    y_min_m: float = key("float", -1000, 1000, doc="lowest target height above the shoulder")
-    y_max_m: float = key("float", -1000, 1000, doc="highest target height")
-    park_base_rad: float = key("float", -180, 180, doc="park pose, where G28 sends the arm")
-    park_shoulder_rad: float = key("float", -180, 180, doc="shoulder elevation of the park pose")
-    park_elbow_rad: float = key(
-        "float", -180, 180, doc="elbow angle of the park pose (relative to the upper arm)"
-    )
-    base_servo: str = key("str", choices=("sg90", "mg996r"), doc="hobby servo class")
-    shoulder_servo: str = key(
-        "str",
-        choices=("sg90", "mg996r"),
-        doc="the shoulder's hobby servo class: its speed and stall torque",
-    )
-    elbow_servo: str = key(
-        "str",
-        choices=("sg90", "mg996r"),
-        doc="the elbow's hobby servo class: its speed and stall torque",
-    )
-    gripper_servo: str = key(
-        "str",
-        choices=("sg90", "mg996r"),
-        doc="hobby servo class of the fuzzy gripper's finger servo",
-    )
-
-
-@dataclass(frozen=True)
-class FuzzyGripperSection:
-    """[fuzzy_gripper]: the serial arm's two-finger gripper sized for tomatoes
-    (`transplanter.scene.effectors.fuzzy_gripper.FuzzyGripperConfig`, whose fields are the file
-    keys; its servo class is `[serial4] gripper_servo`), read by the serial arm's scene.
-    Optional: the defaults are FuzzyGripperConfig's estimates (docs/serial_arm.md)."""
-
-    pivot_x_m: float = key("float", -100, 100, doc="finger pivots ahead of the mount (<0 behind)")
-    pivot_offset_m: float = key("float", 1, 100, doc="each pivot from the centre line")
-    finger_length_m: float = key("float", 10, 300, doc="pivot to the pad face's centre")
-    pad_inset_m: float = key("float", 0, 50, doc="pad face inward of the finger's pivot line")
-    pad_length_m: float = key("float", 2, 100, doc="pad along the finger")
-    pad_height_m: float = key("float", 2, 100, doc="pad across the finger plane")
-    pad_thickness_m: float = key("float", 0.5, 20, doc="rubber pad thickness")
-    pad_friction: float = key("float", 0.05, 3, doc="pads' sliding friction (theirs governs)")
-    grip_angle_rad: float = key("float", 0, 60, doc="servo angle: pads parallel, grip_center")
-    open_angle_rad: float = key("float", 0, 60, doc="servo angle at power-on (standby)")
-    sensor_height_m: float = key("float", 0, 100, doc="HC-SR04 axis above the finger plane")
-    finger_mass_kg: float = key("float", 0.1, 500, doc="one finger with its pad")
-    palm_mass_kg: float = key("float", 0.1, 500, doc="bracket and palm (no servo, no sensor)")
-    sensor_mass_kg: float = key("float", 0.1, 500, doc="HC-SR04 module")
-
-
-@dataclass(frozen=True)
-class PoolToBeltSection:
-    """[pool_to_belt]: the serial arm's pick-and-place workcell (`[workcell] kind =
-    "pool_to_belt"`): the tomatoes queued in the sloping lane, sensor 1 across the pick
-    station, the belt conveyor (`transplanter.scene.workcells.pool_to_belt.PoolToBeltConfig`,
-    whose fields these are). Optional: the defaults are estimates (docs/serial_arm.md)."""
-
-    count: int = key("int", lo=1, hi=20, doc="tomatoes queued in the pool")
-    diameter_min_m: float = key("float", 20, 120, doc="smallest tomato diameter drawn")
-    diameter_max_m: float = key("float", 20, 120, doc="largest tomato diameter drawn")
-    mass_min_kg: float = key("float", 5, 1000, doc="lightest tomato (density x volume, clipped)")
-    mass_max_kg: float = key("float", 5, 1000, doc="heaviest tomato")
-    density_kg_m3: float = key("float", 500, 1500, doc="tomato density")
-    friction_low: float = key("float", 0, 3, doc="skin-pad friction, lowest drawn")
-    friction_high: float = key("float", 0, 3, doc="skin-pad friction, highest drawn")
-    contact_timeconst_s: float = key("float", 2, 100, doc="a tomato's contact time constant")
-    rolling_resistance_m: float = key("float", 0, 10, doc="lane's and belt's rolling friction")
-    station_x_m: float = key("float", -160, 160, doc="pick station (a middle tomato's centre)")
-    station_y_m: float = key("float", -160, 160, doc="pick station's y: the lane's centre line")
-    lane_floor_z_m: float = key("float", 0, 200, doc="trough bottom at the stop above the floor")
-    lane_slope_rad: float = key("float", 0.5, 20, doc="lane's slope down to the stop")
-    trough_angle_rad: float = key("float", 3, 45, doc="trough faces' sideways rise")
-    lane_half_width_m: float = key("float", 10, 100, doc="trough rim from the centre line")
-    stop_height_m: float = key("float", 1, 100, doc="stop tab above the trough bottom")
-    sensor_offset_m: float = key("float", 10, 300, doc="sensor 1's face from the lane's line")
-    place_angle_rad: float = key("float", -90, 90, doc="base angle theta1 of the place spot")
-    place_radius_m: float = key("float", 20, 160, doc="place spot from the base axis")
-    belt_top_z_m: float = key("float", 0, 200, doc="belt's top face above the floor")
-    belt_width_m: float = key("float", 20, 300, doc="between the belt's side walls")
-    belt_sidewall_height_m: float = key("float", 0, 100, doc="side walls above the belt")
-    belt_speed_m_s: float = key("float", 1, 500, doc="belt speed")
-    cycle_s: float = key("float", 0.5, 120, doc="pick-and-place time the belt's length is for")
-    release_gap_m: float = key("float", 0, 100, doc="tomato's bottom above the belt at release")
 
 
 @dataclass(frozen=True)
@@ -884,53 +673,6 @@ class TaughtSection:
 
 
 @dataclass(frozen=True)
-class VisionSection:
-    """[vision]: the trays' seedlings, the imaging station's draw and the recognition
-    pipeline's thresholds (seed 002's vision, docs/vision.md; read by `transplanter grade` and
-    the delta's trial with `delta_refill.vision = "pipeline"`). Optional: the defaults are
-    `SeedlingDraw`, `ImagingDraw`, `CameraMount` and `VisionThresholds` (estimates chosen on
-    seeds 0-4; the paper gives none). Ranges are [low, high] pairs drawn uniformly."""
-
-    seedling_draw: str = key(
-        "str", choices=("default", "near_thresholds"), doc="SeedlingDraw() or its hard draw"
-    )
-    image_width_px: int = key("int", lo=64, hi=4096, doc="the camera's picture width")
-    image_height_px: int = key("int", lo=64, hi=4096, doc="the camera's picture height")
-    light_scale: tuple[float, float] = key("xy", 0.01, 10, doc="the lights' brightness factor")
-    leaf_hue_rad: tuple[float, float] = key("xy", 0, 360, doc="leaves' hue range")
-    leaf_saturation: tuple[float, float] = key("xy", 0, 1, doc="leaves' saturation range")
-    leaf_value: tuple[float, float] = key("xy", 0, 1, doc="leaves' value range")
-    leaf_jitter: float = key("float", 0, 1, doc="per-seedling spread of the leaves' colour")
-    substrate_hue_rad: tuple[float, float] = key("xy", 0, 360, doc="substrate's hue range")
-    substrate_saturation: tuple[float, float] = key("xy", 0, 1, doc="substrate saturation")
-    substrate_value: tuple[float, float] = key("xy", 0, 1, doc="substrate's value range")
-    tray_yaw_rad: float = key("float", 0, 45, doc="the tray turned up to +- this")
-    tray_tip_rad: float = key("float", 0, 10, doc="the tray tipped up to +- this")
-    tray_shift_m: float = key("float", 0, 100, doc="the tray shifted up to +- this")
-    camera_height_m: float = key("float", 100, 100000, doc="camera above the tray (assumed)")
-    leaf_height_m: float = key("float", 0, 100, doc="leaves above the tray (assumed)")
-    white_percentile: float = key("float", 50, 100, doc="the grey picture's white point")
-    min_white_level: float = key("float", 0, 255, doc="a darker white point: too dark")
-    min_contrast: float = key("float", 0, 255, doc="a smaller grey std: blank picture")
-    tray_band: tuple[float, float] = key("xy", 0, 2, doc="T1, T2 of the white point")
-    close_fraction: float = key("float", 0, 0.5, doc="frame closing, of the long side")
-    erode_m: float = key("float", 0, 20, doc="the walls' erosion (and dilation back)")
-    open_m: float = key("float", 0, 20, doc="the walls' opening (perlite grains go)")
-    tray_aspect_tolerance: float = key("float", 0, 1, doc="frame's aspect against the tray's")
-    rectified_resolution_m: float = key("float", 0.05, 5, doc="rectified picture's pixel")
-    profile_level: float = key("float", 0, 1, doc="a projection profile under it: an opening")
-    leaf_hue_band_rad: tuple[float, float] = key("xy", 0, 360, doc="leaf pixels' hue")
-    leaf_min_saturation: int = key("int", lo=0, hi=255, doc="leaf pixels' least saturation")
-    leaf_min_value: int = key("int", lo=0, hi=255, doc="leaf pixels' least value")
-    min_component_mm2: float = key("float", 0, 1000, doc="smaller leaf components removed")
-    core_radius_m: float = key("float", 0, 17, doc="a cell's leaves touch this disc")
-    min_leaf_area_mm2: float = key("float", 0, 1000, doc="paper: less is inferior")
-    max_centroid_offset_m: float = key("float", 0, 17, doc="paper: further is inferior")
-    min_secant_m: float = key("float", 0, 34, doc="paper: a longer secant crosses")
-    empty_area_mm2: float = key("float", 0, 1000, doc="less leaf area: an empty cell")
-
-
-@dataclass(frozen=True)
 class SerialArmSection:
     """[serial_arm]: the serial arm's jobs (seed 004; read only by transplanter.twin.serial_arm):
     the paper's ten targets, its 18 gripper trials and the pick-and-place of the pool_to_belt
@@ -952,59 +694,6 @@ class SerialArmSection:
     bench_height_m: float = key("float", -50, 160, doc="gripper trials: its height (paper y)")
 
 
-@dataclass(frozen=True)
-class SerialPotsSection:
-    """[serial_pots]: the serial arm on the five-bar's pot line (`[robot] kind = "serial4"` in
-    the `conveyor_tube` workcell; read only by transplanter.twin.serial_pots): where its base
-    stands and how it picks a pot and drops it into the tube. Optional: estimates
-    (docs/serial_arm.md)."""
-
-    base_x_m: float = key("float", -1000, 1000, doc="the base plate's centre, workcell frame")
-    base_y_m: float = key("float", -1000, 1000, doc="y of the base plate's centre, workcell frame")
-    base_z_m: float = key("float", -1000, 1000, doc="the base plate's height (a pedestal)")
-    base_yaw_rad: float = key("float", -180, 180, doc="the arm's forward from world +x")
-    grasp_z_m: float = key("float", 1, 200, doc="grip centre above the belt (a pot's bottom)")
-    release_gap_m: float = key("float", 0, 200, doc="pot's bottom above the funnel at release")
-    sensor_gap_m: float = key("float", 20, 400, doc="each cell's sensor 1 to the pot's wall")
-    sensor_z_m: float = key("float", 0, 200, doc="the sensors' axis above the belt")
-    attempts: int = key("int", lo=1, hi=10, doc="grasps of a pot sensor 1 still hears after")
-    release_tilt_rad: float = key("float", 0, 90, doc="most the pot leans at release (no wrist)")
-
-
-@dataclass(frozen=True)
-class DeltaPotsSection:
-    """[delta_pots]: the rotary delta on the five-bar's pot line (`[robot] kind = "delta"` in
-    the `conveyor_tube` workcell; read only by transplanter.twin.delta_pots): where its base
-    hangs over the line, the fuzzy gripper's fixed angles and the controller's motion.
-    Optional: estimates (docs/compare.md, "The delta on the pot line")."""
-
-    base_x_m: float = key("float", -2000, 2000, doc="the base frame's origin, workcell frame")
-    base_y_m: float = key("float", -2000, 2000, doc="y of the base frame's origin, workcell frame")
-    base_z_m: float = key("float", -2000, 3000, doc="the base above the belt's top")
-    mount_drop_m: float = key("float", 0, 200, doc="gripper's mount below the platform's face")
-    gripper_yaw_rad: float = key(
-        "float", -180, 180, doc="the gripper about the vertical: 0 closes along the row (x)"
-    )
-    grasp_z_m: float = key("float", 1, 200, doc="grip centre above the belt (a pot's bottom)")
-    hover_m: float = key("float", 5, 300, doc="above a grasp or release to come down from")
-    release_gap_m: float = key("float", 0, 200, doc="pot's bottom above the funnel at release")
-    grip_rad: float = key("float", 0, 60, doc="gripper servo angle sent to grip a pot")
-    travel_speed_m_s: float = key("float", 1, 5000, doc="G1 speed of the travel moves")
-    approach_speed_m_s: float = key("float", 1, 5000, doc="G1 speed down to a grasp or release")
-    path_accel_m_s2: float = key("float", 1, 1e6, doc="the controller's path acceleration")
-    segment_m: float = key("float", 0.01, 10, doc="interpolation grid of the controller")
-    point_time_s: float = key("float", 1, 1e5, doc="the controller's IK time per point")
-    lift_m: float = key("float", 10, 300, doc="bspline5: lift of a transfer")
-    arc_radius_m: float = key("float", 1, 300, doc="bspline5: arc at the top of the lift")
-    exit_m: float = key("float", 0, 299, doc="bspline5: key point straight above each end")
-    following_error_limit_rad: float = key("float", 0.001, 90, doc="drive alarm level")
-    grip_settle_s: float = key("float", 0, 10000, doc="dwell after the grip command")
-    release_settle_s: float = key("float", 0, 10000, doc="dwell after the release")
-    sensor_gap_m: float = key("float", 20, 400, doc="each cell's sensor 1 to the pot's wall")
-    sensor_z_m: float = key("float", 0, 200, doc="the sensors' axis above the belt")
-    attempts: int = key("int", lo=1, hi=10, doc="grasps of a pot sensor 1 still hears after")
-
-
 # The file key of every field whose file unit differs from its SI unit.
 _FILE_KEY_OVERRIDES = {
     "mass_kg": "mass_g", "mass_sd_kg": "mass_sd_g", "mass_min_kg": "mass_min_g",
@@ -1023,17 +712,6 @@ _FILE_KEY_OVERRIDES = {
 _SECTION_FILE_KEYS = {
     ("plugs", "substrate_timeconst_s"): "substrate_timeconst_ms",
     ("plugs", "reference_mass_kg"): "reference_mass_g",
-    ("plug_claws", "cylinder_stroke_s"): "cylinder_stroke_ms",
-    ("plug_claws", "rotary_stroke_s"): "rotary_stroke_ms",
-    ("plug_claws", "settle_s"): "settle_ms",
-    ("plug_claws", "cylinder_kv_n_s_m"): "cylinder_kv_n_s_m",  # N s/m, N m/rad: as written
-    ("plug_claws", "rotary_kp_nm_rad"): "rotary_kp_nm_rad",
-    ("plug_bench", "extraction_accel_m_s2"): "extraction_accel_m_s2",  # m/s^2, as the paper's
-    ("plug_bench", "move_accel_m_s2"): "move_accel_m_s2",
-    ("fuzzy_gripper", "finger_mass_kg"): "finger_mass_g",
-    ("fuzzy_gripper", "palm_mass_kg"): "palm_mass_g",
-    ("fuzzy_gripper", "sensor_mass_kg"): "sensor_mass_g",
-    ("pool_to_belt", "contact_timeconst_s"): "contact_timeconst_ms",
 }
 _FILE_SUFFIX = {
     "_rad_s2": "_deg_s2", "_rad_s": "_deg_s", "_m_s2": "_mm_s2", "_m_s": "_mm_s", "_m": "_mm",
@@ -1062,14 +740,7 @@ SECTIONS: dict[str, type] = {
     "workcell": WorkcellSection,
     "effector": EffectorSection,
     "arm": ArmSection,
-    "delta": DeltaSection,
-    "delta_refill": DeltaRefillSection,
     "plugs": PlugsSection,
-    "plug_claws": PlugClawsSection,
-    "plug_bench": PlugBenchSection,
-    "serial4": Serial4Section,
-    "fuzzy_gripper": FuzzyGripperSection,
-    "pool_to_belt": PoolToBeltSection,
     "limits": LimitsSection,
     "drives": DrivesSection,
     "motion": MotionSection,
@@ -1083,10 +754,7 @@ SECTIONS: dict[str, type] = {
     "recovery": RecoverySection,
     "faults": FaultsSection,
     "taught": TaughtSection,
-    "vision": VisionSection,
     "serial_arm": SerialArmSection,
-    "serial_pots": SerialPotsSection,
-    "delta_pots": DeltaPotsSection,
     "costs": CostsSection,
 }
 
@@ -1124,30 +792,6 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
     "robot": {"kind": "fivebar"},
     "workcell": {"kind": "conveyor_tube"},
     "effector": {"kind": "parallel_jaw"},
-    "delta": {
-        "base_radius_mm": 200.0,
-        "platform_radius_mm": 50.0,
-        "upper_arm_mm": 350.0,
-        "forearm_mm": 800.0,
-        "q_min_deg": -40.0,
-        "q_max_deg": 80.0,
-        "max_condition": 20.0,
-        "z_min_mm": -1050.0,
-        "z_max_mm": -500.0,
-        "home_q_deg": -30.0,
-        "gear_ratio": 25.0,
-        "pulses_per_rev": 2000,
-        "max_joint_speed_deg_s": 720.0,
-        "max_joint_accel_deg_s2": 2500.0,
-        "joint_torque_limit_nm": 12.0,
-        "rotor_inertia_kgm2": 1.5e-4,
-        "upper_arm_mass_kg": 0.30,
-        "elbow_mass_kg": 0.05,
-        "forearm_mass_kg": 0.20,
-        "platform_mass_kg": 1.00,
-        "homing_rate_hz": 5000.0,
-        "homing_locate_rate_hz": 500.0,
-    },
     "motion": {"planner": "lines", "ee_accel_limit_mm_s2": 8830.0},
     "gripper": {"carry_accel_limit_mm_s2": 4500.0},  # docs/planner.md, The five-bar
     "drives": {  # the five-bar's bspline5 limits (machine.kinematics.fivebar, docs/planner.md)
@@ -1156,29 +800,6 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "arm_torque_limit_nm": 0.225,
         "z_speed_limit_mm_s": 47.5,
         "z_accel_limit_mm_s2": 25000.0,
-    },
-    "delta_refill": {
-        "image_delay_ms": 2000.0,
-        "pose_judgement": True,
-        "fixed_rotary_deg": 0.0,
-        "following_error_limit_deg": 2.0,
-        "travel_speed_mm_s": 500.0,
-        "approach_speed_mm_s": 200.0,
-        "path_accel_mm_s2": 5000.0,
-        "segment_mm": 0.5,
-        "point_time_us": 100.0,
-        "lift_mm": 100.0,
-        "arc_radius_mm": 50.0,
-        "exit_mm": 10.0,
-        "release_above_mm": 8.0,
-        "bin_release_above_mm": 20.0,
-        "bin_x_mm": 360.0,
-        "bin_y_mm": 0.0,
-        "tray_change_ms": 3000.0,
-        "settle_after_ms": 300.0,
-        "max_cells": 0,
-        "supply_seed_offset": 1000003,
-        "vision": "pipeline",
     },
     "plugs": {
         "moisture_pct": 65.0,
@@ -1210,138 +831,6 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "substrate_stiffening": 1.0,
         "reference_mass_g": 11.0,
     },
-    "plug_claws": {
-        "insertion_angle_deg": 12.0,
-        "insertion_depth_mm": 32.0,
-        "tip_offset_mm": 7.0,
-        "tip_recess_mm": 3.0,
-        "stripper_drop_mm": 60.0,
-        "work_gap_mm": 2.0,
-        "tray_substrate_below_top_mm": 3.0,
-        "claw_radius_mm": 1.0,
-        "pin_interference_mm": 1.5,
-        "pressure_mpa": 0.5,
-        "bore_mm": 10.0,
-        "rod_mm": 4.0,
-        "cylinder_stroke_ms": 150.0,
-        "cylinder_kv_n_s_m": 20.0,
-        "rotary_stroke_ms": 250.0,
-        "rotary_torque_nm": 0.3,
-        "rotary_kp_nm_rad": 2.0,
-        "settle_ms": 30.0,
-        "leaf_damage_force_n": 0.5,
-    },
-    "plug_bench": {
-        "extraction_accel_m_s2": 10.0,
-        "move_accel_m_s2": 10.0,
-        "moisture_band_pct": 10.0,
-        "vigour_cv_pct": 15.0,
-        "pose_judgement": True,
-        "fixed_rotary_deg": 0.0,
-        "timestep_ms": 1.0,
-    },
-    "serial4": {
-        "l1_mm": 80.0,
-        "l2_mm": 80.0,
-        "elbow": "up",
-        "base_min_deg": -90.0,
-        "base_max_deg": 90.0,
-        "shoulder_min_deg": 0.0,
-        "shoulder_max_deg": 180.0,
-        "elbow_min_deg": -165.0,
-        "elbow_max_deg": 15.0,
-        "min_radius_mm": 20.0,
-        "y_min_mm": -50.0,
-        "y_max_mm": 160.0,
-        "park_base_deg": 0.0,
-        "park_shoulder_deg": 90.0,
-        "park_elbow_deg": -90.0,
-        "base_servo": "sg90",
-        "shoulder_servo": "mg996r",
-        "elbow_servo": "mg996r",
-        "gripper_servo": "sg90",
-    },
-    "fuzzy_gripper": {
-        "pivot_x_mm": -10.0,
-        "pivot_offset_mm": 15.0,
-        "finger_length_mm": 80.0,
-        "pad_inset_mm": 8.0,
-        "pad_length_mm": 24.0,
-        "pad_height_mm": 20.0,
-        "pad_thickness_mm": 3.0,
-        "pad_friction": 0.9,
-        "grip_angle_deg": 22.5,
-        "open_angle_deg": 48.0,
-        "sensor_height_mm": 20.0,
-        "finger_mass_g": 6.0,
-        "palm_mass_g": 10.0,
-        "sensor_mass_g": 8.5,
-    },
-    "pool_to_belt": {
-        "count": 6,
-        "diameter_min_mm": 50.0,
-        "diameter_max_mm": 70.0,
-        "mass_min_g": 70.0,
-        "mass_max_g": 150.0,
-        "density_kg_m3": 1000.0,
-        "friction_low": 0.4,
-        "friction_high": 0.8,
-        "contact_timeconst_ms": 8.0,
-        "rolling_resistance_mm": 1.0,
-        "station_x_mm": 115.0,
-        "station_y_mm": 0.0,
-        "lane_floor_z_mm": 20.0,
-        "lane_slope_deg": 5.0,
-        "trough_angle_deg": 12.0,
-        "lane_half_width_mm": 40.0,
-        "stop_height_mm": 30.0,
-        "sensor_offset_mm": 55.0,
-        "place_angle_deg": 90.0,
-        "place_radius_mm": 115.0,
-        "belt_top_z_mm": 25.0,
-        "belt_width_mm": 80.0,
-        "belt_sidewall_height_mm": 20.0,
-        "belt_speed_mm_s": 25.0,
-        "cycle_s": 12.0,
-        "release_gap_mm": 10.0,
-    },
-    "vision": {
-        "seedling_draw": "default",
-        "image_width_px": 1600,
-        "image_height_px": 900,
-        "light_scale": [0.85, 1.15],
-        "leaf_hue_deg": [80.0, 130.0],
-        "leaf_saturation": [0.5, 0.8],
-        "leaf_value": [0.45, 0.75],
-        "leaf_jitter": 0.06,
-        "substrate_hue_deg": [18.0, 34.0],
-        "substrate_saturation": [0.4, 0.6],
-        "substrate_value": [0.28, 0.45],
-        "tray_yaw_deg": 2.0,
-        "tray_tip_deg": 0.5,
-        "tray_shift_mm": 8.0,
-        "camera_height_mm": 3000.0,
-        "leaf_height_mm": 14.0,
-        "white_percentile": 99.5,
-        "min_white_level": 25.0,
-        "min_contrast": 8.0,
-        "tray_band": [0.65, 1.01],
-        "close_fraction": 1 / 150,
-        "erode_mm": 1.0,
-        "open_mm": 2.0,
-        "tray_aspect_tolerance": 0.12,
-        "rectified_resolution_mm": 0.5,
-        "profile_level": 0.5,
-        "leaf_hue_band_deg": [56.0, 190.0],
-        "leaf_min_saturation": 45,
-        "leaf_min_value": 35,
-        "min_component_mm2": 6.0,
-        "core_radius_mm": 12.0,
-        "min_leaf_area_mm2": 100.0,
-        "max_centroid_offset_mm": 10.0,
-        "min_secant_mm": 12.0,
-        "empty_area_mm2": 10.0,
-    },
     "serial_arm": {
         "target_speed_mm_s": 50.0,
         "target_settle_ms": 1500.0,
@@ -1359,43 +848,6 @@ DEFAULT_SECTIONS: dict[str, dict[str, Any]] = {
         "bench_height_mm": 80.0,
     },
     "costs": {"drives_usd": 0.0},
-    "delta_pots": {
-        "base_x_mm": 0.0,
-        "base_y_mm": 180.0,
-        "base_z_mm": 960.0,
-        "mount_drop_mm": 20.0,
-        "gripper_yaw_deg": 90.0,
-        "grasp_z_mm": 30.0,
-        "hover_mm": 60.0,
-        "release_gap_mm": 10.0,
-        "grip_deg": 22.5,
-        "travel_speed_mm_s": 500.0,
-        "approach_speed_mm_s": 200.0,
-        "path_accel_mm_s2": 5000.0,
-        "segment_mm": 0.5,
-        "point_time_us": 100.0,
-        "lift_mm": 60.0,
-        "arc_radius_mm": 30.0,
-        "exit_mm": 35.0,
-        "following_error_limit_deg": 2.0,
-        "grip_settle_ms": 300.0,
-        "release_settle_ms": 300.0,
-        "sensor_gap_mm": 25.0,
-        "sensor_z_mm": 12.0,
-        "attempts": 2,
-    },
-    "serial_pots": {
-        "base_x_mm": 0.0,
-        "base_y_mm": 60.0,
-        "base_z_mm": 0.0,
-        "base_yaw_deg": 90.0,
-        "grasp_z_mm": 40.0,
-        "release_gap_mm": 10.0,
-        "sensor_gap_mm": 25.0,
-        "sensor_z_mm": 12.0,
-        "attempts": 2,
-        "release_tilt_deg": 0.0,
-    },
 }
 """Sections a file may leave out, with their values then: the paper's machine and job, and
 the delta's and serial arm's estimated defaults (a file's or --set's keys of such a section
@@ -1455,14 +907,7 @@ class Scenario:
     workcell: WorkcellSection
     effector: EffectorSection
     arm: ArmSection
-    delta: DeltaSection
-    delta_refill: DeltaRefillSection
     plugs: PlugsSection
-    plug_claws: PlugClawsSection
-    plug_bench: PlugBenchSection
-    serial4: Serial4Section
-    fuzzy_gripper: FuzzyGripperSection
-    pool_to_belt: PoolToBeltSection
     limits: LimitsSection
     drives: DrivesSection
     motion: MotionSection
@@ -1476,10 +921,7 @@ class Scenario:
     recovery: RecoverySection
     faults: FaultsSection
     taught: TaughtSection
-    vision: VisionSection
     serial_arm: SerialArmSection
-    serial_pots: SerialPotsSection
-    delta_pots: DeltaPotsSection
     costs: CostsSection
     overrides: tuple[tuple[str, Any], ...] = ()
     """The 'section.key' = value overrides applied on top of the file, as given."""
@@ -1950,19 +1392,14 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         )
     if conv["index_time_s"] < 0.2:
         raise ScenarioError("conveyor.index_time_s must be at least 0.2 s (push and settle).")
-    fg = v["fuzzy_gripper"]
-    if fg["grip_angle_rad"] >= fg["open_angle_rad"]:
-        raise ScenarioError(
-            "fuzzy_gripper.grip_angle_deg must be below fuzzy_gripper.open_angle_deg (the "
-            "standby opens wider than the grip)."
-        )
     grip = v["gripper"]
     if grip["close_rad"] >= grip["open_rad"]:
         raise ScenarioError("gripper.close_deg must be below gripper.open_deg (smaller opening).")
     _check_faults(v["faults"])
-    _check_plugs(v["plugs"], v["plug_claws"])
-    _check_pool_to_belt(v["pool_to_belt"])
-    band, moisture = v["plug_bench"]["moisture_band_pct"] / 2, v["plugs"]["moisture_pct"]
+    _check_plugs(v["plugs"], v.get("plug_claws"))
+    bench = v.get("plug_bench")
+    band = bench["moisture_band_pct"] / 2 if bench else 0.0
+    moisture = v["plugs"]["moisture_pct"]
     if v["workcell"]["kind"] == "plug_bench" and not 0 < moisture - band <= moisture + band < 100:
         raise ScenarioError(
             f"plugs.moisture_pct +- plug_bench.moisture_band_pct / 2 = "
@@ -1971,46 +1408,14 @@ def _cross_checks(v: dict[str, dict[str, Any]]) -> None:
         )
 
 
-def _check_pool_to_belt(p: dict[str, Any]) -> None:
-    for lo, hi in (
-        ("diameter_min_mm", "diameter_max_mm"),
-        ("mass_min_g", "mass_max_g"),
-        ("friction_low", "friction_high"),
-    ):
-        if p[si_key(lo)] > p[si_key(hi)]:
-            raise ScenarioError(f"pool_to_belt.{lo} must not be above pool_to_belt.{hi}.")
-    d_max = p["diameter_max_m"]
-    if p["sensor_offset_m"] <= d_max / 2:
-        raise ScenarioError(
-            f"pool_to_belt.sensor_offset_mm = {p['sensor_offset_m'] * 1e3:g} mm: sensor 1 would "
-            f"stand inside the largest tomato (radius {d_max / 2 * 1e3:g} mm); move it out."
-        )
-    if p["belt_width_m"] <= d_max:
-        raise ScenarioError(
-            f"pool_to_belt.belt_width_mm = {p['belt_width_m'] * 1e3:g} mm: the largest tomato "
-            f"({d_max * 1e3:g} mm, pool_to_belt.diameter_max_mm) does not fit between the "
-            "belt's side walls; widen the belt."
-        )
-    reach = d_max / 2 * math.sin(p["trough_angle_rad"])
-    if p["lane_half_width_m"] <= reach:
-        raise ScenarioError(
-            f"pool_to_belt.lane_half_width_mm = {p['lane_half_width_m'] * 1e3:g} mm: the "
-            f"largest tomato rests on the trough's faces {reach * 1e3:.1f} mm from the centre "
-            "line, beyond their rims; widen the trough."
-        )
-
-
 CELL_DEPTH_M = 0.042
 """Depth of a cell of the paper's 128-cell tray (`PlugsConfig.depth_mm`; not a key)."""
 
 
-def _check_plugs(plugs: dict[str, Any], claws: dict[str, Any]) -> None:
-    if claws["rod_m"] >= claws["bore_m"]:
-        raise ScenarioError(
-            "plug_claws.rod_mm must be below plug_claws.bore_mm (the return stroke pushes on "
-            "the annulus between them)."
-        )
-    tips = claws["tray_substrate_below_top_m"] + claws["insertion_depth_m"]
+def _check_plugs(plugs: dict[str, Any], claws: dict[str, Any] | None) -> None:
+    """The plugs in their cells, and the claws' tips in the plugs (the claws' section where a
+    scenario holds it)."""
+    tips = claws["tray_substrate_below_top_m"] + claws["insertion_depth_m"] if claws else 0.0
     if tips >= CELL_DEPTH_M:
         raise ScenarioError(
             f"plug_claws.tray_substrate_below_top_mm + plug_claws.insertion_depth_mm = "
