@@ -52,7 +52,7 @@ def test_matrix_lists_every_robot_on_every_job(capsys):
     moving = [j for j in jobs if kinds.job(j).uses_robot()]
     assert len(cells) == len(moving) * len(robots) + len(jobs) - len(moving)
     by = {(c["job"], c["robot"]): c for c in cells}
-    assert by["conveyor_tube", "gantry"]["scenarios"] == ["gantry_pots"]
+    assert by["conveyor_tube", "gantry"]["scenarios"] == ["gantry_pots", "gantry_pots_tuned"]
     assert by["conveyor_tube", "gantry"]["effectors"] == ["parallel_jaw"]
     assert by["plug_bench", None]["scenarios"] == ["plug_bench"]
     for (job, robot), cell in by.items():
@@ -60,14 +60,23 @@ def test_matrix_lists_every_robot_on_every_job(capsys):
             s = load_scenario(name)
             assert (s.workcell.kind, s.effector.kind) == (job, *cell["effectors"][:1])
             assert robot is None or s.robot.kind == robot
-        if not cell["effectors"]:  # refused: the job's own reason, never empty
-            assert cell["reason"] == kinds.job(job).refusal(robot, kinds.names("effector")[0])
+        if not cell["effectors"]:  # refused: out of reach, or the job's own reason
+            own = kinds.job(job).refusal(robot, kinds.names("effector")[0])
+            assert cell["reason"] == (cell.get("reach") or own)
             assert cell["reason"]
-    assert by["plug_trays", "gantry"]["reason"] == (
-        "no host program drives the gantry robot on the trays: their host "
-        "(twin.delta_refill) drives the delta's own controller"
+    # out of reach, computed from each robot's kinematics (tests/test_reach.py)
+    for robot, span in (("gantry", "310 x 260 x 160"), ("fivebar", "350 x 240 x 190")):
+        assert by["plug_trays", robot]["reason"] == (
+            f"no placement of the {robot} robot reaches the plug_trays job's key points: they "
+            f"span 660 x 558 x 100 mm (x, y, z), its workspace {span} mm (its kinematics' "
+            "check on a 10 mm grid, turned by 0, 90, 180 or 270 deg)"
+        )
+    # in reach, and no host program: the job's own reason
+    assert by["pool_to_belt", "gantry"]["reach"] is None
+    assert by["pool_to_belt", "gantry"]["reason"] == (
+        "no host program drives the gantry robot on the pool and belt"
     )
     assert main(["matrix"]) == 0
     text = capsys.readouterr().out
-    assert "gantry     gantry_pots (effector parallel_jaw)" in text
+    assert "gantry     gantry_pots, gantry_pots_tuned (effector parallel_jaw)" in text
     assert "pool_to_belt (tomatoes):" in text and "cannot run: no host program" in text

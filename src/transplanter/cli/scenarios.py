@@ -110,11 +110,25 @@ def cmd_keys(args: argparse.Namespace) -> int:
     return 0
 
 
+def _reach_reason(job: str, robot: str, by_cell: dict) -> str | None:
+    """Why `robot` reaches `job`'s key points from no placement (`scenario.reach`), judged
+    on a packaged scenario of the job with the robot's own sections (its defaults or the
+    reference scenario's); None where it reaches them or the job has no packaged scenario."""
+    from transplanter.scenario.reach import reach_refusal
+    from transplanter.scenario.schema import load_scenario
+
+    for (cell_job, _), packaged in sorted(by_cell.items(), key=lambda kv: str(kv[0])):
+        if cell_job == job and packaged:
+            return reach_refusal(load_scenario(packaged[0][0], {"robot.kind": robot}))
+    return None
+
+
 def matrix_cells() -> list[dict]:
     """A cell per (job, robot) of the registered kinds: `scenarios` (the packaged ones of the
     cell, by name) and `effectors` (those the job takes with the robot), or `reason` (why the
-    job takes the robot with no effector); a job that moves no robot (a bench) has one cell
-    with robot None."""
+    job takes the robot with no effector: the robot's workspace missing the job's key points,
+    computed from its kinematics, before the job's own refusal); a job that moves no robot (a
+    bench) has one cell with robot None."""
     from transplanter import kinds
 
     by_cell: dict[tuple[str, str | None], list[tuple[str, str]]] = {}
@@ -136,9 +150,11 @@ def matrix_cells() -> list[dict]:
                 "effectors": sorted({e for _, e in packaged} or effectors),
                 "reason": None,
             }
+            if robot is not None and not packaged:
+                cell["reach"] = _reach_reason(job_name, robot, by_cell)
             if not effectors:
                 first = kinds.names("effector")[0]
-                cell["reason"] = job.refusal(robot or "", first)
+                cell["reason"] = cell.get("reach") or job.refusal(robot or "", first)
             elif not packaged:
                 cell["reason"] = "runs, but no packaged scenario does it yet"
             cells.append(cell)

@@ -15,6 +15,11 @@ key given in a scenario file (its ``base`` chain included) or by ``--set`` that 
 the scenario reads, naming the kinds that do read it: a value the user set is the value the
 run uses, or it is refused.
 
+Key points: a job that moves a robot may name ``KEY_POINTS = "module:function"``, the points
+(workcell frame, m) its tool must reach: the cells it picks from and places into, its bin,
+its tube; ``transplanter.scenario.reach`` then refuses a robot whose workspace (its own
+kinematics' check) holds them from no placement, with the spans compared. Optional.
+
 Sections: a kind of any category may own scenario sections, ``SECTIONS = {name: Section}``
 (:mod:`transplanter.kinds.sections`: the section's key dataclass, its defaults and its
 check); the loader's schema takes them, so a kind brings its own keys. Optional: a kind that
@@ -157,6 +162,8 @@ def problems(category: str, module: ModuleType | Any) -> list[str]:
     from transplanter.kinds.sections import section_problems
 
     out = []
+    if not isinstance(getattr(module, "KEY_POINTS", ""), str):
+        out.append('KEY_POINTS is not a "module:function" string')
     own = getattr(module, "SECTIONS", {})
     if not isinstance(own, Mapping):
         out.append("SECTIONS is not a mapping of section -> Section")

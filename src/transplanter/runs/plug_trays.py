@@ -13,7 +13,8 @@ from transplanter.twin.delta_refill import DEFINITIONS
 
 __all__ = [
     "DEFINITIONS", "FAILURES", "FILMED", "REFUSED_OPTIONS", "UNIT",
-    "check", "export", "filmer", "line", "pool", "recorder", "row", "run", "study", "summary",
+    "check", "export", "filmer", "key_points",
+    "line", "pool", "recorder", "row", "run", "study", "summary",
     "total", "viewer",
 ]  # fmt: skip
 
@@ -278,3 +279,25 @@ def export(scenario, target):
     except _grading_errors() as exc:
         raise ScenarioError(str(exc)) from None
     return export_spec(spec, target)
+
+
+def key_points(scenario) -> dict[str, Any]:
+    """The trays' key points (`scenario.reach`; workcell frame, m, the claws' work height at
+    0): every cell of both trays at the work height, the trays' corners at the lift height
+    over them, the bin's drop spots at their release height."""
+    import numpy as np
+
+    from transplanter.scene.delta_scene import DeltaSceneConfig
+
+    job = scenario.delta_refill
+    cfg = DeltaSceneConfig(bin_xy_m=(job.bin_x_m, job.bin_y_m))
+    n = cfg.geometry.cells
+    out = {}
+    for tray in ("planting", "supply"):
+        for i in range(n):
+            out[f"{tray} cell {i}"] = np.array([*cfg.cell_xy(tray, i), 0.0])
+        for i in (0, cfg.geometry.cols - 1, n - cfg.geometry.cols, n - 1):
+            out[f"above {tray} cell {i}"] = np.array([*cfg.cell_xy(tray, i), job.lift_m])
+    for k in range(9):
+        out[f"bin spot {k}"] = np.array([*cfg.bin_spot(k), job.bin_release_above_m])
+    return out

@@ -17,7 +17,8 @@ from transplanter.twin.serial_arm import (
 
 __all__ = [
     "DEFINITIONS", "FILMED", "REFUSED_OPTIONS", "UNIT",
-    "check", "export", "filmer", "format_tables", "line", "pool", "recorder", "row", "run",
+    "check", "export", "filmer", "key_points",
+    "format_tables", "line", "pool", "recorder", "row", "run",
     "study", "summary", "total", "viewer",
 ]  # fmt: skip
 
@@ -240,3 +241,23 @@ def export(scenario, target):
     check(scenario)
     spec, _ = _scene(scenario, "pool_to_belt", seed=scenario.seed)
     return export_spec(spec, target, mount=fuzzy_gripper.MOUNT)
+
+
+def key_points(scenario) -> dict[str, Any]:
+    """The pool's and belt's key points (`scenario.reach`; workcell frame, m): a middle
+    tomato's centre at the pool's station and over the belt where it is released, and a
+    largest tomato's diameter above each."""
+    import numpy as np
+
+    from transplanter.scene.workcells import pool_to_belt
+
+    wc = pool_to_belt.pool_config(scenario)
+    up = np.array([0.0, 0.0, wc.diameter_max_m])
+    station = np.asarray(pool_to_belt.station_xyz(wc), dtype=np.float64)
+    place = np.asarray(pool_to_belt.place_xyz(wc), dtype=np.float64)
+    return {
+        "the pool's station": station,
+        "above the station": station + up,
+        "the release over the belt": place,
+        "above the release": place + up,
+    }

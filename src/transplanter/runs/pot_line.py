@@ -15,7 +15,8 @@ from transplanter.twin.results import DAMAGE_FIELDS
 
 __all__ = [
     "DEFINITIONS", "FILMED", "REFUSED_OPTIONS", "UNIT",
-    "check", "export", "filmer", "line", "pool", "recorder", "row", "run", "study", "summary",
+    "check", "export", "filmer", "key_points",
+    "line", "pool", "recorder", "row", "run", "study", "summary",
     "total", "viewer",
 ]  # fmt: skip
 
@@ -147,3 +148,31 @@ def export(scenario, target):
     spec = module.scene_spec(scenario, scenario.seed, decor=True)[0]
     scene = importlib.import_module(kinds.effector(scenario.effector.kind).SCENE)
     return export_spec(spec, target, mount=scene.MOUNT)
+
+
+KEY_LIFT_M = 0.010
+"""How far above a pot's top the key points over the cells and the tube lie (the tool clears
+the neighbouring pots and the funnel's rim)."""
+
+
+def key_points(scenario) -> dict[str, Any]:
+    """The pot line's key points (`scenario.reach`; workcell frame, m): each pickup cell's
+    pot at its mid-height and the point a pot's height above it, the funnel's centre a half
+    pot above its rim and the point a pot's height above that: where any robot on the line
+    must take its tool, whatever its grasp."""
+    import numpy as np
+
+    from transplanter.scene.geometry import cell_columns_x
+    from transplanter.twin.serial_pots import line_config
+
+    line = line_config(scenario)
+    half, clear = line.pot_height_m / 2, line.pot_height_m + KEY_LIFT_M
+    out = {}
+    for col, x in enumerate(cell_columns_x(line)):
+        grasp = np.array([x, line.pickup_row_y_m, half])
+        out[f"pickup column {col + 1}"] = grasp
+        out[f"above pickup column {col + 1}"] = grasp + [0.0, 0.0, clear]
+    tube = np.array([*line.drop_tube_xy_m, line.funnel_top_z_m + half])
+    out["over the drop tube"] = tube
+    out["above the drop tube"] = tube + [0.0, 0.0, clear]
+    return out

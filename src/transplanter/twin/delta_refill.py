@@ -832,15 +832,18 @@ def _judge(sc, seed, cfg, ops, planting, data, physics, leaves, host, controller
 def require_delta(sc) -> None:
     """ScenarioError unless the scenario runs the delta with the plug claws: the tray job's
     scene hangs the delta over the two 566 x 286 mm trays and the bin, and its host plans the
-    delta's transfers (docs/compare.md: neither the five-bar's nor the serial arm's
-    workspace covers the trays)."""
+    delta's transfers; for a robot whose workspace misses the trays' key points the reason
+    says so, with the spans compared (`scenario.reach`)."""
+    from transplanter.scenario.reach import reach_refusal
+
+    far = reach_refusal(sc) if sc.robot.kind != "delta" else None
     require_kinds(
         sc,
         "the plug-tray job",
         "delta",
         "plug_claws",
-        "its scene hangs the delta and its claws over two 566 x 286 mm trays and a bin; the "
-        "five-bar's and the serial arm's workspaces do not cover them (docs/compare.md)",
+        "its scene hangs the delta and its claws over two 566 x 286 mm trays and a bin"
+        + (f"; {far}" if far else ", and its host drives the delta's own controller"),
     )
 
 

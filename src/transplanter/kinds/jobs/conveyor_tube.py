@@ -18,6 +18,8 @@ SUMMARY = "paper pots in rows on a feeding conveyor into a drop tube (seed 000)"
 WORKCELL = "transplanter.scene.workcells.conveyor_tube"
 UNIT = "seedlings"
 RUN = "transplanter.runs.pot_line"
+KEY_POINTS = "transplanter.runs.pot_line:key_points"
+"""Where its tool must go (`scenario.reach`: the robot reaches them from some placement)."""
 UNITS_KEY = "scenario.seedlings"
 
 PGF_EFFECTOR = "parallel_jaw"

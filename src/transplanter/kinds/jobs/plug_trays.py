@@ -13,6 +13,8 @@ SUMMARY = "cull inferior plug seedlings to a bin and refill from a supply tray (
 WORKCELL = "transplanter.scene.workcells.plug_trays"
 UNIT = "cells"
 RUN = "transplanter.runs.plug_trays"
+KEY_POINTS = "transplanter.runs.plug_trays:key_points"
+"""Where its tool must go (`scenario.reach`: the robot reaches them from some placement)."""
 UNITS_KEY = "delta_refill.max_cells"
 
 
@@ -20,17 +22,9 @@ def uses_robot() -> bool:
     return True
 
 
-_OUT_OF_REACH = ("fivebar", "serial4")
-"""Robots whose workspace misses the trays (the five-bar's 200 x 120 mm, the serial arm's
-reach of 160 mm against two 566 x 286 mm trays)."""
-
-
 def refusal(robot: str, effector: str) -> str | None:
-    if robot in _OUT_OF_REACH:
-        return (
-            "the trays (two 566 x 286 mm trays and a bin) lie outside the "
-            f"{robot} robot's workspace; the delta's scene alone hangs over them"
-        )
+    """Which robot and effector the trays' host drives; whether a robot reaches the trays at
+    all is computed from its kinematics (`scenario.reach`, KEY_POINTS), not listed here."""
     if robot != "delta":
         return (
             f"no host program drives the {robot} robot on the trays: their host "

@@ -14,6 +14,8 @@ SUMMARY = "tomatoes from a pool onto a belt, the paper's targets and gripper tri
 WORKCELL = "transplanter.scene.workcells.pool_to_belt"
 UNIT = "tomatoes"
 RUN = "transplanter.runs.pool_to_belt"
+KEY_POINTS = "transplanter.runs.pool_to_belt:key_points"
+"""Where its tool must go (`scenario.reach`: the robot reaches them from some placement)."""
 UNITS_KEY = "pool_to_belt.count"
 
 
