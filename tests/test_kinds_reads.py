@@ -22,6 +22,7 @@ PRESENTATION = {("costs", "drives_usd"), ("scenario", "description"), ("scenario
 RUNS = (
     "paper",
     "paper_tuned",  # the bspline5 planner
+    "gantry_pots",  # the gantry on the five-bar's pipeline
     "delta_refill",  # the vision pipeline grades the trays
     "delta_pots",
     "serial_arm",  # its ten targets, 18 gripper trials and the tomatoes
